@@ -1,0 +1,120 @@
+//! The adaptive laws of `μ̂`, `ξ̂`, `λ̂` (SPEC §5; the paper's (20)–(22)), forward-Euler and
+//! clamped at 0 (SPEC §6 step 3).
+
+use crate::powers::Powers;
+
+/// The three estimates of one agent.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Estimates {
+    /// `μ̂`: MTN approximation-error bound.
+    pub mu: f32,
+    /// `ξ̂`: disturbance / stuck-actuator bound.
+    pub xi: f32,
+    /// `λ̂`: inverse bound of the quantizer-and-fault effectiveness.
+    pub lambda: f32,
+}
+
+impl Estimates {
+    /// All finite.
+    #[inline]
+    pub fn is_finite(&self) -> bool {
+        self.mu.is_finite() && self.xi.is_finite() && self.lambda.is_finite()
+    }
+}
+
+/// The driving terms of one sample: `Σ_j p/(2ǎ_j²) e_j² ‖Φ_j‖²`, `η |e_n tanh(e_n/γ)|`,
+/// `τ |e_n β_n|`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Drives {
+    /// Drive of `μ̂`.
+    pub mu: f32,
+    /// Drive of `ξ̂`.
+    pub xi: f32,
+    /// Drive of `λ̂`.
+    pub lambda: f32,
+}
+
+/// The leakage gains `c_1`, `c_2`, `ζ` and the sample period shared by the three laws.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct AdaptiveLaws {
+    c1: f32,
+    c2: f32,
+    h: f32,
+    powers: Powers,
+}
+
+impl AdaptiveLaws {
+    /// Laws with leakage `c_1`, `c_2`, exponent `ζ`, sample period `h` (validated by the caller).
+    pub const fn new(c1: f32, c2: f32, zeta: f32, h: f32) -> Self {
+        Self {
+            c1,
+            c2,
+            h,
+            powers: Powers::new(zeta),
+        }
+    }
+
+    /// One Euler step: `μ̂' = drive − c_1 μ̂^(1+ζ) − c_2 μ̂`, likewise `ξ̂`; `λ̂` with `λ̂^(1+2ζ)`.
+    #[inline]
+    pub fn next(&self, est: &Estimates, drives: &Drives) -> Estimates {
+        let mu_z = self.powers.pow_zeta(est.mu);
+        let xi_z = self.powers.pow_zeta(est.xi);
+        let la_z = self.powers.pow_zeta(est.lambda);
+        Estimates {
+            mu: self.euler(est.mu, drives.mu, est.mu * mu_z),
+            xi: self.euler(est.xi, drives.xi, est.xi * xi_z),
+            lambda: self.euler(est.lambda, drives.lambda, est.lambda * la_z * la_z),
+        }
+    }
+
+    #[inline]
+    fn euler(&self, x: f32, drive: f32, power: f32) -> f32 {
+        (x + self.h * (drive - self.c1 * power - self.c2 * x)).max(0.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn euler_step_by_hand() {
+        let laws = AdaptiveLaws::new(2.0, 3.0, 0.5, 0.01);
+        let est = Estimates {
+            mu: 4.0,
+            xi: 0.0,
+            lambda: 1.0,
+        };
+        let d = Drives {
+            mu: 10.0,
+            xi: 5.0,
+            lambda: 0.0,
+        };
+        let n = laws.next(&est, &d);
+        // μ: 4 + 0.01·(10 − 2·4^1.5 − 3·4) = 4 + 0.01·(10 − 16 − 12) = 3.82
+        assert!((n.mu - 3.82).abs() < 1e-5);
+        // ξ: 0 + 0.01·5 = 0.05
+        assert!((n.xi - 0.05).abs() < 1e-7);
+        // λ: 1 + 0.01·(0 − 2·1 − 3·1) = 0.95
+        assert!((n.lambda - 0.95).abs() < 1e-6);
+    }
+
+    #[test]
+    fn clamps_at_zero() {
+        let laws = AdaptiveLaws::new(100.0, 100.0, 0.5, 1.0);
+        let est = Estimates {
+            mu: 1.0,
+            xi: 1.0,
+            lambda: 1.0,
+        };
+        let d = Drives {
+            mu: 0.0,
+            xi: 0.0,
+            lambda: 0.0,
+        };
+        let n = laws.next(&est, &d);
+        assert_eq!((n.mu, n.xi, n.lambda), (0.0, 0.0, 0.0));
+    }
+}

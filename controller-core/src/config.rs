@@ -1,0 +1,269 @@
+//! The controller's configuration as a user writes it, and its one-time validation into the
+//! read-only [`Params`] the hot path uses.
+
+use crate::{
+    adaptive::{AdaptiveLaws, Estimates},
+    backstepping::Backstepping,
+    consensus::Consensus,
+    differentiator::LevantDifferentiator,
+    gains::{non_negative, positive},
+    quantizer::{HysteresisQuantizer, QuantizerConfig},
+    scheme::{Scheme, SchemeConfig},
+    smoothing::VarpiSchedule,
+    ConfigError, GainSelection, Gains, MtnRegressor,
+};
+
+/// Everything one agent's controller needs, with the defaults of SPEC §8 (Example 1, agent 1:
+/// pinned, no neighbours). Step-indexed arrays hold step `j` at index `j−1`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ControllerConfig<const N: usize> {
+    /// Sample period `h` [s].
+    pub h: f32,
+    /// `S_i`: neighbours this agent hears (their values come in this order to `step`).
+    pub neighbour_count: usize,
+    /// `r_i = 1`: the agent hears the leader.
+    pub pinned: bool,
+    /// Predefined-time parameter `T_s` [s]; the settling time is `2 T_s`.
+    pub ts: f32,
+    /// `ζ ∈ (0, 1)`.
+    pub zeta: f32,
+    /// `c_1`, `c_2` from §3 or explicit.
+    pub gains: GainSelection,
+    /// MTN design constants `ǎ_j`.
+    pub a_check: [f32; N],
+    /// Adaptation gain `p` of `μ̂`.
+    pub p: f32,
+    /// Adaptation gain `η` of `ξ̂`.
+    pub eta: f32,
+    /// Adaptation gain `τ` of `λ̂`.
+    pub tau: f32,
+    /// `γ > 0` of `tanh(e_n/γ)`.
+    pub gamma: f32,
+    /// MTN order `m`.
+    pub mtn_order: usize,
+    /// Known lower bounds `φ_low_j > 0` of the control gains.
+    pub phi_low: [f32; N],
+    /// Known upper bounds `φ_up_j ≥ φ_low_j`.
+    pub phi_up: [f32; N],
+    /// `ε̄_j ≥ 0`: bound of the differentiator error of `α_j` (the last entry is unused).
+    pub eps_bar: [f32; N],
+    /// Differentiator gain `ℓ_1`.
+    pub diff_l1: f32,
+    /// Differentiator gain `ℓ_2`.
+    pub diff_l2: f32,
+    /// `ϖ(0)`.
+    pub varpi0: f32,
+    /// Decay rate `κ` of `ϖ(t) = ϖ_0 e^(−κt)`.
+    pub varpi_decay: f32,
+    /// Floor `ϖ_min > 0`.
+    pub varpi_min: f32,
+    /// `μ̂(0) ≥ 0`.
+    pub mu0: f32,
+    /// `ξ̂(0) ≥ 0`.
+    pub xi0: f32,
+    /// `λ̂(0) ≥ 0`.
+    pub lambda0: f32,
+    /// The hysteresis quantizer of every actuator; `None` sends `u` unquantized (`δ = 0`).
+    pub quantizer: Option<QuantizerConfig>,
+    /// Proposed scheme or baseline.
+    pub scheme: SchemeConfig,
+}
+
+impl<const N: usize> Default for ControllerConfig<N> {
+    fn default() -> Self {
+        Self {
+            h: 1e-3,
+            neighbour_count: 0,
+            pinned: true,
+            ts: 2.0,
+            zeta: 0.1,
+            gains: GainSelection::Auto,
+            a_check: [90.0; N],
+            p: 80.0,
+            eta: 50.0,
+            tau: 50.0,
+            gamma: 0.1,
+            mtn_order: 2,
+            phi_low: [1.0; N],
+            phi_up: [1.0; N],
+            eps_bar: [0.0; N],
+            diff_l1: 1.0,
+            diff_l2: 1.0,
+            varpi0: 0.1,
+            varpi_decay: 0.7,
+            varpi_min: 1e-6,
+            mu0: 0.0,
+            xi0: 0.0,
+            lambda0: 1.0,
+            quantizer: Some(QuantizerConfig::default()),
+            scheme: SchemeConfig::PredefinedTime,
+        }
+    }
+}
+
+/// The validated, read-only settings of one controller: everything the hot path needs,
+/// precomputed, so `step` repeats no check.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Params<const N: usize> {
+    pub(crate) h: f32,
+    pub(crate) gains: Gains,
+    pub(crate) consensus: Consensus,
+    pub(crate) backstepping: Backstepping<N>,
+    pub(crate) scheme: Scheme,
+    pub(crate) laws: AdaptiveLaws,
+    /// `p/(2ǎ_j²)`.
+    pub(crate) p_over_two_a2: [f32; N],
+    pub(crate) eta: f32,
+    pub(crate) tau: f32,
+    pub(crate) differentiator: LevantDifferentiator,
+    pub(crate) quantizer: Option<HysteresisQuantizer>,
+    pub(crate) varpi: VarpiSchedule,
+    pub(crate) initial: Estimates,
+}
+
+impl<const N: usize> Params<N> {
+    /// Validates `cfg` for a controller with neighbour capacity `capacity`.
+    pub fn new(cfg: &ControllerConfig<N>, capacity: usize) -> Result<Self, ConfigError> {
+        if N == 0 {
+            return Err(ConfigError::ZeroStateOrder);
+        }
+        if !cfg.h.is_finite() {
+            return Err(ConfigError::NonFinite("h"));
+        }
+        if cfg.h <= 0.0 {
+            return Err(ConfigError::NonPositiveSamplePeriod);
+        }
+        let gains = match cfg.gains {
+            GainSelection::Auto => {
+                Gains::predefined_time(cfg.ts, cfg.zeta, N, cfg.p, cfg.eta, cfg.tau)?
+            }
+            GainSelection::Explicit { c1, c2 } => {
+                // T_s still matters (baseline T, reports): it must be valid too.
+                Gains::predefined_time(cfg.ts, cfg.zeta, N, cfg.p, cfg.eta, cfg.tau)?;
+                Gains::explicit(c1, c2, cfg.zeta)?
+            }
+        };
+        let mtn = MtnRegressor::new(cfg.mtn_order)?;
+        if cfg.neighbour_count > capacity || cfg.neighbour_count > u8::MAX as usize {
+            return Err(ConfigError::TooManyNeighbours);
+        }
+        let consensus = Consensus::new(cfg.neighbour_count as u8, cfg.pinned);
+        if consensus.a() == 0.0 {
+            return Err(ConfigError::Isolated);
+        }
+        let quantizer = match &cfg.quantizer {
+            Some(q) => Some(HysteresisQuantizer::new(q)?),
+            None => None,
+        };
+        let delta = quantizer.as_ref().map_or(0.0, HysteresisQuantizer::delta);
+
+        let mut inv_two_a2 = [0.0; N];
+        let mut p_over_two_a2 = [0.0; N];
+        let mut cross = [0.0; N];
+        let mut eps_bar = [0.0; N];
+        let mut inv_l_phi_low = [0.0; N];
+        for j in 0..N {
+            let step = (j + 1).min(u8::MAX as usize) as u8;
+            let a = cfg.a_check[j];
+            if !a.is_finite() {
+                return Err(ConfigError::NonFinite("a_check"));
+            }
+            if a == 0.0 {
+                return Err(ConfigError::ZeroACheck { step });
+            }
+            let (lo, up) = (cfg.phi_low[j], cfg.phi_up[j]);
+            if !lo.is_finite() {
+                return Err(ConfigError::NonFinite("phi_low"));
+            }
+            if !up.is_finite() {
+                return Err(ConfigError::NonFinite("phi_up"));
+            }
+            if lo <= 0.0 {
+                return Err(ConfigError::NonPositivePhiLow { step });
+            }
+            if lo > up {
+                return Err(ConfigError::PhiLowAbovePhiUp { step });
+            }
+            non_negative(cfg.eps_bar[j], "eps_bar")?;
+            inv_two_a2[j] = 1.0 / (2.0 * a * a);
+            p_over_two_a2[j] = cfg.p * inv_two_a2[j];
+            let l = if j == 0 { consensus.a() } else { 1.0 };
+            inv_l_phi_low[j] = 1.0 / (l * lo);
+            if j > 0 {
+                let jj = if j == 1 { consensus.a() } else { 1.0 };
+                cross[j] = jj * cfg.phi_up[j - 1];
+                eps_bar[j] = cfg.eps_bar[j - 1];
+            }
+        }
+        if inv_two_a2
+            .iter()
+            .chain(p_over_two_a2.iter())
+            .any(|v| !v.is_finite())
+        {
+            return Err(ConfigError::NonFinite("a_check"));
+        }
+        let gamma = positive(cfg.gamma, "gamma")?;
+        positive(cfg.diff_l1, "diff_l1")?;
+        positive(cfg.diff_l2, "diff_l2")?;
+        positive(cfg.varpi0, "varpi0")?;
+        non_negative(cfg.varpi_decay, "varpi_decay")?;
+        if !cfg.varpi_min.is_finite() {
+            return Err(ConfigError::NonFinite("varpi_min"));
+        }
+        if cfg.varpi_min <= 0.0 || cfg.varpi_min > cfg.varpi0 {
+            return Err(ConfigError::VarpiMinOutOfRange);
+        }
+        let initial = Estimates {
+            mu: non_negative(cfg.mu0, "mu0")?,
+            xi: non_negative(cfg.xi0, "xi0")?,
+            lambda: non_negative(cfg.lambda0, "lambda0")?,
+        };
+        let scheme = Scheme::new(&cfg.scheme, &gains, cfg.zeta, cfg.ts)?;
+        Ok(Self {
+            h: cfg.h,
+            gains,
+            consensus,
+            backstepping: Backstepping {
+                mtn,
+                inv_two_a2,
+                damping_1: (1.0 + consensus.a() + consensus.s()) / 2.0,
+                cross,
+                eps_bar,
+                inv_l_phi_low,
+                inv_gamma: 1.0 / gamma,
+                command_gain: 1.0 / (1.0 - delta),
+            },
+            scheme,
+            laws: AdaptiveLaws::new(gains.c1, gains.c2, cfg.zeta, cfg.h),
+            p_over_two_a2,
+            eta: cfg.eta,
+            tau: cfg.tau,
+            differentiator: LevantDifferentiator::new(cfg.diff_l1, cfg.diff_l2, cfg.h),
+            quantizer,
+            varpi: VarpiSchedule::new(cfg.varpi0, cfg.varpi_decay, cfg.varpi_min, cfg.h),
+            initial,
+        })
+    }
+
+    /// The gains in force.
+    pub const fn gains(&self) -> &Gains {
+        &self.gains
+    }
+
+    /// The sample period `h`.
+    pub const fn h(&self) -> f32 {
+        self.h
+    }
+
+    /// The quantizer, if any.
+    pub const fn quantizer(&self) -> Option<&HysteresisQuantizer> {
+        self.quantizer.as_ref()
+    }
+
+    /// `A_i`.
+    pub const fn a(&self) -> f32 {
+        self.consensus.a()
+    }
+}

@@ -1,0 +1,265 @@
+//! One agent's controller: the step order of SPEC §6 over the blocks of SPEC §4–§5.
+
+use crate::{
+    adaptive::{Drives, Estimates},
+    backstepping::Estimated,
+    config::{ControllerConfig, Params},
+    consensus::{Link, LinkMemory, LinkReport},
+    differentiator::DifferentiatorState,
+    math,
+    quantizer::QuantizerState,
+    ConfigError,
+};
+
+/// Why a step held the previous command instead of computing a new one.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum StepFault {
+    /// The agent's own state had a NaN or infinite entry.
+    InvalidState,
+    /// The law produced a non-finite command, estimate or differentiator state (inputs so large
+    /// that `f32` overflowed). Nothing was committed.
+    NonFiniteResult,
+}
+
+/// Health of one step: the links as resolved, and a fault if the command was held.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct StepStatus {
+    /// `Some` when `u` and `q` are the previous sample's, held.
+    pub fault: Option<StepFault>,
+    /// Stale, missing and invalid neighbour / leader values of this sample.
+    pub links: LinkReport,
+}
+
+/// What one step returns: the commands and the internal signals worth logging.
+///
+/// On a fault (`status.fault.is_some()`), `u` and `q` hold the last committed command, `e`,
+/// `alpha` and `beta` are 0 and the estimates are the held ones: every field is finite.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct StepOutput<const N: usize, const M: usize> {
+    /// Commands `u_l` before quantization (28).
+    pub u: [f32; M],
+    /// Quantized commands `q_l = Q(u_l)` (2): the values sent to the actuators.
+    pub q: [f32; M],
+    /// Errors `e_j` (`e_1` is the consensus error).
+    pub e: [f32; N],
+    /// Virtual controls `α_j`, `j < n` (last entry 0).
+    pub alpha: [f32; N],
+    /// `β_j` (the paper's `ᾰ_j`).
+    pub beta: [f32; N],
+    /// `μ̂`, `ξ̂`, `λ̂` after this step's update.
+    pub estimates: Estimates,
+    /// `ϖ` used in this step.
+    pub varpi: f32,
+    /// Faults and link health.
+    pub status: StepStatus,
+}
+
+/// The mutable state of one agent's controller: small and plain.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct State<const N: usize, const M: usize, const K: usize> {
+    /// Samples taken so far (`t = k h`, never an accumulated float time).
+    pub k: u32,
+    /// `ϖ(t_k)`.
+    pub varpi: f32,
+    /// `μ̂`, `ξ̂`, `λ̂`.
+    pub estimates: Estimates,
+    /// Differentiator of `α_j` at index `j−1` (the last is unused).
+    pub differentiators: [DifferentiatorState; N],
+    /// One hysteresis quantizer per actuator.
+    pub quantizers: [QuantizerState; M],
+    /// Last committed `u` (held on a fault).
+    pub u: [f32; M],
+    /// Last committed `q` (held on a fault).
+    pub q: [f32; M],
+    /// Remembered neighbour and leader values.
+    pub links: LinkMemory<K>,
+}
+
+/// The predefined-time adaptive consensus controller of one follower agent: `n = N` states,
+/// `m = M` actuators, up to `K` neighbours. A fixed-size value with no allocation.
+///
+/// ```
+/// use controller_core::{Controller, ControllerConfig, Link};
+/// let cfg = ControllerConfig::<2>::default(); // Example 1, agent 1 (pinned)
+/// let mut c = Controller::<2, 2, 4>::new(&cfg).unwrap();
+/// let out = c.step(&[0.02, 0.8], &[], Link::Fresh(0.0));
+/// assert!(out.status.fault.is_none() && out.u.iter().all(|u| u.is_finite()));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Controller<const N: usize, const M: usize, const K: usize> {
+    params: Params<N>,
+    state: State<N, M, K>,
+}
+
+impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
+    /// Validates `cfg` once; the controller starts at `t = 0`.
+    pub fn new(cfg: &ControllerConfig<N>) -> Result<Self, ConfigError> {
+        const { assert!(N > 0, "state order n must be at least 1") };
+        const { assert!(M > 0, "an agent needs at least one actuator") };
+        let params = Params::new(cfg, K)?;
+        let state = Self::initial_state(&params);
+        Ok(Self { params, state })
+    }
+
+    fn initial_state(params: &Params<N>) -> State<N, M, K> {
+        let q0 = params
+            .quantizer
+            .map_or_else(QuantizerState::default, |q| q.state());
+        State {
+            k: 0,
+            varpi: params.varpi.initial,
+            estimates: params.initial,
+            differentiators: [DifferentiatorState::default(); N],
+            quantizers: [q0; M],
+            u: [0.0; M],
+            q: [0.0; M],
+            links: LinkMemory::default(),
+        }
+    }
+
+    /// Back to `t = 0` with the initial estimates, keeping the configuration.
+    pub fn reset(&mut self) {
+        self.state = Self::initial_state(&self.params);
+    }
+
+    /// The validated settings.
+    pub const fn params(&self) -> &Params<N> {
+        &self.params
+    }
+
+    /// The current state.
+    pub const fn state(&self) -> &State<N, M, K> {
+        &self.state
+    }
+
+    /// `t = k h` of the next step.
+    pub fn time(&self) -> f32 {
+        self.state.k as f32 * self.params.h
+    }
+
+    /// One sample (SPEC §6): `x` is this agent's state, `neighbours` the latest values of its
+    /// `S_i` neighbours in configured order, `leader` the leader's `y_d` (ignored unless pinned).
+    ///
+    /// Never panics. A non-finite `x`, or a result that overflows `f32`, holds the previous
+    /// command and commits nothing (see [`StepFault`]); neighbour and leader values follow the
+    /// policy of [`crate::consensus`].
+    pub fn step(&mut self, x: &[f32; N], neighbours: &[Link], leader: Link) -> StepOutput<N, M> {
+        let p = &self.params;
+        let s = &mut self.state;
+        let t = s.k as f32 * p.h;
+        let varpi = s.varpi;
+        p.varpi.advance(&mut s.varpi);
+        s.k = s.k.saturating_add(1);
+
+        // 1. e_1 from the latest neighbour / leader values, then β_j, α_j, e_{j+1}.
+        let mut links = LinkReport::default();
+        let mut phi1 = p.backstepping.mtn.accumulator();
+        let e1 = p.consensus.consensus_error(
+            &mut s.links,
+            x[0],
+            neighbours,
+            leader,
+            &mut phi1,
+            &mut links,
+        );
+        if x.iter().any(|v| !v.is_finite()) {
+            return held(s, varpi, StepFault::InvalidState, links);
+        }
+        let mut alpha_dot = [0.0; N];
+        for (d, st) in alpha_dot.iter_mut().zip(s.differentiators.iter()) {
+            *d = st.chi2;
+        }
+        let est = s.estimates;
+        let sig = p.backstepping.run(
+            &p.scheme.feedback_at(t),
+            e1,
+            phi1.norm_sq(),
+            x,
+            &Estimated {
+                mu: est.mu,
+                xi: est.xi,
+                lambda: est.lambda,
+                varpi,
+                alpha_dot: &alpha_dot,
+            },
+        );
+
+        // 2. u_l, then q_l = Q_l(u_l).
+        let u = [sig.u; M];
+        let mut quantizers = s.quantizers;
+        let mut q = u;
+        if let Some(qz) = &p.quantizer {
+            for (ql, st) in q.iter_mut().zip(quantizers.iter_mut()) {
+                *ql = qz.quantize(st, *ql);
+            }
+        }
+
+        // 3. Adaptive laws (forward Euler, clamped at 0).
+        let e_n = sig.e[N - 1];
+        let mut mu_drive = 0.0;
+        for ((&pj, &e), &phi) in p.p_over_two_a2.iter().zip(&sig.e).zip(&sig.phi_sq) {
+            mu_drive += pj * e * e * phi;
+        }
+        let drives = Drives {
+            mu: mu_drive,
+            xi: p.eta * math::abs(e_n * sig.tanh_n),
+            lambda: p.tau * math::abs(e_n * sig.beta[N - 1]),
+        };
+        let estimates = p.laws.next(&est, &drives);
+
+        // 4. Differentiators of α_j, j < n.
+        let mut differentiators = s.differentiators;
+        for (d, &a) in differentiators.iter_mut().zip(&sig.alpha).take(N - 1) {
+            *d = p.differentiator.next(d, a);
+        }
+
+        let finite = sig.u.is_finite()
+            && estimates.is_finite()
+            && differentiators.iter().all(DifferentiatorState::is_finite);
+        if !finite {
+            return held(s, varpi, StepFault::NonFiniteResult, links);
+        }
+        s.quantizers = quantizers;
+        s.estimates = estimates;
+        s.differentiators = differentiators;
+        s.u = u;
+        s.q = q;
+        StepOutput {
+            u,
+            q,
+            e: sig.e,
+            alpha: sig.alpha,
+            beta: sig.beta,
+            estimates,
+            varpi,
+            status: StepStatus { fault: None, links },
+        }
+    }
+}
+
+/// The fault result: previous command held, nothing committed.
+fn held<const N: usize, const M: usize, const K: usize>(
+    s: &State<N, M, K>,
+    varpi: f32,
+    fault: StepFault,
+    links: LinkReport,
+) -> StepOutput<N, M> {
+    StepOutput {
+        u: s.u,
+        q: s.q,
+        e: [0.0; N],
+        alpha: [0.0; N],
+        beta: [0.0; N],
+        estimates: s.estimates,
+        varpi,
+        status: StepStatus {
+            fault: Some(fault),
+            links,
+        },
+    }
+}

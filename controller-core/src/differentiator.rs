@@ -1,0 +1,93 @@
+//! Levant's robust exact differentiator, one per virtual control `α_j` (the paper's Lemma 5 with
+//! `sign(χ_1 − α)` in the second line, SPEC §4 and §9 item 2), integrated by forward Euler.
+
+use crate::math;
+
+/// Settings `ℓ_1`, `ℓ_2` and the sample period `h`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct LevantDifferentiator {
+    l1: f32,
+    l2: f32,
+    h: f32,
+}
+
+/// State `(χ_1, χ_2)`; `χ_2` estimates `α̇`.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct DifferentiatorState {
+    /// `χ_1`, tracks `α`.
+    pub chi1: f32,
+    /// `χ_2`, the derivative estimate.
+    pub chi2: f32,
+    primed: bool,
+}
+
+impl LevantDifferentiator {
+    /// Gains `ℓ_1, ℓ_2 > 0` and sample period `h > 0` (validated by the controller's config).
+    pub const fn new(l1: f32, l2: f32, h: f32) -> Self {
+        Self { l1, l2, h }
+    }
+
+    /// The state after one Euler step of
+    /// `χ̇_1 = −ℓ_1 |χ_1 − α|^(1/2) sign(χ_1 − α) + χ_2`, `χ̇_2 = −ℓ_2 sign(χ_1 − α)` (Lemma 5).
+    /// The first sample sets `χ_1 = α`, `χ_2 = 0`.
+    #[inline]
+    pub fn next(&self, s: &DifferentiatorState, alpha: f32) -> DifferentiatorState {
+        if !s.primed {
+            return DifferentiatorState {
+                chi1: alpha,
+                chi2: 0.0,
+                primed: true,
+            };
+        }
+        let d = s.chi1 - alpha;
+        let sg = math::sign(d);
+        DifferentiatorState {
+            chi1: s.chi1 + self.h * (-self.l1 * math::sqrt(math::abs(d)) * sg + s.chi2),
+            chi2: s.chi2 - self.h * self.l2 * sg,
+            primed: true,
+        }
+    }
+}
+
+impl DifferentiatorState {
+    /// Both components finite.
+    #[inline]
+    pub fn is_finite(&self) -> bool {
+        self.chi1.is_finite() && self.chi2.is_finite()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn first_sample_primes_then_tracks_a_ramp_slope() {
+        let h = 1e-3;
+        let d = LevantDifferentiator::new(3.0, 4.0, h);
+        let mut s = DifferentiatorState::default();
+        s = d.next(&s, 0.5);
+        assert_eq!((s.chi1, s.chi2), (0.5, 0.0));
+        // α(t) = 0.5 + 1.5 t: χ_2 converges to 1.5 in finite time (|α̈| = 0 < ℓ_2).
+        for k in 1..20_000 {
+            s = d.next(&s, 0.5 + 1.5 * k as f32 * h);
+        }
+        assert!((s.chi2 - 1.5).abs() < 0.05, "chi2 = {}", s.chi2);
+    }
+
+    #[test]
+    fn euler_step_by_hand() {
+        let d = LevantDifferentiator::new(1.0, 2.0, 0.1);
+        let s = DifferentiatorState {
+            chi1: 1.0,
+            chi2: 0.5,
+            primed: true,
+        };
+        let n = d.next(&s, 0.75);
+        // χ_1 − α = 0.25: χ_1 += 0.1·(−1·0.5 + 0.5) = 1.0; χ_2 += 0.1·(−2) = 0.3.
+        assert!((n.chi1 - 1.0).abs() < 1e-6);
+        assert!((n.chi2 - 0.3).abs() < 1e-6);
+    }
+}

@@ -1,0 +1,185 @@
+//! Predefined-time gains `c_1`, `c_2`, `k_1`, `k_2` (SPEC §3; the paper's Theorem 1).
+
+use crate::{math, ConfigError};
+use core::f32::consts::PI;
+
+/// How `c_1`, `c_2` are chosen.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum GainSelection {
+    /// From `T_s`, `ζ` and the adaptation gains by SPEC §3 (the paper's choice).
+    Auto,
+    /// Explicit `c_1`, `c_2` (baseline comparisons, the stricter `ϑ` of SPEC §9).
+    Explicit {
+        /// `c_1 > 0`.
+        c1: f32,
+        /// `c_2 > 0`.
+        c2: f32,
+    },
+}
+
+/// The gains of one agent: `c_1`, `c_2` and the derived `k_1`, `k_2`.
+///
+/// ```
+/// use controller_core::Gains;
+/// // Example 1: n = 2, ζ = 0.1, p = 80, η = τ = 50, T_s = 2.
+/// let g = Gains::predefined_time(2.0, 0.1, 2, 80.0, 50.0, 50.0).unwrap();
+/// assert!((g.c1 - 16.26).abs() < 0.01 && (g.c2 - 15.71).abs() < 0.01);
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Gains {
+    /// `c_1 = π / (ϑ ζ T_s)`.
+    pub c1: f32,
+    /// `c_2 = π / (ζ T_s)`.
+    pub c2: f32,
+    /// `k_1 = (1/2)^(1+ζ/2) c_1`.
+    pub k1: f32,
+    /// `k_2 = (1/2)^(1−ζ/2) c_2`.
+    pub k2: f32,
+}
+
+impl Gains {
+    /// Gains from the predefined time `T_s` (SPEC §3, `ϑ` reconstructed from (46)–(55)).
+    pub fn predefined_time(
+        ts: f32,
+        zeta: f32,
+        n: usize,
+        p: f32,
+        eta: f32,
+        tau: f32,
+    ) -> Result<Self, ConfigError> {
+        check_zeta(zeta)?;
+        if !ts.is_finite() {
+            return Err(ConfigError::NonFinite("ts"));
+        }
+        if ts <= 0.0 {
+            return Err(ConfigError::NonPositiveTs);
+        }
+        let theta = theta(zeta, n, p, eta, tau)?;
+        let c2 = PI / (zeta * ts);
+        Self::explicit(c2 / theta, c2, zeta)
+    }
+
+    /// Explicit `c_1`, `c_2`; `k_1`, `k_2` follow from `ζ`.
+    pub fn explicit(c1: f32, c2: f32, zeta: f32) -> Result<Self, ConfigError> {
+        check_zeta(zeta)?;
+        positive(c1, "c1")?;
+        positive(c2, "c2")?;
+        Ok(Self {
+            c1,
+            c2,
+            k1: math::powf(0.5, 1.0 + zeta / 2.0) * c1,
+            k2: math::powf(0.5, 1.0 - zeta / 2.0) * c2,
+        })
+    }
+}
+
+/// The factor `ϑ` of SPEC §3 (the paper's `r`).
+pub fn theta(zeta: f32, n: usize, p: f32, eta: f32, tau: f32) -> Result<f32, ConfigError> {
+    check_zeta(zeta)?;
+    positive(p, "p")?;
+    positive(eta, "eta")?;
+    positive(tau, "tau")?;
+    if n == 0 {
+        return Err(ConfigError::ZeroStateOrder);
+    }
+    let two = math::powf(2.0, 1.0 + zeta / 2.0);
+    let half = zeta / 2.0;
+    let f1 = (1.0 + zeta) / (2.0 + zeta);
+    let candidates = [
+        math::powf(n as f32, -half),
+        two * math::powf(p, half) * f1,
+        two * math::powf(eta, half) * f1,
+        two * math::powf(tau, half) * (1.0 + 2.0 * zeta) / (2.0 + 2.0 * zeta),
+    ];
+    Ok(candidates.iter().fold(f32::INFINITY, |m, &c| m.min(c)))
+}
+
+fn check_zeta(zeta: f32) -> Result<(), ConfigError> {
+    if !zeta.is_finite() {
+        return Err(ConfigError::NonFinite("zeta"));
+    }
+    if zeta <= 0.0 || zeta >= 1.0 {
+        return Err(ConfigError::ZetaOutOfRange);
+    }
+    Ok(())
+}
+
+pub(crate) fn positive(x: f32, name: &'static str) -> Result<f32, ConfigError> {
+    if !x.is_finite() {
+        Err(ConfigError::NonFinite(name))
+    } else if x <= 0.0 {
+        Err(ConfigError::NonPositive(name))
+    } else {
+        Ok(x)
+    }
+}
+
+pub(crate) fn non_negative(x: f32, name: &'static str) -> Result<f32, ConfigError> {
+    if !x.is_finite() {
+        Err(ConfigError::NonFinite(name))
+    } else if x < 0.0 {
+        Err(ConfigError::Negative(name))
+    } else {
+        Ok(x)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn example1_gains_match_spec() {
+        let g = Gains::predefined_time(2.0, 0.1, 2, 80.0, 50.0, 50.0).unwrap();
+        assert!((g.c2 - 15.7080).abs() < 1e-3, "c2 = {}", g.c2);
+        assert!((g.c1 - 16.262).abs() < 5e-3, "c1 = {}", g.c1);
+        // ϑ is the n^(−ζ/2) branch here: 2^(−0.05).
+        let t = theta(0.1, 2, 80.0, 50.0, 50.0).unwrap();
+        assert!((t - 2f32.powf(-0.05)).abs() < 1e-6);
+        assert!((g.k1 - 0.5f32.powf(1.05) * g.c1).abs() < 1e-4);
+        assert!((g.k2 - 0.5f32.powf(0.95) * g.c2).abs() < 1e-4);
+        let g1 = Gains::predefined_time(1.0, 0.1, 2, 80.0, 50.0, 50.0).unwrap();
+        assert!((g1.c1 - 2.0 * g.c1).abs() < 1e-3);
+    }
+
+    #[test]
+    fn example2_gains_by_hand() {
+        // ζ = 0.6, T_s = 0.5, p = τ = η = 30, n = 2: c2 = π / 0.3.
+        let g = Gains::predefined_time(0.5, 0.6, 2, 30.0, 30.0, 30.0).unwrap();
+        let c2 = core::f64::consts::PI / 0.3;
+        assert!((g.c2 as f64 - c2).abs() < 1e-3);
+        // ϑ = min(2^(−0.3), 2^1.3·30^0.3·1.6/2.6, same, 2^1.3·30^0.3·2.2/3.2) = 2^(−0.3).
+        let theta = 2f64.powf(-0.3);
+        assert!((g.c1 as f64 - c2 / theta).abs() < 1e-2, "c1 = {}", g.c1);
+    }
+
+    #[test]
+    fn small_adaptation_gain_selects_its_branch() {
+        // With p tiny the second candidate is the minimum.
+        let t = theta(0.5, 1, 1e-4, 50.0, 50.0).unwrap();
+        let expect = 2f32.powf(1.25) * 1e-4f32.powf(0.25) * 1.5 / 2.5;
+        assert!((t - expect).abs() < 1e-5);
+    }
+
+    #[test]
+    fn rejects_bad_inputs() {
+        assert_eq!(
+            Gains::predefined_time(2.0, 1.0, 2, 1.0, 1.0, 1.0),
+            Err(ConfigError::ZetaOutOfRange)
+        );
+        assert_eq!(
+            Gains::predefined_time(0.0, 0.5, 2, 1.0, 1.0, 1.0),
+            Err(ConfigError::NonPositiveTs)
+        );
+        assert_eq!(
+            Gains::explicit(-1.0, 1.0, 0.5),
+            Err(ConfigError::NonPositive("c1"))
+        );
+        assert_eq!(
+            Gains::predefined_time(1.0, 0.5, 0, 1.0, 1.0, 1.0),
+            Err(ConfigError::ZeroStateOrder)
+        );
+    }
+}

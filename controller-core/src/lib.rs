@@ -1,0 +1,69 @@
+//! # controller-core
+//!
+//! The predefined-time adaptive consensus controller of Lu, Zhu, Wang and Han (2024),
+//! *Predefined-time adaptive consensus control for nonlinear multi-agent systems with input
+//! quantization and actuator faults*, for one follower agent, as it runs on the agent's
+//! microcontroller: `no_std`, no allocation, no `unsafe`, `f32`, fixed size.
+//!
+//! The normative description is the project's `SPEC.md`; where it departs from the paper's
+//! printed text (typos, garbled formulas) is listed in its §9 and in `docs/DEVIATIONS.md`.
+//!
+//! ## Block diagram (one sample, SPEC §6)
+//!
+//! ```text
+//!  neighbours' y_k ─┐
+//!  leader y_d ──────┼─► consensus ─► e_1 ─► backstepping steps j = 1..n ─► u ─► quantizer ─► q
+//!  own state x ─────┘   (§2, (10))        β_j, α_j, e_{j+1} (15)–(19), (28)   (2), Lemma 3
+//!                                           ▲      │ α_j               │ e_j, β_n
+//!                          Levant differentiators ◄┘     adaptive laws μ̂, ξ̂, λ̂ ◄┘
+//!                          χ_2 ≈ α̇_j (Lemma 5)           (20)–(22)
+//! ```
+//!
+//! Each block is a type with its settings apart from its state: [`consensus::Consensus`],
+//! [`backstepping::Backstepping`] with [`MtnRegressor`], [`powers::Powers`] and
+//! [`smoothing::smooth`], [`LevantDifferentiator`], [`HysteresisQuantizer`],
+//! [`adaptive::AdaptiveLaws`], the `ϖ(t)` schedule [`smoothing::VarpiSchedule`]. The proposed
+//! predefined-time scheme and the prescribed-time baseline of SPEC §10 differ only in
+//! [`scheme::Scheme`]. [`Controller`] validates a [`ControllerConfig`] once and runs the steps.
+//!
+//! ## Bad input
+//!
+//! [`Controller::step`] never panics. A NaN or infinite own state, or an `f32` overflow inside the
+//! law, holds the previous command and commits no state ([`StepFault`]); the controller resumes
+//! as soon as valid inputs return. Stale, missing or invalid neighbour and leader values follow
+//! the policy of [`consensus`].
+//!
+//! ## Features
+//!
+//! * `libm` (default): IEEE-accurate `powf`, `sqrtf`, `tanhf`, … from the `libm` crate.
+//! * `micromath`: faster approximations from `micromath` (takes precedence over `libm`).
+//! * `defmt`: `defmt::Format` for the configuration, errors, state and outputs.
+#![cfg_attr(not(test), no_std)]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod adaptive;
+pub mod backstepping;
+pub mod config;
+pub mod consensus;
+pub mod controller;
+pub mod differentiator;
+mod error;
+pub mod gains;
+pub mod math;
+pub mod mtn;
+pub mod powers;
+pub mod quantizer;
+pub mod scheme;
+pub mod smoothing;
+
+pub use adaptive::Estimates;
+pub use config::{ControllerConfig, Params};
+pub use consensus::{Link, LinkReport};
+pub use controller::{Controller, State, StepFault, StepOutput, StepStatus};
+pub use differentiator::LevantDifferentiator;
+pub use error::ConfigError;
+pub use gains::{GainSelection, Gains};
+pub use mtn::MtnRegressor;
+pub use quantizer::{HysteresisQuantizer, QuantizerConfig, QuantizerDirection};
+pub use scheme::{BaselineConfig, SchemeConfig};

@@ -1,0 +1,199 @@
+//! The multi-dimensional Taylor network regressor `Φ_m(X)` (the paper's Lemma 4, SPEC §4).
+//!
+//! `Φ_m(X)` holds every monomial of `X ∈ R^d` of total degree `1..=m`, `C(d+m, m) − 1` entries.
+//! The law needs only `‖Φ‖² = Σ_{k=1..m} h_k(X₁², …, X_d²)` (complete homogeneous symmetric
+//! polynomials), which [`MtnAccumulator`] evaluates in `O(d·m)` without building `Φ`.
+
+use crate::ConfigError;
+
+/// Largest supported MTN order `m`.
+pub const MAX_MTN_ORDER: usize = 8;
+
+/// `Φ` did not fit the caller's buffer.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct CapacityError {
+    /// Entries `Φ` has.
+    pub needed: usize,
+}
+
+/// The regressor of one MTN order `m` (Lemma 4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MtnRegressor {
+    order: u8,
+}
+
+impl MtnRegressor {
+    /// A regressor of order `1 ≤ m ≤ MAX_MTN_ORDER`.
+    pub const fn new(order: usize) -> Result<Self, ConfigError> {
+        if order == 0 {
+            Err(ConfigError::ZeroMtnOrder)
+        } else if order > MAX_MTN_ORDER {
+            Err(ConfigError::MtnOrderTooLarge)
+        } else {
+            Ok(Self { order: order as u8 })
+        }
+    }
+
+    /// The order `m`.
+    pub const fn order(&self) -> usize {
+        self.order as usize
+    }
+
+    /// `dim Φ = C(d+m, m) − 1` for an input of dimension `d`.
+    ///
+    /// ```
+    /// use controller_core::MtnRegressor;
+    /// assert_eq!(MtnRegressor::new(2).unwrap().len(3), 9); // 3 linear + 6 quadratic
+    /// ```
+    pub const fn len(&self, d: usize) -> usize {
+        // C(d+m, m) built incrementally: C(d+k, k) = C(d+k−1, k−1)·(d+k)/k, exact at every k.
+        let mut c = 1usize;
+        let mut k = 1;
+        while k <= self.order as usize {
+            c = c * (d + k) / k;
+            k += 1;
+        }
+        c - 1
+    }
+
+    /// A streaming evaluator of `‖Φ‖²`: push the inputs one by one.
+    #[inline]
+    pub const fn accumulator(&self) -> MtnAccumulator {
+        let mut h = [0.0; MAX_MTN_ORDER + 1];
+        h[0] = 1.0;
+        MtnAccumulator {
+            h,
+            order: self.order,
+        }
+    }
+
+    /// `‖Φ(x)‖²` of a whole input vector.
+    pub fn norm_sq(&self, x: &[f32]) -> f32 {
+        let mut acc = self.accumulator();
+        for &v in x {
+            acc.push(v);
+        }
+        acc.norm_sq()
+    }
+
+    /// The full vector `Φ(x)` (degree by degree, monomials in lexicographic order of their
+    /// variable indices) into a fixed-capacity buffer: for inspection and tests, not the hot path.
+    pub fn phi<const CAP: usize>(
+        &self,
+        x: &[f32],
+    ) -> Result<heapless::Vec<f32, CAP>, CapacityError> {
+        let needed = self.len(x.len());
+        if needed > CAP {
+            return Err(CapacityError { needed });
+        }
+        let mut out = heapless::Vec::new();
+        if x.is_empty() {
+            return Ok(out);
+        }
+        let d = x.len();
+        for degree in 1..=self.order() {
+            // Non-decreasing index tuples of length `degree`.
+            let mut idx = [0usize; MAX_MTN_ORDER];
+            loop {
+                let value = idx
+                    .iter()
+                    .take(degree)
+                    .fold(1.0f32, |p, &i| p * x.get(i).copied().unwrap_or(0.0));
+                out.push(value).map_err(|_| CapacityError { needed })?;
+                // Next non-decreasing tuple: bump the rightmost index that can still grow.
+                let Some(pos) = (0..degree)
+                    .rev()
+                    .find(|&p| idx.get(p).is_some_and(|&i| i + 1 < d))
+                else {
+                    break;
+                };
+                let v = idx.get(pos).map_or(0, |&i| i + 1);
+                for slot in idx.iter_mut().take(degree).skip(pos) {
+                    *slot = v;
+                }
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// Running `h_k(z_1..z_j)`, `k = 0..=m`, of the squared inputs pushed so far.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MtnAccumulator {
+    h: [f32; MAX_MTN_ORDER + 1],
+    order: u8,
+}
+
+impl MtnAccumulator {
+    /// Add one input `x`: `h_k ← h_k + x² h_{k−1}` for rising `k`.
+    #[inline]
+    pub fn push(&mut self, x: f32) {
+        let z = x * x;
+        let mut prev = 1.0;
+        for hk in self.h.iter_mut().take(self.order as usize + 1).skip(1) {
+            *hk += z * prev;
+            prev = *hk;
+        }
+    }
+
+    /// `‖Φ‖² = Σ_{k=1..m} h_k` of the inputs pushed so far.
+    #[inline]
+    pub fn norm_sq(&self) -> f32 {
+        self.h.iter().take(self.order as usize + 1).skip(1).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn brute_norm_sq(order: usize, x: &[f32]) -> f64 {
+        let phi: heapless::Vec<f32, 512> = MtnRegressor::new(order).unwrap().phi(x).unwrap();
+        phi.iter().map(|&v| (v as f64) * (v as f64)).sum()
+    }
+
+    #[test]
+    fn recurrence_equals_sum_of_squares_of_phi() {
+        let xs: [&[f32]; 5] = [
+            &[0.3],
+            &[0.5, -1.2],
+            &[0.1, 0.7, -0.4],
+            &[1.1, -0.2, 0.3, 0.9],
+            &[0.2, 0.4, -0.6, 0.8, -1.0],
+        ];
+        for order in 1..=4 {
+            for x in xs {
+                let r = MtnRegressor::new(order).unwrap();
+                let fast = r.norm_sq(x) as f64;
+                let slow = brute_norm_sq(order, x);
+                assert!(
+                    (fast - slow).abs() <= 1e-5 * slow.max(1.0),
+                    "order {order} x {x:?}: {fast} vs {slow}"
+                );
+                let phi: heapless::Vec<f32, 512> = r.phi(x).unwrap();
+                assert_eq!(phi.len(), r.len(x.len()));
+            }
+        }
+    }
+
+    #[test]
+    fn phi_by_hand() {
+        let r = MtnRegressor::new(2).unwrap();
+        let phi: heapless::Vec<f32, 16> = r.phi(&[2.0, 3.0]).unwrap();
+        assert_eq!(phi.as_slice(), &[2.0, 3.0, 4.0, 6.0, 9.0]);
+        assert_eq!(r.norm_sq(&[2.0, 3.0]), 4.0 + 9.0 + 16.0 + 36.0 + 81.0);
+        let small: Result<heapless::Vec<f32, 4>, _> = r.phi(&[2.0, 3.0]);
+        assert_eq!(small, Err(CapacityError { needed: 5 }));
+    }
+
+    #[test]
+    fn dimension_is_binomial() {
+        assert_eq!(MtnRegressor::new(1).unwrap().len(4), 4);
+        assert_eq!(MtnRegressor::new(3).unwrap().len(2), 9);
+        assert_eq!(MtnRegressor::new(2).unwrap().len(0), 0);
+        assert_eq!(MtnRegressor::new(0), Err(ConfigError::ZeroMtnOrder));
+        assert_eq!(MtnRegressor::new(9), Err(ConfigError::MtnOrderTooLarge));
+    }
+}

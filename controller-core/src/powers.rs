@@ -1,0 +1,65 @@
+//! The predefined-time powers `M(e) = sign(e)|e|^(1+ζ)` and `N(e) = sign(e)|e|^(1−ζ)` (SPEC §4).
+
+use crate::math;
+
+/// `M` and `N` of one `ζ`, sharing one `|e|^ζ` per evaluation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Powers {
+    zeta: f32,
+}
+
+impl Powers {
+    /// Powers for `ζ` (validated by the controller's configuration).
+    pub const fn new(zeta: f32) -> Self {
+        Self { zeta }
+    }
+
+    /// `x^ζ` for `x ≥ 0`, with `0^ζ = 0`.
+    #[inline]
+    pub fn pow_zeta(&self, x: f32) -> f32 {
+        if x > 0.0 {
+            math::powf(x, self.zeta)
+        } else {
+            0.0
+        }
+    }
+
+    /// `(M(e), N(e))`, both 0 at `e = 0`.
+    ///
+    /// ```
+    /// use controller_core::powers::Powers;
+    /// let (m, n) = Powers::new(0.5).m_n(-4.0);
+    /// assert!((m + 8.0).abs() < 1e-4 && (n + 2.0).abs() < 1e-5);
+    /// ```
+    #[inline]
+    pub fn m_n(&self, e: f32) -> (f32, f32) {
+        let a = math::abs(e);
+        if a > 0.0 {
+            let z = math::powf(a, self.zeta);
+            let s = math::sign(e);
+            (s * a * z, s * a / z)
+        } else {
+            (0.0, 0.0)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn closed_forms() {
+        let p = Powers::new(0.1);
+        let (m, n) = p.m_n(2.0);
+        assert!((m - 2f32.powf(1.1)).abs() < 1e-5);
+        assert!((n - 2f32.powf(0.9)).abs() < 1e-5);
+        assert_eq!(p.m_n(0.0), (0.0, 0.0));
+        assert_eq!(p.m_n(-0.0), (0.0, 0.0));
+        let (m, n) = p.m_n(-0.25);
+        assert!((m + 0.25f32.powf(1.1)).abs() < 1e-6);
+        assert!((n + 0.25f32.powf(0.9)).abs() < 1e-6);
+        assert_eq!(p.pow_zeta(0.0), 0.0);
+    }
+}

@@ -1,0 +1,345 @@
+//! The hysteresis quantizer of the paper's eq. (2) with the sector property of Lemma 3
+//! (`q = P u + R`, `1−δ ≤ P ≤ 1+δ`, `|R| ≤ u_min`), SPEC §4.
+//!
+//! Levels are `u_c = u_min ρ^(1−c)`, `c = 1, 2, …`. With `a = |u_k|` and the direction
+//! `d = sign(u_k − u_{k−1})`, the bracket `u_c < b ≤ u_{c+1}` is searched with `b = a` when
+//! `d > 0` and `b = a (1+δ)` when `d < 0` (the two cases of eq. (2) written with one variable).
+//! The search moves from the previous level (levels move little between samples) and falls
+//! back to the closed form `c = ⌈ln(b/u_min) / ln(1/ρ)⌉` for large jumps, so a step costs no
+//! logarithm in the common case and a bounded amount of work in every case.
+
+use crate::{gains::positive, math, ConfigError};
+
+/// How the direction `d` of eq. (2) is read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum QuantizerDirection {
+    /// `d = sign(u_k − u_{k−1})`: the literal reading of eq. (2) (default).
+    #[default]
+    Signed,
+    /// `d = sign(|u_k| − |u_{k−1}|)`: the odd-symmetric reading (also satisfies Lemma 3).
+    Magnitude,
+}
+
+/// Quantizer parameters as a user writes them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct QuantizerConfig {
+    /// `0 < ρ < 1`: ratio of successive levels.
+    pub rho: f32,
+    /// `u_min > 0`: the smallest non-zero level (dead zone).
+    pub u_min: f32,
+    /// Reading of the direction `d`.
+    pub direction: QuantizerDirection,
+}
+
+impl Default for QuantizerConfig {
+    fn default() -> Self {
+        Self {
+            rho: 0.9,
+            u_min: 0.01,
+            direction: QuantizerDirection::Signed,
+        }
+    }
+}
+
+/// Validated settings of the hysteresis quantizer (eq. 2).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct HysteresisQuantizer {
+    u_min: f32,
+    inv_rho: f32,
+    delta: f32,
+    one_plus_delta: f32,
+    inv_one_minus_delta: f32,
+    inv_ln_inv_rho: f32,
+    ln_u_min: f32,
+    max_index: u32,
+    direction: QuantizerDirection,
+}
+
+/// Per-actuator memory: the previous command and output, and the current level bracket.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct QuantizerState {
+    /// `u_{k−1}`.
+    pub prev_u: f32,
+    /// `q_{k−1}`.
+    pub prev_q: f32,
+    index: u32,
+    lower: f32,
+    upper: f32,
+}
+
+impl Default for QuantizerState {
+    /// A placeholder for controllers without a quantizer; [`HysteresisQuantizer::state`] gives
+    /// the real initial state.
+    fn default() -> Self {
+        Self {
+            prev_u: 0.0,
+            prev_q: 0.0,
+            index: 1,
+            lower: 0.0,
+            upper: 0.0,
+        }
+    }
+}
+
+/// Level changes walked one by one before the closed form is used instead.
+const MAX_WALK: usize = 4;
+
+impl HysteresisQuantizer {
+    /// Checks `0 < ρ < 1`, `u_min > 0`.
+    pub fn new(cfg: &QuantizerConfig) -> Result<Self, ConfigError> {
+        if !cfg.rho.is_finite() {
+            return Err(ConfigError::NonFinite("rho"));
+        }
+        if cfg.rho <= 0.0 || cfg.rho >= 1.0 {
+            return Err(ConfigError::RhoOutOfRange);
+        }
+        if !cfg.u_min.is_finite() {
+            return Err(ConfigError::NonFinite("u_min"));
+        }
+        if cfg.u_min <= 0.0 {
+            return Err(ConfigError::NonPositiveUMin);
+        }
+        let delta = (1.0 - cfg.rho) / (1.0 + cfg.rho);
+        let inv_rho = 1.0 / cfg.rho;
+        let inv_ln_inv_rho = positive(1.0 / math::ln(inv_rho), "rho")?;
+        let ln_u_min = math::ln(cfg.u_min);
+        // The first index whose level is no longer a finite f32: the search never goes past it.
+        let max_index = ((math::ln(f32::MAX) - ln_u_min) * inv_ln_inv_rho) as u32 + 2;
+        Ok(Self {
+            u_min: cfg.u_min,
+            inv_rho,
+            delta,
+            one_plus_delta: 1.0 + delta,
+            inv_one_minus_delta: 1.0 / (1.0 - delta),
+            inv_ln_inv_rho,
+            ln_u_min,
+            max_index,
+            direction: cfg.direction,
+        })
+    }
+
+    /// `δ = (1−ρ)/(1+ρ)`.
+    pub const fn delta(&self) -> f32 {
+        self.delta
+    }
+
+    /// `u_min`.
+    pub const fn u_min(&self) -> f32 {
+        self.u_min
+    }
+
+    /// Level `u_c = u_min ρ^(1−c)` for `c ≥ 1`.
+    #[inline]
+    pub fn level(&self, c: u32) -> f32 {
+        self.u_min * math::powi(self.inv_rho, c.saturating_sub(1))
+    }
+
+    /// The initial state: `u_{−1} = 0`, `q_{−1} = 0`.
+    pub fn state(&self) -> QuantizerState {
+        QuantizerState {
+            prev_u: 0.0,
+            prev_q: 0.0,
+            index: 1,
+            lower: self.level(1),
+            upper: self.level(2),
+        }
+    }
+
+    /// Closed-form level index: the `c ≥ 1` with `u_c < b ≤ u_{c+1}` (`b > u_min`), or 1.
+    pub fn level_index(&self, b: f32) -> u32 {
+        if b <= self.u_min || !b.is_finite() {
+            return 1;
+        }
+        let x = (math::ln(b) - self.ln_u_min) * self.inv_ln_inv_rho;
+        let mut c = x as u32;
+        if (c as f32) < x {
+            c = c.saturating_add(1);
+        }
+        let mut c = c.clamp(1, self.max_index);
+        // Rounding of ln can put c one off a boundary; settle it on the exact level values
+        // (a few iterations at most: c is within one or two of the answer).
+        while c > 1 && b <= self.level(c) {
+            c -= 1;
+        }
+        while c < self.max_index && b > self.level(c + 1) {
+            c += 1;
+        }
+        c
+    }
+
+    /// `q_k = Q(u_k)`, updating the state (eq. 2).
+    #[inline]
+    pub fn quantize(&self, s: &mut QuantizerState, u: f32) -> f32 {
+        let q = match self.direction_of(s.prev_u, u) {
+            None => s.prev_q,
+            Some(rising) => {
+                let a = math::abs(u);
+                let b = if rising { a } else { a * self.one_plus_delta };
+                if b <= self.u_min {
+                    0.0
+                } else {
+                    self.locate(s, b);
+                    math::sign(u) * self.magnitude(a, s.lower, rising)
+                }
+            }
+        };
+        s.prev_u = u;
+        s.prev_q = q;
+        q
+    }
+
+    /// The same output as [`Self::quantize`] from the closed-form level index (the reference).
+    pub fn quantize_reference(&self, prev_u: f32, prev_q: f32, u: f32) -> f32 {
+        match self.direction_of(prev_u, u) {
+            None => prev_q,
+            Some(rising) => {
+                let a = math::abs(u);
+                let b = if rising { a } else { a * self.one_plus_delta };
+                if b <= self.u_min {
+                    0.0
+                } else {
+                    math::sign(u) * self.magnitude(a, self.level(self.level_index(b)), rising)
+                }
+            }
+        }
+    }
+
+    /// `Some(true)` for `d > 0`, `Some(false)` for `d < 0`, `None` for the hold case `d = 0`.
+    #[inline]
+    fn direction_of(&self, prev: f32, u: f32) -> Option<bool> {
+        if u == prev {
+            return None;
+        }
+        match self.direction {
+            QuantizerDirection::Signed => Some(u > prev),
+            // A pure sign flip (|u| unchanged) is re-evaluated as rising.
+            QuantizerDirection::Magnitude => Some(math::abs(u) >= math::abs(prev)),
+        }
+    }
+
+    #[inline]
+    fn magnitude(&self, a: f32, level: f32, rising: bool) -> f32 {
+        let upper_edge = if rising {
+            level * self.inv_one_minus_delta
+        } else {
+            level
+        };
+        if a <= upper_edge {
+            level
+        } else {
+            level * self.one_plus_delta
+        }
+    }
+
+    #[inline]
+    fn locate(&self, s: &mut QuantizerState, b: f32) {
+        for _ in 0..MAX_WALK {
+            if b > s.upper && s.index < self.max_index {
+                self.set_index(s, s.index + 1);
+            } else if b <= s.lower && s.index > 1 {
+                self.set_index(s, s.index - 1);
+            } else {
+                return;
+            }
+        }
+        if (b > s.upper && s.index < self.max_index) || (b <= s.lower && s.index > 1) {
+            self.set_index(s, self.level_index(b));
+        }
+    }
+
+    #[inline]
+    fn set_index(&self, s: &mut QuantizerState, c: u32) {
+        s.index = c;
+        s.lower = self.level(c);
+        s.upper = self.level(c.saturating_add(1));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn q09() -> HysteresisQuantizer {
+        HysteresisQuantizer::new(&QuantizerConfig::default()).unwrap()
+    }
+
+    #[test]
+    fn levels_and_delta() {
+        let q = q09();
+        assert!((q.delta() - 0.1 / 1.9).abs() < 1e-7);
+        assert_eq!(q.level(1), 0.01);
+        assert!((q.level(3) - 0.01 / 0.81).abs() < 1e-8);
+        // b = 0.0105 lies in (u_1, u_2] = (0.01, 0.01111].
+        assert_eq!(q.level_index(0.0105), 1);
+        assert_eq!(q.level_index(0.0112), 2);
+        assert_eq!(q.level_index(0.005), 1);
+    }
+
+    #[test]
+    fn rising_and_falling_by_hand() {
+        let q = q09();
+        let mut s = q.state();
+        // Rising from 0 to 0.0105: c = 1, a ≤ u_1/(1−δ) = 0.010556 → u_1.
+        assert_eq!(q.quantize(&mut s, 0.0105), 0.01);
+        // Rising to 0.011: above u_1/(1−δ) → u_1 (1+δ).
+        let v = q.quantize(&mut s, 0.011);
+        assert!((v - 0.01 * (1.0 + q.delta())).abs() < 1e-8);
+        // Unchanged command: output held.
+        assert_eq!(q.quantize(&mut s, 0.011), v);
+        // Falling to 0.0098: b = a(1+δ) = 0.010316 > u_min, c = 1, a ≤ u_1 → u_1.
+        assert_eq!(q.quantize(&mut s, 0.0098), 0.01);
+        // Falling to 0.009: b = 0.009474 ≤ u_min → 0.
+        assert_eq!(q.quantize(&mut s, 0.009), 0.0);
+        // A jump to −1 is a falling command: b = 1+δ = 1.0526 lies in (u_45, u_46] =
+        // (1.0312, 1.1458] and a = 1 ≤ u_45, so the output is −u_45.
+        let v = q.quantize(&mut s, -1.0);
+        assert_eq!(q.level_index(1.0 + q.delta()), 45);
+        assert_eq!(v, -q.level(45));
+        assert!((v + 1.0312).abs() < 1e-3);
+    }
+
+    #[test]
+    fn incremental_equals_closed_form_on_a_sweep() {
+        let q = q09();
+        let mut s = q.state();
+        let (mut pu, mut pq) = (0.0f32, 0.0f32);
+        for k in 0..20_000 {
+            let t = k as f32 * 1e-3;
+            let u = 3.0 * libm::sinf(1.3 * t) * libm::expf(-0.1 * t) + 0.5 * libm::sinf(17.0 * t);
+            let fast = q.quantize(&mut s, u);
+            let slow = q.quantize_reference(pu, pq, u);
+            assert_eq!(fast, slow, "k {k} u {u}");
+            pu = u;
+            pq = slow;
+        }
+    }
+
+    #[test]
+    fn large_jumps_use_the_closed_form() {
+        let q = q09();
+        let mut s = q.state();
+        for &u in &[1e6f32, 0.02, -3e30, f32::MAX, 0.5, -f32::MAX, 0.0] {
+            let expect = q.quantize_reference(s.prev_u, s.prev_q, u);
+            assert_eq!(q.quantize(&mut s, u), expect, "u = {u}");
+        }
+    }
+
+    #[test]
+    fn rejects_bad_parameters() {
+        let bad = |rho, u_min| {
+            HysteresisQuantizer::new(&QuantizerConfig {
+                rho,
+                u_min,
+                direction: QuantizerDirection::Signed,
+            })
+        };
+        assert_eq!(bad(1.0, 0.01), Err(ConfigError::RhoOutOfRange));
+        assert_eq!(bad(0.0, 0.01), Err(ConfigError::RhoOutOfRange));
+        assert_eq!(bad(0.5, 0.0), Err(ConfigError::NonPositiveUMin));
+        assert_eq!(bad(f32::NAN, 0.01), Err(ConfigError::NonFinite("rho")));
+    }
+}

@@ -1,0 +1,93 @@
+//! The smoothing function `s_ϖ(x) = x / √(x² + ϖ²)` and the schedule `ϖ(t) = ϖ_0 e^(−κt)`
+//! floored at `ϖ_min` (SPEC §4, §6; the paper's (15), (28)).
+
+use crate::math;
+
+/// `s_ϖ(x) = x / √(x² + ϖ²)` in hypot form: `x²` is never formed, so it stays in `[−1, 1]` and
+/// finite for every finite `x` (also ±f32::MAX, and ±∞ gives ±1); `s(0) = 0`.
+///
+/// ```
+/// use controller_core::smoothing::smooth;
+/// assert!((smooth(3.0, 4.0) - 0.6).abs() < 1e-6);
+/// assert_eq!(smooth(f32::MAX, 0.1), 1.0);
+/// assert_eq!(smooth(0.0, 0.0), 0.0);
+/// ```
+#[inline]
+pub fn smooth(x: f32, varpi: f32) -> f32 {
+    let a = math::abs(x);
+    let b = math::abs(varpi);
+    if a >= b {
+        if a == 0.0 {
+            return 0.0;
+        }
+        let r = b / a;
+        math::sign(x) / math::sqrt(1.0 + r * r)
+    } else {
+        let r = x / b;
+        r / math::sqrt(1.0 + r * r)
+    }
+}
+
+/// The `ϖ(t)` schedule: a per-sample decay factor `e^(−κh)` and the floor `ϖ_min`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct VarpiSchedule {
+    /// `ϖ(0)`.
+    pub initial: f32,
+    /// `e^(−κh)`, computed once.
+    pub decay_per_sample: f32,
+    /// `ϖ_min > 0`.
+    pub floor: f32,
+}
+
+impl VarpiSchedule {
+    /// Schedule for `ϖ_0`, decay rate `κ`, floor and sample period `h` (validated by the caller).
+    pub fn new(varpi0: f32, kappa: f32, floor: f32, h: f32) -> Self {
+        Self {
+            initial: varpi0,
+            decay_per_sample: math::exp(-kappa * h),
+            floor,
+        }
+    }
+
+    /// `ϖ ← max(ϖ e^(−κh), ϖ_min)` (SPEC §6 step 5).
+    #[inline]
+    pub fn advance(&self, varpi: &mut f32) {
+        *varpi = (*varpi * self.decay_per_sample).max(self.floor);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn matches_direct_formula_where_it_does_not_overflow() {
+        for &(x, w) in &[(0.3f32, 0.1f32), (-2.0, 0.5), (1e-3, 1e-6), (5.0, 5.0)] {
+            let direct = x / (x * x + w * w).sqrt();
+            assert!((smooth(x, w) - direct).abs() < 1e-6, "{x} {w}");
+        }
+    }
+
+    #[test]
+    fn extreme_inputs_stay_in_range() {
+        assert_eq!(smooth(-f32::MAX, 1e-6), -1.0);
+        assert_eq!(smooth(f32::INFINITY, 0.1), 1.0);
+        assert!(smooth(1e-30, 1e-6).abs() < 1e-20);
+        assert_eq!(smooth(0.0, 0.1), 0.0);
+    }
+
+    #[test]
+    fn schedule_decays_and_floors() {
+        let s = VarpiSchedule::new(0.1, 0.7, 1e-6, 0.001);
+        let mut v = s.initial;
+        for _ in 0..1000 {
+            s.advance(&mut v);
+        }
+        assert!((v - 0.1 * (-0.7f32).exp()).abs() < 1e-5);
+        for _ in 0..100_000 {
+            s.advance(&mut v);
+        }
+        assert_eq!(v, 1e-6);
+    }
+}
