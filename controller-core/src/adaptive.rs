@@ -1,5 +1,7 @@
 //! The adaptive laws of `μ̂`, `ξ̂`, `λ̂` (SPEC §5; the paper's (20)–(22)), forward-Euler and
-//! clamped at 0 (SPEC §6 step 3).
+//! projected onto `[0, θ_max]`: the clamp at 0 is SPEC §6 step 3; the upper bound (default 1e6,
+//! far above what the examples reach) keeps one absurd but finite sample from committing an
+//! estimate so large that every later step overflows `f32` (a documented deviation).
 
 use crate::powers::Powers;
 
@@ -42,16 +44,19 @@ pub struct AdaptiveLaws {
     c1: f32,
     c2: f32,
     h: f32,
+    max: f32,
     powers: Powers,
 }
 
 impl AdaptiveLaws {
-    /// Laws with leakage `c_1`, `c_2`, exponent `ζ`, sample period `h` (validated by the caller).
-    pub const fn new(c1: f32, c2: f32, zeta: f32, h: f32) -> Self {
+    /// Laws with leakage `c_1`, `c_2`, exponent `ζ`, sample period `h` and projection bound
+    /// `θ_max` (validated by the caller).
+    pub const fn new(c1: f32, c2: f32, zeta: f32, h: f32, max: f32) -> Self {
         Self {
             c1,
             c2,
             h,
+            max,
             powers: Powers::new(zeta),
         }
     }
@@ -71,7 +76,7 @@ impl AdaptiveLaws {
 
     #[inline]
     fn euler(&self, x: f32, drive: f32, power: f32) -> f32 {
-        (x + self.h * (drive - self.c1 * power - self.c2 * x)).max(0.0)
+        (x + self.h * (drive - self.c1 * power - self.c2 * x)).clamp(0.0, self.max)
     }
 }
 
@@ -81,7 +86,7 @@ mod tests {
 
     #[test]
     fn euler_step_by_hand() {
-        let laws = AdaptiveLaws::new(2.0, 3.0, 0.5, 0.01);
+        let laws = AdaptiveLaws::new(2.0, 3.0, 0.5, 0.01, 1e6);
         let est = Estimates {
             mu: 4.0,
             xi: 0.0,
@@ -103,7 +108,7 @@ mod tests {
 
     #[test]
     fn clamps_at_zero() {
-        let laws = AdaptiveLaws::new(100.0, 100.0, 0.5, 1.0);
+        let laws = AdaptiveLaws::new(100.0, 100.0, 0.5, 1.0, 1e6);
         let est = Estimates {
             mu: 1.0,
             xi: 1.0,
@@ -116,5 +121,13 @@ mod tests {
         };
         let n = laws.next(&est, &d);
         assert_eq!((n.mu, n.xi, n.lambda), (0.0, 0.0, 0.0));
+        let capped = AdaptiveLaws::new(1.0, 1.0, 0.5, 1.0, 10.0);
+        let big = Drives {
+            mu: 1e30,
+            xi: 1e30,
+            lambda: 1e30,
+        };
+        let n = capped.next(&est, &big);
+        assert_eq!((n.mu, n.xi, n.lambda), (10.0, 10.0, 10.0));
     }
 }

@@ -64,6 +64,8 @@ pub struct ControllerConfig<const N: usize> {
     pub xi0: f32,
     /// `λ̂(0) ≥ 0`.
     pub lambda0: f32,
+    /// Projection bound `θ_max` of the three estimates (default 1e6; see [`crate::adaptive`]).
+    pub estimate_max: f32,
     /// The hysteresis quantizer of every actuator; `None` sends `u` unquantized (`δ = 0`).
     pub quantizer: Option<QuantizerConfig>,
     /// Proposed scheme or baseline.
@@ -96,6 +98,7 @@ impl<const N: usize> Default for ControllerConfig<N> {
             mu0: 0.0,
             xi0: 0.0,
             lambda0: 1.0,
+            estimate_max: 1e6,
             quantizer: Some(QuantizerConfig::default()),
             scheme: SchemeConfig::PredefinedTime,
         }
@@ -215,11 +218,15 @@ impl<const N: usize> Params<N> {
         if cfg.varpi_min <= 0.0 || cfg.varpi_min > cfg.varpi0 {
             return Err(ConfigError::VarpiMinOutOfRange);
         }
+        let estimate_max = positive(cfg.estimate_max, "estimate_max")?;
         let initial = Estimates {
             mu: non_negative(cfg.mu0, "mu0")?,
             xi: non_negative(cfg.xi0, "xi0")?,
             lambda: non_negative(cfg.lambda0, "lambda0")?,
         };
+        if initial.mu > estimate_max || initial.xi > estimate_max || initial.lambda > estimate_max {
+            return Err(ConfigError::InitialEstimateAboveMax);
+        }
         let scheme = Scheme::new(&cfg.scheme, &gains, cfg.zeta, cfg.ts)?;
         Ok(Self {
             h: cfg.h,
@@ -236,7 +243,7 @@ impl<const N: usize> Params<N> {
                 command_gain: 1.0 / (1.0 - delta),
             },
             scheme,
-            laws: AdaptiveLaws::new(gains.c1, gains.c2, cfg.zeta, cfg.h),
+            laws: AdaptiveLaws::new(gains.c1, gains.c2, cfg.zeta, cfg.h, estimate_max),
             p_over_two_a2,
             eta: cfg.eta,
             tau: cfg.tau,

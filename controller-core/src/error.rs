@@ -51,6 +51,8 @@ pub enum ConfigError {
     Negative(&'static str),
     /// `ϖ_min` must lie in (0, `ϖ_0`].
     VarpiMinOutOfRange,
+    /// An initial estimate exceeds the projection bound `estimate_max`.
+    InitialEstimateAboveMax,
     /// Baseline: `μ_max` must be ≥ 1 (`μ_T(0) = 1`).
     MuMaxBelowOne,
     /// The state order `n` (const generic `N`) must be ≥ 1.
@@ -84,6 +86,9 @@ impl fmt::Display for ConfigError {
             Self::NonPositive(p) => write!(f, "`{p}` must be > 0"),
             Self::Negative(p) => write!(f, "`{p}` must be >= 0"),
             Self::VarpiMinOutOfRange => f.write_str("`varpi_min` must lie in (0, varpi0]"),
+            Self::InitialEstimateAboveMax => {
+                f.write_str("`mu0`, `xi0` and `lambda0` must not exceed `estimate_max`")
+            }
             Self::MuMaxBelowOne => f.write_str("baseline `mu_max` must be >= 1"),
             Self::ZeroStateOrder => f.write_str("state order n must be >= 1"),
         }
