@@ -45,6 +45,8 @@
 pub mod adaptive;
 pub mod backstepping;
 pub mod config;
+#[cfg(test)]
+mod config_tests;
 pub mod consensus;
 pub mod controller;
 pub mod differentiator;
