@@ -108,7 +108,8 @@ impl HysteresisQuantizer {
         let inv_ln_inv_rho = positive(1.0 / math::ln(inv_rho), "rho")?;
         let ln_u_min = math::ln(cfg.u_min);
         // The first index whose level is no longer a finite f32: the search never goes past it.
-        let max_index = ((math::ln(f32::MAX) - ln_u_min) * inv_ln_inv_rho) as u32 + 2;
+        let max_index =
+            (((math::ln(f32::MAX) - ln_u_min) * inv_ln_inv_rho) as u32).saturating_add(2);
         Ok(Self {
             u_min: cfg.u_min,
             inv_rho,
