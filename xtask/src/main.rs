@@ -1,1 +1,143 @@
-fn main() {}
+//! Project tasks, run as `cargo xtask <task>` (the alias lives in `.cargo/config.toml`).
+//!
+//! * `bench-target`: the cost of one `Controller::step` on a Cortex-M4F: builds `bench-fw` per
+//!   variant, runs it on QEMU `mps2-an386` with `-icount shift=0`, reads instructions per step
+//!   (min / median / max), peak stack and state size from its semihosting output and the
+//!   controller's flash from the ELF's symbol sizes; writes `target/bench/step.json` and prints
+//!   a table.
+//! * `bench-gate`: `bench-target`, then fails when a variant's median instruction count is more
+//!   than the budget's tolerance (10 %) above `bench-fw/budget.json`.
+//!
+//! Nothing is installed: a missing `qemu-system-arm` or `thumbv7em-none-eabihf` target is
+//! reported with the command that installs it.
+
+mod flash;
+mod gate;
+mod target;
+mod trace;
+
+use std::{
+    path::{Path, PathBuf},
+    process::ExitCode,
+};
+
+const USAGE: &str = "\
+usage: cargo xtask <task> [options]
+
+tasks:
+  bench-target [--trace auto|host-sim|fallback] [--verbose]
+      build bench-fw for each variant, run it on QEMU mps2-an386 (-icount shift=0), write
+      target/bench/step.json and print a table
+  bench-gate [--no-run] [--update-budget] [--trace …]
+      bench-target (unless --no-run), then fail if a variant's median instructions per step
+      exceed bench-fw/budget.json by more than its tolerance; --update-budget writes the
+      budget from the current step.json instead
+";
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let Some(task) = args.first() else {
+        eprint!("{USAGE}");
+        return ExitCode::from(2);
+    };
+    let opts = match Options::parse(&args[1..]) {
+        Ok(o) => o,
+        Err(e) => {
+            eprintln!("error: {e}\n\n{USAGE}");
+            return ExitCode::from(2);
+        }
+    };
+    let result = match task.as_str() {
+        "bench-target" => target::bench_target(&opts).map(|_| ()),
+        "bench-gate" => gate::bench_gate(&opts),
+        "help" | "--help" | "-h" => {
+            print!("{USAGE}");
+            Ok(())
+        }
+        other => {
+            eprintln!("error: unknown task `{other}`\n\n{USAGE}");
+            return ExitCode::from(2);
+        }
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Where the replayed step inputs come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TraceSource {
+    /// `host-sim` when it can run, else the built-in closed loop.
+    Auto,
+    /// `host-sim run scenarios/example1.toml` only.
+    HostSim,
+    /// The built-in minimal Example 1 closed loop.
+    Fallback,
+}
+
+/// Command-line options shared by the tasks.
+#[derive(Debug, Clone)]
+pub struct Options {
+    pub trace: TraceSource,
+    pub verbose: bool,
+    pub no_run: bool,
+    pub update_budget: bool,
+}
+
+impl Options {
+    fn parse(args: &[String]) -> Result<Self> {
+        let mut o = Options {
+            trace: TraceSource::Auto,
+            verbose: false,
+            no_run: false,
+            update_budget: false,
+        };
+        let mut it = args.iter();
+        while let Some(a) = it.next() {
+            match a.as_str() {
+                "--verbose" | "-v" => o.verbose = true,
+                "--no-run" => o.no_run = true,
+                "--update-budget" => o.update_budget = true,
+                "--trace" => {
+                    o.trace = match it.next().map(String::as_str) {
+                        Some("auto") => TraceSource::Auto,
+                        Some("host-sim") => TraceSource::HostSim,
+                        Some("fallback") => TraceSource::Fallback,
+                        other => {
+                            return Err(format!(
+                                "--trace takes auto|host-sim|fallback, got {other:?}"
+                            ))
+                        }
+                    }
+                }
+                other => return Err(format!("unknown option `{other}`")),
+            }
+        }
+        Ok(o)
+    }
+}
+
+/// The workspace root (the parent of this crate's manifest directory).
+pub fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
+}
+
+/// `target/bench` under the workspace root (independent of `CARGO_TARGET_DIR`, so the
+/// documented output path holds).
+pub fn bench_dir() -> PathBuf {
+    workspace_root().join("target").join("bench")
+}
+
+/// The `cargo` that runs this task.
+pub fn cargo() -> String {
+    std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_owned())
+}
+
+/// Result type of the tasks: a message for the user.
+pub type Result<T> = std::result::Result<T, String>;

@@ -1,0 +1,241 @@
+//! Target benchmark of one `Controller::step` on a Cortex-M4F, run under QEMU `mps2-an386` with
+//! `-icount shift=0` by `cargo xtask bench-target` (which writes the replayed trace and reads
+//! the result line this firmware prints through semihosting).
+//!
+//! What is measured, per step of a recorded input sequence (agent 4 of Example 1: own state,
+//! the `y` of neighbours 1 and 3):
+//!
+//! * **Instructions.** SysTick runs from the 25 MHz core clock and `-icount shift=0` advances
+//!   the virtual clock 1 ns per instruction, so one tick is 40 instructions. To resolve single
+//!   instructions each step is run [`REPS`] times on copies of the same controller state; the
+//!   same loop without the call (the copy only) is timed too, and
+//!   `(ticks(step loop) − ticks(copy loop)) · 40 / REPS` is the step's count (resolution
+//!   `80 / REPS` instructions). The count includes the call and the return of the
+//!   `StepOutput`. QEMU models no pipeline or memory timing: these are instructions, not cycles.
+//! * **Stack.** Before the step that advances the controller, the stack below the current stack
+//!   pointer is painted with a pattern; afterwards the lowest overwritten word gives the step's
+//!   peak stack depth (including its call frame). The maximum over the sequence is reported.
+//! * **State.** `size_of` the `Controller` value (settings and state together).
+//!
+//! Output: one line `BENCH steps=… reps=… min=… median=… max=… stack=… state=… faults=… mean=…
+//! coarse_mean=… overhead_ticks=…`; `coarse_mean` (one timing of each advancing step, averaged)
+//! cross-checks `mean` (of the repeated timings).
+#![no_std]
+#![no_main]
+
+use controller_core::{Controller, ControllerConfig, Link, StepOutput};
+use core::hint::black_box;
+use cortex_m::peripheral::{syst::SystClkSource, SYST};
+use cortex_m_rt::entry;
+use cortex_m_semihosting::{debug, hprintln};
+use panic_semihosting as _;
+
+/// State order `n`.
+#[cfg(not(feature = "n3"))]
+const N: usize = 2;
+/// State order `n`.
+#[cfg(feature = "n3")]
+const N: usize = 3;
+/// Actuators `m` (= `n` in the benchmark variants).
+const M: usize = N;
+/// Neighbours (agent 4 of the examples hears agents 1 and 3).
+const K: usize = 2;
+/// One record of the trace: `x_1..x_n`, `y` of the two neighbours, `y_d`.
+const FIELDS: usize = N + K + 1;
+/// Repetitions of each step for a single-instruction resolution.
+const REPS: u32 = 40;
+/// Capacity of the per-step result buffer.
+const MAX_STEPS: usize = 12_000;
+/// Instructions per SysTick tick under `-icount shift=0` (25 MHz, 1 ns per instruction).
+const INSN_PER_TICK: u32 = 40;
+/// Bytes painted below the stack pointer for the high-water mark.
+const PAINT_BYTES: usize = 8 * 1024;
+const PATTERN: u32 = 0xA5C3_5A3C;
+
+type Ctrl = Controller<N, M, K>;
+
+/// The replayed inputs, little-endian `f32` records of [`FIELDS`] values, written by the xtask.
+static TRACE: &[u8] = include_bytes!(env!("BENCH_TRACE_FILE"));
+
+/// Example 1's configuration for agent 4 (2 neighbours, not pinned), or the baseline.
+fn config() -> ControllerConfig<N> {
+    #[allow(unused_mut)]
+    let mut cfg = ControllerConfig::<N> {
+        neighbour_count: K,
+        pinned: false,
+        ..ControllerConfig::default()
+    };
+    #[cfg(feature = "baseline")]
+    {
+        use controller_core::{BaselineConfig, GainSelection, SchemeConfig};
+        cfg.scheme = SchemeConfig::PrescribedTime(BaselineConfig::default());
+        // The paper's comparison gains (SPEC §8, Example 2's baseline).
+        cfg.gains = GainSelection::Explicit { c1: 10.0, c2: 9.0 };
+    }
+    cfg
+}
+
+fn record(k: usize) -> ([f32; N], [Link; K], Link) {
+    let mut v = [0.0f32; FIELDS];
+    let base = k * FIELDS * 4;
+    for (i, slot) in v.iter_mut().enumerate() {
+        let o = base + 4 * i;
+        *slot = f32::from_le_bytes([TRACE[o], TRACE[o + 1], TRACE[o + 2], TRACE[o + 3]]);
+    }
+    let mut x = [0.0; N];
+    x.copy_from_slice(&v[..N]);
+    let neighbours = [Link::Fresh(v[N]), Link::Fresh(v[N + 1])];
+    (x, neighbours, Link::Fresh(v[N + 2]))
+}
+
+/// The measured call: one step, not inlined into the timing loops.
+#[inline(never)]
+fn step_entry(c: &mut Ctrl, x: &[f32; N], neighbours: &[Link], leader: Link) -> StepOutput<N, M> {
+    c.step(x, neighbours, leader)
+}
+
+/// SysTick ticks elapsed between two readings of the down-counter (24 bits, reload 0xFF_FFFF).
+fn elapsed(start: u32, end: u32) -> u32 {
+    start.wrapping_sub(end) & 0x00FF_FFFF
+}
+
+/// Ticks of `REPS` steps, each on a fresh copy of `saved`.
+#[inline(never)]
+fn time_steps(saved: &Ctrl, x: &[f32; N], neighbours: &[Link], leader: Link) -> u32 {
+    let t0 = SYST::get_current();
+    for _ in 0..REPS {
+        let mut c = *saved;
+        // By reference: the output stays where `step` wrote it (no copy is timed).
+        let out = step_entry(
+            black_box(&mut c),
+            black_box(x),
+            black_box(neighbours),
+            black_box(leader),
+        );
+        black_box(&out);
+    }
+    let t1 = SYST::get_current();
+    elapsed(t0, t1)
+}
+
+/// Ticks of the same loop without the step (the copy and loop overhead).
+#[inline(never)]
+fn time_overhead(saved: &Ctrl, x: &[f32; N], neighbours: &[Link], leader: Link) -> u32 {
+    let t0 = SYST::get_current();
+    for _ in 0..REPS {
+        let mut c = *saved;
+        black_box(&mut c);
+        black_box(x);
+        black_box(neighbours);
+        black_box(leader);
+    }
+    let t1 = SYST::get_current();
+    elapsed(t0, t1)
+}
+
+/// One step on `c` with the stack below the caller's stack pointer painted; returns the output,
+/// the stack bytes the step used (its frame included) and the step's SysTick ticks.
+#[inline(never)]
+fn step_with_stack(
+    c: &mut Ctrl,
+    x: &[f32; N],
+    neighbours: &[Link],
+    leader: Link,
+) -> (StepOutput<N, M>, u32, u32) {
+    let sp = cortex_m::register::msp::read() as usize & !3;
+    let bottom = sp - PAINT_BYTES;
+    // SAFETY: [bottom, sp) is below the live stack pointer, inside the 4 MiB RAM, and nothing
+    // else (no interrupts are enabled) uses it until the call below.
+    for a in (bottom..sp).step_by(4) {
+        unsafe { core::ptr::write_volatile(a as *mut u32, PATTERN) };
+    }
+    let t0 = SYST::get_current();
+    let out = step_entry(c, x, neighbours, leader);
+    let t1 = SYST::get_current();
+    let mut lowest = sp;
+    for a in (bottom..sp).step_by(4) {
+        // SAFETY: as above; the step has returned, the region is plain RAM.
+        if unsafe { core::ptr::read_volatile(a as *const u32) } != PATTERN {
+            lowest = a;
+            break;
+        }
+    }
+    (out, (sp - lowest) as u32, elapsed(t0, t1))
+}
+
+#[entry]
+fn main() -> ! {
+    let Some(mut p) = cortex_m::Peripherals::take() else {
+        fail("peripherals already taken")
+    };
+    p.SYST.set_clock_source(SystClkSource::Core);
+    p.SYST.set_reload(0x00FF_FFFF);
+    p.SYST.clear_current();
+    p.SYST.enable_counter();
+
+    let Ok(mut ctrl) = Ctrl::new(&config()) else {
+        fail("invalid configuration")
+    };
+    let steps = (TRACE.len() / (FIELDS * 4)).min(MAX_STEPS);
+    if steps == 0 {
+        fail("no trace (build through `cargo xtask bench-target`, which sets BENCH_TRACE)")
+    }
+    let mut counts = [0u32; MAX_STEPS];
+    let mut stack_peak = 0u32;
+    let mut faults = 0u32;
+    let mut coarse_ticks = 0u64;
+    // The copy loop's cost does not depend on the step: its minimum over the sequence is
+    // subtracted (robust to a tick boundary falling inside one measurement).
+    let mut overhead = u32::MAX;
+    for (k, slot) in counts.iter_mut().enumerate().take(steps) {
+        let (x, neighbours, leader) = record(k);
+        *slot = time_steps(&ctrl, &x, &neighbours, leader);
+        overhead = overhead.min(time_overhead(&ctrl, &x, &neighbours, leader));
+        // The single coarse measurement of the advancing step (40-instruction resolution).
+        let (out, stack, ticks) = step_with_stack(&mut ctrl, &x, &neighbours, leader);
+        coarse_ticks += u64::from(ticks);
+        stack_peak = stack_peak.max(stack);
+        if out.status.fault.is_some() {
+            faults += 1;
+        }
+        black_box(out);
+    }
+    let counts = &mut counts[..steps];
+    let mut total = 0u64;
+    for c in counts.iter_mut() {
+        *c = (c.saturating_sub(overhead) * INSN_PER_TICK + REPS / 2) / REPS;
+        total += u64::from(*c);
+    }
+    let mean = total / steps as u64;
+    counts.sort_unstable();
+    let (min, median, max) = (counts[0], counts[steps / 2], counts[steps - 1]);
+    let coarse_mean = coarse_ticks * u64::from(INSN_PER_TICK) / steps as u64;
+    hprintln!(
+        "BENCH steps={} reps={} min={} median={} max={} stack={} state={} faults={} mean={} coarse_mean={} overhead_ticks={}",
+        steps,
+        REPS,
+        min,
+        median,
+        max,
+        stack_peak,
+        core::mem::size_of::<Ctrl>(),
+        faults,
+        mean,
+        coarse_mean,
+        overhead
+    );
+    exit(debug::EXIT_SUCCESS)
+}
+
+/// Reports an error line and ends QEMU with a failure status.
+fn fail(why: &str) -> ! {
+    hprintln!("BENCH-ERROR {}", why);
+    exit(debug::EXIT_FAILURE)
+}
+
+fn exit(status: debug::ExitStatus) -> ! {
+    debug::exit(status);
+    loop {
+        cortex_m::asm::wfi();
+    }
+}
