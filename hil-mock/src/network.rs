@@ -1,0 +1,197 @@
+//! [`CanNetwork`]: follower nodes on mocked hardware, a leader, and the [`Bus`] between them,
+//! advanced one sample at a time by a host loop that owns the plant (feature `std`).
+//!
+//! Bus node `0` is the leader (identifier `0x100`), bus node `i` is agent `i` (`0x100 + i`).
+//! Per sample at time `t` ([`CanNetwork::step`]):
+//!
+//! 1. the bus runs up to `t`; each delivered frame is pushed, at its delivery time, into the
+//!    receive FIFO of every other node that is not bus-off, and the node's
+//!    [`crate::Node::poll_rx`] runs then (the CAN receive interrupt), so values are
+//!    time-stamped at arrival;
+//! 2. every node gets the agent's state on its sensors and runs [`crate::Node::tick`] with its
+//!    clock at `t`; its frame goes on the bus, submitted at `t` (computation time neglected);
+//! 3. the leader submits `y_d(t)` (when given) with its own sequence counter;
+//! 4. the age of every neighbour (and leader) value each controller used, `t` minus the
+//!    sample time at which the sender produced it, is recorded in the bus statistics.
+//!
+//! The commands the nodes wrote are in [`Tick::output`]`.q` (and in each node's actuator),
+//! to be held by the plant over `[t, t + h)`.
+
+use controller_core::{ControllerConfig, Link};
+
+use crate::bus::{Bus, BusConfig, BusConfigError, BusStats, Nanos};
+use crate::mock::{MockActuator, MockCan, MockClock, MockFrame, MockNode, MockSensor};
+use crate::node::{NodeConfig, NodeError, Tick};
+use crate::wire::{self, Source};
+
+/// Why a network could not be built.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum NetworkError {
+    /// The bus configuration.
+    Bus(BusConfigError),
+    /// Agent `agent`'s node configuration.
+    Node {
+        /// 1-based agent.
+        agent: u8,
+        /// The error.
+        error: NodeError,
+    },
+    /// Agents must be numbered 1, 2, ... in order.
+    AgentOrder(u8),
+}
+
+impl std::fmt::Display for NetworkError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Bus(e) => write!(f, "{e}"),
+            Self::Node { agent, error } => write!(f, "agent {agent}: {error}"),
+            Self::AgentOrder(a) => write!(f, "agent {a} out of order: number agents 1, 2, ..."),
+        }
+    }
+}
+
+impl std::error::Error for NetworkError {}
+
+/// One agent's node settings and controller configuration.
+#[derive(Debug, Clone, Copy)]
+pub struct AgentSetup<const N: usize, const K: usize> {
+    /// Node settings (agent number, neighbours, stale timeout).
+    pub node: NodeConfig<K>,
+    /// Controller configuration.
+    pub controller: ControllerConfig<N>,
+}
+
+/// Followers, leader and bus.
+pub struct CanNetwork<const N: usize, const M: usize, const K: usize> {
+    bus: Bus,
+    nodes: Vec<MockNode<N, M, K>>,
+    /// `sample_time[receiver][sender]`: sample time of the latest frame delivered.
+    sample_time: Vec<Vec<Option<Nanos>>>,
+    leader_seq: u8,
+}
+
+impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
+    /// Build the bus (`agents.len() + 1` nodes) and one node per agent; agent `i` must be the
+    /// `i`-th entry.
+    pub fn new(bus: BusConfig, agents: &[AgentSetup<N, K>]) -> Result<Self, NetworkError> {
+        let bus = Bus::new(bus, agents.len() + 1).map_err(NetworkError::Bus)?;
+        let mut nodes = Vec::with_capacity(agents.len());
+        for (i, a) in agents.iter().enumerate() {
+            if usize::from(a.node.agent) != i + 1 {
+                return Err(NetworkError::AgentOrder(a.node.agent));
+            }
+            let node = MockNode::new(
+                &a.node,
+                &a.controller,
+                MockCan::default(),
+                MockClock::default(),
+                MockSensor::default(),
+                MockActuator::default(),
+            )
+            .map_err(|error| NetworkError::Node {
+                agent: a.node.agent,
+                error,
+            })?;
+            nodes.push(node);
+        }
+        let n = agents.len() + 1;
+        Ok(Self {
+            bus,
+            nodes,
+            sample_time: vec![vec![None; n]; n],
+            leader_seq: 0,
+        })
+    }
+
+    /// The bus.
+    pub fn bus(&self) -> &Bus {
+        &self.bus
+    }
+
+    /// The nodes; agent `i` is at index `i − 1`.
+    pub fn nodes(&self) -> &[MockNode<N, M, K>] {
+        &self.nodes
+    }
+
+    /// Mutable nodes (inject sensor or actuator failures).
+    pub fn nodes_mut(&mut self) -> &mut [MockNode<N, M, K>] {
+        &mut self.nodes
+    }
+
+    /// Bus statistics, with the ages of neighbour data used.
+    pub fn stats(&self) -> BusStats {
+        self.bus.stats()
+    }
+
+    /// One sample at `t_ns` (see the module docs): `states[i]` is agent `i + 1`'s state,
+    /// `leader` the leader's `y_d(t)` (`None`: the leader sends nothing this sample).
+    /// Returns each node's tick, agent order.
+    pub fn step(
+        &mut self,
+        t_ns: Nanos,
+        states: &[[f32; N]],
+        leader: Option<f32>,
+    ) -> Vec<Tick<N, M>> {
+        for d in self.bus.advance_to(t_ns) {
+            for (j, node) in self.nodes.iter_mut().enumerate() {
+                let bus_node = j + 1;
+                if bus_node == d.from || self.bus.is_bus_off(bus_node, d.at_ns) {
+                    continue;
+                }
+                node.clock_mut().set(d.at_ns / 1000);
+                node.can_mut().push_rx(d.frame);
+                node.poll_rx();
+                self.sample_time[bus_node][d.from] = Some(d.submitted_ns);
+            }
+        }
+
+        let mut ticks = Vec::with_capacity(self.nodes.len());
+        let t_us = t_ns / 1000;
+        for (j, node) in self.nodes.iter_mut().enumerate() {
+            let bus_node = j + 1;
+            node.clock_mut().set(t_us);
+            if let Some(x) = states.get(j) {
+                node.sensor_mut().x = *x;
+            }
+            node.can_mut()
+                .set_bus_off(self.bus.is_bus_off(bus_node, t_ns));
+            let tick = node.tick();
+            if let Some(f) = node.can_mut().take_tx() {
+                // Refusals (silent, bus-off) are counted by the bus.
+                let _ = self.bus.submit(bus_node, t_ns, f);
+            }
+            ticks.push(tick);
+        }
+        self.record_ages(t_ns);
+
+        if let Some(yd) = leader {
+            if let Some((f, _)) = wire::encode::<MockFrame>(Source::Leader, yd, self.leader_seq) {
+                let _ = self.bus.submit(0, t_ns, f);
+            }
+            self.leader_seq = (self.leader_seq + 1) % wire::SEQ_MODULUS;
+        }
+        ticks
+    }
+
+    fn record_ages(&mut self, t_ns: Nanos) {
+        for (j, node) in self.nodes.iter().enumerate() {
+            let receiver = j + 1;
+            let mut k = 0;
+            while let Some(link) = node.neighbour_link(k, t_ns / 1000) {
+                if !matches!(link, Link::Missing) {
+                    if let Some(sender) = node.neighbour_agent(k) {
+                        if let Some(ts) = self.sample_time[receiver][usize::from(sender)] {
+                            self.bus.record_age(t_ns.saturating_sub(ts));
+                        }
+                    }
+                }
+                k += 1;
+            }
+            if node.is_pinned() {
+                if let Some(ts) = self.sample_time[receiver][0] {
+                    self.bus.record_age(t_ns.saturating_sub(ts));
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,627 @@
+//! The agent node application: one follower's firmware, `no_std`, no allocation.
+//!
+//! A timer interrupt at the sample period `h` calls [`Node::tick`], which does, in order:
+//!
+//! 1. **sample** — read the clock and the agent's state `x_i` from the [`Sensor`];
+//! 2. **drain** — take every frame waiting in the CAN controller (at most [`MAX_RX_PER_POLL`]),
+//!    decode it ([`crate::wire`]), and keep the latest value of each neighbour and of the
+//!    leader, time-stamped with the clock (a CAN receive interrupt may call
+//!    [`Node::poll_rx`] earlier, which time-stamps frames closer to their arrival);
+//! 3. **freshness** — turn each neighbour slot into a [`Link`] for the controller (below);
+//! 4. **step** — [`Controller::step`];
+//! 5. **actuate** — write the quantized commands `q` to the [`Actuator`];
+//! 6. **broadcast** — send `y_i = x_{i,1}` in one frame with the agent's identifier and the
+//!    next sequence counter.
+//!
+//! ## Freshness policy (what the controller gets, and what it does with it)
+//!
+//! A value is *fresh* while `now − t_rx ≤ stale_timeout`, where `t_rx` is the node's clock when
+//! the frame was taken from the CAN controller. The node hands the controller, per neighbour
+//! `k` (in the configured order) and for the leader:
+//!
+//! | what the node has                        | [`Link`] passed     | what the controller does (`controller_core::consensus`) |
+//! |------------------------------------------|---------------------|------------------------------------|
+//! | a value received within the timeout      | `Fresh(y_k)`        | uses it                            |
+//! | a value older than the timeout           | `Stale(y_k)`        | uses it (zero-order hold of the last value), counts `stale_neighbours` / `leader_stale` |
+//! | nothing ever received (or only `NO_VALUE`) | `Missing`         | leaves the term `a_ik (y_i − y_k)` out of `e_{i,1}` (as if the neighbour agreed), counts `missing_neighbours` and `dropped_neighbours` (`leader_dropped` for the leader) |
+//!
+//! So a neighbour that falls silent is **held at its last value**, for as long as it stays
+//! silent: the consensus error `e_{i,1}` still has all its terms, but one of them is frozen.
+//! When the neighbour speaks again its first frame is accepted whatever its sequence counter
+//! (the link had timed out) and the link is fresh from the next step. A **silent leader** is
+//! handled the same way by the pinned agent(s): `y_d` is held at its last received value, so
+//! the followers converge to a constant reference until the leader returns, and then track it
+//! again; non-pinned agents never look at leader frames. The node logs each transition
+//! (fresh → stale with `warn!`, stale → fresh with `info!`) once, not every sample.
+//!
+//! While a link is fresh, a frame whose sequence counter repeats the last accepted one, or is
+//! behind it, is dropped and counted ([`NodeStats::repeated`], [`NodeStats::out_of_order`]);
+//! counters skipped between two accepted frames are counted in [`NodeStats::seq_gaps`] (frames
+//! this node never saw: lost on the bus, or replaced at the sender before they were sent).
+//!
+//! ## Faults and errors
+//!
+//! Nothing on the runtime path panics or allocates. A sensor error passes a NaN state to the
+//! controller, which holds its previous command ([`controller_core::StepFault`]); the node
+//! still actuates (the held command) and broadcasts `NO_VALUE`. Actuator and CAN errors are
+//! counted in [`NodeStats`] and logged on their first occurrence after a success.
+
+use controller_core::{ConfigError, Controller, ControllerConfig, Link, StepFault, StepOutput};
+use embedded_can::{nb::Can, Error as _, ErrorKind};
+
+use crate::wire::{self, DecodeStats, SeqCheck, Source, WireError};
+
+/// Frames drained per call of [`Node::poll_rx`] at most, so a flooded bus cannot keep the
+/// sample interrupt busy forever.
+pub const MAX_RX_PER_POLL: usize = 32;
+
+/// A monotonic clock.
+pub trait Clock {
+    /// Microseconds since an arbitrary origin; never decreases.
+    fn now_us(&mut self) -> u64;
+}
+
+/// The agent's state sensors: `x_i` (`N` entries; `x_{i,1} = y_i`).
+pub trait Sensor<const N: usize> {
+    /// Why a read failed.
+    type Error;
+    /// One sample of the state.
+    fn read(&mut self) -> Result<[f32; N], Self::Error>;
+}
+
+/// The agent's actuators: the `M` quantized commands `q_{i,l}`.
+pub trait Actuator<const M: usize> {
+    /// Why a write failed.
+    type Error;
+    /// Apply the commands until the next write.
+    fn write(&mut self, q: &[f32; M]) -> Result<(), Self::Error>;
+}
+
+/// The node's settings apart from the controller's.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct NodeConfig<const K: usize> {
+    /// This agent's number `i` (1..=255); its frames carry identifier `0x100 + i`.
+    pub agent: u8,
+    /// The agents this one hears (`a_ik = 1`), in the order the controller expects; the first
+    /// `neighbour_count` entries are used (the controller config's `neighbour_count`).
+    pub neighbours: [u8; K],
+    /// A value older than this is passed to the controller as `Stale` (µs, > 0).
+    pub stale_timeout_us: u64,
+}
+
+/// Why a node could not be built.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum NodeError {
+    /// The controller rejected its configuration.
+    Config(ConfigError),
+    /// Agent number 0 has no identifier.
+    AgentZero,
+    /// `neighbour_count` exceeds the node's capacity `K`.
+    TooManyNeighbours,
+    /// A neighbour entry is 0, the agent itself, or listed twice.
+    BadNeighbour(u8),
+    /// The stale timeout is 0.
+    ZeroTimeout,
+}
+
+impl From<ConfigError> for NodeError {
+    fn from(e: ConfigError) -> Self {
+        Self::Config(e)
+    }
+}
+
+impl core::fmt::Display for NodeError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Config(e) => write!(f, "controller configuration: {e}"),
+            Self::AgentZero => f.write_str("agent number 0 has no CAN identifier"),
+            Self::TooManyNeighbours => f.write_str("more neighbours than the node's capacity"),
+            Self::BadNeighbour(a) => {
+                write!(f, "neighbour {a} is 0, the agent itself, or a duplicate")
+            }
+            Self::ZeroTimeout => f.write_str("stale timeout must be > 0"),
+        }
+    }
+}
+
+impl core::error::Error for NodeError {}
+
+/// Counters of one node since it started.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct NodeStats {
+    /// Calls of [`Node::tick`].
+    pub ticks: u32,
+    /// Frames taken from the CAN controller.
+    pub frames_rx: u32,
+    /// Frames accepted into a neighbour or leader slot.
+    pub accepted: u32,
+    /// Malformed frames, per kind.
+    pub malformed: DecodeStats,
+    /// Well-formed frames from agents this node does not hear (or the leader, if not pinned).
+    pub ignored: u32,
+    /// Well-formed frames carrying this node's own identifier (a misconfigured peer).
+    pub own_id: u32,
+    /// Frames dropped because their counter repeated the last accepted one.
+    pub repeated: u32,
+    /// Frames dropped because their counter was behind the last accepted one.
+    pub out_of_order: u32,
+    /// Sequence counters skipped between accepted frames.
+    pub seq_gaps: u32,
+    /// Frames flagged `NO_VALUE`.
+    pub no_value: u32,
+    /// Frames flagged `SATURATED` (received).
+    pub saturated_rx: u32,
+    /// Own values clamped to the wire range before sending.
+    pub saturated_tx: u32,
+    /// Receive errors reported by the CAN controller.
+    pub rx_errors: u32,
+    /// Neighbour links passed as `Stale`, summed over samples.
+    pub stale_samples: u32,
+    /// Neighbour links passed as `Missing`, summed over samples.
+    pub missing_samples: u32,
+    /// Samples where the leader link (pinned agents) was stale or missing.
+    pub leader_degraded_samples: u32,
+    /// Samples where the controller held its command ([`StepFault`]).
+    pub faults: u32,
+    /// Sensor read errors.
+    pub sensor_errors: u32,
+    /// Actuator write errors.
+    pub actuator_errors: u32,
+    /// Frames handed to the CAN controller.
+    pub tx_queued: u32,
+    /// Transmissions that replaced a frame still pending in the controller.
+    pub tx_replaced: u32,
+    /// Transmissions refused because every mailbox was full.
+    pub tx_busy: u32,
+    /// Transmissions refused with an error (e.g. bus-off).
+    pub tx_errors: u32,
+}
+
+/// What happened to this sample's frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TxOutcome {
+    /// Queued in the CAN controller.
+    Queued,
+    /// Queued, replacing a frame that was still pending.
+    Replaced,
+    /// Not sent: every mailbox full.
+    Busy,
+    /// Not sent: the CAN controller reported an error.
+    Error(ErrorKind),
+    /// Not sent: the frame type refused the frame.
+    EncodeFailed,
+}
+
+/// The result of one [`Node::tick`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tick<const N: usize, const M: usize> {
+    /// Clock reading at the sample.
+    pub now_us: u64,
+    /// The controller's output (commands, errors, link report).
+    pub output: StepOutput<N, M>,
+    /// The fate of the broadcast frame.
+    pub tx: TxOutcome,
+}
+
+/// Latest value of one link.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct Slot {
+    agent: u8,
+    /// Latest valid value and its receive time.
+    value: Option<(f32, u64)>,
+    /// Latest accepted sequence counter and its receive time.
+    seq: Option<(u8, u64)>,
+    /// The link was reported stale (for logging transitions once).
+    stale: bool,
+}
+
+impl Slot {
+    fn link(&self, now: u64, timeout: u64) -> Link {
+        match self.value {
+            None => Link::Missing,
+            Some((v, t)) if now.saturating_sub(t) <= timeout => Link::Fresh(v),
+            Some((v, _)) => Link::Stale(v),
+        }
+    }
+
+    /// Accept or reject a message; returns `true` if accepted.
+    fn update(&mut self, m: &wire::Message, now: u64, timeout: u64, st: &mut NodeStats) -> bool {
+        if let Some((last, t)) = self.seq {
+            if now.saturating_sub(t) <= timeout {
+                match wire::seq_check(last, m.seq) {
+                    SeqCheck::Repeated => {
+                        st.repeated = st.repeated.saturating_add(1);
+                        return false;
+                    }
+                    SeqCheck::Older => {
+                        st.out_of_order = st.out_of_order.saturating_add(1);
+                        return false;
+                    }
+                    SeqCheck::Newer { skipped } => {
+                        st.seq_gaps = st.seq_gaps.saturating_add(u32::from(skipped));
+                    }
+                }
+            }
+        }
+        self.seq = Some((m.seq, now));
+        if m.saturated {
+            st.saturated_rx = st.saturated_rx.saturating_add(1);
+        }
+        match m.y {
+            Some(y) => self.value = Some((y, now)),
+            None => st.no_value = st.no_value.saturating_add(1),
+        }
+        st.accepted = st.accepted.saturating_add(1);
+        true
+    }
+}
+
+/// One follower agent's node: the controller between its CAN controller, clock, sensors and
+/// actuators. `N` state order, `M` actuators, `K` neighbour capacity.
+pub struct Node<C, Clk, S, A, const N: usize, const M: usize, const K: usize> {
+    can: C,
+    clock: Clk,
+    sensor: S,
+    actuator: A,
+    controller: Controller<N, M, K>,
+    agent: u8,
+    pinned: bool,
+    timeout_us: u64,
+    slots: [Slot; K],
+    count: usize,
+    leader: Slot,
+    seq: u8,
+    stats: NodeStats,
+    last_fault: Option<StepFault>,
+    sensor_failed: bool,
+    actuator_failed: bool,
+    tx_failed: bool,
+}
+
+impl<C, Clk, S, A, const N: usize, const M: usize, const K: usize> Node<C, Clk, S, A, N, M, K>
+where
+    C: Can,
+    Clk: Clock,
+    S: Sensor<N>,
+    A: Actuator<M>,
+{
+    /// Validate the configuration (logging the culprit on failure) and build the node.
+    pub fn new(
+        cfg: &NodeConfig<K>,
+        controller: &ControllerConfig<N>,
+        can: C,
+        clock: Clk,
+        sensor: S,
+        actuator: A,
+    ) -> Result<Self, NodeError> {
+        let r = Self::build(cfg, controller, can, clock, sensor, actuator);
+        if let Err(e) = &r {
+            error!("agent {}: configuration rejected: {:?}", cfg.agent, e);
+        }
+        r
+    }
+
+    fn build(
+        cfg: &NodeConfig<K>,
+        controller: &ControllerConfig<N>,
+        can: C,
+        clock: Clk,
+        sensor: S,
+        actuator: A,
+    ) -> Result<Self, NodeError> {
+        if cfg.agent == 0 {
+            return Err(NodeError::AgentZero);
+        }
+        if cfg.stale_timeout_us == 0 {
+            return Err(NodeError::ZeroTimeout);
+        }
+        let count = controller.neighbour_count;
+        let listed = cfg
+            .neighbours
+            .get(..count)
+            .ok_or(NodeError::TooManyNeighbours)?;
+        let mut slots = [Slot::default(); K];
+        for (k, (&a, slot)) in listed.iter().zip(slots.iter_mut()).enumerate() {
+            if a == 0 || a == cfg.agent || listed[..k].contains(&a) {
+                return Err(NodeError::BadNeighbour(a));
+            }
+            slot.agent = a;
+        }
+        let cfg_pinned = controller.pinned;
+        let controller = Controller::new(controller)?;
+        Ok(Self {
+            can,
+            clock,
+            sensor,
+            actuator,
+            pinned: cfg_pinned,
+            controller,
+            agent: cfg.agent,
+            timeout_us: cfg.stale_timeout_us,
+            slots,
+            count,
+            leader: Slot::default(),
+            seq: 0,
+            stats: NodeStats::default(),
+            last_fault: None,
+            sensor_failed: false,
+            actuator_failed: false,
+            tx_failed: false,
+        })
+    }
+
+    /// This agent's number.
+    pub fn agent(&self) -> u8 {
+        self.agent
+    }
+
+    /// Counters since start.
+    pub fn stats(&self) -> &NodeStats {
+        &self.stats
+    }
+
+    /// The controller (read-only: state, parameters).
+    pub fn controller(&self) -> &Controller<N, M, K> {
+        &self.controller
+    }
+
+    /// The CAN controller (the host harness moves frames through it).
+    pub fn can_mut(&mut self) -> &mut C {
+        &mut self.can
+    }
+
+    /// The clock.
+    pub fn clock_mut(&mut self) -> &mut Clk {
+        &mut self.clock
+    }
+
+    /// The sensors.
+    pub fn sensor_mut(&mut self) -> &mut S {
+        &mut self.sensor
+    }
+
+    /// The actuators.
+    pub fn actuator_mut(&mut self) -> &mut A {
+        &mut self.actuator
+    }
+
+    /// The link the controller would get for neighbour slot `k` at `now_us` (`None` if `k` is
+    /// not a configured neighbour).
+    pub fn neighbour_link(&self, k: usize, now_us: u64) -> Option<Link> {
+        self.slots
+            .get(..self.count)?
+            .get(k)
+            .map(|s| s.link(now_us, self.timeout_us))
+    }
+
+    /// The agent heard in neighbour slot `k`.
+    pub fn neighbour_agent(&self, k: usize) -> Option<u8> {
+        self.slots.get(..self.count)?.get(k).map(|s| s.agent)
+    }
+
+    /// The agent receives the leader (`r_i = 1`).
+    pub fn is_pinned(&self) -> bool {
+        self.pinned
+    }
+
+    /// Receive time (µs) of the value held for neighbour slot `k`, if any.
+    pub fn neighbour_rx_time(&self, k: usize) -> Option<u64> {
+        self.slots.get(..self.count)?.get(k)?.value.map(|(_, t)| t)
+    }
+
+    /// Drain up to [`MAX_RX_PER_POLL`] frames from the CAN controller, time-stamped with the
+    /// clock now. Call from the CAN receive interrupt; [`Node::tick`] calls it too.
+    pub fn poll_rx(&mut self) {
+        let now = self.clock.now_us();
+        self.poll_rx_at(now);
+    }
+
+    fn poll_rx_at(&mut self, now: u64) {
+        for _ in 0..MAX_RX_PER_POLL {
+            match self.can.receive() {
+                Ok(frame) => {
+                    self.stats.frames_rx = self.stats.frames_rx.saturating_add(1);
+                    self.on_frame(&frame, now);
+                }
+                Err(nb::Error::WouldBlock) => break,
+                Err(nb::Error::Other(_)) => {
+                    self.stats.rx_errors = self.stats.rx_errors.saturating_add(1);
+                }
+            }
+        }
+    }
+
+    fn on_frame(&mut self, frame: &C::Frame, now: u64) {
+        let m = match wire::decode(frame) {
+            Ok(m) => m,
+            Err(e) => {
+                self.stats.malformed.record(e);
+                if let WireError::UnknownId(id) = e {
+                    trace!("agent {}: frame with unknown id {} dropped", self.agent, id);
+                } else {
+                    trace!("agent {}: malformed frame dropped: {:?}", self.agent, e);
+                }
+                return;
+            }
+        };
+        let timeout = self.timeout_us;
+        let slot = match m.source {
+            Source::Leader if self.pinned => Some(&mut self.leader),
+            Source::Leader => None,
+            Source::Agent(a) if a == self.agent => {
+                self.stats.own_id = self.stats.own_id.saturating_add(1);
+                warn!("agent {}: received a frame with its own id", a);
+                return;
+            }
+            Source::Agent(a) => self.slots[..self.count].iter_mut().find(|s| s.agent == a),
+        };
+        match slot {
+            Some(s) => {
+                s.update(&m, now, timeout, &mut self.stats);
+            }
+            None => self.stats.ignored = self.stats.ignored.saturating_add(1),
+        }
+    }
+
+    /// One sample: sense, drain, freshness, step, actuate, broadcast (see the module docs).
+    pub fn tick(&mut self) -> Tick<N, M> {
+        let now = self.clock.now_us();
+        self.stats.ticks = self.stats.ticks.saturating_add(1);
+        let x = match self.sensor.read() {
+            Ok(x) => {
+                if self.sensor_failed {
+                    info!("agent {}: sensor read ok again", self.agent);
+                }
+                self.sensor_failed = false;
+                x
+            }
+            Err(_) => {
+                self.stats.sensor_errors = self.stats.sensor_errors.saturating_add(1);
+                if !self.sensor_failed {
+                    warn!("agent {}: sensor read failed", self.agent);
+                }
+                self.sensor_failed = true;
+                [f32::NAN; N]
+            }
+        };
+        self.poll_rx_at(now);
+
+        let links = self.links(now);
+        let leader = if self.pinned {
+            let l = self.leader.link(now, self.timeout_us);
+            self.log_leader(&l);
+            l
+        } else {
+            Link::Missing
+        };
+        let output = self
+            .controller
+            .step(&x, links.get(..self.count).unwrap_or(&[]), leader);
+        self.log_fault(output.status.fault);
+
+        match self.actuator.write(&output.q) {
+            Ok(()) => self.actuator_failed = false,
+            Err(_) => {
+                self.stats.actuator_errors = self.stats.actuator_errors.saturating_add(1);
+                if !self.actuator_failed {
+                    warn!("agent {}: actuator write failed", self.agent);
+                }
+                self.actuator_failed = true;
+            }
+        }
+
+        let tx = self.broadcast(x[0]);
+        self.seq = self.seq.wrapping_add(1) % wire::SEQ_MODULUS;
+        Tick {
+            now_us: now,
+            output,
+            tx,
+        }
+    }
+
+    fn links(&mut self, now: u64) -> [Link; K] {
+        let mut links = [Link::Missing; K];
+        let (agent, timeout) = (self.agent, self.timeout_us);
+        for (l, s) in links.iter_mut().zip(self.slots.iter_mut().take(self.count)) {
+            *l = s.link(now, timeout);
+            match *l {
+                Link::Stale(_) => {
+                    self.stats.stale_samples = self.stats.stale_samples.saturating_add(1);
+                    if !s.stale {
+                        warn!(
+                            "agent {}: neighbour {} stale, holding its last value",
+                            agent, s.agent
+                        );
+                        s.stale = true;
+                    }
+                }
+                Link::Missing => {
+                    self.stats.missing_samples = self.stats.missing_samples.saturating_add(1);
+                }
+                Link::Fresh(_) => {
+                    if s.stale {
+                        info!("agent {}: neighbour {} fresh again", agent, s.agent);
+                        s.stale = false;
+                    }
+                }
+            }
+        }
+        links
+    }
+
+    fn log_leader(&mut self, l: &Link) {
+        match l {
+            Link::Fresh(_) => {
+                if self.leader.stale {
+                    info!("agent {}: leader fresh again", self.agent);
+                    self.leader.stale = false;
+                }
+            }
+            _ => {
+                self.stats.leader_degraded_samples =
+                    self.stats.leader_degraded_samples.saturating_add(1);
+                if !self.leader.stale && matches!(l, Link::Stale(_)) {
+                    warn!("agent {}: leader stale, holding the last y_d", self.agent);
+                    self.leader.stale = true;
+                }
+            }
+        }
+    }
+
+    fn log_fault(&mut self, fault: Option<StepFault>) {
+        if let Some(f) = fault {
+            self.stats.faults = self.stats.faults.saturating_add(1);
+            if self.last_fault != Some(f) {
+                warn!("agent {}: step fault {:?}, command held", self.agent, f);
+            }
+        } else if self.last_fault.is_some() {
+            info!("agent {}: step fault cleared", self.agent);
+        }
+        self.last_fault = fault;
+    }
+
+    fn broadcast(&mut self, y: f32) -> TxOutcome {
+        let Some((frame, enc)) = wire::encode::<C::Frame>(Source::Agent(self.agent), y, self.seq)
+        else {
+            return TxOutcome::EncodeFailed;
+        };
+        if enc.saturated {
+            self.stats.saturated_tx = self.stats.saturated_tx.saturating_add(1);
+        }
+        let out = match self.can.transmit(&frame) {
+            Ok(None) => TxOutcome::Queued,
+            Ok(Some(_)) => {
+                self.stats.tx_replaced = self.stats.tx_replaced.saturating_add(1);
+                TxOutcome::Replaced
+            }
+            Err(nb::Error::WouldBlock) => {
+                self.stats.tx_busy = self.stats.tx_busy.saturating_add(1);
+                TxOutcome::Busy
+            }
+            Err(nb::Error::Other(e)) => {
+                self.stats.tx_errors = self.stats.tx_errors.saturating_add(1);
+                TxOutcome::Error(e.kind())
+            }
+        };
+        match out {
+            TxOutcome::Queued | TxOutcome::Replaced => {
+                self.stats.tx_queued = self.stats.tx_queued.saturating_add(1);
+                if self.tx_failed {
+                    info!("agent {}: transmitting again", self.agent);
+                }
+                self.tx_failed = false;
+            }
+            _ => {
+                if !self.tx_failed {
+                    warn!("agent {}: transmit failed", self.agent);
+                }
+                self.tx_failed = true;
+            }
+        }
+        out
+    }
+}
