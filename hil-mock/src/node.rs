@@ -369,6 +369,16 @@ where
         &self.controller
     }
 
+    /// The actuators (read-only: the commands applied).
+    pub fn actuator(&self) -> &A {
+        &self.actuator
+    }
+
+    /// The CAN controller (read-only).
+    pub fn can(&self) -> &C {
+        &self.can
+    }
+
     /// The CAN controller (the host harness moves frames through it).
     pub fn can_mut(&mut self) -> &mut C {
         &mut self.can
