@@ -23,7 +23,7 @@ fn one_mbit_no_loss_matches_the_ideal_link_within_10_percent() {
         STALE_US,
         T_END,
         T_FROM,
-        |_, _, _| {},
+        |_, _, _, _| {},
     );
     let rel = (can.max_error - ideal).abs() / ideal;
     println!(
@@ -77,7 +77,7 @@ fn bus_load_at_500_kbit_matches_the_hand_computation() {
         STALE_US,
         2.0,
         1.0,
-        |_, _, _| {},
+        |_, _, _, _| {},
     );
     println!(
         "500 kbit/s: load {:.2} % (by hand {by_hand:.2} %), sent {}, deadline misses {}, latency max {:.1} us, max error after 1 s {:.4}",
