@@ -39,7 +39,10 @@ fn one_hour_of_recurring_faults_stays_bounded() {
     let (mut first, mut last) = (Window::default(), Window::default());
     // The first window starts after the predefined time 2 Ts = 4 s (the transient is not "first").
     let settle = (4.0 / h) as u64;
-    assert!(steps >= settle + 2 * window, "SOAK_HOURS must cover two 10-minute windows");
+    assert!(
+        steps >= settle + 2 * window,
+        "SOAK_HOURS must cover two 10-minute windows"
+    );
     for k in 0..steps {
         let s = sim.step();
         if (settle..settle + window).contains(&k) {
