@@ -448,8 +448,8 @@ impl Bus {
         Ok(())
     }
 
-    /// Earliest time ≥ `from` at which some node has a frame it may send, with that node's
-    /// candidate (id, index, is_babble).
+    /// Earliest time ≥ `from` at which some node may have a frame to send (pending frames,
+    /// babblers), bus-off nodes from their recovery on.
     fn next_start(&self, from: Nanos, until: Nanos) -> Option<Nanos> {
         let mut best: Option<Nanos> = None;
         for (i, p) in self.ports.iter().enumerate() {
@@ -462,7 +462,10 @@ impl Bus {
             }
             for e in self.cfg.events.iter().filter(|e| e.node == i) {
                 if let EventKind::Babbling { .. } = e.kind {
-                    let s = e.from_ns.max(from);
+                    let mut s = e.from_ns.max(from);
+                    if p.stats.state == ErrorState::BusOff {
+                        s = s.max(p.bus_off_until);
+                    }
                     if s < e.until_ns && s < until {
                         best = Some(best.map_or(s, |b| b.min(s)));
                     }
@@ -715,6 +718,34 @@ mod tests {
         // 32 errors × 8 > 255: bus-off after the 32nd corrupted attempt; recovery after 1408 µs.
         assert!(!bus.is_bus_off(0, 100_000_000));
         assert!(bus.submit(0, 100_000_000, frame(0x101, 4)).is_ok());
+    }
+
+    #[test]
+    fn a_corrupted_babbler_goes_bus_off_and_the_others_get_through() {
+        let cfg = BusConfig {
+            corruption: 0.5,
+            seed: 1,
+            events: vec![BusEvent {
+                node: 0,
+                kind: EventKind::Babbling { id: 0 },
+                from_ns: 0,
+                until_ns: 50_000_000,
+            }],
+            ..BusConfig::default()
+        };
+        let mut bus = Bus::new(cfg, 2).expect("valid");
+        let mut delivered = 0;
+        for k in 0..50u64 {
+            let _ = bus.submit(1, k * 1_000_000, frame(0x102, 4));
+            delivered += bus
+                .advance_to((k + 1) * 1_000_000)
+                .iter()
+                .filter(|d| d.from == 1)
+                .count();
+        }
+        let s = bus.stats();
+        assert!(s.nodes[0].bus_off_events > 0, "{s:?}");
+        assert!(delivered > 0);
     }
 
     #[test]
