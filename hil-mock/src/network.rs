@@ -16,6 +16,36 @@
 //!
 //! The commands the nodes wrote are in [`Tick::output`]`.q` (and in each node's actuator),
 //! to be held by the plant over `[t, t + h)`.
+//!
+//! ```
+//! use controller_core::ControllerConfig;
+//! use hil_mock::bus::BusConfig;
+//! use hil_mock::network::{AgentSetup, CanNetwork};
+//! use hil_mock::NodeConfig;
+//!
+//! // Two agents: agent 1 pinned, agent 2 hears agent 1.
+//! let agent = |i: u8| AgentSetup {
+//!     node: NodeConfig { agent: i, neighbours: [1, 0], stale_timeout_us: 2_500 },
+//!     controller: ControllerConfig::<2> {
+//!         neighbour_count: usize::from(i - 1),
+//!         pinned: i == 1,
+//!         ..ControllerConfig::default()
+//!     },
+//! };
+//! let mut net = CanNetwork::<2, 2, 2>::new(BusConfig::default(), &[agent(1), agent(2)])?;
+//! let mut x = [[0.1f32, 0.0], [0.2, 0.0]];
+//! for k in 0..100u64 {
+//!     let ticks = net.step(k * 1_000_000, &x, Some(0.0));
+//!     for (xi, tick) in x.iter_mut().zip(&ticks) {
+//!         xi[1] += 1e-3 * tick.output.q[0]; // a toy plant
+//!         xi[0] += 1e-3 * xi[1];
+//!     }
+//! }
+//! let s = net.stats();
+//! assert_eq!(s.frames_lost, 0);
+//! assert!(s.load_percent() > 28.0 && s.load_percent() < 29.0); // 3 × 95 bits per ms
+//! # Ok::<(), hil_mock::network::NetworkError>(())
+//! ```
 
 use controller_core::{ControllerConfig, Link};
 

@@ -89,6 +89,11 @@ proptest! {
         }
     }
 
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+
     #[test]
     fn a_node_fed_random_frames_counts_every_malformed_one(
         frames in proptest::collection::vec(arb_frame(), 1..200)
