@@ -1,0 +1,2 @@
+//! Agent-steps per second of the whole loop (controller + plant + link + metrics).
+fn main() {}

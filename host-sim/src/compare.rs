@@ -1,0 +1,216 @@
+//! `compare`: two scenarios side by side (the proposed scheme against the SPEC §10 baseline),
+//! one table with settling figures next to control effort, and overlaid figures.
+
+use std::{fmt::Write as _, path::Path};
+
+use plotters::style::{Color, BLACK};
+use serde::Serialize;
+
+use crate::{
+    error::{Error, Result},
+    metrics::Summary,
+    report::{
+        self,
+        plots::{color, render, Panel, Recorder, Series},
+    },
+    run::{run, RunOptions},
+    scenario::Setup,
+};
+
+/// Both summaries and the effort verdict (`compare.json`).
+#[derive(Debug, Clone, Serialize)]
+pub struct Comparison {
+    /// First scenario.
+    pub a: Summary,
+    /// Second scenario.
+    pub b: Summary,
+    /// `total_u_energy` of b over a.
+    pub energy_ratio_b_over_a: Option<f64>,
+    /// `max_abs_u` of b over a.
+    pub peak_u_ratio_b_over_a: Option<f64>,
+    /// The two runs spent control effort within 25 % of each other.
+    pub equal_effort: bool,
+    /// One-line verdict on effort.
+    pub note: String,
+}
+
+fn ratio(b: f64, a: f64) -> Option<f64> {
+    (a > 0.0 && a.is_finite() && b.is_finite()).then(|| b / a)
+}
+
+fn opt(v: Option<f64>) -> String {
+    v.map_or_else(|| "-".into(), |v| format!("{v:.4}"))
+}
+
+/// Runs both scenarios, writes `compare.md`, `compare.json` and overlaid figures into `out`;
+/// returns the table.
+pub fn compare(a: &Setup, b: &Setup, out: &Path, progress: bool) -> Result<String> {
+    report::create_dir(out)?;
+    let opts = RunOptions {
+        record: true,
+        progress,
+        ..RunOptions::default()
+    };
+    let ra = run(a, &opts)?;
+    let rb = run(b, &opts)?;
+    let (sa, sb) = (&ra.summary, &rb.summary);
+    let er = ratio(sb.total_u_energy, sa.total_u_energy);
+    let pr = ratio(sb.max_abs_u, sa.max_abs_u);
+    let within = |r: Option<f64>| r.is_some_and(|r| (0.8..=1.25).contains(&r));
+    let equal_effort = within(er) && within(pr);
+    let note = if equal_effort {
+        "control effort within 25 %: the settling figures compare at similar effort".to_string()
+    } else {
+        format!(
+            "UNEQUAL control effort ({} uses {} x the energy and {} x the peak |u| of {}): \
+             the settling figures do not compare at equal effort",
+            sb.scenario,
+            opt(er),
+            opt(pr),
+            sa.scenario
+        )
+    };
+    let mut t = String::new();
+    let _ = writeln!(t, "| metric | {} | {} |", sa.scenario, sb.scenario);
+    let _ = writeln!(t, "|---|---|---|");
+    let rows: [(&str, String, String); 10] = [
+        ("scheme", sa.scheme.clone(), sb.scheme.clone()),
+        (
+            "c1, c2",
+            format!("{:.3}, {:.3}", sa.c1, sa.c2),
+            format!("{:.3}, {:.3}", sb.c1, sb.c2),
+        ),
+        (
+            "predefined time 2Ts [s]",
+            format!("{}", sa.predefined_time),
+            format!("{}", sb.predefined_time),
+        ),
+        (
+            "settling time (band) [s]",
+            format!("{} ({})", opt(sa.settling_time), sa.settle_band),
+            format!("{} ({})", opt(sb.settling_time), sb.settle_band),
+        ),
+        (
+            "max error after 2Ts",
+            opt(sa.max_error_after_predefined_time),
+            opt(sb.max_error_after_predefined_time),
+        ),
+        (
+            "IAE (sum over agents)",
+            format!("{:.4}", sa.agents.iter().map(|x| x.iae).sum::<f64>()),
+            format!("{:.4}", sb.agents.iter().map(|x| x.iae).sum::<f64>()),
+        ),
+        (
+            "max |u|",
+            format!("{:.4}", sa.max_abs_u),
+            format!("{:.4}", sb.max_abs_u),
+        ),
+        (
+            "u energy (sum over agents)",
+            format!("{:.4}", sa.total_u_energy),
+            format!("{:.4}", sb.total_u_energy),
+        ),
+        (
+            "quantizer changes (sum)",
+            sa.agents
+                .iter()
+                .map(|x| x.quantizer_changes)
+                .sum::<u64>()
+                .to_string(),
+            sb.agents
+                .iter()
+                .map(|x| x.quantizer_changes)
+                .sum::<u64>()
+                .to_string(),
+        ),
+        (
+            "diverged",
+            sa.divergence.map_or("no".into(), |d| {
+                format!("at t = {} (agent {})", d.time, d.agent)
+            }),
+            sb.divergence.map_or("no".into(), |d| {
+                format!("at t = {} (agent {})", d.time, d.agent)
+            }),
+        ),
+    ];
+    for (k, x, y) in rows {
+        let _ = writeln!(t, "| {k} | {x} | {y} |");
+    }
+    let _ = writeln!(t, "\n{note}");
+    report::write_atomic(&out.join("compare.md"), t.as_bytes())?;
+    let cmp = Comparison {
+        a: sa.clone(),
+        b: sb.clone(),
+        energy_ratio_b_over_a: er,
+        peak_u_ratio_b_over_a: pr,
+        equal_effort,
+        note,
+    };
+    let json = serde_json::to_string_pretty(&cmp).map_err(|e| Error::Io(e.to_string()))?;
+    report::write_atomic(&out.join("compare.json"), format!("{json}\n").as_bytes())?;
+    if let (Some(a_rec), Some(b_rec)) = (&ra.recorder, &rb.recorder) {
+        overlay(out, a, a_rec, b, b_rec)?;
+    }
+    Ok(t)
+}
+
+fn series(label: String, i: usize, r: &Recorder, ys: &[f64]) -> Series {
+    Series {
+        label,
+        color: color(i),
+        width: 2,
+        points: r.t.iter().copied().zip(ys.iter().copied()).collect(),
+    }
+}
+
+fn overlay(out: &Path, a: &Setup, ra: &Recorder, b: &Setup, rb: &Recorder) -> Result<()> {
+    let (na, nb) = (&a.scenario.name, &b.scenario.name);
+    let t_mark = a.predefined_time().max(b.predefined_time());
+    let errs = vec![
+        series(na.to_string(), 0, ra, &ra.max_err),
+        series(nb.to_string(), 1, rb, &rb.max_err),
+    ];
+    let mut panels = vec![
+        Panel {
+            title: "max_i |y_i - y_d|".into(),
+            y_label: "error".into(),
+            series: errs.clone(),
+            vline: Some((t_mark, format!("t = {t_mark}"))),
+            x_from: None,
+        },
+        Panel {
+            title: format!("max_i |y_i - y_d| after t = {t_mark}"),
+            y_label: "error".into(),
+            series: errs,
+            vline: None,
+            x_from: Some(t_mark),
+        },
+    ];
+    let mut u = Panel {
+        title: "agent 1: command u_1".into(),
+        y_label: "u".into(),
+        ..Panel::default()
+    };
+    if let (Some(ua), Some(ub)) = (ra.u.first(), rb.u.first()) {
+        u.series.push(series(na.to_string(), 0, ra, ua));
+        u.series.push(series(nb.to_string(), 1, rb, ub));
+    }
+    let mut tr = Panel {
+        title: "agent 1 output y_1 and y_d".into(),
+        y_label: "y".into(),
+        ..Panel::default()
+    };
+    tr.series.push(Series {
+        label: "y_d".into(),
+        color: BLACK.to_rgba(),
+        width: 1,
+        points: ra.t.iter().copied().zip(ra.yd.iter().copied()).collect(),
+    });
+    if let (Some(ya), Some(yb)) = (ra.y.first(), rb.y.first()) {
+        tr.series.push(series(na.to_string(), 0, ra, ya));
+        tr.series.push(series(nb.to_string(), 1, rb, yb));
+    }
+    panels.push(u);
+    panels.push(tr);
+    render(out, "compare", &panels, (2, 2), (1400, 900))
+}

@@ -1,0 +1,262 @@
+//! Actuator faults `q^f = ϱ(t) q(u) + ū(t)` (SPEC §7, the paper's eq. 3) on repeating windows,
+//! with the Assumption 4 check: never all actuators of an agent in total loss at once.
+
+use crate::{
+    error::{Error, Result},
+    scenario::{Agents, FaultKind, FaultRule},
+};
+
+/// What an active rule does to its actuator.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Effect {
+    /// `ϱ q(u)`.
+    Partial(f64),
+    /// `bias + amplitude sin(omega t)`.
+    Stuck {
+        bias: f64,
+        amplitude: f64,
+        omega: f64,
+    },
+}
+
+/// One rule as it applies to one actuator of one agent.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Compiled {
+    start: f64,
+    period: Option<f64>,
+    length: Option<f64>,
+    effect: Effect,
+}
+
+impl Compiled {
+    /// Active on `[start + k period, start + k period + length)`.
+    #[inline]
+    fn active(&self, t: f64) -> bool {
+        if t < self.start {
+            return false;
+        }
+        let mut s = t - self.start;
+        if let Some(p) = self.period {
+            s = s.rem_euclid(p);
+        }
+        self.length.is_none_or(|l| s < l)
+    }
+
+    fn total_loss(&self) -> bool {
+        matches!(self.effect, Effect::Stuck { .. } | Effect::Partial(0.0))
+    }
+
+    /// Window starts in `[0, t_end)`.
+    fn starts(&self, t_end: f64) -> Vec<f64> {
+        let mut v = Vec::new();
+        match self.period {
+            None => {
+                if self.start >= 0.0 && self.start < t_end {
+                    v.push(self.start);
+                }
+            }
+            Some(p) => {
+                let k0 = if self.start < 0.0 {
+                    (-self.start / p).ceil()
+                } else {
+                    0.0
+                };
+                let mut k = k0;
+                loop {
+                    let s = self.start + k * p;
+                    if s >= t_end || v.len() > 1_000_000 {
+                        break;
+                    }
+                    v.push(s);
+                    k += 1.0;
+                }
+            }
+        }
+        v
+    }
+}
+
+/// The fault rules of every actuator of every agent.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FaultSchedule {
+    m: usize,
+    rules: Vec<Vec<Compiled>>,
+}
+
+impl FaultSchedule {
+    /// No faults.
+    pub fn healthy(agents: usize, m: usize) -> Self {
+        Self {
+            m,
+            rules: vec![Vec::new(); agents * m],
+        }
+    }
+
+    /// Compiles and checks the scenario's rules (keys, ranges, Assumption 4 over `[0, t_end)`).
+    pub fn from_rules(rules: &[FaultRule], agents: usize, m: usize, t_end: f64) -> Result<Self> {
+        let mut s = Self::healthy(agents, m);
+        for (r, rule) in rules.iter().enumerate() {
+            let key = |k: &str| format!("faults.rule[{}].{k}", r + 1);
+            if rule.actuator < 1 || rule.actuator as usize > m {
+                return Err(Error::invalid(
+                    key("actuator"),
+                    format!(
+                        "actuator {} out of range 1..={m} (the model has m = {m} actuators)",
+                        rule.actuator
+                    ),
+                ));
+            }
+            let l = (rule.actuator - 1) as usize;
+            if !rule.start.is_finite() {
+                return Err(Error::invalid(key("start"), "must be finite"));
+            }
+            if let Some(p) = rule.period {
+                if !(p.is_finite() && p > 0.0) {
+                    return Err(Error::invalid(
+                        key("period"),
+                        format!("must be > 0 (got {p})"),
+                    ));
+                }
+            }
+            if let Some(len) = rule.length {
+                if !(len.is_finite() && len > 0.0) {
+                    return Err(Error::invalid(
+                        key("length"),
+                        format!("must be > 0 (got {len})"),
+                    ));
+                }
+            }
+            let effect = match rule.kind {
+                FaultKind::Partial => {
+                    for (k, v) in [
+                        ("bias", rule.bias),
+                        ("amplitude", rule.amplitude),
+                        ("omega", rule.omega),
+                    ] {
+                        if v.is_some() {
+                            return Err(Error::invalid(key(k), "only for kind = \"stuck\""));
+                        }
+                    }
+                    let Some(g) = rule.gain else {
+                        return Err(Error::invalid(
+                            key("gain"),
+                            "required for kind = \"partial\"",
+                        ));
+                    };
+                    if !(0.0..=1.0).contains(&g) {
+                        return Err(Error::invalid(
+                            key("gain"),
+                            format!("must lie in [0, 1] (got {g})"),
+                        ));
+                    }
+                    Effect::Partial(g)
+                }
+                FaultKind::Stuck => {
+                    if rule.gain.is_some() {
+                        return Err(Error::invalid(key("gain"), "only for kind = \"partial\""));
+                    }
+                    let v = |x: Option<f64>, k: &str| -> Result<f64> {
+                        let x = x.unwrap_or(0.0);
+                        if x.is_finite() {
+                            Ok(x)
+                        } else {
+                            Err(Error::invalid(key(k), "must be finite"))
+                        }
+                    };
+                    Effect::Stuck {
+                        bias: v(rule.bias, "bias")?,
+                        amplitude: v(rule.amplitude, "amplitude")?,
+                        omega: v(rule.omega, "omega")?,
+                    }
+                }
+            };
+            let c = Compiled {
+                start: rule.start,
+                period: rule.period,
+                length: rule.length,
+                effect,
+            };
+            let targets: Vec<usize> = match &rule.agents {
+                Agents::All => (0..agents).collect(),
+                Agents::List(list) => {
+                    if list.is_empty() {
+                        return Err(Error::invalid(key("agents"), "empty list"));
+                    }
+                    let mut v = Vec::with_capacity(list.len());
+                    for &a in list {
+                        if a < 1 || a as usize > agents {
+                            return Err(Error::invalid(
+                                key("agents"),
+                                format!("agent {a} out of range 1..={agents}"),
+                            ));
+                        }
+                        v.push((a - 1) as usize);
+                    }
+                    v
+                }
+            };
+            for i in targets {
+                s.rules[i * m + l].push(c);
+            }
+        }
+        s.check_assumption4(t_end)?;
+        Ok(s)
+    }
+
+    /// Rejects a schedule with all `m` actuators of an agent in total loss at some instant.
+    fn check_assumption4(&self, t_end: f64) -> Result<()> {
+        for i in 0..self.rules.len() / self.m.max(1) {
+            let acts = &self.rules[i * self.m..(i + 1) * self.m];
+            if !acts.iter().all(|r| r.iter().any(Compiled::total_loss)) {
+                continue;
+            }
+            let all_lost = |t: f64| {
+                acts.iter()
+                    .all(|r| r.iter().any(|c| c.total_loss() && c.active(t)))
+            };
+            let mut candidates = vec![0.0];
+            for c in acts.iter().flatten().filter(|c| c.total_loss()) {
+                candidates.extend(c.starts(t_end));
+            }
+            if let Some(t) = candidates.into_iter().find(|&t| all_lost(t)) {
+                return Err(Error::invalid(
+                    "faults.rule",
+                    format!(
+                        "all {} actuators of agent {} are in total loss at t = {t} \
+                         (Assumption 4 allows at most m - 1)",
+                        self.m,
+                        i + 1
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether agent `i` has any rule.
+    pub fn any(&self, i: usize) -> bool {
+        self.rules[i * self.m..(i + 1) * self.m]
+            .iter()
+            .any(|r| !r.is_empty())
+    }
+
+    /// `q^f` of actuator `l` of agent `i` at time `t` for the quantized command `q`.
+    #[inline]
+    pub fn apply(&self, i: usize, l: usize, t: f64, q: f64) -> f64 {
+        let mut gain = 1.0;
+        let mut stuck = None;
+        for c in &self.rules[i * self.m + l] {
+            if c.active(t) {
+                match c.effect {
+                    Effect::Partial(g) => gain *= g,
+                    Effect::Stuck {
+                        bias,
+                        amplitude,
+                        omega,
+                    } => stuck = Some(bias + amplitude * (omega * t).sin()),
+                }
+            }
+        }
+        stuck.unwrap_or(gain * q)
+    }
+}

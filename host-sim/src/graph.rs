@@ -1,0 +1,294 @@
+//! The communication graph of SPEC §2: neighbour lists and pinning, checked against
+//! Assumption 2 (the leader is the root of a spanning tree).
+
+use crate::{
+    error::{Error, Result},
+    scenario::GraphSpec,
+};
+
+/// Largest in-degree supported: the controllers' neighbour capacity `K`.
+pub const MAX_NEIGHBOURS: usize = 16;
+
+/// A validated directed graph: agent `i` hears `neighbours(i)` (0-based), `pinned(i)` hears
+/// the leader.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Graph {
+    offsets: Vec<usize>,
+    flat: Vec<usize>,
+    pinned: Vec<bool>,
+}
+
+impl Graph {
+    /// Checks self links, range, duplicates, in-degree and Assumption 2.
+    pub fn new(neighbours: Vec<Vec<usize>>, pinned: Vec<bool>) -> Result<Self> {
+        let n = neighbours.len();
+        if n == 0 {
+            return Err(Error::invalid("graph", "no agents"));
+        }
+        if pinned.len() != n {
+            return Err(Error::invalid(
+                "graph.pinned",
+                "one flag per agent expected",
+            ));
+        }
+        let mut offsets = Vec::with_capacity(n + 1);
+        let mut flat = Vec::new();
+        offsets.push(0);
+        for (i, row) in neighbours.iter().enumerate() {
+            if row.len() > MAX_NEIGHBOURS {
+                return Err(Error::invalid(
+                    format!("graph.neighbours[{}]", i + 1),
+                    format!(
+                        "agent {} hears {} agents, more than the supported {MAX_NEIGHBOURS}",
+                        i + 1,
+                        row.len()
+                    ),
+                ));
+            }
+            for (s, &k) in row.iter().enumerate() {
+                if k >= n {
+                    return Err(Error::invalid(
+                        format!("graph.neighbours[{}]", i + 1),
+                        format!(
+                            "agent {} hears agent {}, which does not exist",
+                            i + 1,
+                            k + 1
+                        ),
+                    ));
+                }
+                if k == i {
+                    return Err(Error::invalid(
+                        format!("graph.neighbours[{}]", i + 1),
+                        format!("agent {} hears itself (self link)", i + 1),
+                    ));
+                }
+                if row[..s].contains(&k) {
+                    return Err(Error::invalid(
+                        format!("graph.neighbours[{}]", i + 1),
+                        format!("agent {} lists agent {} twice", i + 1, k + 1),
+                    ));
+                }
+            }
+            flat.extend_from_slice(row);
+            offsets.push(flat.len());
+        }
+        let g = Self {
+            offsets,
+            flat,
+            pinned,
+        };
+        let unreached = g.unreached();
+        if !unreached.is_empty() {
+            let list: Vec<String> = unreached.iter().map(|i| (i + 1).to_string()).collect();
+            return Err(Error::invalid(
+                "graph",
+                format!(
+                    "agent(s) {} not reached from the leader: the leader must be the root of a \
+                     spanning tree (Assumption 2); pin an agent or add links",
+                    list.join(", ")
+                ),
+            ));
+        }
+        Ok(g)
+    }
+
+    /// From the scenario's `[graph]` (1-based agent numbers, lists or matrix).
+    pub fn from_spec(spec: &GraphSpec) -> Result<Self> {
+        let lists: Vec<Vec<usize>> = match (&spec.neighbours, &spec.adjacency) {
+            (Some(_), Some(_)) => {
+                return Err(Error::invalid(
+                    "graph.adjacency",
+                    "give either graph.neighbours or graph.adjacency, not both",
+                ))
+            }
+            (None, None) => {
+                return Err(Error::invalid(
+                    "graph.neighbours",
+                    "missing (or give graph.adjacency)",
+                ))
+            }
+            (Some(rows), None) => {
+                let n = rows.len() as i64;
+                let mut out = Vec::with_capacity(rows.len());
+                for (i, row) in rows.iter().enumerate() {
+                    let mut r = Vec::with_capacity(row.len());
+                    for &k in row {
+                        if k < 1 || k > n {
+                            return Err(Error::invalid(
+                                format!("graph.neighbours[{}]", i + 1),
+                                format!(
+                                    "agent {} hears agent {k}, out of range 1..={n} \
+                                     (agents are 1-based)",
+                                    i + 1
+                                ),
+                            ));
+                        }
+                        r.push((k - 1) as usize);
+                    }
+                    out.push(r);
+                }
+                out
+            }
+            (None, Some(mat)) => {
+                let n = mat.len();
+                let mut out = Vec::with_capacity(n);
+                for (i, row) in mat.iter().enumerate() {
+                    if row.len() != n {
+                        return Err(Error::invalid(
+                            format!("graph.adjacency[{}]", i + 1),
+                            format!(
+                                "row has {} entries, the matrix must be square ({n} x {n})",
+                                row.len()
+                            ),
+                        ));
+                    }
+                    let mut r = Vec::new();
+                    for (k, &a) in row.iter().enumerate() {
+                        match a {
+                            0 => {}
+                            1 => r.push(k),
+                            _ => {
+                                return Err(Error::invalid(
+                                    format!("graph.adjacency[{}][{}]", i + 1, k + 1),
+                                    format!("entries must be 0 or 1 (got {a})"),
+                                ))
+                            }
+                        }
+                    }
+                    out.push(r);
+                }
+                out
+            }
+        };
+        let n = lists.len();
+        let mut pinned = vec![false; n];
+        for &p in &spec.pinned {
+            if p < 1 || p as usize > n {
+                return Err(Error::invalid(
+                    "graph.pinned",
+                    format!("agent {p} out of range 1..={n} (agents are 1-based)"),
+                ));
+            }
+            pinned[(p - 1) as usize] = true;
+        }
+        Self::new(lists, pinned)
+    }
+
+    /// Agents no path from the leader reaches.
+    fn unreached(&self) -> Vec<usize> {
+        let n = self.len();
+        let mut hearers: Vec<Vec<usize>> = vec![Vec::new(); n];
+        for i in 0..n {
+            for &k in self.neighbours(i) {
+                hearers[k].push(i);
+            }
+        }
+        let mut seen = self.pinned.clone();
+        let mut stack: Vec<usize> = (0..n).filter(|&i| seen[i]).collect();
+        while let Some(k) = stack.pop() {
+            for &i in &hearers[k] {
+                if !seen[i] {
+                    seen[i] = true;
+                    stack.push(i);
+                }
+            }
+        }
+        (0..n).filter(|&i| !seen[i]).collect()
+    }
+
+    /// Number of agents.
+    pub fn len(&self) -> usize {
+        self.pinned.len()
+    }
+
+    /// Always false (a graph has at least one agent).
+    pub fn is_empty(&self) -> bool {
+        self.pinned.is_empty()
+    }
+
+    /// Agents that agent `i` hears, in configured order.
+    pub fn neighbours(&self, i: usize) -> &[usize] {
+        &self.flat[self.offsets[i]..self.offsets[i + 1]]
+    }
+
+    /// Offset of agent `i`'s first neighbour in a flat per-link array.
+    pub fn offset(&self, i: usize) -> usize {
+        self.offsets[i]
+    }
+
+    /// Total number of links.
+    pub fn links(&self) -> usize {
+        self.flat.len()
+    }
+
+    /// `r_i = 1`.
+    pub fn pinned(&self, i: usize) -> bool {
+        self.pinned[i]
+    }
+
+    /// A seeded random graph of `n` agents: agent 1 pinned, every other agent hears one random
+    /// earlier agent (a spanning tree from the leader) and up to `extra` more random agents.
+    pub fn random_connected(n: usize, extra: usize, seed: u64) -> Result<Self> {
+        let mut rng = SplitMix64(seed);
+        let mut lists = vec![Vec::new(); n];
+        for (i, row) in lists.iter_mut().enumerate().skip(1) {
+            row.push(rng.below(i));
+            for _ in 0..extra {
+                let k = rng.below(n);
+                if k != i && !row.contains(&k) && row.len() < MAX_NEIGHBOURS {
+                    row.push(k);
+                }
+            }
+        }
+        let mut pinned = vec![false; n];
+        if n > 0 {
+            pinned[0] = true;
+        }
+        Self::new(lists, pinned)
+    }
+}
+
+/// SplitMix64: a tiny deterministic generator for seeded test graphs.
+struct SplitMix64(u64);
+
+impl SplitMix64 {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n as u64) as usize
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn example_graph_is_valid_and_unreached_agents_are_named() {
+        let g = Graph::new(
+            vec![vec![], vec![0], vec![0], vec![0, 2]],
+            vec![true, false, false, false],
+        );
+        assert!(g.is_ok());
+        let err = match Graph::new(
+            vec![vec![], vec![0], vec![3], vec![2]],
+            vec![true, false, false, false],
+        ) {
+            Err(e) => e.to_string(),
+            Ok(_) => panic!("agents 3 and 4 are not reached from the leader"),
+        };
+        assert!(err.contains("3, 4"), "{err}");
+    }
+
+    #[test]
+    fn random_graph_is_connected() {
+        let g = Graph::random_connected(1000, 2, 7).expect("valid");
+        assert_eq!(g.len(), 1000);
+    }
+}

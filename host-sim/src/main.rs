@@ -1,0 +1,237 @@
+//! `host-sim`: run, check, search the stable sample period, compare (SCENARIO.md).
+
+use std::{
+    path::{Path, PathBuf},
+    process::ExitCode,
+};
+
+use clap::{Args, Parser, Subcommand};
+use host_sim::{
+    compare::compare,
+    error::{Error, Result},
+    run::{run, stable_h, RunOptions},
+    scenario::{self, Setup},
+};
+
+const EXAMPLES: &str = "\
+Examples:
+  host-sim run scenarios/example1.toml --out out/example1
+  host-sim run scenarios/example1.toml --out out/ts1 --set controller.ts=1 --decimate 10
+  host-sim check scenarios/example2.toml --set simulation.h=2e-4
+  host-sim stable-h scenarios/example2.toml --band 0.1
+  host-sim compare scenarios/example2.toml scenarios/example2-baseline.toml --out out/cmp
+
+Exit status: 0 run finished (also when it diverged: see summary.json), 2 invalid scenario or
+option, 1 I/O error.";
+
+/// Closed-loop simulator of the predefined-time consensus controller (controller-core).
+#[derive(Parser, Debug)]
+#[command(name = "host-sim", version, about, after_help = EXAMPLES)]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Args, Debug, Clone)]
+struct Overrides {
+    /// Override a scenario key: dotted key and TOML value (repeatable), e.g. controller.ts=1
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    set: Vec<String>,
+}
+
+#[derive(Subcommand, Debug)]
+enum Cmd {
+    /// Run one scenario; writes summary.json, trajectory.csv and plots into --out.
+    Run {
+        /// Scenario file (TOML).
+        scenario: PathBuf,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+        #[command(flatten)]
+        overrides: Overrides,
+        /// Write every k-th sample to trajectory.csv.
+        #[arg(long, default_value_t = 1, value_name = "K")]
+        decimate: u64,
+        /// Skip the figures.
+        #[arg(long)]
+        no_plots: bool,
+        /// No progress bar, no summary on stdout.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Validate a scenario and print it resolved (defaults filled, overrides applied).
+    Check {
+        /// Scenario file (TOML).
+        scenario: PathBuf,
+        #[command(flatten)]
+        overrides: Overrides,
+    },
+    /// Find the largest stable sample period h by bisection (geometric) over [h-min, h-max].
+    ///
+    /// A run is stable when it does not diverge and its max error after 2Ts is within --band.
+    StableH {
+        /// Scenario file (TOML).
+        scenario: PathBuf,
+        #[command(flatten)]
+        overrides: Overrides,
+        /// Error band after 2Ts that counts as stable.
+        #[arg(long, default_value_t = 0.25)]
+        band: f64,
+        /// Smallest h tried [s].
+        #[arg(long, default_value_t = 1e-5)]
+        h_min: f64,
+        /// Largest h tried [s].
+        #[arg(long, default_value_t = 1e-2)]
+        h_max: f64,
+        /// Stop when h_unstable / h_stable < 1 + rel-tol.
+        #[arg(long, default_value_t = 0.02)]
+        rel_tol: f64,
+        /// Print only the result.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Run two scenarios; write one table (compare.md, compare.json) and overlaid plots.
+    Compare {
+        /// First scenario (e.g. the proposed scheme).
+        a: PathBuf,
+        /// Second scenario (e.g. the baseline).
+        b: PathBuf,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+        #[command(flatten)]
+        overrides: Overrides,
+        /// No progress bar.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+}
+
+fn load(path: &Path, o: &Overrides) -> Result<Setup> {
+    scenario::load(path, &o.set)
+}
+
+fn fmt_opt(v: Option<f64>) -> String {
+    v.map_or_else(|| "none".into(), |v| format!("{v:.4}"))
+}
+
+fn main_inner(cli: Cli) -> Result<()> {
+    match cli.cmd {
+        Cmd::Run {
+            scenario,
+            out,
+            overrides,
+            decimate,
+            no_plots,
+            quiet,
+        } => {
+            if decimate == 0 {
+                return Err(Error::invalid("--decimate", "must be >= 1"));
+            }
+            let setup = load(&scenario, &overrides)?;
+            let opts = RunOptions {
+                out: Some(out.clone()),
+                decimate,
+                plots: !no_plots,
+                record: false,
+                progress: !quiet,
+            };
+            let r = run(&setup, &opts)?;
+            if !quiet {
+                let s = &r.summary;
+                println!(
+                    "{}: c1 = {:.3}, c2 = {:.3}; max error after 2Ts = {}; settling time ({}) = {}; \
+                     max |u| = {:.3}; {}",
+                    s.scenario,
+                    s.c1,
+                    s.c2,
+                    fmt_opt(s.max_error_after_predefined_time),
+                    s.settle_band,
+                    fmt_opt(s.settling_time),
+                    s.max_abs_u,
+                    match s.divergence {
+                        Some(d) => format!("DIVERGED at t = {} (agent {})", d.time, d.agent),
+                        None => "no divergence".into(),
+                    }
+                );
+                println!("wrote {}", out.display());
+            }
+            Ok(())
+        }
+        Cmd::Check {
+            scenario,
+            overrides,
+        } => {
+            let setup = load(&scenario, &overrides)?;
+            print!("{}", scenario::to_toml(&setup.scenario));
+            println!(
+                "# ok: {} agents, n = {}, m = {}, {} samples",
+                setup.agents(),
+                setup.n(),
+                setup.m(),
+                setup.samples
+            );
+            Ok(())
+        }
+        Cmd::StableH {
+            scenario,
+            overrides,
+            band,
+            h_min,
+            h_max,
+            rel_tol,
+            quiet,
+        } => {
+            let setup = load(&scenario, &overrides)?;
+            let r = stable_h(&setup.scenario, band, h_min, h_max, rel_tol, |t| {
+                if !quiet {
+                    println!(
+                        "h = {:.4e}: {}, max error after 2Ts = {}{}",
+                        t.h,
+                        if t.stable { "stable" } else { "unstable" },
+                        fmt_opt(t.max_error_after_predefined_time),
+                        t.diverged_at
+                            .map_or(String::new(), |d| format!(", diverged at t = {d}"))
+                    );
+                }
+            })?;
+            match (r.largest_stable_h, r.smallest_unstable_h) {
+                (Some(s), Some(u)) => {
+                    println!("largest stable h = {s:.4e} s (unstable at {u:.4e} s; band {band})")
+                }
+                (Some(s), None) => println!("stable at h-max = {s:.4e} s (band {band})"),
+                (None, _) => println!("unstable even at h-min = {h_min:.4e} s (band {band})"),
+            }
+            Ok(())
+        }
+        Cmd::Compare {
+            a,
+            b,
+            out,
+            overrides,
+            quiet,
+        } => {
+            let sa = load(&a, &overrides)?;
+            let sb = load(&b, &overrides)?;
+            let table = compare(&sa, &sb, &out, !quiet)?;
+            print!("{table}");
+            println!("wrote {}", out.display());
+            Ok(())
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => e.exit(),
+    };
+    match main_inner(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("host-sim: {e}");
+            ExitCode::from(e.exit_code())
+        }
+    }
+}

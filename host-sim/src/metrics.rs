@@ -1,0 +1,241 @@
+//! The metrics of SPEC §11 with the definitions of SCENARIO.md, accumulated sample by sample,
+//! and the `summary.json` they fill.
+
+use std::collections::HashSet;
+
+use controller_core::Gains;
+use serde::Serialize;
+
+use crate::{
+    error::Result,
+    scenario::Setup,
+    sim::{Divergence, Observer, SampleView},
+};
+
+/// Per-agent figures of `summary.json`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AgentSummary {
+    /// 1-based agent.
+    pub agent: usize,
+    /// `Σ |y_i − y_d| h`.
+    pub iae: f64,
+    /// `Σ (y_i − y_d)² h`.
+    pub ise: f64,
+    /// `max |u_{i,l}|`.
+    pub max_abs_u: f64,
+    /// `∫ Σ_l u_l² dt` (the commands are held, so the sum is exact).
+    pub u_energy: f64,
+    /// Samples at which a quantized output changed, summed over actuators.
+    pub quantizer_changes: u64,
+    /// Distinct non-zero quantizer levels `|q|` used (null without quantizer).
+    pub levels_used: Option<usize>,
+    /// `max |x_{i,j}|` over the samples.
+    pub peak_abs_state: f64,
+    /// `μ̂` at the last sample.
+    pub final_mu: f64,
+    /// `ξ̂` at the last sample.
+    pub final_xi: f64,
+    /// `λ̂` at the last sample.
+    pub final_lambda: f64,
+    /// Samples at which the controller held its command (non-finite input or result).
+    pub step_faults: u64,
+}
+
+/// `summary.json` (SCENARIO.md keys, plus run facts).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Summary {
+    /// Scenario name.
+    pub scenario: String,
+    /// `predefined-time` or `prescribed-time`.
+    pub scheme: String,
+    /// Plant model.
+    pub model: String,
+    /// Sample period [s].
+    pub h: f64,
+    /// Horizon [s].
+    pub t_end: f64,
+    /// Samples `K` simulated (fewer if the run diverged).
+    pub samples: u64,
+    /// `c_1` in force.
+    pub c1: f64,
+    /// `c_2` in force.
+    pub c2: f64,
+    /// `k_1`.
+    pub k1: f64,
+    /// `k_2`.
+    pub k2: f64,
+    /// Whether the quantizer was on.
+    pub quantizer: bool,
+    /// Whether actuator faults were on.
+    pub faults: bool,
+    /// `2 T_s`.
+    pub predefined_time: f64,
+    /// Band `b`.
+    pub settle_band: f64,
+    /// `t_{k+1}` of the last sample outside the band; null if the last sample is outside.
+    pub settling_time: Option<f64>,
+    /// `max_{i, t_k ≥ 2Ts} |y_i − y_d|`; null without such samples.
+    pub max_error_after_predefined_time: Option<f64>,
+    /// `max |u|` over agents and actuators.
+    pub max_abs_u: f64,
+    /// `Σ_i u_energy`.
+    pub total_u_energy: f64,
+    /// The run stopped on divergence.
+    pub diverged: bool,
+    /// Where and when.
+    pub divergence: Option<Divergence>,
+    /// Per agent.
+    pub agents: Vec<AgentSummary>,
+}
+
+#[derive(Debug, Clone)]
+struct Acc {
+    iae: f64,
+    ise: f64,
+    max_abs_u: f64,
+    u_energy: f64,
+    changes: u64,
+    levels: HashSet<u32>,
+    peak: f64,
+    est: [f32; 3],
+    faults: u64,
+}
+
+/// Accumulates the metrics while the loop runs.
+#[derive(Debug, Clone)]
+pub struct Metrics {
+    h: f64,
+    band: f64,
+    k_after: u64,
+    levels: bool,
+    seen: u64,
+    last_outside: Option<u64>,
+    max_after: Option<f64>,
+    prev_q: Vec<f32>,
+    agents: Vec<Acc>,
+}
+
+impl Metrics {
+    /// For the scenario of `setup`.
+    pub fn new(setup: &Setup) -> Self {
+        let sim = &setup.scenario.simulation;
+        let k_after = (setup.predefined_time() / sim.h - 1e-9).ceil().max(0.0) as u64;
+        let acc = Acc {
+            iae: 0.0,
+            ise: 0.0,
+            max_abs_u: 0.0,
+            u_energy: 0.0,
+            changes: 0,
+            levels: HashSet::new(),
+            peak: 0.0,
+            est: [0.0; 3],
+            faults: 0,
+        };
+        Self {
+            h: sim.h,
+            band: sim.settle_band,
+            k_after,
+            levels: setup.scenario.quantizer.enabled,
+            seen: 0,
+            last_outside: None,
+            max_after: None,
+            prev_q: vec![0.0; setup.agents() * setup.m()],
+            agents: vec![acc; setup.agents()],
+        }
+    }
+
+    /// The figures of `summary.json`.
+    pub fn summary(&self, setup: &Setup, gains: &Gains, divergence: Option<Divergence>) -> Summary {
+        let s = &setup.scenario;
+        let settling_time = match (divergence, self.last_outside) {
+            (Some(_), _) => None,
+            (None, None) => Some(0.0),
+            (None, Some(k)) if k + 1 >= self.seen => None,
+            (None, Some(k)) => Some((k + 1) as f64 * self.h),
+        };
+        let agents: Vec<AgentSummary> = self
+            .agents
+            .iter()
+            .enumerate()
+            .map(|(i, a)| AgentSummary {
+                agent: i + 1,
+                iae: a.iae,
+                ise: a.ise,
+                max_abs_u: a.max_abs_u,
+                u_energy: a.u_energy,
+                quantizer_changes: a.changes,
+                levels_used: self.levels.then_some(a.levels.len()),
+                peak_abs_state: a.peak,
+                final_mu: f64::from(a.est[0]),
+                final_xi: f64::from(a.est[1]),
+                final_lambda: f64::from(a.est[2]),
+                step_faults: a.faults,
+            })
+            .collect();
+        Summary {
+            scenario: s.name.clone(),
+            scheme: s.controller.scheme.to_string(),
+            model: setup.plant.name().into(),
+            h: s.simulation.h,
+            t_end: s.simulation.t_end,
+            samples: self.seen,
+            c1: f64::from(gains.c1),
+            c2: f64::from(gains.c2),
+            k1: f64::from(gains.k1),
+            k2: f64::from(gains.k2),
+            quantizer: s.quantizer.enabled,
+            faults: s.faults.enabled,
+            predefined_time: setup.predefined_time(),
+            settle_band: self.band,
+            settling_time,
+            max_error_after_predefined_time: self.max_after,
+            max_abs_u: agents.iter().map(|a| a.max_abs_u).fold(0.0, f64::max),
+            total_u_energy: agents.iter().map(|a| a.u_energy).sum(),
+            diverged: divergence.is_some(),
+            divergence,
+            agents,
+        }
+    }
+}
+
+impl<const N: usize, const M: usize> Observer<N, M> for Metrics {
+    fn sample(&mut self, s: &SampleView<'_, N, M>) -> Result<()> {
+        let h = self.h;
+        let mut worst: f64 = 0.0;
+        for (i, (x, o)) in s.x.iter().zip(s.out).enumerate() {
+            let a = &mut self.agents[i];
+            let err = (x[0] - s.yd).abs();
+            worst = worst.max(err);
+            a.iae += err * h;
+            a.ise += err * err * h;
+            for v in x {
+                a.peak = a.peak.max(v.abs());
+            }
+            let prev = &mut self.prev_q[i * M..(i + 1) * M];
+            for ((&u, &q), p) in o.u.iter().zip(&o.q).zip(prev.iter_mut()) {
+                let u = f64::from(u);
+                a.max_abs_u = a.max_abs_u.max(u.abs());
+                a.u_energy += u * u * h;
+                if q != *p {
+                    a.changes += 1;
+                    *p = q;
+                    if self.levels && q != 0.0 {
+                        a.levels.insert(q.abs().to_bits());
+                    }
+                }
+            }
+            a.est = [o.estimates.mu, o.estimates.xi, o.estimates.lambda];
+            if o.status.fault.is_some() {
+                a.faults += 1;
+            }
+        }
+        if worst > self.band {
+            self.last_outside = Some(s.k);
+        }
+        if s.k >= self.k_after {
+            self.max_after = Some(self.max_after.map_or(worst, |m| m.max(worst)));
+        }
+        self.seen = s.k + 1;
+        Ok(())
+    }
+}

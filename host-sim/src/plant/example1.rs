@@ -1,0 +1,17 @@
+//! SPEC §8 Example 1: `ẋ_1 = x_2 + 0.8 x_1³`, `ẋ_2 = a_1 + a_2 − 2 x_1² + x_2³ + cos t`.
+
+use super::Plant;
+
+/// The paper's numerical Example 1 (n = 2, m = 2).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Example1;
+
+impl Plant<2, 2> for Example1 {
+    #[inline]
+    fn derivative(&self, t: f64, x: &[f64; 2], a: &[f64; 2]) -> [f64; 2] {
+        [
+            x[1] + 0.8 * x[0] * x[0] * x[0],
+            a[0] + a[1] - 2.0 * x[0] * x[0] + x[1] * x[1] * x[1] + t.cos(),
+        ]
+    }
+}

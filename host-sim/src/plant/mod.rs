@@ -1,0 +1,126 @@
+//! Plants of SPEC §1 (the physical world, `f64`), integrated by RK4 with `substeps` per sample
+//! and the actuator outputs under zero-order hold (faults may vary within a sample).
+//!
+//! To add a model: implement [`Plant`] in a new file and add a [`PlantModel`] variant.
+
+mod example1;
+mod manipulator;
+
+pub use example1::Example1;
+pub use manipulator::Manipulator;
+
+use crate::{
+    error::{Error, Result},
+    scenario::PlantSpec,
+};
+
+/// One agent's dynamics `ẋ = f(t, x, a)` with `a` the actuator outputs `q^f(u_l)` (SPEC §1).
+pub trait Plant<const N: usize, const M: usize> {
+    /// `ẋ` at time `t`, state `x`, actuator outputs `a`.
+    fn derivative(&self, t: f64, x: &[f64; N], a: &[f64; M]) -> [f64; N];
+}
+
+/// One classical RK4 step of length `dt` from `t`; `actuators(t)` gives the outputs at a stage.
+#[inline]
+pub fn rk4<const N: usize, const M: usize, P: Plant<N, M>>(
+    plant: &P,
+    t: f64,
+    x: &mut [f64; N],
+    dt: f64,
+    actuators: impl Fn(f64) -> [f64; M],
+) {
+    let add = |x: &[f64; N], k: &[f64; N], s: f64| -> [f64; N] {
+        let mut y = *x;
+        for (y, k) in y.iter_mut().zip(k) {
+            *y += s * k;
+        }
+        y
+    };
+    let a0 = actuators(t);
+    let am = actuators(t + 0.5 * dt);
+    let a1 = actuators(t + dt);
+    let k1 = plant.derivative(t, x, &a0);
+    let k2 = plant.derivative(t + 0.5 * dt, &add(x, &k1, 0.5 * dt), &am);
+    let k3 = plant.derivative(t + 0.5 * dt, &add(x, &k2, 0.5 * dt), &am);
+    let k4 = plant.derivative(t + dt, &add(x, &k3, dt), &a1);
+    for j in 0..N {
+        x[j] += dt / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]);
+    }
+}
+
+/// The models a scenario can name (`plant.model`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PlantModel {
+    /// SPEC §8 Example 1.
+    Example1(Example1),
+    /// SPEC §8 Example 2: single-link manipulator.
+    Manipulator(Manipulator),
+}
+
+impl PlantModel {
+    /// From `[plant]`; manipulator parameters are rejected for other models.
+    pub fn from_spec(spec: &PlantSpec) -> Result<Self> {
+        let params = [
+            ("inertia", spec.inertia),
+            ("mass", spec.mass),
+            ("gravity", spec.gravity),
+            ("length", spec.length),
+        ];
+        match spec.model.as_str() {
+            "example1" => {
+                if let Some((k, _)) = params.iter().find(|(_, v)| v.is_some()) {
+                    return Err(Error::invalid(
+                        format!("plant.{k}"),
+                        "only for model = \"manipulator\"",
+                    ));
+                }
+                Ok(Self::Example1(Example1))
+            }
+            "manipulator" => {
+                let d = Manipulator::default();
+                let m = Manipulator {
+                    inertia: spec.inertia.unwrap_or(d.inertia),
+                    mass: spec.mass.unwrap_or(d.mass),
+                    gravity: spec.gravity.unwrap_or(d.gravity),
+                    length: spec.length.unwrap_or(d.length),
+                };
+                for (k, v) in [
+                    ("inertia", m.inertia),
+                    ("mass", m.mass),
+                    ("gravity", m.gravity),
+                    ("length", m.length),
+                ] {
+                    if !v.is_finite() {
+                        return Err(Error::invalid(format!("plant.{k}"), "must be finite"));
+                    }
+                }
+                if m.inertia <= 0.0 {
+                    return Err(Error::invalid("plant.inertia", "must be > 0"));
+                }
+                Ok(Self::Manipulator(m))
+            }
+            other => Err(Error::invalid(
+                "plant.model",
+                format!("unknown model \"{other}\" (expected \"example1\" or \"manipulator\")"),
+            )),
+        }
+    }
+
+    /// State order `n`.
+    pub fn n(&self) -> usize {
+        2
+    }
+
+    /// Actuators per agent `m`.
+    pub fn m(&self) -> usize {
+        2
+    }
+
+    /// The scenario name of the model.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Self::Example1(_) => "example1",
+            Self::Manipulator(_) => "manipulator",
+        }
+    }
+}

@@ -1,0 +1,207 @@
+//! Commands on top of the loop: one run with its outputs, the stable-`h` search and the
+//! comparison of two scenarios.
+
+use std::{io::IsTerminal, path::PathBuf};
+
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use serde::Serialize;
+
+use crate::{
+    error::{Error, Result},
+    link::IdealLink,
+    metrics::{Metrics, Summary},
+    plant::{Plant, PlantModel},
+    report::{self, csv::CsvObserver, plots::Recorder},
+    scenario::{self, Scenario, Setup},
+    sim::{Observer, Sim},
+};
+
+/// What a run writes and shows.
+#[derive(Debug, Clone, Default)]
+pub struct RunOptions {
+    /// Output directory (`None`: nothing is written).
+    pub out: Option<PathBuf>,
+    /// Every `decimate`-th sample goes to `trajectory.csv`.
+    pub decimate: u64,
+    /// Draw the figures.
+    pub plots: bool,
+    /// Keep the plot series in the result (for `compare`).
+    pub record: bool,
+    /// Show a progress bar (only on a terminal).
+    pub progress: bool,
+}
+
+/// A finished run.
+#[derive(Debug, Clone)]
+pub struct RunResult {
+    /// The figures of `summary.json`.
+    pub summary: Summary,
+    /// Plot series, when recorded.
+    pub recorder: Option<Recorder>,
+}
+
+/// Runs `setup` without writing anything: the summary only.
+pub fn simulate(setup: &Setup) -> Result<Summary> {
+    run(setup, &RunOptions::default()).map(|r| r.summary)
+}
+
+/// Runs `setup` with the outputs of `opts`; dispatches on the plant's `(n, m)`.
+pub fn run(setup: &Setup, opts: &RunOptions) -> Result<RunResult> {
+    match setup.plant {
+        PlantModel::Example1(p) => run_with::<_, 2, 2>(setup, p, opts),
+        PlantModel::Manipulator(p) => run_with::<_, 2, 2>(setup, p, opts),
+    }
+}
+
+fn progress_bar(samples: u64, show: bool) -> ProgressBar {
+    if !show || !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let pb = ProgressBar::with_draw_target(Some(samples), ProgressDrawTarget::stderr());
+    if let Ok(style) =
+        ProgressStyle::with_template("{bar:40} {pos}/{len} samples  {elapsed} (eta {eta})")
+    {
+        pb.set_style(style);
+    }
+    pb
+}
+
+fn run_with<P: Plant<N, M>, const N: usize, const M: usize>(
+    setup: &Setup,
+    plant: P,
+    opts: &RunOptions,
+) -> Result<RunResult> {
+    let mut sim = Sim::<_, _, N, M>::new(setup, plant, IdealLink)?;
+    let mut metrics = Metrics::new(setup);
+    let mut recorder = (opts.plots || opts.record)
+        .then(|| Recorder::new(setup.samples, setup.agents(), setup.m()));
+    let mut csv = match &opts.out {
+        Some(dir) => {
+            report::create_dir(dir)?;
+            Some(CsvObserver::create(
+                &dir.join("trajectory.csv"),
+                setup.agents(),
+                N,
+                M,
+                opts.decimate.max(1),
+            )?)
+        }
+        None => None,
+    };
+    let pb = progress_bar(setup.samples, opts.progress);
+    let divergence = {
+        let mut obs: Vec<&mut dyn Observer<N, M>> = vec![&mut metrics];
+        if let Some(r) = recorder.as_mut() {
+            obs.push(r);
+        }
+        if let Some(c) = csv.as_mut() {
+            obs.push(c);
+        }
+        sim.run(&mut obs, |k| pb.set_position(k))?
+    };
+    pb.finish_and_clear();
+    let summary = metrics.summary(setup, &sim.gains(), divergence);
+    if let Some(dir) = &opts.out {
+        if let Some(c) = csv {
+            c.finish()?;
+        }
+        let json = serde_json::to_string_pretty(&summary)
+            .map_err(|e| Error::Io(format!("summary.json: {e}")))?;
+        report::write_atomic(&dir.join("summary.json"), format!("{json}\n").as_bytes())?;
+        if opts.plots {
+            if let Some(r) = &recorder {
+                r.draw(dir, setup.predefined_time(), &setup.scenario.name)?;
+            }
+        }
+    }
+    Ok(RunResult { summary, recorder })
+}
+
+/// One trial of the stable-`h` search.
+#[derive(Debug, Clone, Serialize)]
+pub struct Trial {
+    /// Sample period [s].
+    pub h: f64,
+    /// Stable: no divergence and error after `2 T_s` within the band.
+    pub stable: bool,
+    /// `max_error_after_predefined_time`.
+    pub max_error_after_predefined_time: Option<f64>,
+    /// Divergence time, if any.
+    pub diverged_at: Option<f64>,
+}
+
+/// Result of `stable-h`.
+#[derive(Debug, Clone, Serialize)]
+pub struct StableH {
+    /// Largest stable `h` found (null if even `h_min` is unstable).
+    pub largest_stable_h: Option<f64>,
+    /// Smallest unstable `h` found (null if `h_max` is stable).
+    pub smallest_unstable_h: Option<f64>,
+    /// Error band used.
+    pub band: f64,
+    /// Every run, in order.
+    pub trials: Vec<Trial>,
+}
+
+/// Bisection (geometric) over `h ∈ [h_min, h_max]` for the largest stable sample period;
+/// assumes stability is monotone in `h` (each trial is listed so a user can check).
+pub fn stable_h(
+    base: &Scenario,
+    band: f64,
+    h_min: f64,
+    h_max: f64,
+    rel_tol: f64,
+    mut report: impl FnMut(&Trial),
+) -> Result<StableH> {
+    if !(band.is_finite() && band > 0.0) {
+        return Err(Error::invalid("--band", "must be > 0"));
+    }
+    if !(h_min > 0.0 && h_max > h_min && h_max.is_finite()) {
+        return Err(Error::invalid("--h-min/--h-max", "need 0 < h_min < h_max"));
+    }
+    if !(rel_tol > 0.0 && rel_tol.is_finite()) {
+        return Err(Error::invalid("--rel-tol", "must be > 0"));
+    }
+    let mut trials = Vec::new();
+    let mut trial = |h: f64| -> Result<bool> {
+        let mut s = base.clone();
+        s.simulation.h = h;
+        let setup = scenario::validate(s)?;
+        let sum = simulate(&setup)?;
+        let stable = !sum.diverged
+            && sum
+                .max_error_after_predefined_time
+                .is_some_and(|e| e <= band);
+        let t = Trial {
+            h,
+            stable,
+            max_error_after_predefined_time: sum.max_error_after_predefined_time,
+            diverged_at: sum.divergence.map(|d| d.time),
+        };
+        report(&t);
+        trials.push(t);
+        Ok(stable)
+    };
+    let result = if trial(h_max)? {
+        (Some(h_max), None)
+    } else if !trial(h_min)? {
+        (None, Some(h_min))
+    } else {
+        let (mut lo, mut hi) = (h_min, h_max);
+        while hi / lo > 1.0 + rel_tol {
+            let mid = (lo * hi).sqrt();
+            if trial(mid)? {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        (Some(lo), Some(hi))
+    };
+    Ok(StableH {
+        largest_stable_h: result.0,
+        smallest_unstable_h: result.1,
+        band,
+        trials,
+    })
+}

@@ -1,0 +1,210 @@
+//! The closed loop (SPEC §6 on the host): at each sample `t_k = k h` check the plant state,
+//! exchange outputs over the link, step every controller, let observers record, then integrate
+//! each plant over `[t_k, t_k + h)` with the quantized commands held (faults applied per stage).
+
+use controller_core::{Controller, Gains, StepOutput};
+use serde::Serialize;
+
+use crate::{
+    error::{Error, Result},
+    faults::FaultSchedule,
+    graph::Graph,
+    link::{Inbox, LinkModel},
+    plant::{rk4, Plant},
+    scenario::{Leader, Setup},
+};
+
+/// Neighbour capacity `K` of every controller (in-degree limit, [`crate::graph::MAX_NEIGHBOURS`]).
+pub const K: usize = crate::graph::MAX_NEIGHBOURS;
+
+/// Where and when a state first became non-finite or left the divergence bound (SPEC §11).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Divergence {
+    /// `t_k` [s].
+    pub time: f64,
+    /// 1-based agent.
+    pub agent: usize,
+}
+
+/// One sample as observers see it: states at `t_k` and the controllers' outputs of this step.
+#[derive(Debug)]
+pub struct SampleView<'a, const N: usize, const M: usize> {
+    /// Sample index `k`.
+    pub k: u64,
+    /// `t_k = k h`.
+    pub t: f64,
+    /// `y_d(t_k)`.
+    pub yd: f64,
+    /// Plant states at `t_k`.
+    pub x: &'a [[f64; N]],
+    /// Controller outputs of this sample.
+    pub out: &'a [StepOutput<N, M>],
+}
+
+/// Something that records samples (metrics, CSV, plots).
+pub trait Observer<const N: usize, const M: usize> {
+    /// Called once per sample, in order.
+    fn sample(&mut self, s: &SampleView<'_, N, M>) -> Result<()>;
+}
+
+/// The simulated world: plants, link, one controller per agent.
+pub struct Sim<P, L, const N: usize, const M: usize> {
+    graph: Graph,
+    leader: Leader,
+    faults: FaultSchedule,
+    faulty: Vec<bool>,
+    plant: P,
+    link: L,
+    ctrls: Vec<Controller<N, M, K>>,
+    x: Vec<[f64; N]>,
+    q: Vec<[f64; M]>,
+    y: Vec<f32>,
+    inbox: Inbox,
+    out: Vec<StepOutput<N, M>>,
+    h: f64,
+    substeps: u32,
+    bound: f64,
+    samples: u64,
+}
+
+impl<P: Plant<N, M>, L: LinkModel, const N: usize, const M: usize> Sim<P, L, N, M> {
+    /// Builds the controllers and initial states of `setup`.
+    pub fn new(setup: &Setup, plant: P, link: L) -> Result<Self> {
+        let n_agents = setup.agents();
+        let mut ctrls = Vec::with_capacity(n_agents);
+        for i in 0..n_agents {
+            let cfg = setup.controller_config::<N>(i)?;
+            let c = Controller::new(&cfg)
+                .map_err(|e| Error::invalid(format!("controller (agent {})", i + 1), e))?;
+            ctrls.push(c);
+        }
+        let mut x = Vec::with_capacity(n_agents);
+        for (i, row) in setup.x0.iter().enumerate() {
+            let a: [f64; N] = row.as_slice().try_into().map_err(|_| {
+                Error::invalid(
+                    format!("plant.x0[{}]", i + 1),
+                    format!("expected {N} entries"),
+                )
+            })?;
+            x.push(a);
+        }
+        let graph = setup.graph.clone();
+        let inbox = Inbox::new(&graph);
+        let faulty = (0..n_agents).map(|i| setup.faults.any(i)).collect();
+        let sim = &setup.scenario.simulation;
+        Ok(Self {
+            leader: setup.scenario.leader,
+            faults: setup.faults.clone(),
+            faulty,
+            plant,
+            link,
+            ctrls,
+            x,
+            q: vec![[0.0; M]; n_agents],
+            y: vec![0.0; n_agents],
+            inbox,
+            out: Vec::with_capacity(n_agents),
+            h: sim.h,
+            substeps: sim.substeps,
+            bound: sim.divergence_bound,
+            samples: setup.samples,
+            graph,
+        })
+    }
+
+    /// The gains in force (agent 1's; all agents share the design values).
+    pub fn gains(&self) -> Gains {
+        *self.ctrls[0].params().gains()
+    }
+
+    /// The first agent whose state is non-finite or above the bound.
+    fn diverged_agent(&self) -> Option<usize> {
+        self.x
+            .iter()
+            .position(|x| x.iter().any(|v| !v.is_finite() || v.abs() > self.bound))
+    }
+
+    /// Runs all samples; `progress(k)` is called every 1024 samples. Returns the divergence
+    /// that stopped the run, if any.
+    pub fn run(
+        &mut self,
+        observers: &mut [&mut dyn Observer<N, M>],
+        mut progress: impl FnMut(u64),
+    ) -> Result<Option<Divergence>> {
+        for k in 0..self.samples {
+            let t = k as f64 * self.h;
+            if let Some(i) = self.diverged_agent() {
+                return Ok(Some(Divergence {
+                    time: t,
+                    agent: i + 1,
+                }));
+            }
+            let yd = self.control(k, t);
+            let view = SampleView {
+                k,
+                t,
+                yd,
+                x: &self.x,
+                out: &self.out,
+            };
+            for o in observers.iter_mut() {
+                o.sample(&view)?;
+            }
+            self.integrate(t);
+            if k.is_multiple_of(1024) {
+                progress(k);
+            }
+        }
+        progress(self.samples);
+        Ok(self.diverged_agent().map(|i| Divergence {
+            time: self.samples as f64 * self.h,
+            agent: i + 1,
+        }))
+    }
+
+    /// Links, then every controller's step; returns `y_d(t_k)`.
+    fn control(&mut self, k: u64, t: f64) -> f64 {
+        let yd = self.leader.yd(t);
+        for (y, x) in self.y.iter_mut().zip(&self.x) {
+            *y = x[0] as f32;
+        }
+        self.link
+            .exchange(k, t, &self.y, yd as f32, &self.graph, &mut self.inbox);
+        self.out.clear();
+        for (i, c) in self.ctrls.iter_mut().enumerate() {
+            let mut xs = [0.0f32; N];
+            for (d, s) in xs.iter_mut().zip(&self.x[i]) {
+                *d = *s as f32;
+            }
+            let o = c.step(&xs, self.inbox.of(&self.graph, i), self.inbox.leader[i]);
+            for (q, &v) in self.q[i].iter_mut().zip(&o.q) {
+                *q = f64::from(v);
+            }
+            self.out.push(o);
+        }
+        yd
+    }
+
+    /// Every plant over `[t, t + h)`: RK4 substeps, commands held, faults per stage time.
+    fn integrate(&mut self, t: f64) {
+        let dt = self.h / f64::from(self.substeps);
+        for (i, x) in self.x.iter_mut().enumerate() {
+            let q = self.q[i];
+            for s in 0..self.substeps {
+                let ts = t + f64::from(s) * dt;
+                if self.faulty[i] {
+                    let f = &self.faults;
+                    rk4(&self.plant, ts, x, dt, |tt| {
+                        let mut a = q;
+                        for (l, a) in a.iter_mut().enumerate() {
+                            *a = f.apply(i, l, tt, *a);
+                        }
+                        a
+                    });
+                } else {
+                    rk4(&self.plant, ts, x, dt, |_| q);
+                }
+            }
+        }
+    }
+}
