@@ -76,7 +76,15 @@ impl AdaptiveLaws {
 
     #[inline]
     fn euler(&self, x: f32, drive: f32, power: f32) -> f32 {
-        (x + self.h * (drive - self.c1 * power - self.c2 * x)).clamp(0.0, self.max)
+        // `clamp(0, max)` written out: the same result (NaN stays NaN for the finiteness
+        // check) without the `fmaxf`/`fminf` calls it compiles to on a Cortex-M4.
+        let v = x + self.h * (drive - self.c1 * power - self.c2 * x);
+        let v = if v < 0.0 { 0.0 } else { v };
+        if v > self.max {
+            self.max
+        } else {
+            v
+        }
     }
 }
 

@@ -128,20 +128,36 @@ pub struct MtnAccumulator {
 
 impl MtnAccumulator {
     /// Add one input `x`: `h_k ← h_k + x² h_{k−1}` for rising `k`.
+    ///
+    /// Orders 1 and 2 (the examples use 2) are written out: the same operations in the same
+    /// order as the loop, so the same bits, without the loop's bookkeeping on the hot path.
     #[inline]
     pub fn push(&mut self, x: f32) {
         let z = x * x;
-        let mut prev = 1.0;
-        for hk in self.h.iter_mut().take(self.order as usize + 1).skip(1) {
-            *hk += z * prev;
-            prev = *hk;
+        match self.order {
+            1 => self.h[1] += z,
+            2 => {
+                self.h[1] += z;
+                self.h[2] += z * self.h[1];
+            }
+            _ => {
+                let mut prev = 1.0;
+                for hk in self.h.iter_mut().take(self.order as usize + 1).skip(1) {
+                    *hk += z * prev;
+                    prev = *hk;
+                }
+            }
         }
     }
 
     /// `‖Φ‖² = Σ_{k=1..m} h_k` of the inputs pushed so far.
     #[inline]
     pub fn norm_sq(&self) -> f32 {
-        self.h.iter().take(self.order as usize + 1).skip(1).sum()
+        match self.order {
+            1 => self.h[1],
+            2 => self.h[1] + self.h[2],
+            _ => self.h.iter().take(self.order as usize + 1).skip(1).sum(),
+        }
     }
 }
 
@@ -174,6 +190,27 @@ mod tests {
                 );
                 let phi: heapless::Vec<f32, 512> = r.phi(x).unwrap();
                 assert_eq!(phi.len(), r.len(x.len()));
+            }
+        }
+    }
+
+    #[test]
+    fn written_out_orders_equal_the_loop_bit_for_bit() {
+        for order in 1..=2u8 {
+            let mut fast = MtnRegressor::new(order as usize)
+                .map(|r| r.accumulator())
+                .expect("valid order");
+            let mut h = [0.0f32; MAX_MTN_ORDER + 1];
+            for &x in &[0.37f32, -1.9, 1e-3, 42.0, -0.5] {
+                fast.push(x);
+                let z = x * x;
+                let mut prev = 1.0;
+                for hk in h.iter_mut().take(order as usize + 1).skip(1) {
+                    *hk += z * prev;
+                    prev = *hk;
+                }
+                let slow: f32 = h.iter().take(order as usize + 1).skip(1).sum();
+                assert_eq!(fast.norm_sq().to_bits(), slow.to_bits(), "order {order}");
             }
         }
     }

@@ -142,7 +142,13 @@ pub fn scaling(t: f32, t_prescribed: f32, kappa: f32, mu_max: f32) -> f32 {
     if t >= t_prescribed {
         mu_max
     } else {
-        math::powf(t_prescribed / (t_prescribed - t), kappa).min(mu_max)
+        // `min(mu_max)` written out (NaN or ∞ give `mu_max`, as `f32::min` does).
+        let s = math::pow_pos(t_prescribed / (t_prescribed - t), kappa);
+        if s < mu_max {
+            s
+        } else {
+            mu_max
+        }
     }
 }
 

@@ -53,7 +53,9 @@ impl VarpiSchedule {
     /// `ϖ ← max(ϖ e^(−κh), ϖ_min)` (SPEC §6 step 5).
     #[inline]
     pub fn advance(&self, varpi: &mut f32) {
-        *varpi = (*varpi * self.decay_per_sample).max(self.floor);
+        // `max(floor)` written out (a call to `fmaxf` on a Cortex-M4 otherwise).
+        let v = *varpi * self.decay_per_sample;
+        *varpi = if v > self.floor { v } else { self.floor };
     }
 }
 
@@ -63,9 +65,15 @@ mod tests {
 
     #[test]
     fn matches_direct_formula_where_it_does_not_overflow() {
+        // micromath's `sqrt` is an approximation (a few 1e-2 relative).
+        let tol = if cfg!(feature = "micromath") {
+            5e-2
+        } else {
+            1e-6
+        };
         for &(x, w) in &[(0.3f32, 0.1f32), (-2.0, 0.5), (1e-3, 1e-6), (5.0, 5.0)] {
             let direct = x / (x * x + w * w).sqrt();
-            assert!((smooth(x, w) - direct).abs() < 1e-6, "{x} {w}");
+            assert!((smooth(x, w) - direct).abs() < tol, "{x} {w}");
         }
     }
 
