@@ -37,7 +37,8 @@ impl Compiled {
         }
         let mut s = t - self.start;
         if let Some(p) = self.period {
-            s = s.rem_euclid(p);
+            // `rem_euclid` without the slow software `fmod`.
+            s -= p * (s / p).floor();
         }
         self.length.is_none_or(|l| s < l)
     }

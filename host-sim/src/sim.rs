@@ -10,7 +10,7 @@ use crate::{
     faults::FaultSchedule,
     graph::Graph,
     link::{Inbox, LinkModel},
-    plant::{rk4, Plant},
+    plant::{rk4, Plant, Stages},
     scenario::{Leader, Setup},
 };
 
@@ -188,22 +188,24 @@ impl<P: Plant<N, M>, L: LinkModel, const N: usize, const M: usize> Sim<P, L, N, 
     /// Every plant over `[t, t + h)`: RK4 substeps, commands held, faults per stage time.
     fn integrate(&mut self, t: f64) {
         let dt = self.h / f64::from(self.substeps);
-        for (i, x) in self.x.iter_mut().enumerate() {
-            let q = self.q[i];
-            for s in 0..self.substeps {
-                let ts = t + f64::from(s) * dt;
-                if self.faulty[i] {
-                    let f = &self.faults;
-                    rk4(&self.plant, ts, x, dt, |tt| {
+        for s in 0..self.substeps {
+            let t0 = t + f64::from(s) * dt;
+            let times = [t0, t0 + 0.5 * dt, t0 + dt];
+            let time = times.map(|tt| self.plant.at(tt));
+            for (i, x) in self.x.iter_mut().enumerate() {
+                let q = self.q[i];
+                let act = if self.faulty[i] {
+                    times.map(|tt| {
                         let mut a = q;
                         for (l, a) in a.iter_mut().enumerate() {
-                            *a = f.apply(i, l, tt, *a);
+                            *a = self.faults.apply(i, l, tt, *a);
                         }
                         a
-                    });
+                    })
                 } else {
-                    rk4(&self.plant, ts, x, dt, |_| q);
-                }
+                    [q; 3]
+                };
+                rk4(&self.plant, x, dt, &Stages { time, act });
             }
         }
     }

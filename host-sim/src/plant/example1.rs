@@ -7,11 +7,19 @@ use super::Plant;
 pub struct Example1;
 
 impl Plant<2, 2> for Example1 {
+    /// The disturbance `cos t`.
+    type Time = f64;
+
     #[inline]
-    fn derivative(&self, t: f64, x: &[f64; 2], a: &[f64; 2]) -> [f64; 2] {
+    fn at(&self, t: f64) -> f64 {
+        t.cos()
+    }
+
+    #[inline]
+    fn derivative(&self, cos_t: &f64, x: &[f64; 2], a: &[f64; 2]) -> [f64; 2] {
         [
             x[1] + 0.8 * x[0] * x[0] * x[0],
-            a[0] + a[1] - 2.0 * x[0] * x[0] + x[1] * x[1] * x[1] + t.cos(),
+            a[0] + a[1] - 2.0 * x[0] * x[0] + x[1] * x[1] * x[1] + cos_t,
         ]
     }
 }

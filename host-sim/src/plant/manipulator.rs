@@ -27,8 +27,13 @@ impl Default for Manipulator {
 }
 
 impl Plant<2, 2> for Manipulator {
+    type Time = ();
+
     #[inline]
-    fn derivative(&self, _t: f64, x: &[f64; 2], a: &[f64; 2]) -> [f64; 2] {
+    fn at(&self, _t: f64) {}
+
+    #[inline]
+    fn derivative(&self, _t: &(), x: &[f64; 2], a: &[f64; 2]) -> [f64; 2] {
         let torque = a[0] + a[1] - 0.5 * self.mass * self.gravity * self.length * x[0].sin();
         [x[1], torque / self.inertia]
     }

@@ -15,19 +15,34 @@ use crate::{
 };
 
 /// One agent's dynamics `ẋ = f(t, x, a)` with `a` the actuator outputs `q^f(u_l)` (SPEC §1).
+///
+/// The time-only part of `f` (a disturbance such as `cos t`) is computed once per RK4 stage for
+/// all agents by [`Plant::at`]; [`Plant::derivative`] gets it back.
 pub trait Plant<const N: usize, const M: usize> {
-    /// `ẋ` at time `t`, state `x`, actuator outputs `a`.
-    fn derivative(&self, t: f64, x: &[f64; N], a: &[f64; M]) -> [f64; N];
+    /// The terms of `f` that depend on `t` only.
+    type Time: Copy;
+    /// Those terms at time `t`.
+    fn at(&self, t: f64) -> Self::Time;
+    /// `ẋ` at time terms `t`, state `x`, actuator outputs `a`.
+    fn derivative(&self, t: &Self::Time, x: &[f64; N], a: &[f64; M]) -> [f64; N];
 }
 
-/// One classical RK4 step of length `dt` from `t`; `actuators(t)` gives the outputs at a stage.
+/// Stage inputs of one RK4 step: time terms and actuator outputs at `t`, `t + dt/2`, `t + dt`.
+#[derive(Debug, Clone, Copy)]
+pub struct Stages<T, const M: usize> {
+    /// Time terms at the start, midpoint and end.
+    pub time: [T; 3],
+    /// Actuator outputs at the start, midpoint and end.
+    pub act: [[f64; M]; 3],
+}
+
+/// One classical RK4 step of length `dt`.
 #[inline]
 pub fn rk4<const N: usize, const M: usize, P: Plant<N, M>>(
     plant: &P,
-    t: f64,
     x: &mut [f64; N],
     dt: f64,
-    actuators: impl Fn(f64) -> [f64; M],
+    st: &Stages<P::Time, M>,
 ) {
     let add = |x: &[f64; N], k: &[f64; N], s: f64| -> [f64; N] {
         let mut y = *x;
@@ -36,13 +51,12 @@ pub fn rk4<const N: usize, const M: usize, P: Plant<N, M>>(
         }
         y
     };
-    let a0 = actuators(t);
-    let am = actuators(t + 0.5 * dt);
-    let a1 = actuators(t + dt);
-    let k1 = plant.derivative(t, x, &a0);
-    let k2 = plant.derivative(t + 0.5 * dt, &add(x, &k1, 0.5 * dt), &am);
-    let k3 = plant.derivative(t + 0.5 * dt, &add(x, &k2, 0.5 * dt), &am);
-    let k4 = plant.derivative(t + dt, &add(x, &k3, dt), &a1);
+    let [t0, tm, t1] = &st.time;
+    let [a0, am, a1] = &st.act;
+    let k1 = plant.derivative(t0, x, a0);
+    let k2 = plant.derivative(tm, &add(x, &k1, 0.5 * dt), am);
+    let k3 = plant.derivative(tm, &add(x, &k2, 0.5 * dt), am);
+    let k4 = plant.derivative(t1, &add(x, &k3, dt), a1);
     for j in 0..N {
         x[j] += dt / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]);
     }

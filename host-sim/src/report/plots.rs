@@ -92,6 +92,16 @@ pub struct Recorder {
     pub q: Vec<Vec<f64>>,
     /// `μ̂`, `ξ̂`, `λ̂` per plotted agent.
     pub est: [Vec<Vec<f64>>; 3],
+    /// Largest-magnitude `u`, `q` (interleaved) and max error since the last kept sample.
+    peaks: Vec<f64>,
+    peak_err: f64,
+}
+
+/// Keeps the larger-magnitude value.
+fn peak(acc: &mut f64, v: f64) {
+    if v.abs() > acc.abs() || !v.is_finite() {
+        *acc = v;
+    }
 }
 
 impl Recorder {
@@ -110,6 +120,7 @@ impl Recorder {
                 vec![Vec::new(); a],
                 vec![Vec::new(); a],
             ],
+            peaks: vec![0.0; 2 * a * m],
             ..Self::default()
         }
     }
@@ -216,19 +227,30 @@ impl Recorder {
 
 impl<const N: usize, const M: usize> Observer<N, M> for Recorder {
     fn sample(&mut self, s: &SampleView<'_, N, M>) -> Result<()> {
+        // u, q and the error keep the peak of each stride (no spike is lost by decimation).
+        for i in 0..self.agents {
+            let o = &s.out[i];
+            for l in 0..M.min(self.m) {
+                let j = 2 * (i * self.m + l);
+                peak(&mut self.peaks[j], f64::from(o.u[l]));
+                peak(&mut self.peaks[j + 1], f64::from(o.q[l]));
+            }
+        }
+        let worst = s.x.iter().map(|x| (x[0] - s.yd).abs()).fold(0.0, f64::max);
+        self.peak_err = self.peak_err.max(worst);
         if !s.k.is_multiple_of(self.stride) {
             return Ok(());
         }
         self.t.push(s.t);
         self.yd.push(s.yd);
-        let worst = s.x.iter().map(|x| (x[0] - s.yd).abs()).fold(0.0, f64::max);
-        self.max_err.push(worst);
+        self.max_err.push(std::mem::take(&mut self.peak_err));
         for i in 0..self.agents {
             self.y[i].push(s.x[i][0]);
             let o = &s.out[i];
-            for l in 0..M.min(self.m) {
-                self.u[i * self.m + l].push(f64::from(o.u[l]));
-                self.q[i * self.m + l].push(f64::from(o.q[l]));
+            for l in 0..self.m {
+                let j = i * self.m + l;
+                self.u[j].push(std::mem::take(&mut self.peaks[2 * j]));
+                self.q[j].push(std::mem::take(&mut self.peaks[2 * j + 1]));
             }
             self.est[0][i].push(f64::from(o.estimates.mu));
             self.est[1][i].push(f64::from(o.estimates.xi));
@@ -327,7 +349,7 @@ fn draw_panel<DB: DrawingBackend>(
         .draw()?;
     if let Some((t, label)) = &p.vline {
         if *t >= x0 && *t <= x1 {
-            let style = RED.mix(0.8).stroke_width(2);
+            let style = BLACK.mix(0.55).stroke_width(2);
             chart
                 .draw_series(LineSeries::new([(*t, y0), (*t, y1)], style))?
                 .label(label.as_str())
