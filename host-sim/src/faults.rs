@@ -184,7 +184,13 @@ impl FaultSchedule {
                         return Err(Error::invalid(key("agents"), "empty list"));
                     }
                     let mut v = Vec::with_capacity(list.len());
-                    for &a in list {
+                    for (j, &a) in list.iter().enumerate() {
+                        if list[..j].contains(&a) {
+                            return Err(Error::invalid(
+                                key("agents"),
+                                format!("agent {a} listed twice"),
+                            ));
+                        }
                         if a < 1 || a as usize > agents {
                             return Err(Error::invalid(
                                 key("agents"),
@@ -259,5 +265,77 @@ impl FaultSchedule {
             }
         }
         stuck.unwrap_or(gain * q)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rule(
+        actuator: i64,
+        kind: FaultKind,
+        start: f64,
+        period: Option<f64>,
+        length: Option<f64>,
+    ) -> FaultRule {
+        FaultRule {
+            agents: Agents::All,
+            actuator,
+            kind,
+            gain: (kind == FaultKind::Partial).then_some(0.5),
+            bias: None,
+            amplitude: (kind == FaultKind::Stuck).then_some(1.0),
+            omega: (kind == FaultKind::Stuck).then_some(1.0),
+            start,
+            period,
+            length,
+        }
+    }
+
+    #[test]
+    fn spec_windows_are_2_to_4_6_to_8() -> Result<()> {
+        let r = [
+            rule(1, FaultKind::Partial, 2.0, Some(4.0), Some(2.0)),
+            rule(2, FaultKind::Stuck, 2.0, Some(4.0), Some(2.0)),
+        ];
+        let s = FaultSchedule::from_rules(&r, 4, 2, 10.0)?;
+        for (t, active) in [
+            (1.999, false),
+            (2.0, true),
+            (3.999, true),
+            (4.0, false),
+            (6.5, true),
+            (8.0, false),
+        ] {
+            assert_eq!(s.apply(3, 0, t, 1.0) == 0.5, active, "t = {t}");
+            let stuck = s.apply(3, 1, t, 7.0);
+            assert_eq!(stuck == t.sin(), active, "t = {t}");
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn all_actuators_in_total_loss_at_once_is_rejected() {
+        let r = [
+            rule(1, FaultKind::Stuck, 2.0, Some(4.0), Some(2.0)),
+            rule(2, FaultKind::Stuck, 3.5, Some(10.0), Some(0.1)),
+        ];
+        match FaultSchedule::from_rules(&r, 2, 2, 10.0) {
+            Err(e) => assert!(e.to_string().contains("t = 3.5"), "{e}"),
+            Ok(_) => panic!("both actuators stuck on [3.5, 3.6) must be rejected"),
+        }
+        // Disjoint windows are allowed (total loss on alternating actuators).
+        let ok = [
+            rule(1, FaultKind::Stuck, 0.0, Some(2.0), Some(1.0)),
+            rule(2, FaultKind::Stuck, 1.0, Some(2.0), Some(1.0)),
+        ];
+        assert!(FaultSchedule::from_rules(&ok, 2, 2, 10.0).is_ok());
+        // A window beyond t_end does not count.
+        let late = [
+            rule(1, FaultKind::Stuck, 0.0, None, None),
+            rule(2, FaultKind::Stuck, 20.0, None, None),
+        ];
+        assert!(FaultSchedule::from_rules(&late, 2, 2, 10.0).is_ok());
     }
 }

@@ -161,6 +161,9 @@ impl Graph {
             }
         };
         let n = lists.len();
+        if n == 0 {
+            return Err(Error::invalid("graph.neighbours", "no agents"));
+        }
         let mut pinned = vec![false; n];
         for &p in &spec.pinned {
             if p < 1 || p as usize > n {

@@ -777,8 +777,11 @@ pub fn validate(mut scenario: Scenario) -> Result<Setup> {
     let sim = &scenario.simulation;
     positive(sim.h, "simulation.h")?;
     positive(sim.t_end, "simulation.t_end")?;
-    if sim.substeps == 0 {
-        return Err(Error::invalid("simulation.substeps", "must be >= 1"));
+    if sim.substeps == 0 || sim.substeps > 10_000 {
+        return Err(Error::invalid(
+            "simulation.substeps",
+            format!("must lie in 1..=10000 (got {})", sim.substeps),
+        ));
     }
     positive(sim.settle_band, "simulation.settle_band")?;
     positive(sim.divergence_bound, "simulation.divergence_bound")?;
@@ -929,4 +932,40 @@ pub fn validate(mut scenario: Scenario) -> Result<Setup> {
 /// The resolved scenario as TOML (what `check` prints).
 pub fn to_toml(s: &Scenario) -> String {
     toml::to_string(s).unwrap_or_else(|e| format!("# cannot print the scenario: {e}\n"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn serde_indices_become_one_based() {
+        assert_eq!(one_based("faults.rule[0].agents"), "faults.rule[1].agents");
+        assert_eq!(one_based("plant.x0[3][0]"), "plant.x0[4][1]");
+        assert_eq!(one_based("simulation.h"), "simulation.h");
+    }
+
+    #[test]
+    fn set_takes_dotted_keys_and_toml_values() -> Result<()> {
+        let mut t = toml::Table::new();
+        apply_set(&mut t, "controller.ts=1")?;
+        apply_set(&mut t, "plant.model=manipulator")?;
+        apply_set(&mut t, "plant.x0=[[0,0],[1,1]]")?;
+        assert_eq!(t["controller"]["ts"].as_integer(), Some(1));
+        assert_eq!(t["plant"]["model"].as_str(), Some("manipulator"));
+        assert_eq!(t["plant"]["x0"].as_array().map(Vec::len), Some(2));
+        assert!(apply_set(&mut t, "controller.ts.x=1").is_err());
+        assert!(apply_set(&mut t, "novalue").is_err());
+        Ok(())
+    }
+
+    #[test]
+    fn defaults_are_example1() -> Result<()> {
+        let s = parse("", &[])?;
+        assert_eq!(s.agents(), 4);
+        assert_eq!(s.samples, 10_000);
+        assert_eq!(s.predefined_time(), 4.0);
+        assert_eq!(s.graph.neighbours(3), &[0, 2]);
+        Ok(())
+    }
 }
