@@ -239,3 +239,85 @@ impl<const N: usize, const M: usize> Observer<N, M> for Metrics {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use controller_core::{Estimates, StepOutput, StepStatus};
+
+    fn out(u: f32, q: f32) -> StepOutput<2, 2> {
+        StepOutput {
+            u: [u; 2],
+            q: [q; 2],
+            e: [0.0; 2],
+            alpha: [0.0; 2],
+            beta: [0.0; 2],
+            estimates: Estimates {
+                mu: 1.0,
+                xi: 2.0,
+                lambda: 3.0,
+            },
+            varpi: 0.1,
+            status: StepStatus::default(),
+        }
+    }
+
+    /// One agent, h = 1, Ts = 1 (2Ts = 2), band 0.5; errors 1.0, 0.2, 0.8, 0.1, 0.1.
+    fn feed(errors: &[f64]) -> crate::error::Result<Summary> {
+        let text = "[simulation]\nh = 1.0\nt_end = 5.0\nsettle_band = 0.5\n\
+                    [graph]\nneighbours = [[]]\npinned = [1]\n[plant]\nx0 = [[0, 0]]\n\
+                    [controller]\nts = 1.0";
+        let setup = crate::scenario::parse(text, &[])?;
+        let mut m = Metrics::new(&setup);
+        let qs = [0.0f32, 0.5, 0.5, 0.7, 0.5];
+        for (k, (&e, &q)) in errors.iter().zip(&qs).enumerate() {
+            let x = [[e, 0.0]];
+            let o = [out(2.0, q)];
+            let view = SampleView {
+                k: k as u64,
+                t: k as f64,
+                yd: 0.0,
+                x: &x,
+                out: &o,
+            };
+            Observer::<2, 2>::sample(&mut m, &view)?;
+        }
+        let gains = Gains {
+            c1: 1.0,
+            c2: 1.0,
+            k1: 1.0,
+            k2: 1.0,
+        };
+        Ok(m.summary(&setup, &gains, None))
+    }
+
+    #[test]
+    fn definitions_of_scenario_md() -> crate::error::Result<()> {
+        let s = feed(&[1.0, 0.2, 0.8, 0.1, 0.1])?;
+        assert_eq!(
+            s.settling_time,
+            Some(3.0),
+            "t_(k+1) of the last sample outside"
+        );
+        assert_eq!(
+            s.max_error_after_predefined_time,
+            Some(0.8),
+            "over t_k >= 2"
+        );
+        let a = &s.agents[0];
+        assert!((a.iae - 2.2).abs() < 1e-12);
+        assert!((a.u_energy - 5.0 * 2.0 * 4.0).abs() < 1e-9);
+        assert_eq!(
+            a.quantizer_changes,
+            2 * 3,
+            "0->0.5, 0.5->0.7, 0.7->0.5 on both actuators"
+        );
+        assert_eq!(a.levels_used, Some(2));
+        assert_eq!((a.final_mu, a.final_xi, a.final_lambda), (1.0, 2.0, 3.0));
+        let never = feed(&[1.0, 1.0, 1.0, 1.0, 1.0])?;
+        assert_eq!(never.settling_time, None, "last sample outside the band");
+        let always = feed(&[0.1, 0.1, 0.1, 0.1, 0.1])?;
+        assert_eq!(always.settling_time, Some(0.0));
+        Ok(())
+    }
+}
