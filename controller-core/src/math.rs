@@ -7,8 +7,8 @@
 //! `no_std`: with `libm` they are this module's own kernels, accurate to a few ulp (see the
 //! tests), built on one `ln` and one `exp` with short polynomials:
 //!
-//! * `x^y = e^(y ln x)` instead of `libm::powf` (≈ 100 instead of ≈ 200 instructions; `powf`'s
-//!   extra-precise logarithm buys nothing for the small exponents `ζ`, `1 ± ζ` of the law);
+//! * `x^y = 2^(y log₂ x)` instead of `libm::powf` (≈ 70 instead of ≈ 200 instructions; `powf`'s
+//!   extra-precise logarithm buys nothing for the small exponents `ζ`, `κ` of the law);
 //! * `√x` by two Newton steps on `1/√x` from the bit-level estimate and one correction
 //!   (libm's `sqrtf` is an integer software routine);
 //! * `tanh x = 1 − 2/(e^(2x) + 1)`, an odd polynomial near 0.
@@ -60,7 +60,7 @@ pub fn powf(x: f32, y: f32) -> f32 {
     }
 }
 
-/// `x^y` for `x > 0` and a moderate `y` (the law's `ζ`, `κ`): `e^(y ln x)`, the per-step power.
+/// `x^y` for `x > 0` and a moderate `y` (the law's `ζ`, `κ`): `2^(y log₂ x)`, the per-step power.
 /// With `libm` the relative error is within `(2 + |y ln x|)` ulp (≤ 4 ulp for `|e|^ζ` over the
 /// range of the examples). `x = 0` gives 0 for `y > 0`, `x < 0` or NaN gives NaN, `x = ∞`
 /// gives `∞` for `y > 0`.
@@ -76,7 +76,7 @@ pub fn pow_pos(x: f32, y: f32) -> f32 {
     }
     #[cfg(not(feature = "micromath"))]
     {
-        kernel::exp(y * kernel::ln(x))
+        kernel::pow(x, y)
     }
 }
 
@@ -180,100 +180,142 @@ pub fn powi(mut x: f32, mut k: u32) -> f32 {
 /// The accurate per-step kernels of the `libm` build (no table, no integer software routine).
 #[cfg(any(test, not(feature = "micromath")))]
 mod kernel {
-    use core::f32::consts::{LOG2_E, SQRT_2};
+    use core::f32::consts::LOG2_E;
 
-    /// `ln 2` split so that `n · LN2_HI` is exact for `|n| < 2^11`.
-    const LN2_HI: f32 = 0.693_145_75;
-    const LN2_LO: f32 = 1.428_606_8e-6;
-
-    /// Natural logarithm: `x = 2^e m`, `m ∈ [√½, √2)`, `ln m = 2 atanh(s)`, `s = (m−1)/(m+1)`,
-    /// `|s| ≤ 0.172`, series to `s⁹` (truncation < 3e-9 relative).
+    /// `log₂ x`: `x = 2^e m`, `m ∈ [√½, √2)` (split branch-free on the bits),
+    /// `log₂ m = 2 log₂e · atanh(s)`, `s = (m−1)/(m+1)`, `|s| ≤ 0.172`, series to `s⁹`
+    /// (truncation < 3e-9 relative).
     #[inline]
-    pub fn ln(x: f32) -> f32 {
-        if x.is_nan() || x <= 0.0 {
-            return if x == 0.0 {
-                f32::NEG_INFINITY
-            } else {
-                f32::NAN
-            };
+    pub fn log2(x: f32) -> f32 {
+        if !is_positive_normal(x) {
+            return log2_special(x);
         }
-        if x == f32::INFINITY {
-            return x;
-        }
-        let mut bits = x.to_bits();
-        let mut e: i32 = -127;
-        if bits < 0x0080_0000 {
-            // Subnormal: scale by 2^24 first.
-            bits = (x * 16_777_216.0).to_bits();
-            e -= 24;
-        }
-        e += (bits >> 23) as i32;
-        let mut m = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000);
-        if m > SQRT_2 {
-            m *= 0.5;
-            e += 1;
-        }
-        let s = (m - 1.0) / (m + 1.0);
-        let z = s * s;
-        let tail = z * (1.0 / 3.0 + z * (1.0 / 5.0 + z * (1.0 / 7.0 + z * (1.0 / 9.0))));
-        let ef = e as f32;
-        ef * LN2_HI + (2.0 * s + (2.0 * s * tail + ef * LN2_LO))
+        log2_normal(x.to_bits() as i32, 0)
     }
 
-    /// `e^y`: `y = n ln 2 + r`, `|r| ≤ ln2/2`, Taylor to `r⁷` (truncation < 6e-9 relative),
-    /// scaled by `2^n` through the exponent bits (also into the subnormal range).
+    /// Positive, normal and finite: one integer comparison on the bits.
+    #[inline]
+    fn is_positive_normal(x: f32) -> bool {
+        x.to_bits().wrapping_sub(0x0080_0000) < 0x7f80_0000 - 0x0080_0000
+    }
+
+    /// `log₂` of 0, subnormals, negatives, ∞ and NaN.
+    #[cold]
+    fn log2_special(x: f32) -> f32 {
+        if x == 0.0 {
+            f32::NEG_INFINITY
+        } else if x > 0.0 && x < f32::INFINITY {
+            // Subnormal: scaled by 2^24.
+            log2_normal((x * 16_777_216.0).to_bits() as i32, 24)
+        } else if x == f32::INFINITY {
+            x
+        } else {
+            f32::NAN
+        }
+    }
+
+    #[inline]
+    fn log2_normal(bits: i32, bias: i32) -> f32 {
+        // Exponent relative to √½ (0x3f3504f3), so that the mantissa lands in [√½, √2).
+        let e = (bits - 0x3f35_04f3) >> 23;
+        let m = f32::from_bits((bits - (e << 23)) as u32);
+        let s = (m - 1.0) / (m + 1.0);
+        let z = s * s;
+        // 2 log₂e / (2k+1), k = 0..4.
+        let poly = 2.885_390_1
+            + z * (0.961_796_7 + z * (0.577_078_04 + z * (0.412_198_6 + z * 0.320_598_9)));
+        (e - bias) as f32 + s * poly
+    }
+
+    /// `2^t`: `t = n + r`, `|r| ≤ ½` (rounding by the `1.5·2^23` trick), Taylor of `e^(r ln 2)`
+    /// to `r⁷` (truncation < 6e-9 relative), scaled by `2^n` through the exponent bits (also
+    /// into the subnormal range).
+    #[inline]
+    pub fn exp2(t: f32) -> f32 {
+        if super::abs(t) < 126.0 {
+            exp2_scaled(t)
+        } else {
+            exp2_special(t)
+        }
+    }
+
+    /// `2^t` beyond `|t| < 126`: overflow, underflow into subnormals, NaN.
+    #[cold]
+    fn exp2_special(t: f32) -> f32 {
+        if t >= 128.0 || t.is_nan() {
+            t + f32::INFINITY // ∞, or NaN for NaN
+        } else if t < -150.0 {
+            0.0
+        } else if t < 0.0 {
+            // 2^(t+64) · 2^-64.
+            exp2_scaled(t + 64.0) * f32::from_bits(63 << 23)
+        } else {
+            // 2^(t−1) · 2.
+            exp2_scaled(t - 1.0) * 2.0
+        }
+    }
+
+    /// `2^t` for `|t| < 126.5` (normal result).
+    #[inline]
+    fn exp2_scaled(t: f32) -> f32 {
+        const ROUND: f32 = 12_582_912.0;
+        let k = t + ROUND;
+        let n = k.to_bits() as i32 - 0x4b40_0000;
+        let r = t - (k - ROUND);
+        let p = 1.0
+            + r * (0.693_147_2
+                + r * (0.240_226_5
+                    + r * (0.055_504_11
+                        + r * (0.009_618_129
+                            + r * (0.001_333_355_8
+                                + r * (0.000_154_035_3 + r * 0.000_015_252_734))))));
+        p * f32::from_bits(((n + 127) as u32) << 23)
+    }
+
+    /// `x^y = 2^(y log₂ x)` for `x ≥ 0`.
+    #[inline]
+    pub fn pow(x: f32, y: f32) -> f32 {
+        exp2(y * log2(x))
+    }
+
+    /// `e^y = 2^(y log₂e)`.
     #[inline]
     pub fn exp(y: f32) -> f32 {
-        if y > 88.722_84 {
-            return f32::INFINITY;
-        }
-        if y < -103.972_08 {
-            return 0.0;
-        }
-        let t = y * LOG2_E;
-        // Round to nearest (the conversion truncates toward zero). NaN converts to 0 and
-        // propagates through `r`.
-        let n = (t + if t >= 0.0 { 0.5 } else { -0.5 }) as i32;
-        let nf = n as f32;
-        let r = (y - nf * LN2_HI) - nf * LN2_LO;
-        let p = 1.0
-            + r * (1.0
-                + r * (0.5
-                    + r * (1.0 / 6.0
-                        + r * (1.0 / 24.0
-                            + r * (1.0 / 120.0 + r * (1.0 / 720.0 + r * (1.0 / 5040.0)))))));
-        if n >= -126 {
-            // n ≤ 128 here; 2^128 is split in two factors.
-            if n > 127 {
-                p * 2.0 * f32::from_bits(((n - 1 + 127) as u32) << 23)
-            } else {
-                p * f32::from_bits(((n + 127) as u32) << 23)
-            }
-        } else {
-            p * f32::from_bits(((n + 127 + 64) as u32) << 23) * f32::from_bits(63 << 23)
-        }
+        exp2(y * LOG2_E)
     }
 
     /// `√x`: two Newton steps on `1/√x` from the bit-level estimate (relative error ≤ 5e-6),
     /// then one Newton correction of `x · (1/√x)`.
     #[inline]
     pub fn sqrt(x: f32) -> f32 {
-        if !(x > 0.0 && x < f32::INFINITY) {
-            // 0, ∞, NaN; negative → NaN.
-            return if x >= 0.0 { x } else { f32::NAN };
-        }
-        let (xs, k) = if x < 1.0e-30 {
-            // Subnormal-safe: scale by 2^64, the root by 2^-32.
-            (x * 18_446_744_073_709_551_616.0, 2.328_306_4e-10)
+        if is_positive_normal(x) {
+            sqrt_normal(x)
         } else {
-            (x, 1.0)
-        };
+            sqrt_special(x)
+        }
+    }
+
+    /// `√` of 0, subnormals, negatives, ∞ and NaN.
+    #[cold]
+    fn sqrt_special(x: f32) -> f32 {
+        if x > 0.0 && x < f32::INFINITY {
+            // Subnormal: scale by 2^64, the root by 2^-32.
+            sqrt_normal(x * 18_446_744_073_709_551_616.0) * 2.328_306_4e-10
+        } else if x >= 0.0 {
+            x // 0, ∞
+        } else {
+            f32::NAN
+        }
+    }
+
+    #[inline]
+    fn sqrt_normal(xs: f32) -> f32 {
         let h = 0.5 * xs;
         let mut y = f32::from_bits(0x5f37_5a86 - (xs.to_bits() >> 1));
         y *= 1.5 - h * y * y;
         y *= 1.5 - h * y * y;
         let s = xs * y;
-        (s + (xs - s * s) * (0.5 * y)) * k
+        s + (xs - s * s) * (0.5 * y)
     }
 
     /// `tanh x`: odd Taylor polynomial to `x¹¹` for `|x| < 0.3`, `1 − 2/(e^(2|x|) + 1)` up to
@@ -317,37 +359,43 @@ mod tests {
     }
 
     #[test]
-    fn kernel_ln_exp_pow_are_accurate() {
+    fn kernel_log2_exp2_pow_are_accurate() {
         let mut worst = (0.0f64, 0.0f64, 0.0f64);
         for x in sweep(1e-44, 3e38, 200_000) {
-            let l = kernel::ln(x);
-            let want = f64::from(x).ln();
-            // Absolute error near ln x = 0, relative elsewhere.
+            let l = kernel::log2(x);
+            let want = f64::from(x).log2();
+            // Absolute error near log₂ x = 0, relative elsewhere.
             let err = (l as f64 - want).abs() / (f64::from(f32::EPSILON) * want.abs().max(1.0));
             worst.0 = worst.0.max(err);
             for y in [0.1f32, 0.9, 1.1, 1.2, 2.0] {
                 let want = f64::from(x).powf(f64::from(y));
                 if want < 1e37 && want > 1e-37 {
-                    // Rounding y·ln x costs |y ln x| ulp of the result: measure beyond it.
-                    let err = ulps(kernel::exp(y * kernel::ln(x)), want);
+                    // Rounding y·log₂ x costs |y ln x| ulp of the result: measure beyond it.
+                    let err = ulps(kernel::pow(x, y), want);
                     worst.2 = worst.2.max(err / (2.0 + (want.ln()).abs()));
                 }
             }
         }
-        for k in -1_000_000..=1_000_000 {
-            let y = k as f32 * 8.8e-5;
-            worst.1 = worst.1.max(ulps(kernel::exp(y), f64::from(y).exp()));
+        for k in -1_260_000..=1_279_000 {
+            let t = k as f32 * 1e-4;
+            worst.1 = worst.1.max(ulps(kernel::exp2(t), f64::from(t).exp2()));
         }
-        assert!(worst.0 < 2.0, "ln: {} eps", worst.0);
-        assert!(worst.1 < 2.0, "exp: {} ulp", worst.1);
-        // x^y = e^(y ln x): the error grows with |y ln x| (rounding of the product).
+        assert!(worst.0 < 2.0, "log2: {} eps", worst.0);
+        assert!(worst.1 < 2.0, "exp2: {} ulp", worst.1);
+        // x^y = 2^(y log₂ x): the error grows with |y ln x| (rounding of the product).
         assert!(worst.2 < 1.5, "pow: {} ulp per (2 + |y ln x|)", worst.2);
-        assert_eq!(kernel::exp(100.0), f32::INFINITY);
-        assert_eq!(kernel::exp(-200.0), 0.0);
-        assert!(kernel::exp(-100.0) > 0.0 && kernel::exp(-100.0) < 1e-43);
-        assert_eq!(kernel::ln(f32::INFINITY), f32::INFINITY);
-        assert!(kernel::ln(-1.0).is_nan() && kernel::ln(f32::NAN).is_nan());
-        assert!(kernel::exp(f32::NAN).is_nan());
+        assert_eq!(kernel::exp2(128.0), f32::INFINITY);
+        assert_eq!(kernel::exp2(-151.0), 0.0);
+        assert_eq!(kernel::exp2(-149.0), f32::from_bits(1));
+        assert_eq!(kernel::exp2(127.0), 2f32.powi(127));
+        assert_eq!(kernel::log2(f32::INFINITY), f32::INFINITY);
+        assert_eq!(kernel::log2(0.0), f32::NEG_INFINITY);
+        assert_eq!(kernel::pow(0.0, 0.1), 0.0);
+        assert!(kernel::log2(-1.0).is_nan() && kernel::log2(f32::NAN).is_nan());
+        assert!(kernel::exp2(f32::NAN).is_nan() && kernel::pow(f32::NAN, 0.1).is_nan());
+        for y in [-80.0f32, -1.0, 0.0, 0.5, 80.0] {
+            assert!(ulps(kernel::exp(y), f64::from(y).exp()) < 3.0 + f64::from(y.abs()));
+        }
     }
 
     #[test]
@@ -357,13 +405,13 @@ mod tests {
         for zeta in [0.1f32, 0.6] {
             for x in sweep(1e-2, 1e2, 100_000) {
                 let want = f64::from(x).powf(f64::from(zeta));
-                let got = kernel::exp(zeta * kernel::ln(x));
+                let got = kernel::pow(x, zeta);
                 assert!(ulps(got, want) < 4.0, "{x}^{zeta}: {got} vs {want}");
             }
         }
         for x in sweep(1e-6, 1e6, 100_000) {
             let want = f64::from(x).powf(0.1);
-            let got = kernel::exp(0.1 * kernel::ln(x));
+            let got = kernel::pow(x, 0.1);
             assert!(ulps(got, want) < 4.0, "{x}^0.1: {got} vs {want}");
         }
     }
