@@ -8,7 +8,7 @@ use serde::Serialize;
 
 use crate::{
     error::{Error, Result},
-    link::IdealLink,
+    link::{IdealLink, LinkModel},
     metrics::{Metrics, Summary},
     plant::{Plant, PlantModel},
     report::{self, csv::CsvObserver, plots::Recorder},
@@ -45,11 +45,17 @@ pub fn simulate(setup: &Setup) -> Result<Summary> {
     run(setup, &RunOptions::default()).map(|r| r.summary)
 }
 
-/// Runs `setup` with the outputs of `opts`; dispatches on the plant's `(n, m)`.
+/// Runs `setup` with the outputs of `opts` over the ideal link.
 pub fn run(setup: &Setup, opts: &RunOptions) -> Result<RunResult> {
+    run_with_link(setup, opts, IdealLink)
+}
+
+/// Runs `setup` with the outputs of `opts` over `link` (e.g. a bus model); dispatches on the
+/// plant model (and so its `(n, m)`).
+pub fn run_with_link<L: LinkModel>(setup: &Setup, opts: &RunOptions, link: L) -> Result<RunResult> {
     match setup.plant {
-        PlantModel::Example1(p) => run_with::<_, 2, 2>(setup, p, opts),
-        PlantModel::Manipulator(p) => run_with::<_, 2, 2>(setup, p, opts),
+        PlantModel::Example1(p) => run_with::<_, _, 2, 2>(setup, p, link, opts),
+        PlantModel::Manipulator(p) => run_with::<_, _, 2, 2>(setup, p, link, opts),
     }
 }
 
@@ -66,12 +72,13 @@ fn progress_bar(samples: u64, show: bool) -> ProgressBar {
     pb
 }
 
-fn run_with<P: Plant<N, M>, const N: usize, const M: usize>(
+fn run_with<P: Plant<N, M>, L: LinkModel, const N: usize, const M: usize>(
     setup: &Setup,
     plant: P,
+    link: L,
     opts: &RunOptions,
 ) -> Result<RunResult> {
-    let mut sim = Sim::<_, _, N, M>::new(setup, plant, IdealLink)?;
+    let mut sim = Sim::<_, _, N, M>::new(setup, plant, link)?;
     let mut metrics = Metrics::new(setup);
     let mut recorder = (opts.plots || opts.record)
         .then(|| Recorder::new(setup.samples, setup.agents(), setup.m()));
