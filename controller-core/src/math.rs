@@ -222,7 +222,7 @@ mod kernel {
         let s = (m - 1.0) / (m + 1.0);
         let z = s * s;
         // 2 log₂e / (2k+1), k = 0..4.
-        let poly = 2.885_390_1
+        let poly = 2.0 * LOG2_E
             + z * (0.961_796_7 + z * (0.577_078_04 + z * (0.412_198_6 + z * 0.320_598_9)));
         (e - bias) as f32 + s * poly
     }
@@ -263,7 +263,7 @@ mod kernel {
         let n = k.to_bits() as i32 - 0x4b40_0000;
         let r = t - (k - ROUND);
         let p = 1.0
-            + r * (0.693_147_2
+            + r * (core::f32::consts::LN_2
                 + r * (0.240_226_5
                     + r * (0.055_504_11
                         + r * (0.009_618_129
