@@ -232,9 +232,16 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
             *d = p.differentiator.next(d, a);
         }
 
-        let finite = sig.u.is_finite()
-            && estimates.is_finite()
-            && differentiators.iter().all(DifferentiatorState::is_finite);
+        // All finite: `v − v` is 0 for a finite `v` and NaN for ±∞ or NaN, so one comparison of
+        // the sum replaces a test per value.
+        let mut probe = (sig.u - sig.u)
+            + (estimates.mu - estimates.mu)
+            + (estimates.xi - estimates.xi)
+            + (estimates.lambda - estimates.lambda);
+        for d in &differentiators {
+            probe += (d.chi1 - d.chi1) + (d.chi2 - d.chi2);
+        }
+        let finite = probe == 0.0;
         if !finite {
             return held(s, varpi, StepFault::NonFiniteResult, links);
         }
