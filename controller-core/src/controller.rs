@@ -232,14 +232,12 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
             *d = p.differentiator.next(d, a);
         }
 
-        // All finite: `v − v` is 0 for a finite `v` and NaN for ±∞ or NaN, so one comparison of
-        // the sum replaces a test per value.
-        let mut probe = (sig.u - sig.u)
-            + (estimates.mu - estimates.mu)
-            + (estimates.xi - estimates.xi)
-            + (estimates.lambda - estimates.lambda);
+        // All finite: `0·v` is ±0 for a finite `v` and NaN for ±∞ or NaN, so one comparison
+        // of the sum replaces a test per value.
+        let mut probe =
+            0.0 * sig.u + 0.0 * estimates.mu + 0.0 * estimates.xi + 0.0 * estimates.lambda;
         for d in &differentiators {
-            probe += (d.chi1 - d.chi1) + (d.chi2 - d.chi2);
+            probe += 0.0 * d.chi1 + 0.0 * d.chi2;
         }
         let finite = probe == 0.0;
         if !finite {
