@@ -6,8 +6,10 @@
 //!   function (literal pools, marked by the `$d` mapping symbols, are skipped). Panic paths
 //!   (`core::panicking`, `core::fmt`, …: the formatting machinery) are not followed or counted;
 //!   `memcpy` / `fminf`-style helpers the step calls are.
-//! * Read-only data: the named `.rodata` objects of controller-core, libm and micromath (e.g.
-//!   libm's `RSQRT_TAB`). Constants kept in literal pools are inside the function sizes.
+//! * Read-only data: the named `.rodata` objects of controller-core, and those of libm or
+//!   micromath when a function of that crate is reached (e.g. libm's `RSQRT_TAB` with
+//!   `sqrtf`). Constants kept in literal pools are inside the function sizes. A table used
+//!   only by a libm routine that LTO inlined into the step would be missed; none is here.
 //!
 //! Not counted: the vector table, the runtime, the benchmark loops and the semihosting output.
 
@@ -151,7 +153,22 @@ pub fn controller_flash(data: &[u8]) -> Result<Flash> {
             size: f.size,
         })
         .collect();
-    symbols.extend(rodata);
+    // Read-only tables of a math crate count when one of its functions is reached (they are
+    // inlined into the step, or called); controller-core's always (the step is its code).
+    let reached_crates: BTreeSet<String> = symbols
+        .iter()
+        .filter_map(|f| f.name.trim_start_matches('<').split("::").next())
+        .map(str::to_owned)
+        .collect();
+    symbols.extend(rodata.into_iter().filter(|d| {
+        let krate = d
+            .name
+            .trim_start_matches('<')
+            .split("::")
+            .next()
+            .unwrap_or("");
+        krate == "controller_core" || reached_crates.contains(krate)
+    }));
     symbols.sort_by(|a, b| b.size.cmp(&a.size).then(a.name.cmp(&b.name)));
     let total = symbols.iter().map(|s| s.size).sum();
     Ok(Flash { total, symbols })
