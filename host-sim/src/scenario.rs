@@ -4,7 +4,7 @@
 use std::{fmt, path::Path};
 
 use controller_core::{
-    BaselineConfig, Controller, ControllerConfig, GainSelection, QuantizerConfig,
+    BaselineConfig, ConfigError, Controller, ControllerConfig, GainSelection, QuantizerConfig,
     QuantizerDirection, SchemeConfig,
 };
 use serde::{de, Deserialize, Deserializer, Serialize, Serializer};
@@ -528,8 +528,9 @@ impl Setup {
     fn check_controllers_of<const N: usize, const M: usize>(&self) -> Result<()> {
         for i in 0..self.agents() {
             let cfg = self.controller_config::<N>(i)?;
-            Controller::<N, M, MAX_NEIGHBOURS>::new(&cfg)
-                .map_err(|e| Error::invalid(format!("controller (agent {})", i + 1), e))?;
+            Controller::<N, M, MAX_NEIGHBOURS>::new(&cfg).map_err(|e| {
+                Error::invalid(config_error_key(&e, i), format!("{e} (agent {})", i + 1))
+            })?;
         }
         Ok(())
     }
@@ -631,6 +632,39 @@ impl Setup {
     }
 }
 
+/// The scenario key behind a controller-core [`ConfigError`] of agent `i` (0-based): the
+/// controller names its own parameter, the user wrote a dotted key.
+fn config_error_key(e: &ConfigError, i: usize) -> String {
+    let param = |p: &str| match p {
+        "h" => "simulation.h".to_string(),
+        "rho" | "u_min" => format!("quantizer.{p}"),
+        p => format!("controller.{p}"),
+    };
+    match *e {
+        ConfigError::NonFinite(p) | ConfigError::NonPositive(p) | ConfigError::Negative(p) => {
+            param(p)
+        }
+        ConfigError::ZetaOutOfRange => param("zeta"),
+        ConfigError::NonPositiveTs => param("ts"),
+        ConfigError::NonPositiveSamplePeriod => param("h"),
+        ConfigError::RhoOutOfRange => param("rho"),
+        ConfigError::NonPositiveUMin => param("u_min"),
+        ConfigError::NonPositivePhiLow { step } | ConfigError::PhiLowAbovePhiUp { step } => {
+            format!("controller.phi_low[{step}]")
+        }
+        ConfigError::ZeroACheck { step } => format!("controller.a_check[{step}]"),
+        ConfigError::ZeroMtnOrder | ConfigError::MtnOrderTooLarge => param("mtn_order"),
+        ConfigError::TooManyNeighbours | ConfigError::Isolated => {
+            format!("graph.neighbours[{}]", i + 1)
+        }
+        ConfigError::VarpiMinOutOfRange => param("varpi_min"),
+        ConfigError::InitialEstimateAboveMax => param("estimate_max"),
+        ConfigError::MuMaxBelowOne => param("mu_max"),
+        ConfigError::ZeroStateOrder => "plant.model".into(),
+        _ => "controller".into(),
+    }
+}
+
 /// Reads a scenario file, applies `--set key=value` overrides and validates it.
 pub fn load(path: &Path, sets: &[String]) -> Result<Setup> {
     let text = match std::fs::read_to_string(path) {
@@ -639,6 +673,12 @@ pub fn load(path: &Path, sets: &[String]) -> Result<Setup> {
             return Err(Error::invalid(
                 format!("scenario file {}", path.display()),
                 "not found",
+            ))
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::InvalidData => {
+            return Err(Error::invalid(
+                format!("scenario file {}", path.display()),
+                "not UTF-8 text",
             ))
         }
         Err(e) => return Err(Error::io(path, e)),
@@ -814,6 +854,20 @@ pub fn validate(mut scenario: Scenario) -> Result<Setup> {
     ] {
         finite(v, k)?;
     }
+    // y_d goes to the controllers as f32 and into the CSV: it must stay finite over the run.
+    let peak = l.amplitude.abs() + l.offset.abs();
+    if peak > f64::from(f32::MAX) {
+        return Err(Error::invalid(
+            "leader.amplitude",
+            format!("|amplitude| + |offset| = {peak:e} does not fit the controller's f32"),
+        ));
+    }
+    if !(l.omega.abs() * sim.t_end + l.phase.abs()).is_finite() {
+        return Err(Error::invalid(
+            "leader.omega",
+            "omega * t_end overflows (y_d would be NaN)",
+        ));
+    }
     let c = &scenario.controller;
     positive(c.ts, "controller.ts")?;
     if !(c.zeta > 0.0 && c.zeta < 1.0) {
@@ -909,6 +963,15 @@ pub fn validate(mut scenario: Scenario) -> Result<Setup> {
         }
         for v in row {
             finite(*v, &format!("plant.x0[{}]", i + 1))?;
+            if v.abs() > sim.divergence_bound {
+                return Err(Error::invalid(
+                    format!("plant.x0[{}]", i + 1),
+                    format!(
+                        "|{v:e}| is above simulation.divergence_bound = {:e}",
+                        sim.divergence_bound
+                    ),
+                ));
+            }
         }
     }
     let faults = if scenario.faults.enabled {
