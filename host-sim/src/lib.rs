@@ -7,7 +7,7 @@
 //! controller `f32`.
 //!
 //! Layers: [`scenario`] (TOML, `--set`, validation) → [`graph`], [`plant`], [`faults`],
-//! [`link`] → [`sim`] (the loop) → [`metrics`], [`report`] → [`run`] (commands).
+//! [`link`] or [`network`] → [`sim`] (the loop) → [`metrics`], [`report`] → [`run`] (commands).
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
@@ -17,6 +17,7 @@ pub mod faults;
 pub mod graph;
 pub mod link;
 pub mod metrics;
+pub mod network;
 pub mod plant;
 pub mod report;
 pub mod run;

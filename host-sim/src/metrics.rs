@@ -8,6 +8,7 @@ use serde::Serialize;
 
 use crate::{
     error::Result,
+    network::NetworkSummary,
     scenario::Setup,
     sim::{Divergence, Observer, SampleView},
 };
@@ -86,6 +87,9 @@ pub struct Summary {
     pub divergence: Option<Divergence>,
     /// Per agent.
     pub agents: Vec<AgentSummary>,
+    /// Network figures (`[network] kind = "can"`); absent for the ideal link.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub network: Option<NetworkSummary>,
 }
 
 #[derive(Debug, Clone)]
@@ -194,6 +198,7 @@ impl Metrics {
             diverged: divergence.is_some(),
             divergence,
             agents,
+            network: None,
         }
     }
 }

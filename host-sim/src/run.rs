@@ -10,10 +10,11 @@ use crate::{
     error::{Error, Result},
     link::{IdealLink, LinkModel},
     metrics::{Metrics, Summary},
+    network::{CanAgents, NetworkKind},
     plant::{Plant, PlantModel},
     report::{self, csv::CsvObserver, plots::Recorder},
     scenario::{self, Scenario, Setup},
-    sim::{Observer, Sim},
+    sim::{Agents, Linked, Observer, Sim},
 };
 
 /// What a run writes and shows.
@@ -45,17 +46,32 @@ pub fn simulate(setup: &Setup) -> Result<Summary> {
     run(setup, &RunOptions::default()).map(|r| r.summary)
 }
 
-/// Runs `setup` with the outputs of `opts` over the ideal link.
+/// Runs `setup` with the outputs of `opts` over the network of its `[network]` section: the
+/// ideal link, or firmware nodes over the CAN bus.
 pub fn run(setup: &Setup, opts: &RunOptions) -> Result<RunResult> {
-    run_with_link(setup, opts, IdealLink)
+    match setup.scenario.network.kind {
+        NetworkKind::Ideal => run_with_link(setup, opts, IdealLink),
+        NetworkKind::Can => match setup.plant {
+            PlantModel::Example1(p) => {
+                run_with::<_, _, 2, 2>(setup, p, CanAgents::new(setup)?, opts)
+            }
+            PlantModel::Manipulator(p) => {
+                run_with::<_, _, 2, 2>(setup, p, CanAgents::new(setup)?, opts)
+            }
+        },
+    }
 }
 
-/// Runs `setup` with the outputs of `opts` over `link` (e.g. a bus model); dispatches on the
-/// plant model (and so its `(n, m)`).
+/// Runs `setup` with the outputs of `opts`, host-sim's controllers over `link` (e.g. a bus
+/// model; `[network]` is not consulted); dispatches on the plant model (and so its `(n, m)`).
 pub fn run_with_link<L: LinkModel>(setup: &Setup, opts: &RunOptions, link: L) -> Result<RunResult> {
     match setup.plant {
-        PlantModel::Example1(p) => run_with::<_, _, 2, 2>(setup, p, link, opts),
-        PlantModel::Manipulator(p) => run_with::<_, _, 2, 2>(setup, p, link, opts),
+        PlantModel::Example1(p) => {
+            run_with::<_, _, 2, 2>(setup, p, Linked::new(setup, link)?, opts)
+        }
+        PlantModel::Manipulator(p) => {
+            run_with::<_, _, 2, 2>(setup, p, Linked::new(setup, link)?, opts)
+        }
     }
 }
 
@@ -72,13 +88,13 @@ fn progress_bar(samples: u64, show: bool) -> ProgressBar {
     pb
 }
 
-fn run_with<P: Plant<N, M>, L: LinkModel, const N: usize, const M: usize>(
+fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
     setup: &Setup,
     plant: P,
-    link: L,
+    agents: A,
     opts: &RunOptions,
 ) -> Result<RunResult> {
-    let mut sim = Sim::<_, _, N, M>::new(setup, plant, link)?;
+    let mut sim = Sim::<_, _, N, M>::with_agents(setup, plant, agents)?;
     let mut metrics = Metrics::new(setup);
     let mut recorder = (opts.plots || opts.record)
         .then(|| Recorder::new(setup.samples, setup.agents(), setup.m()));
@@ -107,7 +123,8 @@ fn run_with<P: Plant<N, M>, L: LinkModel, const N: usize, const M: usize>(
         sim.run(&mut obs, |k| pb.set_position(k))?
     };
     pb.finish_and_clear();
-    let summary = metrics.summary(setup, &sim.gains(), divergence);
+    let mut summary = metrics.summary(setup, &sim.gains(), divergence);
+    summary.network = sim.agents().network();
     if let Some(dir) = &opts.out {
         if let Some(c) = csv {
             c.finish()?;

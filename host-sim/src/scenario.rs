@@ -13,6 +13,7 @@ use crate::{
     error::{Error, Result},
     faults::FaultSchedule,
     graph::{Graph, MAX_NEIGHBOURS},
+    network::NetworkSpec,
     plant::PlantModel,
 };
 
@@ -36,6 +37,9 @@ pub struct Scenario {
     pub quantizer: QuantizerSpec,
     /// `[faults]`.
     pub faults: FaultsSpec,
+    /// `[network]` (added by this project: `docs/NETWORK.md`); left out of `check` when ideal.
+    #[serde(skip_serializing_if = "NetworkSpec::is_default")]
+    pub network: NetworkSpec,
 }
 
 impl Default for Scenario {
@@ -49,6 +53,7 @@ impl Default for Scenario {
             controller: ControllerSpec::default(),
             quantizer: QuantizerSpec::default(),
             faults: FaultsSpec::default(),
+            network: NetworkSpec::default(),
         }
     }
 }
@@ -974,6 +979,7 @@ pub fn validate(mut scenario: Scenario) -> Result<Setup> {
             }
         }
     }
+    crate::network::validate(&scenario.network, graph.len(), sim.h, sim.t_end)?;
     let faults = if scenario.faults.enabled {
         FaultSchedule::from_rules(&scenario.faults.rule, graph.len(), m, sim.t_end)?
     } else {

@@ -1,6 +1,10 @@
 //! The closed loop (SPEC §6 on the host): at each sample `t_k = k h` check the plant state,
 //! exchange outputs over the link, step every controller, let observers record, then integrate
 //! each plant over `[t_k, t_k + h)` with the quantized commands held (faults applied per stage).
+//!
+//! Who computes the commands is an [`Agents`]: host-sim's own controllers fed through a
+//! [`LinkModel`] ([`Linked`]), or firmware nodes over a simulated bus
+//! ([`crate::network::CanAgents`]).
 
 use controller_core::{Controller, Gains, StepOutput};
 use serde::Serialize;
@@ -47,29 +51,31 @@ pub trait Observer<const N: usize, const M: usize> {
     fn sample(&mut self, s: &SampleView<'_, N, M>) -> Result<()>;
 }
 
-/// The simulated world: plants, link, one controller per agent.
-pub struct Sim<P, L, const N: usize, const M: usize> {
-    graph: Graph,
-    leader: Leader,
-    faults: FaultSchedule,
-    faulty: Vec<bool>,
-    plant: P,
-    link: L,
-    ctrls: Vec<Controller<N, M, K>>,
-    x: Vec<[f64; N]>,
-    q: Vec<[f64; M]>,
-    y: Vec<f32>,
-    inbox: Inbox,
-    out: Vec<StepOutput<N, M>>,
-    h: f64,
-    substeps: u32,
-    bound: f64,
-    samples: u64,
+/// Who turns the sampled states into commands, one [`StepOutput`] per agent per sample.
+pub trait Agents<const N: usize, const M: usize> {
+    /// Sample `k` at `t`: plant states `x` and `y_d(t)`; pushes one output per agent, in agent
+    /// order, onto the (cleared) `out`. The plant holds each output's `q` over `[t, t + h)`.
+    fn control(&mut self, k: u64, t: f64, x: &[[f64; N]], yd: f64, out: &mut Vec<StepOutput<N, M>>);
+    /// The gains in force (agent 1's; all agents share the design values).
+    fn gains(&self) -> Gains;
+    /// Network figures for `summary.json` (none for a link model).
+    fn network(&self) -> Option<crate::network::NetworkSummary> {
+        None
+    }
 }
 
-impl<P: Plant<N, M>, L: LinkModel, const N: usize, const M: usize> Sim<P, L, N, M> {
-    /// Builds the controllers and initial states of `setup`.
-    pub fn new(setup: &Setup, plant: P, link: L) -> Result<Self> {
+/// host-sim's own controllers, one per agent, hearing each other through a [`LinkModel`].
+pub struct Linked<L, const N: usize, const M: usize> {
+    graph: Graph,
+    link: L,
+    ctrls: Vec<Controller<N, M, K>>,
+    y: Vec<f32>,
+    inbox: Inbox,
+}
+
+impl<L: LinkModel, const N: usize, const M: usize> Linked<L, N, M> {
+    /// One controller per agent of `setup`, over `link`.
+    pub fn new(setup: &Setup, link: L) -> Result<Self> {
         let n_agents = setup.agents();
         let mut ctrls = Vec::with_capacity(n_agents);
         for i in 0..n_agents {
@@ -78,6 +84,72 @@ impl<P: Plant<N, M>, L: LinkModel, const N: usize, const M: usize> Sim<P, L, N, 
                 .map_err(|e| Error::invalid(format!("controller (agent {})", i + 1), e))?;
             ctrls.push(c);
         }
+        let graph = setup.graph.clone();
+        Ok(Self {
+            inbox: Inbox::new(&graph),
+            link,
+            ctrls,
+            y: vec![0.0; n_agents],
+            graph,
+        })
+    }
+}
+
+impl<L: LinkModel, const N: usize, const M: usize> Agents<N, M> for Linked<L, N, M> {
+    fn control(
+        &mut self,
+        k: u64,
+        t: f64,
+        x: &[[f64; N]],
+        yd: f64,
+        out: &mut Vec<StepOutput<N, M>>,
+    ) {
+        for (y, x) in self.y.iter_mut().zip(x) {
+            *y = x[0] as f32;
+        }
+        self.link
+            .exchange(k, t, &self.y, yd as f32, &self.graph, &mut self.inbox);
+        for (i, c) in self.ctrls.iter_mut().enumerate() {
+            let mut xs = [0.0f32; N];
+            for (d, s) in xs.iter_mut().zip(&x[i]) {
+                *d = *s as f32;
+            }
+            out.push(c.step(&xs, self.inbox.of(&self.graph, i), self.inbox.leader[i]));
+        }
+    }
+
+    fn gains(&self) -> Gains {
+        *self.ctrls[0].params().gains()
+    }
+}
+
+/// The simulated world: plants and the agents (controllers and their network).
+pub struct Sim<P, A, const N: usize, const M: usize> {
+    leader: Leader,
+    faults: FaultSchedule,
+    faulty: Vec<bool>,
+    plant: P,
+    agents: A,
+    x: Vec<[f64; N]>,
+    q: Vec<[f64; M]>,
+    out: Vec<StepOutput<N, M>>,
+    h: f64,
+    substeps: u32,
+    bound: f64,
+    samples: u64,
+}
+
+impl<P: Plant<N, M>, L: LinkModel, const N: usize, const M: usize> Sim<P, Linked<L, N, M>, N, M> {
+    /// Builds the controllers (over `link`) and initial states of `setup`.
+    pub fn new(setup: &Setup, plant: P, link: L) -> Result<Self> {
+        Self::with_agents(setup, plant, Linked::new(setup, link)?)
+    }
+}
+
+impl<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize> Sim<P, A, N, M> {
+    /// Builds the initial states of `setup`; `agents` compute the commands.
+    pub fn with_agents(setup: &Setup, plant: P, agents: A) -> Result<Self> {
+        let n_agents = setup.agents();
         let mut x = Vec::with_capacity(n_agents);
         for (i, row) in setup.x0.iter().enumerate() {
             let a: [f64; N] = row.as_slice().try_into().map_err(|_| {
@@ -88,8 +160,6 @@ impl<P: Plant<N, M>, L: LinkModel, const N: usize, const M: usize> Sim<P, L, N, 
             })?;
             x.push(a);
         }
-        let graph = setup.graph.clone();
-        let inbox = Inbox::new(&graph);
         let faulty = (0..n_agents).map(|i| setup.faults.any(i)).collect();
         let sim = &setup.scenario.simulation;
         Ok(Self {
@@ -97,24 +167,25 @@ impl<P: Plant<N, M>, L: LinkModel, const N: usize, const M: usize> Sim<P, L, N, 
             faults: setup.faults.clone(),
             faulty,
             plant,
-            link,
-            ctrls,
+            agents,
             x,
             q: vec![[0.0; M]; n_agents],
-            y: vec![0.0; n_agents],
-            inbox,
             out: Vec::with_capacity(n_agents),
             h: sim.h,
             substeps: sim.substeps,
             bound: sim.divergence_bound,
             samples: setup.samples,
-            graph,
         })
     }
 
     /// The gains in force (agent 1's; all agents share the design values).
     pub fn gains(&self) -> Gains {
-        *self.ctrls[0].params().gains()
+        self.agents.gains()
+    }
+
+    /// The agents (e.g. to read network statistics after a run).
+    pub fn agents(&self) -> &A {
+        &self.agents
     }
 
     /// The first agent whose state is non-finite or above the bound.
@@ -162,25 +233,15 @@ impl<P: Plant<N, M>, L: LinkModel, const N: usize, const M: usize> Sim<P, L, N, 
         }))
     }
 
-    /// Links, then every controller's step; returns `y_d(t_k)`.
+    /// Every agent's step (links included); returns `y_d(t_k)`.
     fn control(&mut self, k: u64, t: f64) -> f64 {
         let yd = self.leader.yd(t);
-        for (y, x) in self.y.iter_mut().zip(&self.x) {
-            *y = x[0] as f32;
-        }
-        self.link
-            .exchange(k, t, &self.y, yd as f32, &self.graph, &mut self.inbox);
         self.out.clear();
-        for (i, c) in self.ctrls.iter_mut().enumerate() {
-            let mut xs = [0.0f32; N];
-            for (d, s) in xs.iter_mut().zip(&self.x[i]) {
-                *d = *s as f32;
-            }
-            let o = c.step(&xs, self.inbox.of(&self.graph, i), self.inbox.leader[i]);
-            for (q, &v) in self.q[i].iter_mut().zip(&o.q) {
+        self.agents.control(k, t, &self.x, yd, &mut self.out);
+        for (q, o) in self.q.iter_mut().zip(&self.out) {
+            for (q, &v) in q.iter_mut().zip(&o.q) {
                 *q = f64::from(v);
             }
-            self.out.push(o);
         }
         yd
     }

@@ -1,0 +1,434 @@
+//! `[network]`: how the agents talk. `kind = "ideal"` (the default) is host-sim's
+//! [`crate::link::IdealLink`]; `kind = "can"` runs every agent as a `hil-mock` firmware
+//! [`hil_mock::Node`] (its own controller, freshness policy and Q7.16 frames) on mocked hardware
+//! over `hil-mock`'s CAN-like bus, via [`hil_mock::network::CanNetwork`]. The plant, faults,
+//! metrics and outputs are the simulator's, unchanged; `summary.json` gains a `network` object
+//! ([`NetworkSummary`]). The model and its figures: `docs/NETWORK.md`.
+
+use controller_core::{Gains, StepOutput};
+use hil_mock::{
+    bus::{BusConfig, BusEvent, EventKind, Nanos},
+    network::{AgentSetup, CanNetwork},
+    NodeConfig,
+};
+use serde::{Deserialize, Serialize};
+
+use crate::{
+    error::{Error, Result},
+    scenario::Setup,
+    sim::{Agents, K},
+};
+
+/// `network.kind`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum NetworkKind {
+    /// Every agent sees its neighbours' outputs of the same instant.
+    #[default]
+    Ideal,
+    /// Firmware nodes over the simulated CAN bus.
+    Can,
+}
+
+impl NetworkKind {
+    /// The TOML spelling.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Ideal => "ideal",
+            Self::Can => "can",
+        }
+    }
+}
+
+/// `network.event[].kind`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum EventName {
+    /// The node's frames never reach the bus (it still receives and controls).
+    Silent,
+    /// The node floods frames with identifier `id` (default 0, the highest priority).
+    Babbling,
+}
+
+/// One `[[network.event]]`: a node silent or babbling on `[from, until)`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NetworkEvent {
+    /// 1-based agent (or give `node`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub agent: Option<i64>,
+    /// Bus node: 0 is the leader, `i` is agent `i` (or give `agent`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub node: Option<i64>,
+    /// `silent` or `babbling`.
+    pub kind: EventName,
+    /// Babbling only: 11-bit identifier of the flood (default 0).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub id: Option<i64>,
+    /// Start [s] (inclusive).
+    #[serde(default)]
+    pub from: f64,
+    /// End [s] (exclusive); absent: until the end of the run.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub until: Option<f64>,
+}
+
+/// `[network]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NetworkSpec {
+    /// `"ideal"` or `"can"`.
+    pub kind: NetworkKind,
+    /// Bit rate [bit/s].
+    pub bitrate: i64,
+    /// From end-of-frame to delivery at the receivers [s].
+    pub latency: f64,
+    /// Probability that a frame reaches no receiver.
+    pub loss: f64,
+    /// Probability that a transmission is corrupted (CRC error, error frame, retransmission).
+    pub corruption: f64,
+    /// A neighbour value older than this is `Stale` [s]; absent: `2.5 h`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stale_timeout: Option<f64>,
+    /// Seed of the loss and corruption random numbers.
+    pub seed: i64,
+    /// Silent and babbling nodes.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub event: Vec<NetworkEvent>,
+}
+
+impl Default for NetworkSpec {
+    fn default() -> Self {
+        Self {
+            kind: NetworkKind::Ideal,
+            bitrate: 1_000_000,
+            latency: 0.0,
+            loss: 0.0,
+            corruption: 0.0,
+            stale_timeout: None,
+            seed: 0,
+            event: Vec::new(),
+        }
+    }
+}
+
+impl NetworkSpec {
+    /// The default (ideal) section: `check` leaves it out of the resolved scenario.
+    pub fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
+}
+
+/// Largest bit rate accepted (10 Mbit/s, beyond classical CAN's 1 Mbit/s on purpose).
+pub const MAX_BITRATE: i64 = 10_000_000;
+/// Largest agent number a CAN identifier can carry (`0x100 + i ≤ 0x1FF`).
+pub const MAX_CAN_AGENTS: usize = 255;
+
+/// Seconds to nanoseconds (validated, finite and small enough, input).
+fn ns(s: f64) -> Nanos {
+    (s * 1e9).round() as Nanos
+}
+
+fn probability(v: f64, key: &str) -> Result<()> {
+    if !(0.0..1.0).contains(&v) {
+        return Err(Error::invalid(key, format!("must be in [0, 1) (got {v})")));
+    }
+    Ok(())
+}
+
+/// Checks `[network]` for `agents` agents, sample period `h` and horizon `t_end` (every key,
+/// whatever the kind, so a typo in an `ideal` section is still reported).
+pub fn validate(spec: &NetworkSpec, agents: usize, h: f64, t_end: f64) -> Result<()> {
+    if !(1..=MAX_BITRATE).contains(&spec.bitrate) {
+        return Err(Error::invalid(
+            "network.bitrate",
+            format!("must lie in 1..={MAX_BITRATE} bit/s (got {})", spec.bitrate),
+        ));
+    }
+    if !(spec.latency.is_finite() && (0.0..=1.0).contains(&spec.latency)) {
+        return Err(Error::invalid(
+            "network.latency",
+            format!("must be in [0, 1] s (got {})", spec.latency),
+        ));
+    }
+    probability(spec.loss, "network.loss")?;
+    probability(spec.corruption, "network.corruption")?;
+    if let Some(s) = spec.stale_timeout {
+        if !(1e-6..=1e6).contains(&s) {
+            return Err(Error::invalid(
+                "network.stale_timeout",
+                format!("must be in [1e-6, 1e6] s (got {s})"),
+            ));
+        }
+    }
+    if spec.seed < 0 {
+        return Err(Error::invalid(
+            "network.seed",
+            format!("must be >= 0 (got {})", spec.seed),
+        ));
+    }
+    if spec.kind == NetworkKind::Can {
+        if agents > MAX_CAN_AGENTS {
+            return Err(Error::invalid(
+                "network.kind",
+                format!("\"can\" carries at most {MAX_CAN_AGENTS} agents (got {agents})"),
+            ));
+        }
+        if h < 1e-6 {
+            return Err(Error::invalid(
+                "simulation.h",
+                format!("must be >= 1e-6 s with network.kind = \"can\" (got {h})"),
+            ));
+        }
+        if t_end > 1e9 {
+            return Err(Error::invalid(
+                "simulation.t_end",
+                format!("must be <= 1e9 s with network.kind = \"can\" (got {t_end})"),
+            ));
+        }
+    }
+    for (j, e) in spec.event.iter().enumerate() {
+        let key = |k: &str| format!("network.event[{}].{k}", j + 1);
+        match (e.agent, e.node) {
+            (Some(a), None) => {
+                if a < 1 || a as u64 > agents as u64 {
+                    return Err(Error::invalid(
+                        key("agent"),
+                        format!("must lie in 1..={agents} (got {a})"),
+                    ));
+                }
+            }
+            (None, Some(n)) => {
+                if n < 0 || n as u64 > agents as u64 {
+                    return Err(Error::invalid(
+                        key("node"),
+                        format!("must lie in 0..={agents} (0 is the leader; got {n})"),
+                    ));
+                }
+            }
+            _ => {
+                return Err(Error::invalid(
+                    format!("network.event[{}]", j + 1),
+                    "give exactly one of `agent` (1-based) or `node` (0 = leader)",
+                ))
+            }
+        }
+        match (e.kind, e.id) {
+            (EventName::Silent, Some(_)) => {
+                return Err(Error::invalid(key("id"), "only for kind = \"babbling\""))
+            }
+            (EventName::Babbling, Some(id)) if !(0..=0x7FF).contains(&id) => {
+                return Err(Error::invalid(
+                    key("id"),
+                    format!("must be an 11-bit identifier in 0..=2047 (got {id})"),
+                ))
+            }
+            _ => {}
+        }
+        if !(e.from.is_finite() && (0.0..=1e9).contains(&e.from)) {
+            return Err(Error::invalid(
+                key("from"),
+                format!("must be in [0, 1e9] s (got {})", e.from),
+            ));
+        }
+        if let Some(u) = e.until {
+            if !(u.is_finite() && u > e.from && u <= 1e9) {
+                return Err(Error::invalid(
+                    key("until"),
+                    format!("must be > from and <= 1e9 s (got {u})"),
+                ));
+            }
+            if ns(u) <= ns(e.from) {
+                return Err(Error::invalid(
+                    key("until"),
+                    "must be at least 1 ns after from",
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The bus settings of a validated `[network]` with sample period `h` (the deadline of every
+/// frame is one sample).
+pub fn bus_config(spec: &NetworkSpec, h: f64) -> BusConfig {
+    BusConfig {
+        bitrate: u32::try_from(spec.bitrate).unwrap_or(u32::MAX),
+        latency_ns: ns(spec.latency),
+        loss: spec.loss,
+        corruption: spec.corruption,
+        seed: u64::try_from(spec.seed).unwrap_or(0),
+        auto_retransmit: true,
+        deadline_ns: ns(h),
+        events: spec
+            .event
+            .iter()
+            .map(|e| BusEvent {
+                node: usize::try_from(e.agent.or(e.node).unwrap_or(0)).unwrap_or(0),
+                kind: match e.kind {
+                    EventName::Silent => EventKind::Silent,
+                    EventName::Babbling => EventKind::Babbling {
+                        id: u16::try_from(e.id.unwrap_or(0)).unwrap_or(0),
+                    },
+                },
+                from_ns: ns(e.from),
+                until_ns: e.until.map_or(Nanos::MAX, ns),
+            })
+            .collect(),
+    }
+}
+
+/// `summary.json` `network` (runs with `kind = "can"`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NetworkSummary {
+    /// `"can"`.
+    pub kind: String,
+    /// Bit rate [bit/s].
+    pub bitrate: u32,
+    /// Time the bus carried frames or error frames, percent of the run.
+    pub bus_load_percent: f64,
+    /// Frames transmitted without error (delivered + lost).
+    pub frames_sent: u64,
+    /// Frames transmitted but reaching no receiver (`loss`).
+    pub frames_lost: u64,
+    /// Transmissions destroyed by a CRC error (`corruption`).
+    pub frames_corrupted: u64,
+    /// Frames replaced before they could be sent, or delivered more than `h` after submission.
+    pub deadline_misses: u64,
+    /// Times a node went bus-off.
+    pub bus_off_events: u64,
+    /// Largest age of the neighbour (and leader) data a controller used [s].
+    pub max_age_s: f64,
+    /// Mean age of the neighbour (and leader) data a controller used [s].
+    pub mean_age_s: f64,
+    /// Longest submission-to-delivery time [s].
+    pub max_latency_s: f64,
+    /// Frames rejected by the nodes' decoders (unknown id, wrong length, ...), summed.
+    pub malformed: u64,
+    /// Neighbour link-samples passed to a controller as `Stale`, summed over nodes.
+    pub stale_samples: u64,
+    /// Frames of silent nodes that never reached the bus.
+    pub suppressed: u64,
+    /// Frames of babbling nodes on the bus.
+    pub babble_frames: u64,
+}
+
+/// Every agent a `hil-mock` node over the simulated CAN bus (`kind = "can"`).
+pub struct CanAgents<const N: usize, const M: usize> {
+    net: CanNetwork<N, M, K>,
+    h_ns: Nanos,
+    bitrate: u32,
+    states: Vec<[f32; N]>,
+}
+
+impl<const N: usize, const M: usize> CanAgents<N, M> {
+    /// One node per agent of the validated `setup`, with its controller configuration and
+    /// neighbours, on the bus of `[network]`.
+    pub fn new(setup: &Setup) -> Result<Self> {
+        let spec = &setup.scenario.network;
+        let h = setup.scenario.simulation.h;
+        let stale = spec.stale_timeout.unwrap_or(2.5 * h);
+        let stale_timeout_us = ((stale * 1e6).round() as u64).max(1);
+        let mut agents = Vec::with_capacity(setup.agents());
+        for i in 0..setup.agents() {
+            let agent = u8::try_from(i + 1).map_err(|_| {
+                Error::invalid(
+                    "network.kind",
+                    format!("\"can\" carries at most {MAX_CAN_AGENTS} agents"),
+                )
+            })?;
+            let mut neighbours = [0u8; K];
+            for (d, &k) in neighbours.iter_mut().zip(setup.graph.neighbours(i)) {
+                *d = u8::try_from(k + 1).unwrap_or(0);
+            }
+            agents.push(AgentSetup {
+                node: NodeConfig {
+                    agent,
+                    neighbours,
+                    stale_timeout_us,
+                },
+                controller: setup.controller_config::<N>(i)?,
+            });
+        }
+        let cfg = bus_config(spec, h);
+        let bitrate = cfg.bitrate;
+        let net = CanNetwork::new(cfg, &agents).map_err(|e| Error::invalid("network", e))?;
+        Ok(Self {
+            net,
+            h_ns: ns(h),
+            bitrate,
+            states: vec![[0.0; N]; setup.agents()],
+        })
+    }
+
+    /// The network (nodes, bus, statistics).
+    pub fn network(&self) -> &CanNetwork<N, M, K> {
+        &self.net
+    }
+
+    /// The figures of `summary.json` `network`.
+    pub fn summary(&self) -> NetworkSummary {
+        let s = self.net.stats();
+        let nodes = self.net.nodes();
+        NetworkSummary {
+            kind: NetworkKind::Can.as_str().into(),
+            bitrate: self.bitrate,
+            bus_load_percent: s.load_percent(),
+            frames_sent: s.frames_sent,
+            frames_lost: s.frames_lost,
+            frames_corrupted: s.frames_corrupted,
+            deadline_misses: s.deadline_misses,
+            bus_off_events: s.bus_off_events,
+            max_age_s: s.max_age_s(),
+            mean_age_s: s.mean_age_s(),
+            max_latency_s: s.max_latency_ns as f64 * 1e-9,
+            malformed: nodes
+                .iter()
+                .map(|n| u64::from(n.stats().malformed.total()))
+                .sum(),
+            stale_samples: nodes
+                .iter()
+                .map(|n| u64::from(n.stats().stale_samples))
+                .sum(),
+            suppressed: s.suppressed,
+            babble_frames: s.babble_frames,
+        }
+    }
+}
+
+impl<const N: usize, const M: usize> Agents<N, M> for CanAgents<N, M> {
+    fn control(
+        &mut self,
+        k: u64,
+        _t: f64,
+        x: &[[f64; N]],
+        yd: f64,
+        out: &mut Vec<StepOutput<N, M>>,
+    ) {
+        for (s, x) in self.states.iter_mut().zip(x) {
+            for (d, v) in s.iter_mut().zip(x) {
+                *d = *v as f32;
+            }
+        }
+        let t_ns = k.saturating_mul(self.h_ns);
+        let ticks = self.net.step(t_ns, &self.states, Some(yd as f32));
+        out.extend(ticks.iter().map(|t| t.output));
+    }
+
+    fn gains(&self) -> Gains {
+        // Validation rejects an empty graph, so node 1 exists.
+        match self.net.nodes().first() {
+            Some(n) => *n.controller().params().gains(),
+            None => Gains {
+                c1: f32::NAN,
+                c2: f32::NAN,
+                k1: f32::NAN,
+                k2: f32::NAN,
+            },
+        }
+    }
+
+    fn network(&self) -> Option<NetworkSummary> {
+        Some(self.summary())
+    }
+}
