@@ -15,7 +15,8 @@
 //! * **Stack.** Before the step that advances the controller, the stack below the current stack
 //!   pointer is painted with a pattern; afterwards the lowest overwritten word gives the step's
 //!   peak stack depth (including its call frame). The maximum over the sequence is reported.
-//! * **State.** `size_of` the `Controller` value (settings and state together).
+//! * **State.** `size_of` the `Controller` value (settings and state together), and of its
+//!   mutable part alone (`State`).
 //!
 //! Output: one line `BENCH steps=… reps=… min=… median=… max=… stack=… state=… faults=… mean=…
 //! coarse_mean=… overhead_ticks=…`; `coarse_mean` (one timing of each advancing step, averaged)
@@ -211,7 +212,7 @@ fn main() -> ! {
     let (min, median, max) = (counts[0], counts[steps / 2], counts[steps - 1]);
     let coarse_mean = coarse_ticks * u64::from(INSN_PER_TICK) / steps as u64;
     hprintln!(
-        "BENCH steps={} reps={} min={} median={} max={} stack={} state={} faults={} mean={} coarse_mean={} overhead_ticks={}",
+        "BENCH steps={} reps={} min={} median={} max={} stack={} state={} mutable_state={} faults={} mean={} coarse_mean={} overhead_ticks={}",
         steps,
         REPS,
         min,
@@ -219,6 +220,7 @@ fn main() -> ! {
         max,
         stack_peak,
         core::mem::size_of::<Ctrl>(),
+        core::mem::size_of::<controller_core::State<N, M, K>>(),
         faults,
         mean,
         coarse_mean,

@@ -77,6 +77,7 @@ pub struct Figures {
     pub coarse_mean: u64,
     pub stack: u64,
     pub state: u64,
+    pub mutable_state: u64,
     pub faults: u64,
 }
 
@@ -123,6 +124,7 @@ pub fn bench_target(opts: &Options) -> Result<Value> {
             "stack_bytes": fig.stack,
             "flash_bytes": fl.total,
             "state_bytes": fig.state,
+            "mutable_state_bytes": fig.mutable_state,
             "features": v.features,
             "steps": fig.steps,
             "faulted_steps": fig.faults,
@@ -131,7 +133,7 @@ pub fn bench_target(opts: &Options) -> Result<Value> {
     }
     let doc = json!({
         "machine": "QEMU mps2-an386 (Cortex-M4F), -icount shift=0",
-        "units": "instructions executed per Controller::step call (QEMU models no cycle timing); stack and flash in bytes",
+        "units": "instructions executed per Controller::step call (QEMU models no cycle timing); stack and flash in bytes; state_bytes = size_of Controller (settings + state), mutable_state_bytes = size_of State",
         "method": format!(
             "SysTick at 25 MHz = 1 tick per 40 instructions; each step timed {} times on copies of the same state, minus the copy loop, so the resolution is 80/{} instructions; peak stack by painting below the caller's SP; flash = sizes of the ELF symbols of step and its callees (controller_core, libm, micromath)",
             rows.first().map_or(0, |r| r.1.reps),
@@ -299,6 +301,7 @@ pub fn parse_output(output: &str) -> Result<Figures> {
             "coarse_mean" => f.coarse_mean = v,
             "stack" => f.stack = v,
             "state" => f.state = v,
+            "mutable_state" => f.mutable_state = v,
             "faults" => f.faults = v,
             _ => {}
         }
