@@ -830,6 +830,18 @@ pub fn validate(mut scenario: Scenario) -> Result<Setup> {
     }
     positive(sim.settle_band, "simulation.settle_band")?;
     positive(sim.divergence_bound, "simulation.divergence_bound")?;
+    if sim.divergence_bound > f64::from(f32::MAX) {
+        // Above it the controllers (f32) would see an infinite state and hold their commands
+        // while the run still counted as not diverged.
+        return Err(Error::invalid(
+            "simulation.divergence_bound",
+            format!(
+                "must not exceed f32::MAX = {:e}, the controller's range (got {:e})",
+                f32::MAX,
+                sim.divergence_bound
+            ),
+        ));
+    }
     let samples_f = (sim.t_end / sim.h).round();
     if samples_f < 1.0 {
         return Err(Error::invalid(
