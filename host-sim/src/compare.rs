@@ -51,8 +51,15 @@ pub fn compare(a: &Setup, b: &Setup, out: &Path, progress: bool) -> Result<Strin
         progress,
         ..RunOptions::default()
     };
-    let ra = run(a, &opts)?;
-    let rb = run(b, &opts)?;
+    // The two runs are independent: side by side on rayon's pool. Each run is sequential in
+    // itself, so the outputs are byte-identical to one run after the other (tested in
+    // tests/tests/determinism.rs with RAYON_NUM_THREADS=1 and 4). One progress bar only.
+    let opts_b = RunOptions {
+        progress: false,
+        ..opts.clone()
+    };
+    let (ra, rb) = rayon::join(|| run(a, &opts), || run(b, &opts_b));
+    let (ra, rb) = (ra?, rb?);
     let (sa, sb) = (&ra.summary, &rb.summary);
     let er = ratio(sb.total_u_energy, sa.total_u_energy);
     let pr = ratio(sb.max_abs_u, sa.max_abs_u);
