@@ -157,6 +157,19 @@ fn extreme_valid_scenarios_run_or_report_divergence() {
             "simulation.substeps=1",
         ],
     );
+    // 50 firmware nodes over a 500 kbit/s CAN bus with 10 % loss: the bus cannot carry 51
+    // frames per 1 ms sample (deadline misses, stale links); the run must still finish.
+    run(
+        "line-50-can-500k-lossy",
+        &line50,
+        &[
+            "network.kind=can",
+            "network.bitrate=500000",
+            "network.loss=0.1",
+            "network.seed=7",
+            "simulation.t_end=0.2",
+        ],
+    );
     // All at once.
     run(
         "all-at-once",
