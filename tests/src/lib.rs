@@ -77,16 +77,49 @@ fn build(profile_dir: &Path) -> Result<(), String> {
     }
 }
 
+/// Newest modification time of the files under `dir` (recursively).
+fn newest(dir: &Path) -> Option<std::time::SystemTime> {
+    let mut best = None;
+    for e in std::fs::read_dir(dir).ok()?.filter_map(|e| e.ok()) {
+        let t = match e.file_type() {
+            Ok(ft) if ft.is_dir() => newest(&e.path()),
+            Ok(_) => e.metadata().and_then(|m| m.modified()).ok(),
+            Err(_) => None,
+        };
+        best = best.max(t);
+    }
+    best
+}
+
+/// The binary is missing or older than a source or manifest of a crate it is built from. Only
+/// then is cargo called: after `cargo test --workspace` the binary is fresh, and a second
+/// cargo with other feature unification would rebuild it for nothing.
+fn is_stale(bin: &Path) -> bool {
+    let Ok(built) = bin.metadata().and_then(|m| m.modified()) else {
+        return true;
+    };
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
+    ["host-sim", "hil-mock", "controller-core"].iter().any(|c| {
+        let c = root.join(c);
+        newest(&c.join("src")).max(newest_file(&c.join("Cargo.toml"))) > Some(built)
+    }) || newest_file(&root.join("Cargo.lock")) > Some(built)
+}
+
+fn newest_file(p: &Path) -> Option<std::time::SystemTime> {
+    p.metadata().and_then(|m| m.modified()).ok()
+}
+
 /// Path of the built `host-sim` binary: `$HOST_SIM_BIN`, else `target/<profile>/host-sim` of
-/// this test build, built on demand with `$CARGO build -p host-sim` (a no-op after
-/// `cargo test --workspace`). Panics with instructions when it cannot be found.
+/// this test build (`cargo test --workspace` builds it before the tests run), built with
+/// `$CARGO build -p host-sim` when missing or older than its sources (e.g. after
+/// `cargo test -p integration-tests` alone). Panics with instructions when it cannot be found.
 pub fn host_sim_bin() -> PathBuf {
     static BIN: std::sync::OnceLock<Result<PathBuf, String>> = std::sync::OnceLock::new();
     let r = BIN.get_or_init(|| {
         let path = candidate().ok_or("cannot locate this test binary")?;
-        if std::env::var_os("HOST_SIM_BIN").is_none() {
+        if std::env::var_os("HOST_SIM_BIN").is_none() && is_stale(&path) {
             if let Some(dir) = profile_dir() {
-                // Refresh (or create) the binary; keep an existing one if cargo is unavailable.
+                // Build (or refresh) the binary; keep an existing one if cargo is unavailable.
                 if let Err(e) = build(&dir) {
                     if !path.is_file() {
                         return Err(e);
