@@ -534,7 +534,14 @@ impl Setup {
         for i in 0..self.agents() {
             let cfg = self.controller_config::<N>(i)?;
             Controller::<N, M, MAX_NEIGHBOURS>::new(&cfg).map_err(|e| {
-                Error::invalid(config_error_key(&e, i), format!("{e} (agent {})", i + 1))
+                let auto_gains = self.scenario.controller.c1.is_none();
+                let key = config_error_key(&e, i, auto_gains);
+                let why = if key == "controller.ts" && auto_gains {
+                    " (the gains c1, c2 of SPEC §3 computed from ts, zeta, p, eta, tau)"
+                } else {
+                    ""
+                };
+                Error::invalid(key, format!("{e}{why} (agent {})", i + 1))
             })?;
         }
         Ok(())
@@ -639,9 +646,11 @@ impl Setup {
 
 /// The scenario key behind a controller-core [`ConfigError`] of agent `i` (0-based): the
 /// controller names its own parameter, the user wrote a dotted key.
-fn config_error_key(e: &ConfigError, i: usize) -> String {
+fn config_error_key(e: &ConfigError, i: usize, auto_gains: bool) -> String {
     let param = |p: &str| match p {
         "h" => "simulation.h".to_string(),
+        // Computed gains out of range: the user wrote ts (and zeta, p, eta, tau).
+        "c1" | "c2" if auto_gains => "controller.ts".to_string(),
         "rho" | "u_min" => format!("quantizer.{p}"),
         p => format!("controller.{p}"),
     };
