@@ -3,15 +3,28 @@
 
 mod common;
 
-/// Max |y_i − y_d| over samples with t ≥ t_from.
+/// Max |y_i − y_d| over samples with t ≥ t_from; checks on the way that every estimate stays
+/// non-negative and finite and every command finite.
 fn max_error_after(ts: f32, t_end: f64, t_from: f64) -> f64 {
     let mut sim = common::Example1::new(ts, 1e-3, true, true);
     let steps = (t_end / 1e-3).round() as usize;
-    (0..steps)
-        .map(|_| sim.step())
-        .filter(|s| s.t >= t_from)
-        .map(|s| s.max_error)
-        .fold(0.0, f64::max)
+    let mut worst: f64 = 0.0;
+    for _ in 0..steps {
+        let s = sim.step();
+        for e in &s.estimates {
+            let all = [e.mu, e.xi, e.lambda];
+            assert!(
+                all.iter().all(|v| v.is_finite() && *v >= 0.0),
+                "t = {}: {e:?}",
+                s.t
+            );
+        }
+        assert!(s.max_abs_u.is_finite(), "t = {}", s.t);
+        if s.t >= t_from {
+            worst = worst.max(s.max_error);
+        }
+    }
+    worst
 }
 
 #[test]
