@@ -2,6 +2,9 @@
 //! agents, an f64 RK4 plant with zero-order-hold inputs, the alternating fault windows of SPEC §8.
 //! The full simulator is `host-sim`; this keeps the core testable on its own.
 
+// Each test binary that includes this module uses a different subset of it.
+#![allow(dead_code)]
+
 use controller_core::{Controller, ControllerConfig, Estimates, Link};
 
 /// Agent i (0-based) hears these agents; agent 0 is pinned.
