@@ -25,10 +25,10 @@ const USAGE: &str = "\
 usage: cargo xtask <task> [options]
 
 tasks:
-  bench-target [--trace auto|host-sim|fallback] [--verbose]
+  bench-target [--verbose]
       build bench-fw for each variant, run it on QEMU mps2-an386 (-icount shift=0), write
       target/bench/step.json and print a table
-  bench-gate [--no-run] [--update-budget] [--trace …]
+  bench-gate [--no-run] [--update-budget]
       bench-target (unless --no-run), then fail if a variant's median instructions per step
       exceed bench-fw/budget.json by more than its tolerance; --update-budget writes the
       budget from the current step.json instead
@@ -68,21 +68,9 @@ fn main() -> ExitCode {
     }
 }
 
-/// Where the replayed step inputs come from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum TraceSource {
-    /// `host-sim` when it can run, else the built-in closed loop.
-    Auto,
-    /// `host-sim run scenarios/example1.toml` only.
-    HostSim,
-    /// The built-in minimal Example 1 closed loop.
-    Fallback,
-}
-
 /// Command-line options shared by the tasks.
 #[derive(Debug, Clone)]
 pub struct Options {
-    pub trace: TraceSource,
     pub verbose: bool,
     pub no_run: bool,
     pub update_budget: bool,
@@ -91,29 +79,15 @@ pub struct Options {
 impl Options {
     fn parse(args: &[String]) -> Result<Self> {
         let mut o = Options {
-            trace: TraceSource::Auto,
             verbose: false,
             no_run: false,
             update_budget: false,
         };
-        let mut it = args.iter();
-        while let Some(a) = it.next() {
+        for a in args {
             match a.as_str() {
                 "--verbose" | "-v" => o.verbose = true,
                 "--no-run" => o.no_run = true,
                 "--update-budget" => o.update_budget = true,
-                "--trace" => {
-                    o.trace = match it.next().map(String::as_str) {
-                        Some("auto") => TraceSource::Auto,
-                        Some("host-sim") => TraceSource::HostSim,
-                        Some("fallback") => TraceSource::Fallback,
-                        other => {
-                            return Err(format!(
-                                "--trace takes auto|host-sim|fallback, got {other:?}"
-                            ))
-                        }
-                    }
-                }
                 other => return Err(format!("unknown option `{other}`")),
             }
         }

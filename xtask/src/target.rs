@@ -85,7 +85,7 @@ pub struct Figures {
 pub fn bench_target(opts: &Options) -> Result<Value> {
     check_prerequisites()?;
     let dir = bench_dir();
-    let trace = trace::obtain(opts.trace)?;
+    let trace = trace::obtain()?;
     let (trace_n2, trace_n3) = trace::write(&trace, &dir)?;
     eprintln!(
         "trace: {} steps of agent 4 from the {}",

@@ -2,16 +2,14 @@
 //! quantizer and the intermittent actuator faults on, so level changes and fault windows are in
 //! the sequence.
 //!
-//! Preferred source: a `host-sim` run of `scenarios/example1.toml` (its `trajectory.csv`).
-//! Fallback: a minimal Example 1 closed loop built in (the approach of
-//! `controller-core/tests/closed_loop.rs`: four `controller-core` agents, RK4 plant, 4 substeps).
+//! Source: a `host-sim` run of `scenarios/example1.toml` (its `trajectory.csv`); when host-sim
+//! cannot run, the bench fails with its message rather than measuring something else.
 //!
 //! Records written for the firmware, little-endian `f32`: `x_1..x_n, y_1, y_3, y_d` per step.
 //! `n = 3` has no recorded run; its trace is the `n = 2` one with a synthetic but plausible third
 //! state `x_3`: the low-passed rate of `x_2` (what an acceleration state looks like).
 
-use crate::{bench_dir, cargo, workspace_root, Result, TraceSource};
-use controller_core::{Controller, ControllerConfig, Link};
+use crate::{bench_dir, cargo, workspace_root, Result};
 use std::{fs, path::Path, process::Command};
 
 /// Sample period [s] (Example 1).
@@ -35,23 +33,8 @@ pub struct Trace {
     pub samples: Vec<Sample>,
 }
 
-/// Obtains the trace per `source`.
-pub fn obtain(source: TraceSource) -> Result<Trace> {
-    match source {
-        TraceSource::Fallback => Ok(fallback()),
-        TraceSource::HostSim => host_sim(),
-        TraceSource::Auto => match host_sim() {
-            Ok(t) => Ok(t),
-            Err(e) => {
-                eprintln!("note: host-sim trace unavailable ({e}); using the built-in Example 1 closed loop");
-                Ok(fallback())
-            }
-        },
-    }
-}
-
-/// Runs `host-sim` and parses its `trajectory.csv`.
-fn host_sim() -> Result<Trace> {
+/// Runs `host-sim` on `scenarios/example1.toml` and parses its `trajectory.csv`.
+pub fn obtain() -> Result<Trace> {
     let root = workspace_root();
     if !root.join("host-sim/src/main.rs").exists() {
         return Err("host-sim has no binary yet".into());
@@ -136,90 +119,6 @@ pub fn parse_trajectory(text: &str) -> Result<Vec<Sample>> {
     Ok(samples)
 }
 
-/// Agent `i` (0-based) hears these agents; agent 0 is pinned (SPEC §8).
-const NEIGHBOURS: [&[usize]; 4] = [&[], &[0], &[0], &[0, 2]];
-const X0: [[f64; 2]; 4] = [[0.02, 0.8], [0.01, 1.0], [0.01, 0.09], [0.0, 0.7]];
-const SUBSTEPS: usize = 4;
-
-fn faults_active(t: f64) -> bool {
-    t >= 2.0 && (t - 2.0).rem_euclid(4.0) < 2.0
-}
-
-/// Example 1's plant with the faults of SPEC §8.
-fn plant(t: f64, x: [f64; 2], q: [f64; 2]) -> [f64; 2] {
-    let (a1, a2) = if faults_active(t) {
-        (0.5 * q[0], t.sin())
-    } else {
-        (q[0], q[1])
-    };
-    [
-        x[1] + 0.8 * x[0].powi(3),
-        a1 + a2 - 2.0 * x[0] * x[0] + x[1].powi(3) + t.cos(),
-    ]
-}
-
-fn rk4(t: f64, x: [f64; 2], q: [f64; 2], dt: f64) -> [f64; 2] {
-    let add = |x: [f64; 2], k: [f64; 2], s: f64| [x[0] + s * k[0], x[1] + s * k[1]];
-    let k1 = plant(t, x, q);
-    let k2 = plant(t + dt / 2.0, add(x, k1, dt / 2.0), q);
-    let k3 = plant(t + dt / 2.0, add(x, k2, dt / 2.0), q);
-    let k4 = plant(t + dt, add(x, k3, dt), q);
-    [
-        x[0] + dt / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]),
-        x[1] + dt / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]),
-    ]
-}
-
-/// The built-in Example 1 closed loop (`T_s = 2`, quantizer and faults on), recording agent 4.
-pub fn fallback() -> Trace {
-    let mut ctrls: Vec<Controller<2, 2, 4>> = NEIGHBOURS
-        .iter()
-        .enumerate()
-        .filter_map(|(i, n)| {
-            let cfg = ControllerConfig::<2> {
-                neighbour_count: n.len(),
-                pinned: i == 0,
-                ..ControllerConfig::default()
-            };
-            Controller::new(&cfg).ok()
-        })
-        .collect();
-    let mut x = X0;
-    let steps = (T_END / H).round() as usize;
-    let mut samples = Vec::with_capacity(steps);
-    for k in 0..steps {
-        let t = k as f64 * H;
-        let yd = 0.6 * (2.0 * t).sin();
-        samples.push(Sample {
-            x: x[3],
-            y1: x[0][0],
-            y3: x[2][0],
-            yd,
-        });
-        let ys: Vec<f32> = x.iter().map(|xi| xi[0] as f32).collect();
-        let mut qs = [[0.0f64; 2]; 4];
-        for (i, c) in ctrls.iter_mut().enumerate() {
-            let links: Vec<Link> = NEIGHBOURS[i].iter().map(|&k| Link::Fresh(ys[k])).collect();
-            let out = c.step(
-                &[x[i][0] as f32, x[i][1] as f32],
-                &links,
-                Link::Fresh(yd as f32),
-            );
-            qs[i] = [f64::from(out.q[0]), f64::from(out.q[1])];
-        }
-        let dt = H / SUBSTEPS as f64;
-        for (xi, q) in x.iter_mut().zip(&qs) {
-            for s in 0..SUBSTEPS {
-                *xi = rk4(t + s as f64 * dt, *xi, *q, dt);
-            }
-        }
-    }
-    Trace {
-        source: "built-in Example 1 closed loop (xtask/src/trace.rs)".into(),
-        samples,
-    }
-}
-
 /// Writes the `n = 2` records and the `n = 3` records (synthetic `x_3`); returns their paths.
 pub fn write(trace: &Trace, dir: &Path) -> Result<(std::path::PathBuf, std::path::PathBuf)> {
     fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
@@ -265,15 +164,5 @@ mod tests {
         assert_eq!(s[1].x, [0.0007, 0.69]);
         assert_eq!((s[1].y1, s[1].y3, s[1].yd), (0.021, 0.0101, 0.0012));
         assert!(parse_trajectory("t,yd\n0,0\n").is_err());
-    }
-
-    #[test]
-    fn fallback_exercises_quantizer_and_faults() {
-        let t = fallback();
-        assert_eq!(t.samples.len(), (T_END / H).round() as usize);
-        assert!(t.samples.iter().all(|s| s.x.iter().all(|v| v.is_finite())));
-        // Agent 4 ends up near the leader.
-        let last = t.samples.last().map_or(f64::NAN, |s| (s.x[0] - s.yd).abs());
-        assert!(last < 0.3, "agent 4 error at the end = {last}");
     }
 }
