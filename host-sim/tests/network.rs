@@ -250,3 +250,104 @@ fn the_ideal_default_changes_nothing() {
         "{text}"
     );
 }
+
+mod never_panics {
+    use host_sim::{run::simulate, scenario, Error};
+    use proptest::prelude::*;
+
+    const ODD: &[&str] = &[
+        "0",
+        "-1",
+        "1",
+        "1e-9",
+        "1.0",
+        "2",
+        "1e300",
+        "nan",
+        "inf",
+        "-inf",
+        "4096",
+        "4294967296",
+        "\"x\"",
+        "[]",
+    ];
+
+    /// Mostly a value from `valid`, sometimes an odd one.
+    fn mostly<S: Strategy + 'static>(valid: S) -> BoxedStrategy<String>
+    where
+        S::Value: ToString,
+    {
+        prop_oneof![
+            4 => valid.prop_map(|v| v.to_string()),
+            1 => prop::sample::select(ODD).prop_map(str::to_string),
+        ]
+        .boxed()
+    }
+
+    fn event() -> impl Strategy<Value = String> {
+        (
+            prop::sample::select(&["agent", "node"][..]),
+            mostly(0i64..=4),
+            prop::sample::select(
+                &[
+                    "\"silent\"",
+                    "\"silent\"",
+                    "\"babbling\"",
+                    "\"babbling\"",
+                    "\"x\"",
+                ][..],
+            ),
+            prop::option::of(mostly(0i64..=2047)),
+            mostly(0.0f64..0.05),
+            prop::option::of(mostly(0.0f64..0.1)),
+        )
+            .prop_map(|(who, w, kind, id, from, until)| {
+                let mut s = format!("{{{who} = {w}, kind = {kind}, from = {from}");
+                if let Some(id) = id {
+                    s.push_str(&format!(", id = {id}"));
+                }
+                if let Some(u) = until {
+                    s.push_str(&format!(", until = {u}"));
+                }
+                s.push('}');
+                s
+            })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(128))]
+
+        /// Any `[network]` gives a scenario that runs, or an `Error::Invalid`; never a panic.
+        #[test]
+        fn any_network_section_is_rejected_or_runs(
+            kind in prop::sample::select(&["\"ideal\"", "\"can\"", "\"can\"", "\"can\"", "\"x\""][..]),
+            bitrate in mostly(20_000i64..=2_000_000),
+            latency in mostly(0.0f64..0.005),
+            loss in mostly(0.0f64..0.6),
+            corruption in mostly(0.0f64..0.6),
+            stale in mostly(1e-4f64..0.01),
+            seed in mostly(0i64..1000),
+            events in prop::collection::vec(event(), 0..3),
+        ) {
+            let sets = vec![
+                "simulation.t_end=0.05".to_string(),
+                format!("network.kind={kind}"),
+                format!("network.bitrate={bitrate}"),
+                format!("network.latency={latency}"),
+                format!("network.loss={loss}"),
+                format!("network.corruption={corruption}"),
+                format!("network.stale_timeout={stale}"),
+                format!("network.seed={seed}"),
+                format!("network.event=[{}]", events.join(", ")),
+            ];
+            match scenario::parse("", &sets) {
+                Ok(setup) => {
+                    let s = simulate(&setup);
+                    prop_assert!(s.is_ok(), "{:?}", s.err());
+                }
+                Err(Error::Invalid(_)) => {}
+                Err(e) => prop_assert!(false, "unexpected error kind: {e}"),
+            }
+        }
+    }
+}
