@@ -155,6 +155,23 @@ fn main_inner(cli: Cli) -> Result<()> {
                         None => "no divergence".into(),
                     }
                 );
+                if let Some(n) = &s.network {
+                    println!(
+                        "network: {} at {} bit/s; bus load {:.2} %; frames sent {}, lost {}, \
+                         corrupted {}; deadline misses {}; bus-off events {}; age of data used \
+                         max {:.4} s, mean {:.4} s",
+                        n.kind,
+                        n.bitrate,
+                        n.bus_load_percent,
+                        n.frames_sent,
+                        n.frames_lost,
+                        n.frames_corrupted,
+                        n.deadline_misses,
+                        n.bus_off_events,
+                        n.max_age_s,
+                        n.mean_age_s
+                    );
+                }
                 println!("wrote {}", out.display());
             }
             Ok(())
