@@ -284,92 +284,31 @@ fn held<const N: usize, const M: usize, const K: usize>(
 }
 
 #[cfg(test)]
+#[path = "../tests/common/mod.rs"]
+mod example1;
+
+#[cfg(test)]
 mod tests {
     //! The per-step math (this crate's kernels with `libm`, `micromath`'s approximations with
     //! `micromath`) against the exact-math run (`libm`'s `powf`, `sqrtf`, `tanhf`) in the
     //! closed loop of Example 1 (SPEC §8): four agents, RK4 plant with 4 substeps, faults and
     //! quantizer on, h = 1 ms.
-    use super::*;
+    use super::example1::Example1;
     use crate::math::with_exact_math;
-
-    const H: f64 = 1e-3;
-    const NEIGHBOURS: [&[usize]; 4] = [&[], &[0], &[0], &[0, 2]];
-    const X0: [[f64; 2]; 4] = [[0.02, 0.8], [0.01, 1.0], [0.01, 0.09], [0.0, 0.7]];
-
-    fn plant(t: f64, x: [f64; 2], q: [f64; 2]) -> [f64; 2] {
-        let faulty = t >= 2.0 && (t - 2.0).rem_euclid(4.0) < 2.0;
-        let (a1, a2) = if faulty {
-            (0.5 * q[0], t.sin())
-        } else {
-            (q[0], q[1])
-        };
-        [
-            x[1] + 0.8 * x[0].powi(3),
-            a1 + a2 - 2.0 * x[0] * x[0] + x[1].powi(3) + t.cos(),
-        ]
-    }
-
-    fn rk4(t: f64, x: [f64; 2], q: [f64; 2], dt: f64) -> [f64; 2] {
-        let add = |x: [f64; 2], k: [f64; 2], s: f64| [x[0] + s * k[0], x[1] + s * k[1]];
-        let k1 = plant(t, x, q);
-        let k2 = plant(t + dt / 2.0, add(x, k1, dt / 2.0), q);
-        let k3 = plant(t + dt / 2.0, add(x, k2, dt / 2.0), q);
-        let k4 = plant(t + dt, add(x, k3, dt), q);
-        [
-            x[0] + dt / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]),
-            x[1] + dt / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]),
-        ]
-    }
 
     /// (max |y_i − y_d| after 2 T_s, RMS of y_i − y_d over the whole run).
     fn example1(ts: f32, t_end: f64) -> (f64, f64) {
-        let mut ctrls: Vec<Controller<2, 2, 4>> = NEIGHBOURS
-            .iter()
-            .enumerate()
-            .filter_map(|(i, n)| {
-                let cfg = ControllerConfig::<2> {
-                    ts,
-                    neighbour_count: n.len(),
-                    pinned: i == 0,
-                    ..ControllerConfig::default()
-                };
-                Controller::new(&cfg).ok()
-            })
-            .collect();
-        assert_eq!(ctrls.len(), 4);
-        let mut x = X0;
-        let (mut worst, mut sq, mut count) = (0.0f64, 0.0f64, 0usize);
-        let steps = (t_end / H).round() as usize;
-        for k in 0..steps {
-            let t = k as f64 * H;
-            let yd = 0.6 * (2.0 * t).sin();
-            for xi in &x {
-                let err = xi[0] - yd;
-                if t >= 2.0 * f64::from(ts) {
-                    worst = worst.max(err.abs());
-                }
-                sq += err * err;
-                count += 1;
+        let mut sim = Example1::new(ts, 1e-3, true, true);
+        let steps = (t_end / 1e-3).round() as usize;
+        let (mut worst, mut sq) = (0.0f64, 0.0f64);
+        for _ in 0..steps {
+            let s = sim.step();
+            if s.t >= 2.0 * f64::from(ts) {
+                worst = worst.max(s.max_error);
             }
-            let ys: Vec<f32> = x.iter().map(|xi| xi[0] as f32).collect();
-            let mut qs = [[0.0f64; 2]; 4];
-            for (i, c) in ctrls.iter_mut().enumerate() {
-                let links: Vec<Link> = NEIGHBOURS[i].iter().map(|&k| Link::Fresh(ys[k])).collect();
-                let out = c.step(
-                    &[x[i][0] as f32, x[i][1] as f32],
-                    &links,
-                    Link::Fresh(yd as f32),
-                );
-                assert!(out.status.fault.is_none(), "fault at t = {t}");
-                qs[i] = [f64::from(out.q[0]), f64::from(out.q[1])];
-            }
-            for (xi, q) in x.iter_mut().zip(&qs) {
-                for s in 0..4 {
-                    *xi = rk4(t + s as f64 * H / 4.0, *xi, *q, H / 4.0);
-                }
-            }
+            sq += s.sum_sq_error;
         }
-        (worst, (sq / count as f64).sqrt())
+        (worst, (sq / (4 * steps) as f64).sqrt())
     }
 
     #[test]

@@ -45,6 +45,11 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+// The shared Example 1 test loop (`tests/common`) names the crate `controller_core`, also when a
+// unit test includes it.
+#[cfg(test)]
+extern crate self as controller_core;
+
 pub mod adaptive;
 pub mod backstepping;
 pub mod config;

@@ -44,6 +44,8 @@ fn rk4(t: f64, x: [f64; 2], q: [f64; 2], dt: f64, faults: bool) -> [f64; 2] {
 pub struct Sample {
     pub t: f64,
     pub max_error: f64,
+    /// `Σ_i (y_i − y_d)²`.
+    pub sum_sq_error: f64,
     pub estimates: [Estimates; 4],
     pub max_abs_u: f64,
 }
@@ -89,6 +91,7 @@ impl Example1 {
         let t = self.k as f64 * self.h;
         let yd = 0.6 * (2.0 * t).sin();
         let max_error = self.x.iter().map(|x| (x[0] - yd).abs()).fold(0.0, f64::max);
+        let sum_sq_error = self.x.iter().map(|x| (x[0] - yd).powi(2)).sum();
         let ys: Vec<f32> = self.x.iter().map(|x| x[0] as f32).collect();
         let mut qs = [[0.0f64; 2]; 4];
         let mut estimates = [Estimates {
@@ -124,6 +127,7 @@ impl Example1 {
         Sample {
             t,
             max_error,
+            sum_sq_error,
             estimates,
             max_abs_u,
         }
