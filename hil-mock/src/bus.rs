@@ -233,6 +233,9 @@ pub struct BusStats {
     pub elapsed_ns: Nanos,
     /// Time the bus carried frames or error frames.
     pub busy_ns: Nanos,
+    /// The part of `busy_ns` after `elapsed_ns`: the frame still on the wire at the last
+    /// `advance_to` (its whole duration is booked when it starts).
+    pub busy_after_ns: Nanos,
     /// Frames put on the wire, including corrupted attempts and babble.
     pub transmissions: u64,
     /// Frames transmitted without error (delivered + lost).
@@ -279,7 +282,8 @@ impl BusStats {
         if self.elapsed_ns == 0 {
             0.0
         } else {
-            100.0 * self.busy_ns as f64 / self.elapsed_ns as f64
+            let busy = self.busy_ns.saturating_sub(self.busy_after_ns);
+            100.0 * busy as f64 / self.elapsed_ns as f64
         }
     }
 
@@ -342,6 +346,8 @@ pub struct Bus {
     ports: Vec<Port>,
     rng: ChaCha8Rng,
     free_at: Nanos,
+    /// End of the last frame or error frame put on the wire.
+    busy_until: Nanos,
     now: Nanos,
     in_transit: VecDeque<Delivery>,
     stats: BusStats,
@@ -373,6 +379,7 @@ impl Bus {
             ports: vec![Port::default(); nodes],
             cfg,
             free_at: 0,
+            busy_until: 0,
             now: 0,
             in_transit: VecDeque::new(),
             stats: BusStats::default(),
@@ -487,6 +494,7 @@ impl Bus {
         }
         self.now = t;
         self.stats.elapsed_ns = t;
+        self.stats.busy_after_ns = self.busy_until.saturating_sub(t);
         let mut out = Vec::new();
         while self.in_transit.front().is_some_and(|d| d.at_ns <= t) {
             if let Some(d) = self.in_transit.pop_front() {
@@ -553,6 +561,7 @@ impl Bus {
             let dur = self.bit_time_ns(bits - 3 + u64::from(ERROR_FRAME_BITS));
             self.stats.busy_ns += dur;
             self.free_at = s + dur;
+            self.busy_until = s + dur;
             self.stats.frames_corrupted += 1;
             self.on_error(node, s + dur, babble);
             return;
@@ -560,6 +569,7 @@ impl Bus {
         let dur = self.bit_time_ns(bits);
         self.stats.busy_ns += dur;
         self.free_at = s + dur;
+        self.busy_until = s + dur;
         self.stats.frames_sent += 1;
         self.on_success(node, babble);
         let lost = self.cfg.loss > 0.0 && self.uniform() < self.cfg.loss;

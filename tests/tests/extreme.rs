@@ -61,6 +61,9 @@ fn check_outputs(name: &str, out: &Path, stdout: &str) -> bool {
         }
     }
     finite(name, &v);
+    if let Some(load) = v["network"]["bus_load_percent"].as_f64() {
+        assert!((0.0..=100.0).contains(&load), "{name}: bus load {load} %");
+    }
     let csv = std::fs::read_to_string(out.join("trajectory.csv"))
         .unwrap_or_else(|e| panic!("{name}: trajectory.csv: {e}"));
     let mut lines = csv.lines();
