@@ -23,7 +23,7 @@ fn quantizer(rho: f32, u_min: f32) -> Option<QuantizerConfig> {
 }
 
 /// One configuration per variant, and the variant it must give.
-fn cases() -> [(Result<C, ConfigError>, ConfigError); 19] {
+fn cases() -> [(Result<C, ConfigError>, ConfigError); 20] {
     use ConfigError as E;
     let baseline = |mu_max, kappa| {
         SchemeConfig::PrescribedTime(BaselineConfig {
@@ -60,6 +60,7 @@ fn cases() -> [(Result<C, ConfigError>, ConfigError); 19] {
         (with(|c| c.pinned = false), E::Isolated),
         (with(|c| c.gamma = 0.0), E::NonPositive("gamma")),
         (with(|c| c.eps_bar[0] = -0.1), E::Negative("eps_bar")),
+        (with(|c| c.zeta = 1e-30), E::GainTooLarge("c1")),
         (with(|c| c.varpi_min = 1.0), E::VarpiMinOutOfRange),
         (with(|c| c.mu0 = 2e6), E::InitialEstimateAboveMax),
         (with(|c| c.scheme = baseline(0.5, 2.0)), E::MuMaxBelowOne),
@@ -76,7 +77,7 @@ fn default_controller() -> C {
 
 #[test]
 fn every_variant_is_reached() {
-    let mut seen = [false; 19];
+    let mut seen = [false; 20];
     for (i, (got, want)) in cases().into_iter().enumerate() {
         assert_eq!(got.err(), Some(want), "case {i}");
         let slot = match want {
@@ -99,6 +100,7 @@ fn every_variant_is_reached() {
             ConfigError::InitialEstimateAboveMax => 16,
             ConfigError::MuMaxBelowOne => 17,
             ConfigError::ZeroStateOrder => 18,
+            ConfigError::GainTooLarge(_) => 19,
         };
         seen[slot] = true;
     }

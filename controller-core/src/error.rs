@@ -47,6 +47,9 @@ pub enum ConfigError {
     Isolated,
     /// A design gain that must be > 0 is not (`p`, `η`, `τ`, `γ`, `ℓ_1`, `ℓ_2`, `c_1`, `c_2`, ...).
     NonPositive(&'static str),
+    /// A gain (`c1` or `c2`, given or computed from `T_s`, `ζ`, …) is at or above `√f32::MAX`:
+    /// the second backstepping step squares it, so every step would overflow `f32`.
+    GainTooLarge(&'static str),
     /// A parameter that must be ≥ 0 is negative (`ε̄`, decay rates, initial estimates).
     Negative(&'static str),
     /// `ϖ_min` must lie in (0, `ϖ_0`].
@@ -84,6 +87,10 @@ impl fmt::Display for ConfigError {
                 f.write_str("agent hears no neighbour and is not pinned to the leader (A_i = 0)")
             }
             Self::NonPositive(p) => write!(f, "`{p}` must be > 0"),
+            Self::GainTooLarge(p) => write!(
+                f,
+                "`{p}` must be below 1.8e19 (sqrt of f32::MAX): every step would overflow"
+            ),
             Self::Negative(p) => write!(f, "`{p}` must be >= 0"),
             Self::VarpiMinOutOfRange => f.write_str("`varpi_min` must lie in (0, varpi0]"),
             Self::InitialEstimateAboveMax => {

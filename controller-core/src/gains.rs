@@ -3,6 +3,9 @@
 use crate::{math, ConfigError};
 use core::f32::consts::PI;
 
+/// `√f32::MAX`: the largest usable `c_1`, `c_2` (the recursion squares them).
+pub const MAX_GAIN: f32 = 1.844_674_3e19;
+
 /// How `c_1`, `c_2` are chosen.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -64,8 +67,11 @@ impl Gains {
     /// Explicit `c_1`, `c_2`; `k_1`, `k_2` follow from `ζ`.
     pub fn explicit(c1: f32, c2: f32, zeta: f32) -> Result<Self, ConfigError> {
         check_zeta(zeta)?;
-        positive(c1, "c1")?;
-        positive(c2, "c2")?;
+        for (c, name) in [(c1, "c1"), (c2, "c2")] {
+            if positive(c, name)? >= MAX_GAIN {
+                return Err(ConfigError::GainTooLarge(name));
+            }
+        }
         Ok(Self {
             c1,
             c2,
@@ -180,6 +186,15 @@ mod tests {
         assert_eq!(
             Gains::predefined_time(1.0, 0.5, 0, 1.0, 1.0, 1.0),
             Err(ConfigError::ZeroStateOrder)
+        );
+        // ζ = 1e-30 passes the range check, but c_2 = π/(ζ T_s) ≈ 1.6e30 cannot be used.
+        assert_eq!(
+            Gains::predefined_time(2.0, 1e-30, 2, 80.0, 50.0, 50.0),
+            Err(ConfigError::GainTooLarge("c1"))
+        );
+        assert_eq!(
+            Gains::explicit(1.0, 2e19, 0.5),
+            Err(ConfigError::GainTooLarge("c2"))
         );
     }
 }

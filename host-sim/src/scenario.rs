@@ -655,9 +655,10 @@ fn config_error_key(e: &ConfigError, i: usize, auto_gains: bool) -> String {
         p => format!("controller.{p}"),
     };
     match *e {
-        ConfigError::NonFinite(p) | ConfigError::NonPositive(p) | ConfigError::Negative(p) => {
-            param(p)
-        }
+        ConfigError::NonFinite(p)
+        | ConfigError::NonPositive(p)
+        | ConfigError::Negative(p)
+        | ConfigError::GainTooLarge(p) => param(p),
         ConfigError::ZetaOutOfRange => param("zeta"),
         ConfigError::NonPositiveTs => param("ts"),
         ConfigError::NonPositiveSamplePeriod => param("h"),
