@@ -13,11 +13,22 @@ use crate::{
     sim::{Observer, SampleView},
 };
 
+/// A temporary file that is removed unless it was renamed into place (a run cut short by an
+/// I/O error leaves no stray file behind).
+struct TempFile(PathBuf);
+
+impl Drop for TempFile {
+    fn drop(&mut self) {
+        // After a successful rename there is nothing left to remove.
+        let _ = std::fs::remove_file(&self.0);
+    }
+}
+
 /// Streams rows to a temporary file; [`CsvObserver::finish`] renames it into place.
 pub struct CsvObserver {
     wtr: csv::Writer<BufWriter<File>>,
     decimate: u64,
-    tmp: PathBuf,
+    tmp: TempFile,
     path: PathBuf,
     fmt: ryu::Buffer,
 }
@@ -42,7 +53,7 @@ impl CsvObserver {
         Ok(Self {
             wtr,
             decimate: decimate.max(1),
-            tmp,
+            tmp: TempFile(tmp),
             path: path.to_path_buf(),
             fmt: ryu::Buffer::new(),
         })
@@ -50,9 +61,9 @@ impl CsvObserver {
 
     /// Flushes and renames the file into place.
     pub fn finish(mut self) -> Result<()> {
-        self.wtr.flush().map_err(|e| Error::io(&self.tmp, e))?;
+        self.wtr.flush().map_err(|e| Error::io(&self.tmp.0, e))?;
         drop(self.wtr);
-        std::fs::rename(&self.tmp, &self.path).map_err(|e| Error::io(&self.path, e))
+        std::fs::rename(&self.tmp.0, &self.path).map_err(|e| Error::io(&self.path, e))
     }
 
     fn f64(&mut self, v: f64) -> csv::Result<()> {
@@ -90,6 +101,27 @@ impl<const N: usize, const M: usize> Observer<N, M> for CsvObserver {
         if !s.k.is_multiple_of(self.decimate) {
             return Ok(());
         }
-        self.row(s).map_err(|e| Error::io(&self.tmp, e))
+        self.row(s).map_err(|e| Error::io(&self.tmp.0, e))
+    }
+}
+
+#[cfg(test)]
+mod cleanup_tests {
+    use super::*;
+
+    #[test]
+    fn an_unfinished_csv_leaves_no_file_behind() -> Result<()> {
+        let dir = std::env::temp_dir().join(format!("host-sim-csv-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
+        let path = dir.join("trajectory.csv");
+        let obs = CsvObserver::create(&path, 1, 2, 2, 1)?;
+        let tmp = obs.tmp.0.clone();
+        assert!(tmp.exists());
+        drop(obs); // the run was cut short
+        assert!(!tmp.exists() && !path.exists());
+        let obs = CsvObserver::create(&path, 1, 2, 2, 1)?;
+        obs.finish()?;
+        assert!(path.exists() && !tmp.exists());
+        std::fs::remove_dir_all(&dir).map_err(|e| Error::io(&dir, e))
     }
 }
