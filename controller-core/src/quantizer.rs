@@ -175,19 +175,10 @@ impl HysteresisQuantizer {
     /// `q_k = Q(u_k)`, updating the state (eq. 2).
     #[inline]
     pub fn quantize(&self, s: &mut QuantizerState, u: f32) -> f32 {
-        let q = match self.direction_of(s.prev_u, u) {
-            None => s.prev_q,
-            Some(rising) => {
-                let a = math::abs(u);
-                let b = if rising { a } else { a * self.one_plus_delta };
-                if b <= self.u_min {
-                    0.0
-                } else {
-                    self.locate(s, b);
-                    math::sign(u) * self.magnitude(a, s.lower, rising)
-                }
-            }
-        };
+        let q = self.output(s.prev_u, s.prev_q, u, |b| {
+            self.locate(s, b);
+            s.lower
+        });
         s.prev_u = u;
         s.prev_q = q;
         q
@@ -195,17 +186,21 @@ impl HysteresisQuantizer {
 
     /// The same output as [`Self::quantize`] from the closed-form level index (the reference).
     pub fn quantize_reference(&self, prev_u: f32, prev_q: f32, u: f32) -> f32 {
-        match self.direction_of(prev_u, u) {
-            None => prev_q,
-            Some(rising) => {
-                let a = math::abs(u);
-                let b = if rising { a } else { a * self.one_plus_delta };
-                if b <= self.u_min {
-                    0.0
-                } else {
-                    math::sign(u) * self.magnitude(a, self.level(self.level_index(b)), rising)
-                }
-            }
+        self.output(prev_u, prev_q, u, |b| self.level(self.level_index(b)))
+    }
+
+    /// The cases of eq. (2); `level(b)` gives `u_c` of the bracket `u_c < b ≤ u_{c+1}`.
+    #[inline]
+    fn output(&self, prev_u: f32, prev_q: f32, u: f32, level: impl FnOnce(f32) -> f32) -> f32 {
+        let Some(rising) = self.direction_of(prev_u, u) else {
+            return prev_q;
+        };
+        let a = math::abs(u);
+        let b = if rising { a } else { a * self.one_plus_delta };
+        if b <= self.u_min {
+            0.0
+        } else {
+            math::sign(u) * self.magnitude(a, level(b), rising)
         }
     }
 
