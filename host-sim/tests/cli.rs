@@ -3,24 +3,15 @@
 
 use std::{
     path::{Path, PathBuf},
-    process::{Command, Output},
+    process::Output,
 };
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-}
+mod common;
+
+use common::{assert_invalid, bin, tmp};
 
 fn scenario(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../scenarios")
-        .join(name)
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).expect("tmp dir");
-    d
+    common::scenario_path(name)
 }
 
 fn check_file(text: &str, name: &str) -> Output {
@@ -28,19 +19,6 @@ fn check_file(text: &str, name: &str) -> Output {
     let f = d.join("s.toml");
     std::fs::write(&f, text).expect("write");
     bin().arg("check").arg(&f).output().expect("run")
-}
-
-/// Exit 2, one line on stderr naming `key`, no panic.
-fn assert_invalid(out: &Output, key: &str) {
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "stderr: {err}");
-    assert_eq!(
-        err.trim_end().lines().count(),
-        1,
-        "one line expected: {err}"
-    );
-    assert!(err.contains(key), "message should name `{key}`: {err}");
-    assert!(!err.contains("panicked"), "{err}");
 }
 
 #[test]

@@ -1,10 +1,7 @@
 //! `[network]`: Example 1 over the CAN bus (hil-mock nodes), bus load by hand, validation of the
 //! section through the binary, determinism.
 
-use std::{
-    path::{Path, PathBuf},
-    process::{Command, Output},
-};
+use std::{path::Path, process::Output};
 
 use host_sim::{
     metrics::Summary,
@@ -13,11 +10,9 @@ use host_sim::{
     scenario,
 };
 
-fn scenario_path(name: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../scenarios")
-        .join(name)
-}
+mod common;
+
+use common::{assert_invalid, bin, scenario_path, tmp};
 
 fn simulate(name: &str, sets: &[&str]) -> Summary {
     let sets: Vec<String> = sets.iter().map(|s| (*s).to_string()).collect();
@@ -27,17 +22,6 @@ fn simulate(name: &str, sets: &[&str]) -> Summary {
 
 fn network(s: &Summary) -> &NetworkSummary {
     s.network.as_ref().expect("a CAN run reports its network")
-}
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-}
-
-fn tmp(name: &str) -> PathBuf {
-    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).expect("tmp dir");
-    d
 }
 
 /// Bits of one of the project's frames, by hand: standard header 19 + 4 data bytes 32 + CRC and
@@ -168,19 +152,6 @@ fn check_network(case: usize, section: &str) -> Output {
     let f = d.join("s.toml");
     std::fs::write(&f, format!("[network]\n{section}\n")).expect("write");
     bin().arg("check").arg(&f).output().expect("run the binary")
-}
-
-/// Exit 2, one line on stderr naming `key`.
-fn assert_invalid(out: &Output, key: &str) {
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "stderr: {err}");
-    assert_eq!(
-        err.trim_end().lines().count(),
-        1,
-        "one line expected: {err}"
-    );
-    assert!(err.contains(key), "`{key}` not named: {err}");
-    assert!(!err.contains("panicked"), "{err}");
 }
 
 #[test]

@@ -1,14 +1,12 @@
 //! The paper's examples through the shipped scenarios (issue "Must hold"): Example 1 at
 //! Ts = 2 and Ts = 1, Example 2 at the shipped sample period.
 
-use std::path::PathBuf;
+mod common;
 
 use host_sim::{metrics::Summary, run::simulate, scenario};
 
 fn run(file: &str, sets: &[&str]) -> Summary {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../scenarios")
-        .join(file);
+    let path = common::scenario_path(file);
     let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
     let setup = scenario::load(&path, &sets).expect("shipped scenario is valid");
     simulate(&setup).expect("run")
