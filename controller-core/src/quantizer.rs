@@ -7,6 +7,11 @@
 //! The search moves from the previous level (levels move little between samples) and falls
 //! back to the closed form `c = ⌈ln(b/u_min) / ln(1/ρ)⌉` for large jumps, so a step costs no
 //! logarithm in the common case and a bounded amount of work in every case.
+//!
+//! Eq. (2) has infinitely many levels, `f32` has finitely many: the levels stop at the largest
+//! one that is a finite `f32`, and the output saturates at the largest finite output
+//! [`HysteresisQuantizer::saturation`] (`u_c` or `u_c (1+δ)` of that top level). So every finite
+//! `u` gives a finite `q`; Lemma 3's sector holds for `|u|` up to the top level (≥ `ρ f32::MAX`).
 
 use crate::{gains::positive, math, ConfigError};
 
@@ -55,6 +60,7 @@ pub struct HysteresisQuantizer {
     inv_ln_inv_rho: f32,
     ln_u_min: f32,
     max_index: u32,
+    saturation: f32,
     direction: QuantizerDirection,
 }
 
@@ -107,10 +113,7 @@ impl HysteresisQuantizer {
         let inv_rho = 1.0 / cfg.rho;
         let inv_ln_inv_rho = positive(1.0 / math::ln(inv_rho), "rho")?;
         let ln_u_min = math::ln(cfg.u_min);
-        // The first index whose level is no longer a finite f32: the search never goes past it.
-        let max_index =
-            (((math::ln(f32::MAX) - ln_u_min) * inv_ln_inv_rho) as u32).saturating_add(2);
-        Ok(Self {
+        let mut q = Self {
             u_min: cfg.u_min,
             inv_rho,
             delta,
@@ -118,9 +121,27 @@ impl HysteresisQuantizer {
             inv_one_minus_delta: 1.0 / (1.0 - delta),
             inv_ln_inv_rho,
             ln_u_min,
-            max_index,
+            max_index: u32::MAX,
+            saturation: f32::MAX,
             direction: cfg.direction,
-        })
+        };
+        // The first index whose level is no longer a finite f32 (the search never goes past
+        // it), found by bisection on the levels as `level` computes them: `level(1) = u_min` is
+        // finite and `level(u32::MAX) = u_min (1/ρ)^(2³²−2)` is not, as `1/ρ ≥ 1 + 2⁻²³`.
+        let (mut finite, mut infinite) = (1u32, u32::MAX);
+        while infinite - finite > 1 {
+            let mid = finite + (infinite - finite) / 2;
+            if q.level(mid).is_finite() {
+                finite = mid;
+            } else {
+                infinite = mid;
+            }
+        }
+        let (max_index, top) = (infinite, q.level(finite));
+        q.max_index = max_index;
+        let top_plus = top * q.one_plus_delta;
+        q.saturation = if top_plus.is_finite() { top_plus } else { top };
+        Ok(q)
     }
 
     /// `δ = (1−ρ)/(1+ρ)`.
@@ -131,6 +152,12 @@ impl HysteresisQuantizer {
     /// `u_min`.
     pub const fn u_min(&self) -> f32 {
         self.u_min
+    }
+
+    /// The largest output magnitude: the top finite level `u_c`, times `1+δ` where that stays
+    /// finite. `|q|` never exceeds it.
+    pub const fn saturation(&self) -> f32 {
+        self.saturation
     }
 
     /// Level `u_c = u_min ρ^(1−c)` for `c ≥ 1`.
@@ -197,6 +224,8 @@ impl HysteresisQuantizer {
         };
         let a = math::abs(u);
         let b = if rising { a } else { a * self.one_plus_delta };
+        // `a (1+δ)` of a finite `a` can overflow: it still lies above every finite level.
+        let b = if b > f32::MAX { f32::MAX } else { b };
         if b <= self.u_min {
             0.0
         } else {
@@ -224,10 +253,15 @@ impl HysteresisQuantizer {
         } else {
             level
         };
-        if a <= upper_edge {
+        let m = if a <= upper_edge {
             level
         } else {
             level * self.one_plus_delta
+        };
+        if m > self.saturation {
+            self.saturation
+        } else {
+            m
         }
     }
 
