@@ -207,7 +207,17 @@ impl<const N: usize> Params<N> {
         {
             return Err(ConfigError::NonFinite("a_check"));
         }
+        if inv_l_phi_low.iter().any(|v| !v.is_finite()) {
+            return Err(ConfigError::DerivedOverflow("phi_low"));
+        }
+        if cross.iter().any(|v| !v.is_finite()) {
+            return Err(ConfigError::DerivedOverflow("phi_up"));
+        }
         let gamma = positive(cfg.gamma, "gamma")?;
+        let inv_gamma = 1.0 / gamma;
+        if !inv_gamma.is_finite() {
+            return Err(ConfigError::DerivedOverflow("gamma"));
+        }
         positive(cfg.diff_l1, "diff_l1")?;
         positive(cfg.diff_l2, "diff_l2")?;
         positive(cfg.varpi0, "varpi0")?;
@@ -239,7 +249,7 @@ impl<const N: usize> Params<N> {
                 cross,
                 eps_bar,
                 inv_l_phi_low,
-                inv_gamma: 1.0 / gamma,
+                inv_gamma,
                 command_gain: 1.0 / (1.0 - delta),
             },
             scheme,

@@ -23,7 +23,7 @@ fn quantizer(rho: f32, u_min: f32) -> Option<QuantizerConfig> {
 }
 
 /// One configuration per variant, and the variant it must give.
-fn cases() -> [(Result<C, ConfigError>, ConfigError); 20] {
+fn cases() -> [(Result<C, ConfigError>, ConfigError); 21] {
     use ConfigError as E;
     let baseline = |mu_max, kappa| {
         SchemeConfig::PrescribedTime(BaselineConfig {
@@ -61,6 +61,7 @@ fn cases() -> [(Result<C, ConfigError>, ConfigError); 20] {
         (with(|c| c.gamma = 0.0), E::NonPositive("gamma")),
         (with(|c| c.eps_bar[0] = -0.1), E::Negative("eps_bar")),
         (with(|c| c.zeta = 1e-30), E::GainTooLarge("c1")),
+        (with(|c| c.gamma = 1e-40), E::DerivedOverflow("gamma")),
         (with(|c| c.varpi_min = 1.0), E::VarpiMinOutOfRange),
         (with(|c| c.mu0 = 2e6), E::InitialEstimateAboveMax),
         (with(|c| c.scheme = baseline(0.5, 2.0)), E::MuMaxBelowOne),
@@ -77,7 +78,7 @@ fn default_controller() -> C {
 
 #[test]
 fn every_variant_is_reached() {
-    let mut seen = [false; 20];
+    let mut seen = [false; 21];
     for (i, (got, want)) in cases().into_iter().enumerate() {
         assert_eq!(got.err(), Some(want), "case {i}");
         let slot = match want {
@@ -101,6 +102,7 @@ fn every_variant_is_reached() {
             ConfigError::MuMaxBelowOne => 17,
             ConfigError::ZeroStateOrder => 18,
             ConfigError::GainTooLarge(_) => 19,
+            ConfigError::DerivedOverflow(_) => 20,
         };
         seen[slot] = true;
     }
@@ -141,6 +143,18 @@ fn more_parameters_are_named() {
         .err(),
         Some(E::NonPositive("kappa"))
     );
+    // Subnormal or huge values whose reciprocal or product with A_i overflows (issue 11).
+    let tiny = |c: &mut ControllerConfig<2>| {
+        c.phi_low = [1e-40; 2];
+        c.phi_up = [1e-40; 2];
+    };
+    assert_eq!(with(tiny).err(), Some(E::DerivedOverflow("phi_low")));
+    let huge_up = |c: &mut ControllerConfig<2>| {
+        c.pinned = true;
+        c.neighbour_count = 2;
+        c.phi_up = [f32::MAX; 2];
+    };
+    assert_eq!(with(huge_up).err(), Some(E::DerivedOverflow("phi_up")));
     // Messages name the parameter.
     extern crate std;
     use std::string::ToString;

@@ -52,6 +52,10 @@ pub enum ConfigError {
     GainTooLarge(&'static str),
     /// A parameter that must be ≥ 0 is negative (`ε̄`, decay rates, initial estimates).
     Negative(&'static str),
+    /// A setting the controller derives from this parameter (its reciprocal, or its product
+    /// with `A_i`) is not a finite `f32`, e.g. a subnormal `γ` or `φ_low`: every step would
+    /// overflow.
+    DerivedOverflow(&'static str),
     /// `ϖ_min` must lie in (0, `ϖ_0`].
     VarpiMinOutOfRange,
     /// An initial estimate exceeds the projection bound `estimate_max`.
@@ -92,6 +96,10 @@ impl fmt::Display for ConfigError {
                 "`{p}` must be below 1.8e19 (sqrt of f32::MAX): every step would overflow"
             ),
             Self::Negative(p) => write!(f, "`{p}` must be >= 0"),
+            Self::DerivedOverflow(p) => write!(
+                f,
+                "`{p}` is so small or large that a setting derived from it overflows f32"
+            ),
             Self::VarpiMinOutOfRange => f.write_str("`varpi_min` must lie in (0, varpi0]"),
             Self::InitialEstimateAboveMax => {
                 f.write_str("`mu0`, `xi0` and `lambda0` must not exceed `estimate_max`")

@@ -658,7 +658,8 @@ fn config_error_key(e: &ConfigError, i: usize, auto_gains: bool) -> String {
         ConfigError::NonFinite(p)
         | ConfigError::NonPositive(p)
         | ConfigError::Negative(p)
-        | ConfigError::GainTooLarge(p) => param(p),
+        | ConfigError::GainTooLarge(p)
+        | ConfigError::DerivedOverflow(p) => param(p),
         ConfigError::ZetaOutOfRange => param("zeta"),
         ConfigError::NonPositiveTs => param("ts"),
         ConfigError::NonPositiveSamplePeriod => param("h"),
