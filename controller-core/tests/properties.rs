@@ -1,12 +1,16 @@
 //! Property tests of the core (proptest's default case count under `cargo test`; the
 //! million-case run is `cargo test -p controller-core --release --test properties -- --ignored`
-//! with `PROPTEST_CASES`, see README).
+//! with `PROPTEST_CASES`, see README). Seeds, stored failures and replaying a CI failure:
+//! docs/RELIABILITY.md, "Replaying a failure".
 
 use controller_core::{
     smoothing::smooth, BaselineConfig, Controller, ControllerConfig, GainSelection,
     HysteresisQuantizer, Link, QuantizerConfig, QuantizerDirection, SchemeConfig,
 };
-use proptest::prelude::*;
+use proptest::{
+    prelude::*,
+    test_runner::{FailurePersistence, FileFailurePersistence},
+};
 
 fn quantizer_config() -> impl Strategy<Value = QuantizerConfig> {
     (0.05f32..0.99, 1e-4f32..1.0, any::<bool>()).prop_map(|(rho, u_min, magnitude)| {
@@ -48,7 +52,20 @@ fn satisfies_lemma3(q: f32, u: f32, delta: f32, u_min: f32) -> bool {
     dist <= u_min + tol && (q == 0.0 || q.signum() == u.signum())
 }
 
+/// Failing cases are stored in `tests/properties.proptest-regressions` (committed) and replayed
+/// before any new case; the run's seed is `PROPTEST_RNG_SEED` (`.cargo/config.toml` fixes it).
+fn regressions_file() -> Option<Box<dyn FailurePersistence>> {
+    Some(Box::new(FileFailurePersistence::WithSource(
+        "proptest-regressions",
+    )))
+}
+
 proptest! {
+    #![proptest_config(ProptestConfig {
+        failure_persistence: regressions_file(),
+        ..ProptestConfig::default()
+    })]
+
     #[test]
     fn quantizer_satisfies_lemma3(cfg in quantizer_config(),
                                   us in prop::collection::vec(command(), 1..200)) {
@@ -60,6 +77,28 @@ proptest! {
             prop_assert!(satisfies_lemma3(q, u, qz.delta(), qz.u_min()),
                 "q = {q} for u = {u} (δ = {}, u_min = {})", qz.delta(), qz.u_min());
             // The incremental level search agrees with the closed form.
+            prop_assert_eq!(q, qz.quantize_reference(pu, pq, u));
+        }
+    }
+
+    /// Any finite command, up to ±`f32::MAX`, and quantizers from the coarsest to `ρ` next to 1
+    /// and `u_min` next to `f32::MAX`: the output is finite, within the top level, of the
+    /// command's sign, and the incremental search equals the closed form (issue 11).
+    #[test]
+    fn quantizer_output_is_finite_for_any_finite_command(
+        rho in prop_oneof![0.001f32..0.999, Just(1.0 - f32::EPSILON / 2.0), Just(f32::MIN_POSITIVE)],
+        u_min in prop_oneof![1e-30f32..1e30, Just(f32::MAX), Just(f32::MIN_POSITIVE / 4.0)],
+        magnitude in any::<bool>(),
+        us in prop::collection::vec(finite(), 1..100)) {
+        let direction = if magnitude { QuantizerDirection::Magnitude } else { QuantizerDirection::Signed };
+        let qz = HysteresisQuantizer::new(&QuantizerConfig { rho, u_min, direction }).unwrap();
+        let mut s = qz.state();
+        for &u in &us {
+            let (pu, pq) = (s.prev_u, s.prev_q);
+            let q = qz.quantize(&mut s, u);
+            prop_assert!(q.is_finite() && q.abs() <= qz.saturation(),
+                "q = {q} for u = {u} (ρ = {rho}, u_min = {u_min}, top {})", qz.saturation());
+            prop_assert!(q == 0.0 || q.signum() == u.signum() || u == pu, "q = {q} for u = {u}");
             prop_assert_eq!(q, qz.quantize_reference(pu, pq, u));
         }
     }
@@ -188,7 +227,11 @@ fn check_output(out: &controller_core::StepOutput<2, 2>) -> Result<(), TestCaseE
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig {
+        cases: 256,
+        failure_persistence: regressions_file(),
+        ..ProptestConfig::default()
+    })]
 
     #[test]
     fn step_is_total_on_finite_inputs(cfg in config(),
@@ -262,7 +305,7 @@ fn hostile_cases() -> u32 {
 proptest! {
     #![proptest_config(ProptestConfig {
         cases: hostile_cases(),
-        failure_persistence: None,
+        failure_persistence: regressions_file(),
         ..ProptestConfig::default()
     })]
 
