@@ -6,12 +6,16 @@
 //! `d > 0` and `b = a (1+δ)` when `d < 0` (the two cases of eq. (2) written with one variable).
 //! The search moves from the previous level (levels move little between samples) and falls
 //! back to the closed form `c = ⌈ln(b/u_min) / ln(1/ρ)⌉` for large jumps, so a step costs no
-//! logarithm in the common case and a bounded amount of work in every case.
+//! logarithm in the common case and a bounded amount of work in every case (the closed form is
+//! settled on the level values by galloping and bisection: O(log) level evaluations however far
+//! the rounded estimate is off, as it is for `ρ` next to 1).
 //!
-//! Eq. (2) has infinitely many levels, `f32` has finitely many: the levels stop at the largest
-//! one that is a finite `f32`, and the output saturates at the largest finite output
+//! Eq. (2) has infinitely many levels, `f32` has finitely many: the levels stop at the last one
+//! that [`HysteresisQuantizer::level`] computes as a finite `f32` (its power `(1/ρ)^(c−1)` must
+//! be finite too, so the top level is about `ρ min(1, u_min) f32::MAX` or more: 3.5e36 for the
+//! paper's `ρ = 0.9`, `u_min = 0.01`), and the output saturates at the largest finite output
 //! [`HysteresisQuantizer::saturation`] (`u_c` or `u_c (1+δ)` of that top level). So every finite
-//! `u` gives a finite `q`; Lemma 3's sector holds for `|u|` up to the top level (≥ `ρ f32::MAX`).
+//! `u` gives a finite `q`; Lemma 3's sector holds for `|u|` up to the top level.
 
 use crate::{gains::positive, math, ConfigError};
 
@@ -187,16 +191,46 @@ impl HysteresisQuantizer {
         if (c as f32) < x {
             c = c.saturating_add(1);
         }
-        let mut c = c.clamp(1, self.max_index);
-        // Rounding of ln can put c one off a boundary; settle it on the exact level values
-        // (a few iterations at most: c is within one or two of the answer).
-        while c > 1 && b <= self.level(c) {
-            c -= 1;
+        // Settle c on the levels as `level` computes them: `ln` rounding, and the rounding of
+        // `1/ρ` raised to a large power, put the estimate off the answer, by one for the
+        // paper's `ρ` and by thousands of levels for `ρ` next to 1. Galloping from the estimate
+        // then bisecting keeps the work at O(log) of that distance (at most about 64 levels).
+        let below = |c: u32| self.level(c) < b; // true at 1, false at max_index
+        let (mut lo, mut hi) = (1, self.max_index);
+        let start = c.clamp(1, self.max_index);
+        let mut step = 1u32;
+        if below(start) {
+            lo = start;
+            while lo < hi {
+                let probe = lo.saturating_add(step).min(hi);
+                if !below(probe) {
+                    hi = probe;
+                    break;
+                }
+                lo = probe;
+                step = step.saturating_mul(2);
+            }
+        } else {
+            hi = start;
+            while lo < hi {
+                let probe = hi.saturating_sub(step).max(lo);
+                if below(probe) {
+                    lo = probe;
+                    break;
+                }
+                hi = probe;
+                step = step.saturating_mul(2);
+            }
         }
-        while c < self.max_index && b > self.level(c + 1) {
-            c += 1;
+        while hi - lo > 1 {
+            let mid = lo + (hi - lo) / 2;
+            if below(mid) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
         }
-        c
+        lo
     }
 
     /// `q_k = Q(u_k)`, updating the state (eq. 2).
@@ -223,9 +257,17 @@ impl HysteresisQuantizer {
             return prev_q;
         };
         let a = math::abs(u);
-        let b = if rising { a } else { a * self.one_plus_delta };
-        // `a (1+δ)` of a finite `a` can overflow: it still lies above every finite level.
-        let b = if b > f32::MAX { f32::MAX } else { b };
+        let b = if rising {
+            a
+        } else {
+            // `a (1+δ)` of a finite `a` can overflow: it still lies above every finite level.
+            let b = a * self.one_plus_delta;
+            if b > f32::MAX {
+                f32::MAX
+            } else {
+                b
+            }
+        };
         if b <= self.u_min {
             0.0
         } else {
@@ -277,8 +319,15 @@ impl HysteresisQuantizer {
             }
         }
         if (b > s.upper && s.index < self.max_index) || (b <= s.lower && s.index > 1) {
-            self.set_index(s, self.level_index(b));
+            self.jump(s, b);
         }
+    }
+
+    /// A jump of more than [`MAX_WALK`] levels: the closed form, kept out of the common path.
+    #[cold]
+    #[inline(never)]
+    fn jump(&self, s: &mut QuantizerState, b: f32) {
+        self.set_index(s, self.level_index(b));
     }
 
     #[inline]
