@@ -1,19 +1,39 @@
-//! `cargo xtask bench-gate`: the regression gate on the deterministic instruction counts.
+//! `cargo xtask bench-gate`: the regression gate on the deterministic target figures.
 //!
-//! `bench-fw/budget.json`:
+//! `bench-fw/budget.json` holds one budget per benchmark variant, every variant of
+//! [`VARIANTS`] and no other:
 //! ```json
 //! { "tolerance": 0.10,
-//!   "variants": { "libm-n2m2": { "instructions_median": 1234 }, … } }
+//!   "variants": { "libm-n2m2": { "instructions_median": 1234, "instructions_max": 1849,
+//!                                "stack_bytes": 400, "flash_bytes": 8214 }, … } }
 //! ```
-//! A variant whose median instructions per step exceed `budget · (1 + tolerance)` fails the
-//! gate, and so does a budgeted variant missing from `step.json`.
+//! A variant fails the gate when any of its four figures exceeds `budget · (1 + tolerance)`,
+//! when its stack or flash exceeds the absolute goals ([`STACK_GOAL`], [`FLASH_GOAL`]), when a
+//! step of the replayed trace faulted, when it ran no step, or when it is missing from
+//! `step.json`. A budget that could let anything through is rejected before any comparison:
+//! a tolerance outside `[0, MAX_TOLERANCE]`, a missing or unknown variant, a missing, zero or
+//! unknown figure.
 
-use crate::{bench_dir, target, workspace_root, Options, Result};
-use serde_json::{json, Value};
+use crate::{bench_dir, target, target::VARIANTS, workspace_root, Options, Result};
+use serde_json::{json, Map, Value};
 use std::fs;
 
-/// Default tolerance above the budget.
+/// Default tolerance above the budget, written by `--update-budget`.
 pub const TOLERANCE: f64 = 0.10;
+/// The largest tolerance a budget may set.
+pub const MAX_TOLERANCE: f64 = 0.10;
+/// Absolute goal for the painted stack of one step, bytes (issue 5).
+pub const STACK_GOAL: u64 = 512;
+/// Absolute goal for the flash of the step and its callees, bytes (issue 5).
+pub const FLASH_GOAL: u64 = 16 * 1024;
+
+/// The gated figures: the key in `step.json` and in the budget, and its unit for messages.
+const FIGURES: [(&str, &str); 4] = [
+    ("instructions_median", "instructions"),
+    ("instructions_max", "instructions"),
+    ("stack_bytes", "B"),
+    ("flash_bytes", "B"),
+];
 
 pub fn bench_gate(opts: &Options) -> Result<()> {
     let budget_path = workspace_root().join("bench-fw").join("budget.json");
@@ -41,7 +61,8 @@ pub fn bench_gate(opts: &Options) -> Result<()> {
         fs::read_to_string(&budget_path).map_err(|e| format!("{}: {e}", budget_path.display()))?;
     let budget: Value =
         serde_json::from_str(&text).map_err(|e| format!("{}: {e}", budget_path.display()))?;
-    let verdicts = compare(&step, &budget)?;
+    let verdicts =
+        compare(&step, &budget).map_err(|e| format!("{}: {e}", budget_path.display()))?;
     let mut failed = false;
     for v in &verdicts {
         println!("{v}");
@@ -49,7 +70,7 @@ pub fn bench_gate(opts: &Options) -> Result<()> {
     }
     if failed {
         Err(format!(
-            "bench-gate: instruction count above budget ({})",
+            "bench-gate: figures above budget ({})",
             budget_path.display()
         ))
     } else {
@@ -58,51 +79,152 @@ pub fn bench_gate(opts: &Options) -> Result<()> {
     }
 }
 
-/// The budget document for the medians of `step`.
+/// The budget document for the figures of `step` (every variant must have run cleanly).
 pub fn budget_from(step: &Value) -> Result<Value> {
-    let mut variants = serde_json::Map::new();
-    for v in step["variants"]
-        .as_array()
-        .ok_or("step.json has no variants")?
-    {
+    let mut variants = Map::new();
+    for v in measured_variants(step)? {
         let name = v["name"].as_str().ok_or("variant without a name")?;
-        let median = v["instructions_median"]
-            .as_u64()
-            .ok_or("variant without instructions_median")?;
-        variants.insert(name.to_owned(), json!({ "instructions_median": median }));
+        if let Some(problem) = run_problem(v) {
+            return Err(format!("{name}: {problem}: no budget written"));
+        }
+        let mut limits = Map::new();
+        for (key, _) in FIGURES {
+            let value = v[key]
+                .as_u64()
+                .ok_or_else(|| format!("{name}: step.json has no {key}"))?;
+            limits.insert(key.to_owned(), json!(value));
+        }
+        variants.insert(name.to_owned(), Value::Object(limits));
     }
-    Ok(json!({ "tolerance": TOLERANCE, "variants": variants }))
+    let budget = json!({ "tolerance": TOLERANCE, "variants": variants });
+    validate_budget(&budget)?;
+    Ok(budget)
 }
 
-/// One line per budgeted variant, starting with `ok` or `FAIL`.
-pub fn compare(step: &Value, budget: &Value) -> Result<Vec<String>> {
-    let tolerance = budget["tolerance"].as_f64().unwrap_or(TOLERANCE);
-    let measured = step["variants"]
-        .as_array()
-        .ok_or("step.json has no variants")?;
-    let mut out = Vec::new();
-    for (name, b) in budget["variants"]
+/// The validated budget: tolerance, and per variant its limits in [`FIGURES`] order.
+struct Budget {
+    tolerance: f64,
+    variants: Vec<(String, [u64; 4])>,
+}
+
+/// Rejects a budget that could let a regression through (module docs).
+fn validate_budget(budget: &Value) -> Result<Budget> {
+    let doc = budget
         .as_object()
-        .ok_or("budget has no variants")?
+        .ok_or("the budget is not a JSON object")?;
+    if let Some(key) = doc
+        .keys()
+        .find(|k| !["tolerance", "variants"].contains(&k.as_str()))
     {
-        let limit = b["instructions_median"]
-            .as_u64()
-            .ok_or_else(|| format!("budget of {name} has no instructions_median"))?;
-        let allowed = (limit as f64 * (1.0 + tolerance)).floor() as u64;
-        match measured
+        return Err(format!("unknown key `{key}`"));
+    }
+    let tolerance = doc
+        .get("tolerance")
+        .and_then(Value::as_f64)
+        .ok_or("`tolerance` is missing or not a number")?;
+    if !(0.0..=MAX_TOLERANCE).contains(&tolerance) {
+        return Err(format!(
+            "`tolerance` = {tolerance} must lie in [0, {MAX_TOLERANCE}]"
+        ));
+    }
+    let listed = doc
+        .get("variants")
+        .and_then(Value::as_object)
+        .ok_or("`variants` is missing or not an object")?;
+    if let Some(name) = listed
+        .keys()
+        .find(|n| !VARIANTS.iter().any(|v| v.name == n.as_str()))
+    {
+        return Err(format!(
+            "unknown variant `{name}` (the bench runs {})",
+            variant_names()
+        ));
+    }
+    let mut variants = Vec::new();
+    for v in VARIANTS {
+        let limits = listed
+            .get(v.name)
+            .and_then(Value::as_object)
+            .ok_or_else(|| format!("variant `{}` has no budget", v.name))?;
+        if let Some(key) = limits.keys().find(|k| !FIGURES.iter().any(|(f, _)| f == k)) {
+            return Err(format!("{}: unknown figure `{key}`", v.name));
+        }
+        let mut values = [0u64; 4];
+        for (slot, (key, _)) in values.iter_mut().zip(FIGURES) {
+            *slot = limits
+                .get(key)
+                .and_then(Value::as_u64)
+                .filter(|&x| x > 0)
+                .ok_or_else(|| format!("{}: `{key}` must be a positive integer", v.name))?;
+        }
+        variants.push((v.name.to_owned(), values));
+    }
+    Ok(Budget {
+        tolerance,
+        variants,
+    })
+}
+
+fn variant_names() -> String {
+    VARIANTS.map(|v| v.name).join(", ")
+}
+
+fn measured_variants(step: &Value) -> Result<&Vec<Value>> {
+    step["variants"]
+        .as_array()
+        .ok_or_else(|| "step.json has no variants".to_owned())
+}
+
+/// Why a measured variant's figures cannot be trusted, if they cannot.
+fn run_problem(v: &Value) -> Option<String> {
+    match (v["steps"].as_u64(), v["faulted_steps"].as_u64()) {
+        (Some(0), _) => Some("ran no step".to_owned()),
+        (None, _) => Some("no `steps` count".to_owned()),
+        (_, None) => Some("no `faulted_steps` count".to_owned()),
+        (_, Some(f)) if f > 0 => Some(format!(
+            "{f} steps faulted (the command was held): the trace does not exercise the law"
+        )),
+        _ => None,
+    }
+}
+
+/// One line per budgeted variant and figure, starting with `ok` or `FAIL`; an error for a
+/// malformed budget.
+pub fn compare(step: &Value, budget: &Value) -> Result<Vec<String>> {
+    let budget = validate_budget(budget)?;
+    let measured = measured_variants(step)?;
+    let pct = budget.tolerance * 100.0;
+    let mut out = Vec::new();
+    for (name, limits) in &budget.variants {
+        let Some(v) = measured
             .iter()
             .find(|v| v["name"].as_str() == Some(name.as_str()))
-            .and_then(|v| v["instructions_median"].as_u64())
-        {
-            None => out.push(format!("FAIL {name}: missing from step.json")),
-            Some(m) if m > allowed => out.push(format!(
-                "FAIL {name}: median {m} instructions > {allowed} (budget {limit} + {:.0} %)",
-                tolerance * 100.0
-            )),
-            Some(m) => out.push(format!(
-                "ok   {name}: median {m} instructions ≤ {allowed} (budget {limit} + {:.0} %)",
-                tolerance * 100.0
-            )),
+        else {
+            out.push(format!("FAIL {name}: missing from step.json"));
+            continue;
+        };
+        if let Some(problem) = run_problem(v) {
+            out.push(format!("FAIL {name}: {problem}"));
+        }
+        for (&limit, (key, unit)) in limits.iter().zip(FIGURES) {
+            let allowed = (limit as f64 * (1.0 + budget.tolerance)).floor() as u64;
+            let goal = match key {
+                "stack_bytes" => STACK_GOAL,
+                "flash_bytes" => FLASH_GOAL,
+                _ => u64::MAX,
+            };
+            out.push(match v[key].as_u64() {
+                None => format!("FAIL {name}: {key} missing from step.json"),
+                Some(m) if m > allowed => format!(
+                    "FAIL {name}: {key} {m} {unit} > {allowed} (budget {limit} + {pct:.0} %)"
+                ),
+                Some(m) if m > goal => {
+                    format!("FAIL {name}: {key} {m} {unit} > the goal of {goal} {unit}")
+                }
+                Some(m) => format!(
+                    "ok   {name}: {key} {m} {unit} ≤ {allowed} (budget {limit} + {pct:.0} %)"
+                ),
+            });
         }
     }
     Ok(out)
@@ -112,25 +234,154 @@ pub fn compare(step: &Value, budget: &Value) -> Result<Vec<String>> {
 mod tests {
     use super::*;
 
+    /// A clean run of every variant at the given figures.
+    fn step_at(median: u64, max: u64, stack: u64, flash: u64) -> Value {
+        let variants: Vec<Value> = VARIANTS
+            .iter()
+            .map(|v| {
+                json!({ "name": v.name, "instructions_median": median, "instructions_max": max,
+                        "stack_bytes": stack, "flash_bytes": flash,
+                        "steps": 10_000, "faulted_steps": 0 })
+            })
+            .collect();
+        json!({ "variants": variants })
+    }
+
+    fn budget_at(median: u64, max: u64, stack: u64, flash: u64) -> Value {
+        let mut variants = Map::new();
+        for v in VARIANTS {
+            variants.insert(
+                v.name.to_owned(),
+                json!({ "instructions_median": median, "instructions_max": max,
+                        "stack_bytes": stack, "flash_bytes": flash }),
+            );
+        }
+        json!({ "tolerance": 0.1, "variants": variants })
+    }
+
+    fn failures(step: &Value, budget: &Value) -> Vec<String> {
+        compare(step, budget)
+            .unwrap_or_else(|e| vec![format!("ERROR {e}")])
+            .into_iter()
+            .filter(|l| !l.starts_with("ok"))
+            .collect()
+    }
+
+    fn set(doc: &mut Value, variant: usize, key: &str, value: Value) {
+        doc["variants"][variant][key] = value;
+    }
+
     #[test]
-    fn gate_passes_within_tolerance_and_fails_above() {
-        let step = json!({ "variants": [
-            { "name": "a", "instructions_median": 1100 },
-            { "name": "b", "instructions_median": 1101 },
-        ]});
-        let budget = json!({ "tolerance": 0.1, "variants": {
-            "a": { "instructions_median": 1000 },
-            "b": { "instructions_median": 1000 },
-            "c": { "instructions_median": 1000 },
-        }});
-        let v = compare(&step, &budget).unwrap_or_default();
-        assert!(v[0].starts_with("ok   a"), "{v:?}");
-        assert!(v[1].starts_with("FAIL b"), "{v:?}");
+    fn passes_within_tolerance() {
+        let budget = budget_at(1000, 1500, 400, 8000);
+        assert!(failures(&step_at(1100, 1650, 440, 8800), &budget).is_empty());
+        assert!(failures(&step_at(1000, 1500, 400, 8000), &budget).is_empty());
+    }
+
+    #[test]
+    fn each_figure_above_tolerance_fails() {
+        let budget = budget_at(1000, 1500, 400, 8000);
+        for (key, value) in [
+            ("instructions_median", 1101),
+            ("instructions_max", 1651),
+            ("stack_bytes", 441),
+            ("flash_bytes", 8801),
+        ] {
+            let mut step = step_at(1000, 1500, 400, 8000);
+            set(&mut step, 2, key, json!(value));
+            let f = failures(&step, &budget);
+            assert_eq!(f.len(), 1, "{key}: {f:?}");
+            assert!(f[0].starts_with("FAIL baseline-n2m2") && f[0].contains(key));
+        }
+    }
+
+    #[test]
+    fn the_step_files_of_issue_14_fail() {
+        let budget = budget_at(1234, 1849, 400, 8214);
+        // Stack 99,999, flash 999,999 and every step faulted, medians in budget.
+        let mut step = step_at(1234, 1849, 400, 8214);
+        set(&mut step, 0, "stack_bytes", json!(99_999));
+        set(&mut step, 0, "flash_bytes", json!(999_999));
+        set(&mut step, 0, "faulted_steps", json!(10_000));
+        let f = failures(&step, &budget);
+        assert_eq!(f.len(), 3, "{f:?}");
+        assert!(f.iter().any(|l| l.contains("faulted")));
+        // A run of no step, a variant without figures, a missing variant.
+        let mut step = step_at(1234, 1849, 400, 8214);
+        set(&mut step, 1, "steps", json!(0));
+        set(&mut step, 3, "instructions_max", Value::Null);
+        let f = failures(&step, &budget);
+        assert!(f.iter().any(|l| l.contains("ran no step")), "{f:?}");
         assert!(
-            v[2].starts_with("FAIL c") && v[2].contains("missing"),
-            "{v:?}"
+            f.iter().any(|l| l.contains("instructions_max missing")),
+            "{f:?}"
         );
+        let mut step = step_at(1234, 1849, 400, 8214);
+        step["variants"].as_array_mut().map(|v| v.remove(0));
+        assert_eq!(
+            failures(&step, &budget),
+            vec!["FAIL libm-n2m2: missing from step.json"]
+        );
+    }
+
+    #[test]
+    fn absolute_goals_apply_whatever_the_budget() {
+        let budget = budget_at(1000, 1500, 600, 20_000);
+        let f = failures(&step_at(1000, 1500, 600, 20_000), &budget);
+        assert_eq!(f.len(), 2 * VARIANTS.len(), "{f:?}");
+        assert!(f.iter().all(|l| l.contains("goal")));
+    }
+
+    #[test]
+    fn a_budget_that_lets_anything_through_is_rejected() {
+        let step = step_at(1000, 1500, 400, 8000);
+        let good = budget_at(1000, 1500, 400, 8000);
+        let mut cases: Vec<(Value, &str)> = Vec::new();
+        let mut b = good.clone();
+        b["tolerance"] = json!(10);
+        cases.push((b, "tolerance"));
+        let mut b = good.clone();
+        b["tolerance"] = json!(-0.1);
+        cases.push((b, "tolerance"));
+        let mut b = good.clone();
+        b.as_object_mut().map(|o| o.remove("tolerance"));
+        cases.push((b, "tolerance"));
+        let mut b = good.clone();
+        b["variants"] = json!({});
+        cases.push((b, "has no budget"));
+        let mut b = good.clone();
+        b["variants"]["libm-n2m2-fast"] = b["variants"]["libm-n2m2"].clone();
+        cases.push((b, "unknown variant"));
+        let mut b = good.clone();
+        b["variants"]["micromath-n2m2"]["stack_bytes"] = json!(0);
+        cases.push((b, "positive integer"));
+        let mut b = good.clone();
+        b["variants"]["micromath-n2m2"]
+            .as_object_mut()
+            .map(|o| o.remove("flash_bytes"));
+        cases.push((b, "flash_bytes"));
+        let mut b = good.clone();
+        b["variants"]["libm-n3m3"]["cycles"] = json!(1);
+        cases.push((b, "unknown figure"));
+        let mut b = good;
+        b["slack"] = json!(1);
+        cases.push((b, "unknown key"));
+        for (budget, says) in cases {
+            match compare(&step, &budget) {
+                Err(e) => assert!(e.contains(says), "{e} should say {says}"),
+                Ok(v) => panic!("accepted {budget}: {v:?}"),
+            }
+        }
+    }
+
+    #[test]
+    fn budget_from_a_clean_run_round_trips_and_refuses_a_faulted_one() {
+        let step = step_at(1101, 1700, 400, 8000);
         let b = budget_from(&step).unwrap_or_default();
-        assert_eq!(b["variants"]["b"]["instructions_median"], 1101);
+        assert_eq!(b["variants"]["libm-n3m3"]["instructions_max"], 1700);
+        assert!(failures(&step, &b).is_empty());
+        let mut faulted = step;
+        set(&mut faulted, 0, "faulted_steps", json!(3));
+        assert!(budget_from(&faulted).is_err_and(|e| e.contains("faulted")));
     }
 }
