@@ -95,6 +95,13 @@ fn step_entry(c: &mut Ctrl, x: &[f32; N], neighbours: &[Link], leader: Link) -> 
     c.step(x, neighbours, leader)
 }
 
+/// The configuration call, kept a function of its own so the xtask can size the code a
+/// firmware links for `Controller::new` (gains, quantizer levels: `powf`, `logf`, `expf`).
+#[inline(never)]
+fn config_entry(cfg: &ControllerConfig<N>) -> Result<Ctrl, controller_core::ConfigError> {
+    Ctrl::new(cfg)
+}
+
 /// SysTick ticks elapsed between two readings of the down-counter (24 bits, reload 0xFF_FFFF).
 fn elapsed(start: u32, end: u32) -> u32 {
     start.wrapping_sub(end) & 0x00FF_FFFF
@@ -174,7 +181,7 @@ fn main() -> ! {
     p.SYST.clear_current();
     p.SYST.enable_counter();
 
-    let Ok(mut ctrl) = Ctrl::new(&config()) else {
+    let Ok(mut ctrl) = config_entry(black_box(&config())) else {
         fail("invalid configuration")
     };
     let steps = (TRACE.len() / (FIELDS * 4)).min(MAX_STEPS);

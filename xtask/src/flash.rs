@@ -1,5 +1,7 @@
 //! Flash of the controller: the `.text` + `.rodata` of `Controller::step` and its callees, from
-//! the ELF's symbol sizes.
+//! the ELF's symbol sizes, and in a second figure the configuration code a firmware links with
+//! it: `Controller::new` and its callees (`powf`, `logf`, `expf`, …) not already counted for
+//! the step.
 //!
 //! * Code: the call graph from the firmware's `step_entry` wrapper (into which LTO inlines
 //!   `step`), found by decoding the Thumb-2 `BL` / `B.W` / `B` instructions of each reached
@@ -24,15 +26,20 @@ pub struct Counted {
     pub size: u64,
 }
 
-/// The counted symbols and their total.
+/// The counted symbols and their total, for the step and for the configuration.
 #[derive(Debug, Clone, Default)]
 pub struct Flash {
     pub total: u64,
     pub symbols: Vec<Counted>,
+    /// Code and tables reached from `Controller::new` only.
+    pub config_total: u64,
+    pub config_symbols: Vec<Counted>,
 }
 
-/// The entry of the call graph.
+/// The entry of the step's call graph.
 const ENTRY: &str = "bench_fw::step_entry";
+/// The entry of the configuration's call graph.
+const CONFIG_ENTRY: &str = "bench_fw::config_entry";
 
 /// Whether a demangled read-only data symbol belongs to the controller's math.
 pub fn is_controller_data(name: &str) -> bool {
@@ -118,60 +125,86 @@ pub fn controller_flash(data: &[u8]) -> Result<Flash> {
         .ok_or("the ELF has no .text")?;
     let text_addr = text.address();
     let text_bytes = text.data().map_err(|e| format!(".text: {e}"))?;
-    let entry = functions
-        .iter()
-        .find(|(_, f)| f.name.contains(ENTRY))
-        .map(|(a, _)| *a)
-        .ok_or_else(|| format!("no `{ENTRY}` in the ELF (was Controller::step linked?)"))?;
-
-    let mut reached = BTreeSet::from([entry]);
-    let mut todo = vec![entry];
-    while let Some(start) = todo.pop() {
-        let Some(f) = functions.get(&start) else {
-            continue;
-        };
-        for target in branch_targets(text_bytes, text_addr, start, f.end, &mapping) {
-            if (start..f.end).contains(&target) {
-                continue;
-            }
-            let Some(callee) = functions.get(&target) else {
+    let reach = |name: &str| -> Result<BTreeSet<u64>> {
+        let entry = functions
+            .iter()
+            .find(|(_, f)| f.name.contains(name))
+            .map(|(a, _)| *a)
+            .ok_or_else(|| format!("no `{name}` in the ELF (was it linked?)"))?;
+        let mut reached = BTreeSet::from([entry]);
+        let mut todo = vec![entry];
+        while let Some(start) = todo.pop() {
+            let Some(f) = functions.get(&start) else {
                 continue;
             };
-            if is_panic_path(&callee.name) {
-                continue;
-            }
-            if reached.insert(target) {
-                todo.push(target);
+            for target in branch_targets(text_bytes, text_addr, start, f.end, &mapping) {
+                if (start..f.end).contains(&target) {
+                    continue;
+                }
+                let Some(callee) = functions.get(&target) else {
+                    continue;
+                };
+                if is_panic_path(&callee.name) {
+                    continue;
+                }
+                if reached.insert(target) {
+                    todo.push(target);
+                }
             }
         }
+        Ok(reached)
+    };
+    let step = reach(ENTRY)?;
+    let config: BTreeSet<u64> = reach(CONFIG_ENTRY)?.difference(&step).copied().collect();
+    let counted = |set: &BTreeSet<u64>| -> Vec<Counted> {
+        set.iter()
+            .filter_map(|a| functions.get(a))
+            .map(|f| Counted {
+                name: f.name.clone(),
+                size: f.size,
+            })
+            .collect()
+    };
+    let (mut symbols, mut config_symbols) = (counted(&step), counted(&config));
+    // Read-only tables of a math crate count where one of its functions is reached (they are
+    // inlined there, or called): with the step if the step reaches it, else with the
+    // configuration; controller-core's with the step (the step is its code).
+    let crates = |symbols: &[Counted]| -> BTreeSet<String> {
+        symbols
+            .iter()
+            .map(|f| crate_of(&f.name).to_owned())
+            .collect()
+    };
+    let (step_crates, config_crates) = (crates(&symbols), crates(&config_symbols));
+    for d in rodata {
+        let krate = crate_of(&d.name);
+        if krate == "controller_core" || step_crates.contains(krate) {
+            symbols.push(d);
+        } else if config_crates.contains(krate) {
+            config_symbols.push(d);
+        }
     }
-    let mut symbols: Vec<Counted> = reached
-        .iter()
-        .filter_map(|a| functions.get(a))
-        .map(|f| Counted {
-            name: f.name.clone(),
-            size: f.size,
-        })
-        .collect();
-    // Read-only tables of a math crate count when one of its functions is reached (they are
-    // inlined into the step, or called); controller-core's always (the step is its code).
-    let reached_crates: BTreeSet<String> = symbols
-        .iter()
-        .filter_map(|f| f.name.trim_start_matches('<').split("::").next())
-        .map(str::to_owned)
-        .collect();
-    symbols.extend(rodata.into_iter().filter(|d| {
-        let krate = d
-            .name
-            .trim_start_matches('<')
-            .split("::")
-            .next()
-            .unwrap_or("");
-        krate == "controller_core" || reached_crates.contains(krate)
-    }));
-    symbols.sort_by(|a, b| b.size.cmp(&a.size).then(a.name.cmp(&b.name)));
-    let total = symbols.iter().map(|s| s.size).sum();
-    Ok(Flash { total, symbols })
+    let sorted = |mut v: Vec<Counted>| {
+        v.sort_by(|a, b| b.size.cmp(&a.size).then(a.name.cmp(&b.name)));
+        let total = v.iter().map(|s| s.size).sum();
+        (total, v)
+    };
+    let ((total, symbols), (config_total, config_symbols)) =
+        (sorted(symbols), sorted(config_symbols));
+    Ok(Flash {
+        total,
+        symbols,
+        config_total,
+        config_symbols,
+    })
+}
+
+/// The crate a demangled symbol belongs to (`<a::B as c::D>::f` → `a`).
+fn crate_of(name: &str) -> &str {
+    name.trim_start_matches('<')
+        .split("::")
+        .next()
+        .unwrap_or("")
 }
 
 /// Targets of the direct branches (`BL`, `B.W`, 16-bit `B`) in the code of `[start, end)`.
