@@ -72,7 +72,12 @@ pub fn pow_pos(x: f32, y: f32) -> f32 {
     }
     #[cfg(feature = "micromath")]
     {
-        F32Ext::powf(x, y)
+        // micromath gives 0^0.5 = 7.7e-20: the edges the IEEE way, as the kernel does.
+        if is_positive_normal(x) {
+            F32Ext::powf(x, y)
+        } else {
+            pow_special(x, y)
+        }
     }
     #[cfg(not(feature = "micromath"))]
     {
@@ -89,11 +94,52 @@ pub fn sqrt(x: f32) -> f32 {
     }
     #[cfg(feature = "micromath")]
     {
-        F32Ext::sqrt(x)
+        // micromath's bit-level estimate is wrong at the edges (√0 = 8.1e-20, √−0 = 2.8e19,
+        // √∞ = 1.8e19): those go the IEEE way.
+        if is_positive_normal(x) {
+            F32Ext::sqrt(x)
+        } else {
+            sqrt_special(x, F32Ext::sqrt)
+        }
     }
     #[cfg(not(feature = "micromath"))]
     {
         kernel::sqrt(x)
+    }
+}
+
+/// Positive, normal and finite: one integer comparison on the bits.
+#[inline]
+fn is_positive_normal(x: f32) -> bool {
+    x.to_bits().wrapping_sub(0x0080_0000) < 0x7f80_0000 - 0x0080_0000
+}
+
+/// `x^y` of 0, subnormals, negatives, ∞ and NaN with micromath (whose own result there is
+/// not IEEE's: `0^0.5 = 7.7e-20`).
+#[cfg(feature = "micromath")]
+#[cold]
+fn pow_special(x: f32, y: f32) -> f32 {
+    if x > 0.0 && x < f32::INFINITY {
+        // Subnormal: 2^(24y) scaled back.
+        F32Ext::powf(x * 16_777_216.0, y) / F32Ext::powf(16_777_216.0, y)
+    } else if x >= 0.0 {
+        x // 0 and ∞ (y > 0)
+    } else {
+        f32::NAN
+    }
+}
+
+/// `√x` of 0, subnormals, negatives, ∞ and NaN, given the root of positive normal numbers
+/// (micromath's own estimate there gives `√0 = 8.1e-20`, `√−0 = 2.8e19`, `√∞ = 1.8e19`).
+#[cold]
+fn sqrt_special(x: f32, normal: impl Fn(f32) -> f32) -> f32 {
+    if x > 0.0 && x < f32::INFINITY {
+        // Subnormal: scale by 2^64, the root by 2^-32.
+        normal(x * 18_446_744_073_709_551_616.0) * 2.328_306_4e-10
+    } else if x >= 0.0 {
+        x // 0, ∞
+    } else {
+        f32::NAN
     }
 }
 
@@ -133,7 +179,8 @@ pub fn tanh(x: f32) -> f32 {
     #[cfg(feature = "micromath")]
     {
         let a = abs(x);
-        if a > 9.0 {
+        // Also NaN (micromath's `exp` gives tanh(NaN) = 1): sign(NaN) is NaN.
+        if a.is_nan() || a > 9.0 {
             return sign(x);
         }
         let t = 1.0 - 2.0 / (exp(2.0 * a) + 1.0);
@@ -187,16 +234,10 @@ mod kernel {
     /// (truncation < 3e-9 relative).
     #[inline]
     pub fn log2(x: f32) -> f32 {
-        if !is_positive_normal(x) {
+        if !super::is_positive_normal(x) {
             return log2_special(x);
         }
         log2_normal(x.to_bits() as i32, 0)
-    }
-
-    /// Positive, normal and finite: one integer comparison on the bits.
-    #[inline]
-    fn is_positive_normal(x: f32) -> bool {
-        x.to_bits().wrapping_sub(0x0080_0000) < 0x7f80_0000 - 0x0080_0000
     }
 
     /// `log₂` of 0, subnormals, negatives, ∞ and NaN.
@@ -288,23 +329,10 @@ mod kernel {
     /// then one Newton correction of `x · (1/√x)`.
     #[inline]
     pub fn sqrt(x: f32) -> f32 {
-        if is_positive_normal(x) {
+        if super::is_positive_normal(x) {
             sqrt_normal(x)
         } else {
-            sqrt_special(x)
-        }
-    }
-
-    /// `√` of 0, subnormals, negatives, ∞ and NaN.
-    #[cold]
-    fn sqrt_special(x: f32) -> f32 {
-        if x > 0.0 && x < f32::INFINITY {
-            // Subnormal: scale by 2^64, the root by 2^-32.
-            sqrt_normal(x * 18_446_744_073_709_551_616.0) * 2.328_306_4e-10
-        } else if x >= 0.0 {
-            x // 0, ∞
-        } else {
-            f32::NAN
+            super::sqrt_special(x, sqrt_normal)
         }
     }
 
@@ -449,6 +477,23 @@ mod tests {
         assert_eq!(kernel::tanh(50.0), 1.0);
         assert_eq!(kernel::tanh(-0.0).to_bits(), (-0.0f32).to_bits());
         assert!(kernel::tanh(f32::NAN).is_nan());
+    }
+
+    /// The per-step functions of the build under test (`libm` kernels or `micromath`) at the
+    /// IEEE edge values.
+    #[test]
+    fn per_step_functions_at_edge_values() {
+        assert_eq!(sqrt(0.0), 0.0);
+        assert_eq!(sqrt(-0.0), 0.0);
+        assert_eq!(sqrt(f32::INFINITY), f32::INFINITY);
+        assert!(sqrt(-1.0).is_nan() && sqrt(f32::NAN).is_nan() && sqrt(f32::NEG_INFINITY).is_nan());
+        assert!(tanh(f32::NAN).is_nan());
+        assert_eq!(tanh(f32::INFINITY), 1.0);
+        assert_eq!(tanh(f32::NEG_INFINITY), -1.0);
+        assert_eq!(tanh(0.0), 0.0);
+        assert_eq!(pow_pos(0.0, 0.5), 0.0);
+        assert_eq!(pow_pos(f32::INFINITY, 0.5), f32::INFINITY);
+        assert!(pow_pos(f32::NAN, 0.5).is_nan());
     }
 
     #[test]
