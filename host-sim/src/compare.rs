@@ -1,4 +1,4 @@
-//! `compare`: two scenarios side by side (the proposed scheme against the SPEC §10 baseline),
+//! `compare`: two scenarios side by side (the proposed scheme against the LAW §10 baseline),
 //! one table with settling figures next to control effort, and overlaid figures.
 
 use std::{fmt::Write as _, path::Path};

@@ -1,4 +1,4 @@
-//! The two kinds of failure the CLI reports (SCENARIO.md "Exit status").
+//! The two kinds of failure the CLI reports (docs/SCENARIO.md §1 "Exit status").
 
 use std::fmt;
 
@@ -22,7 +22,7 @@ impl Error {
         Self::Io(format!("{}: {err}", path.display()))
     }
 
-    /// Process exit status of SCENARIO.md: 2 invalid, 1 I/O.
+    /// Process exit status of docs/SCENARIO.md §1: 2 invalid, 1 I/O.
     pub fn exit_code(&self) -> u8 {
         match self {
             Self::Invalid(_) => 2,

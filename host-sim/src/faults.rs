@@ -1,4 +1,4 @@
-//! Actuator faults `q^f = ϱ(t) q(u) + ū(t)` (SPEC §7, the paper's eq. 3) on repeating windows,
+//! Actuator faults `q^f = ϱ(t) q(u) + ū(t)` (LAW §7, the paper's eq. 3) on repeating windows,
 //! with the Assumption 4 check: never all actuators of an agent in total loss at once.
 
 use crate::{

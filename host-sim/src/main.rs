@@ -1,4 +1,4 @@
-//! `host-sim`: run, check, search the stable sample period, compare (SCENARIO.md).
+//! `host-sim`: run, check, search the stable sample period, compare (docs/SCENARIO.md).
 
 use std::{
     path::{Path, PathBuf},

@@ -1,4 +1,4 @@
-//! `trajectory.csv` (SCENARIO.md): `t`, `yd`, then per agent `y{i}`, `x{i}_{j}`, `e{i}_{j}`,
+//! `trajectory.csv` (docs/SCENARIO.md): `t`, `yd`, then per agent `y{i}`, `x{i}_{j}`, `e{i}_{j}`,
 //! `u{i}_{l}`, `q{i}_{l}`, `mu{i}`, `xi{i}`, `lambda{i}`; every `decimate`-th sample.
 
 use std::{

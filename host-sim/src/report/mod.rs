@@ -1,4 +1,4 @@
-//! Run outputs of SCENARIO.md: `summary.json`, `trajectory.csv`, plots; every file is written
+//! Run outputs of docs/SCENARIO.md: `summary.json`, `trajectory.csv`, plots; every file is written
 //! under a temporary name and renamed into place.
 
 pub mod csv;

@@ -179,7 +179,7 @@ impl Recorder {
 
         let mut inputs = Vec::new();
         for i in 0..self.agents {
-            // Every actuator of an agent gets the same command (SPEC §5), so u_1, q_1 show all.
+            // Every actuator of an agent gets the same command (LAW §5), so u_1, q_1 show all.
             let mut p = Panel {
                 title: format!(
                     "agent {}: command u (every actuator) and quantized q",
