@@ -10,7 +10,7 @@ use crate::{
     error::{Error, Result},
     metrics::Summary,
     report::{
-        self,
+        self, fmt_time,
         plots::{color, render, Panel, Recorder, Series},
     },
     run::{run, RunOptions},
@@ -36,6 +36,11 @@ pub struct Comparison {
 
 fn ratio(b: f64, a: f64) -> Option<f64> {
     (a > 0.0 && a.is_finite() && b.is_finite()).then(|| b / a)
+}
+
+/// A Markdown table cell: `|` escaped so that `max |u|` stays one cell.
+fn cell(text: &str) -> String {
+    text.replace('|', "\\|")
 }
 
 fn opt(v: Option<f64>) -> String {
@@ -78,7 +83,12 @@ pub fn compare(a: &Setup, b: &Setup, out: &Path, progress: bool) -> Result<Strin
         )
     };
     let mut t = String::new();
-    let _ = writeln!(t, "| metric | {} | {} |", sa.scenario, sb.scenario);
+    let _ = writeln!(
+        t,
+        "| metric | {} | {} |",
+        cell(&sa.scenario),
+        cell(&sb.scenario)
+    );
     let _ = writeln!(t, "|---|---|---|");
     let rows: [(&str, String, String); 10] = [
         ("scheme", sa.scheme.clone(), sb.scheme.clone()),
@@ -133,15 +143,15 @@ pub fn compare(a: &Setup, b: &Setup, out: &Path, progress: bool) -> Result<Strin
         (
             "diverged",
             sa.divergence.map_or("no".into(), |d| {
-                format!("at t = {} (agent {})", d.time, d.agent)
+                format!("at t = {} (agent {})", fmt_time(d.time), d.agent)
             }),
             sb.divergence.map_or("no".into(), |d| {
-                format!("at t = {} (agent {})", d.time, d.agent)
+                format!("at t = {} (agent {})", fmt_time(d.time), d.agent)
             }),
         ),
     ];
     for (k, x, y) in rows {
-        let _ = writeln!(t, "| {k} | {x} | {y} |");
+        let _ = writeln!(t, "| {} | {} | {} |", cell(k), cell(&x), cell(&y));
     }
     let _ = writeln!(t, "\n{note}");
     report::write_atomic(&out.join("compare.md"), t.as_bytes())?;

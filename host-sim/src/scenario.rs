@@ -696,6 +696,13 @@ pub fn load(path: &Path, sets: &[String]) -> Result<Setup> {
                 "not UTF-8 text",
             ))
         }
+        // Bad input, like a missing file (exit 2); I/O errors are reserved for files that exist.
+        Err(_) if path.is_dir() => {
+            return Err(Error::invalid(
+                format!("scenario file {}", path.display()),
+                "is a directory, not a scenario file",
+            ))
+        }
         Err(e) => return Err(Error::io(path, e)),
     };
     parse(&text, sets)

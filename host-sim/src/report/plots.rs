@@ -7,7 +7,7 @@ use plotters::{coord::Shift, prelude::*, style::RGBAColor};
 
 use crate::{
     error::{Error, Result},
-    report::temp_path,
+    report::{temp_path, TempFile},
     sim::{Observer, SampleView},
 };
 
@@ -270,21 +270,21 @@ pub fn render(
 ) -> Result<()> {
     register_font();
     let png = dir.join(format!("{stem}.png"));
-    let tmp = temp_path(&png);
+    let tmp = TempFile::new(temp_path(&png));
     {
-        let root = BitMapBackend::new(&tmp, size).into_drawing_area();
+        let root = BitMapBackend::new(tmp.path(), size).into_drawing_area();
         draw_panels(&root, panels, layout).map_err(|e| Error::io(&png, e))?;
         root.present().map_err(|e| Error::io(&png, e))?;
     }
-    std::fs::rename(&tmp, &png).map_err(|e| Error::io(&png, e))?;
+    tmp.persist(&png)?;
     let svg = dir.join(format!("{stem}.svg"));
-    let tmp = temp_path(&svg);
+    let tmp = TempFile::new(temp_path(&svg));
     {
-        let root = SVGBackend::new(&tmp, size).into_drawing_area();
+        let root = SVGBackend::new(tmp.path(), size).into_drawing_area();
         draw_panels(&root, panels, layout).map_err(|e| Error::io(&svg, e))?;
         root.present().map_err(|e| Error::io(&svg, e))?;
     }
-    std::fs::rename(&tmp, &svg).map_err(|e| Error::io(&svg, e))
+    tmp.persist(&svg)
 }
 
 fn draw_panels<DB: DrawingBackend>(
