@@ -134,7 +134,7 @@ fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
         report::write_atomic(&dir.join("summary.json"), format!("{json}\n").as_bytes())?;
         if opts.plots {
             if let Some(r) = &recorder {
-                r.draw(dir, setup.predefined_time(), &setup.scenario.name)?;
+                r.draw(dir, setup, summary.settling_time)?;
             }
         }
     }

@@ -130,6 +130,14 @@ impl PlantModel {
         2
     }
 
+    /// Units of the output `y` and of the actuator commands `u` (for the figures).
+    pub fn units(&self) -> (&'static str, &'static str) {
+        match self {
+            Self::Example1(_) => ("–", "–"),
+            Self::Manipulator(_) => ("rad", "N·m"),
+        }
+    }
+
     /// The scenario name of the model.
     pub fn name(&self) -> &'static str {
         match self {
