@@ -221,6 +221,11 @@ pub fn secs(t: f64) -> String {
     format!("{} s", trim_number(t))
 }
 
+/// The symbol of a legend label: `u₁` of `u₁ = u₂ (identical)`.
+fn short_name(label: &str) -> &str {
+    label.split([' ', ':']).next().unwrap_or(label)
+}
+
 /// A value for figure text: whole above 100 (`−16519`), else three significant digits.
 fn significant(v: f64) -> String {
     if v.abs() >= 100.0 {
@@ -929,8 +934,22 @@ fn draw_panel<DB: DrawingBackend>(
         (longest as f64 * 6.6 + 48.0) / (f64::from(aw) - 100.0).max(1.0),
         (entries as f64 * 17.0 + 14.0) / (f64::from(ah) - 80.0).max(1.0),
     );
-    let (mut corner, covered) = legend_corner(&pts, (x0, x1), (y0, y1), legend);
-    if covered > 0 && legend.1 < 0.6 {
+    // The notes on clipped peaks occupy a strip from the peak to the right.
+    let mut occupied = pts.clone();
+    if let Some(c) = clip {
+        for sp in &pts {
+            if let Some(&(t, v)) = sp.iter().find(|(_, y)| y.abs() > c) {
+                let edge = v.clamp(-c, c);
+                occupied.push(
+                    (0..200)
+                        .map(|k| (t + (x1 - x0) * 0.5 * f64::from(k) / 200.0, edge))
+                        .collect(),
+                );
+            }
+        }
+    }
+    let (mut corner, covered) = legend_corner(&occupied, (x0, x1), (y0, y1), legend);
+    if covered > 0 && legend.1 < 0.35 && clip.is_none() {
         let grow = (y1 - y0) * legend.1 / (1.0 - legend.1);
         y1 += if p.log_y { grow.ceil() } else { grow };
         corner = SeriesLabelPosition::UpperRight;
@@ -1078,7 +1097,7 @@ fn draw_panel<DB: DrawingBackend>(
                         format!(
                             "{arrow} {}peak {} at t = {} (clipped)",
                             if n_series > 1 {
-                                format!("{}: ", s.label)
+                                format!("{}: ", short_name(&s.label))
                             } else {
                                 String::new()
                             },
