@@ -239,3 +239,41 @@ fn every_trajectory_column_is_documented() {
         );
     }
 }
+
+/// Unescaped `|` in a Markdown table row (a `|` inside a code span splits the cell too).
+fn cell_bars(row: &str) -> usize {
+    row.match_indices('|')
+        .filter(|(i, _)| !row[..*i].ends_with('\\'))
+        .count()
+}
+
+#[test]
+fn every_markdown_table_row_has_the_cells_of_its_header() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mut files = vec![root.join("README.md")];
+    for e in std::fs::read_dir(root.join("docs")).expect("docs") {
+        let p = e.expect("entry").path();
+        if p.extension().is_some_and(|x| x == "md") {
+            files.push(p);
+        }
+    }
+    for f in files {
+        let text = std::fs::read_to_string(&f).expect("read");
+        let mut header = None;
+        for (n, line) in text.lines().enumerate() {
+            if !line.starts_with('|') {
+                header = None;
+                continue;
+            }
+            let bars = cell_bars(line);
+            let want = *header.get_or_insert(bars);
+            assert_eq!(
+                bars,
+                want,
+                "{}:{}: escape `|` as `\\|`: {line}",
+                f.display(),
+                n + 1
+            );
+        }
+    }
+}
