@@ -253,7 +253,7 @@ fn trim_number(v: f64) -> String {
 pub fn tick_label(v: f64, (lo, hi): (f64, f64)) -> String {
     let mag = lo.abs().max(hi.abs());
     let decimals = |scale: f64| -> usize {
-        let step = tick_step((lo / scale, hi / scale), 10);
+        let step = tick_step((lo / scale, hi / scale), MESH_LABELS);
         if step > 0.0 && step.is_finite() {
             (-(step.log10() + 1e-9).floor()).clamp(0.0, 6.0) as usize
         } else {
@@ -282,6 +282,9 @@ pub fn tick_label(v: f64, (lo, hi): (f64, f64)) -> String {
     }
     minus(format!("{v:.prec$}", prec = decimals(1.0)))
 }
+
+/// Labels per axis `plotters`' mesh asks for by default.
+const MESH_LABELS: usize = 11;
 
 /// The tick step `plotters` picks for at most `n` ticks on `[lo, hi]` (its algorithm for `f64`
 /// axes): `10ᵏ`, `5·10ᵏ⁻¹` or `2·10ᵏ⁻¹`, the finest whose multiples inside the range are at most
@@ -822,10 +825,24 @@ fn draw_title<DB: DrawingBackend>(
     Ok(())
 }
 
+/// The largest-magnitude point of `pts` beyond the clip limit `c`.
+fn clipped_peak(pts: &[(f64, f64)], c: f64) -> Option<(f64, f64)> {
+    pts.iter()
+        .copied()
+        .filter(|(_, y)| y.abs() > c)
+        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+}
+
+/// A note at `t` is written to the left of its peak in the right 45 % of the plot.
+fn note_to_the_left(t: f64, (x0, x1): (f64, f64)) -> bool {
+    (t - x0) / (x1 - x0) > 0.55
+}
+
 /// The corner of the plot where a legend box of `w` × `h` (fractions of the plot) covers the
-/// fewest data points, and how many it covers.
+/// fewest data points (a point of a note counts 100), and how many it covers.
 fn legend_corner(
     pts: &[Vec<(f64, f64)>],
+    notes: &[(f64, f64)],
     (x0, x1): (f64, f64),
     (y0, y1): (f64, f64),
     (w, h): (f64, f64),
@@ -840,11 +857,10 @@ fn legend_corner(
     ];
     let mut best = (SeriesLabelPosition::UpperRight, usize::MAX);
     for (pos, ax, bx, ay, by) in corners {
-        let inside = pts
-            .iter()
-            .flatten()
-            .filter(|&&(x, y)| (ax..=bx).contains(&fx(x)) && (ay..=by).contains(&fy(y)))
-            .count();
+        let within =
+            |&&(x, y): &&(f64, f64)| (ax..=bx).contains(&fx(x)) && (ay..=by).contains(&fy(y));
+        let inside =
+            pts.iter().flatten().filter(within).count() + 100 * notes.iter().filter(within).count();
         if inside < best.1 {
             best = (pos, inside);
         }
@@ -934,21 +950,24 @@ fn draw_panel<DB: DrawingBackend>(
         (longest as f64 * 6.6 + 48.0) / (f64::from(aw) - 100.0).max(1.0),
         (entries as f64 * 17.0 + 14.0) / (f64::from(ah) - 80.0).max(1.0),
     );
-    // The notes on clipped peaks occupy a strip from the peak to the right.
-    let mut occupied = pts.clone();
+    // The notes on clipped peaks occupy a strip beside the peak; the legend must not hide them.
+    let mut notes = Vec::new();
     if let Some(c) = clip {
         for sp in &pts {
-            if let Some(&(t, v)) = sp.iter().find(|(_, y)| y.abs() > c) {
+            if let Some((t, v)) = clipped_peak(sp, c) {
                 let edge = v.clamp(-c, c);
-                occupied.push(
-                    (0..200)
-                        .map(|k| (t + (x1 - x0) * 0.5 * f64::from(k) / 200.0, edge))
-                        .collect(),
+                let dir = if note_to_the_left(t, (x0, x1)) {
+                    -1.0
+                } else {
+                    1.0
+                };
+                notes.extend(
+                    (0..40).map(|k| (t + dir * (x1 - x0) * 0.5 * f64::from(k) / 40.0, edge)),
                 );
             }
         }
     }
-    let (mut corner, covered) = legend_corner(&occupied, (x0, x1), (y0, y1), legend);
+    let (mut corner, covered) = legend_corner(&pts, &notes, (x0, x1), (y0, y1), legend);
     if covered > 0 && legend.1 < 0.35 && clip.is_none() {
         let grow = (y1 - y0) * legend.1 / (1.0 - legend.1);
         y1 += if p.log_y { grow.ceil() } else { grow };
@@ -1082,15 +1101,21 @@ fn draw_panel<DB: DrawingBackend>(
         }
         if let Some(c) = clip {
             // Mark the clipped peak of this series with its value.
-            let peak = pts
-                .iter()
-                .copied()
-                .filter(|(_, y)| y.abs() > c)
-                .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()));
-            if let Some((t, v)) = peak {
+            if let Some((t, v)) = clipped_peak(pts, c) {
                 let edge = v.clamp(-c, c);
                 let arrow = if v > 0.0 { "▲" } else { "▼" };
                 let dy = if v > 0.0 { 4 } else { -18 } - 16 * k as i32 * v.signum() as i32;
+                // The note runs to the right of the peak, or to its left near the right edge.
+                let left = note_to_the_left(t, (x0, x1));
+                let (dx, h) = if left {
+                    (-24, HPos::Right)
+                } else {
+                    (24, HPos::Left)
+                };
+                let style = ("sans-serif", 12)
+                    .into_font()
+                    .color(&s.color)
+                    .pos(Pos::new(h, VPos::Top));
                 chart.draw_series([EmptyElement::at((t, edge))
                     + TriangleMarker::new((0, 0), 6, s.color.filled())
                     + Text::new(
@@ -1104,8 +1129,8 @@ fn draw_panel<DB: DrawingBackend>(
                             significant(v),
                             secs(t)
                         ),
-                        (24, dy),
-                        ("sans-serif", 12).into_font().color(&s.color),
+                        (dx, dy),
+                        style,
                     )])?;
             }
         }
@@ -1131,9 +1156,10 @@ mod tests {
         assert_eq!(tick_label(-1e-17, r), "0");
         assert_eq!(tick_label(-0.05, r), "−0.05");
         assert_eq!(tick_label(0.15, r), "0.15");
-        assert_eq!(tick_step(r, 10), 0.05);
+        assert_eq!(tick_step(r, MESH_LABELS), 0.05);
         // plotters puts ticks every 0.5 on [-2.2, 2.2]: one decimal, no repeated "2".
-        assert_eq!(tick_step((-2.2, 2.2), 10), 0.5);
+        assert_eq!(tick_step((-1.71, 3.6), MESH_LABELS), 0.5);
+        assert_eq!(tick_step((-2.2, 2.2), MESH_LABELS), 0.5);
         assert_eq!(tick_label(1.5, (-2.2, 2.2)), "1.5");
         assert_eq!(tick_label(2.0, (-2.2, 2.2)), "2.0");
         assert_eq!(tick_label(2.0e-5, (-2e-6, 9.4e-5)), "2×10⁻⁵");
