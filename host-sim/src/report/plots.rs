@@ -223,7 +223,12 @@ pub fn secs(t: f64) -> String {
 
 /// The symbol of a legend label: `u₁` of `u₁ = u₂ (identical)`.
 fn short_name(label: &str) -> &str {
-    label.split([' ', ':']).next().unwrap_or(label)
+    let end = [" = ", " (", ": "]
+        .iter()
+        .filter_map(|sep| label.find(sep))
+        .min()
+        .unwrap_or(label.len());
+    &label[..end]
 }
 
 /// A value for figure text: whole above 100 (`−16519`), else three significant digits.
@@ -1065,6 +1070,7 @@ fn draw_panel<DB: DrawingBackend>(
             .legend(move |(x, y)| DashedPathElement::new(vec![(x, y), (x + 24, y)], d, g, style));
     }
     let n_series = p.series.len().max(1);
+    let mut notes_drawn = 0;
     for (k, (s, pts)) in p.series.iter().zip(&pts).enumerate() {
         if pts.is_empty() {
             continue;
@@ -1104,7 +1110,14 @@ fn draw_panel<DB: DrawingBackend>(
             if let Some((t, v)) = clipped_peak(pts, c) {
                 let edge = v.clamp(-c, c);
                 let arrow = if v > 0.0 { "▲" } else { "▼" };
-                let dy = if v > 0.0 { 4 } else { -18 } - 16 * k as i32 * v.signum() as i32;
+                // Notes stack into the plot: downwards from the top edge, upwards from the bottom.
+                let rank = notes_drawn;
+                notes_drawn += 1;
+                let dy = if v > 0.0 {
+                    4 + 16 * rank
+                } else {
+                    -18 - 16 * rank
+                };
                 // The note runs to the right of the peak, or to its left near the right edge.
                 let left = note_to_the_left(t, (x0, x1));
                 let (dx, h) = if left {
@@ -1116,22 +1129,27 @@ fn draw_panel<DB: DrawingBackend>(
                     .into_font()
                     .color(&s.color)
                     .pos(Pos::new(h, VPos::Top));
+                let note = format!(
+                    "{arrow} {}peak {} at t = {} (clipped)",
+                    if n_series > 1 {
+                        format!("{}: ", short_name(&s.label))
+                    } else {
+                        String::new()
+                    },
+                    significant(v),
+                    secs(t)
+                );
+                // A light backing keeps the note readable across grid and marker lines.
+                let w = (note.chars().count() as f64 * 6.4) as i32 + 4;
+                let (a, b) = if left {
+                    (dx - w, dx + 2)
+                } else {
+                    (dx - 2, dx + w)
+                };
                 chart.draw_series([EmptyElement::at((t, edge))
+                    + Rectangle::new([(a, dy - 1), (b, dy + 14)], WHITE.mix(0.8).filled())
                     + TriangleMarker::new((0, 0), 6, s.color.filled())
-                    + Text::new(
-                        format!(
-                            "{arrow} {}peak {} at t = {} (clipped)",
-                            if n_series > 1 {
-                                format!("{}: ", short_name(&s.label))
-                            } else {
-                                String::new()
-                            },
-                            significant(v),
-                            secs(t)
-                        ),
-                        (dx, dy),
-                        style,
-                    )])?;
+                    + Text::new(note, (dx, dy), style)])?;
             }
         }
     }
@@ -1172,6 +1190,9 @@ mod tests {
         assert_eq!(trim_number(0.0004), "0.0004");
         assert_eq!(significant(-16519.07), "−16519");
         assert_eq!(significant(2.1234), "2.12");
+        assert_eq!(short_name("u₁ = u₂ (identical)"), "u₁");
+        assert_eq!(short_name("agent 1"), "agent 1");
+        assert_eq!(short_name("example2-baseline"), "example2-baseline");
     }
 
     #[test]
