@@ -214,10 +214,11 @@ fn overlay(out: &Path, a: &Setup, ra: &Recorder, b: &Setup, rb: &Recorder) -> Re
         ..Panel::default()
     };
     if let (Some(ua), Some(ub)) = (ra.u.first(), rb.u.first()) {
-        u.series
-            .push(Series::styled(na.to_string(), 0, ra.points(ua)));
-        u.series
-            .push(Series::styled(nb.to_string(), 1, rb.points(ub)));
+        for (k, (name, r, data)) in [(na, ra, ua), (nb, rb, ub)].into_iter().enumerate() {
+            let mut s = Series::styled(name.to_string(), k, r.points(data));
+            s.peak = r.extreme(0, 0, 0);
+            u.series.push(s);
+        }
     }
     let mut tr = Panel {
         title: "agent 1: output y₁ and leader y_d".into(),

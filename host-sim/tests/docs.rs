@@ -206,12 +206,7 @@ fn every_trajectory_column_is_documented() {
         .args(["--set", "simulation.t_end=0.01", "--no-plots", "--quiet"])
         .output()
         .expect("host-sim");
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    common::assert_ok(&out);
     let csv = std::fs::read_to_string(dir.join("trajectory.csv")).expect("csv");
     let header = csv.lines().next().expect("header");
     let doc = doc();

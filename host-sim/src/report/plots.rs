@@ -104,6 +104,9 @@ pub struct Series {
     pub marker: Marker,
     /// Points.
     pub points: Vec<(f64, f64)>,
+    /// The exact largest-magnitude sample `(t, value)` when the points are decimated (named in
+    /// the note on a clipped peak).
+    pub peak: Option<(f64, f64)>,
 }
 
 impl Series {
@@ -116,6 +119,7 @@ impl Series {
             dash: DASHES[i % DASHES.len()],
             marker: MARKERS[i % MARKERS.len()],
             points,
+            peak: None,
         }
     }
 
@@ -128,6 +132,7 @@ impl Series {
             dash: Dash::Solid,
             marker: Marker::None,
             points,
+            peak: None,
         }
     }
 }
@@ -337,6 +342,9 @@ pub struct Recorder {
     pub uq: Vec<Vec<f64>>,
     /// `μ̂`, `ξ̂`, `λ̂` per plotted agent.
     pub est: [Vec<Vec<f64>>; 3],
+    /// The exact `(t, value)` of the largest-magnitude `u`, `q`, `u − q` of each agent and
+    /// actuator over the run (interleaved like the stride peaks).
+    pub extremes: Vec<(f64, f64)>,
     /// Largest-magnitude `u`, `q`, `u − q` (interleaved) and max error since the last kept
     /// sample.
     peaks: Vec<f64>,
@@ -368,6 +376,7 @@ impl Recorder {
                 vec![Vec::new(); a],
             ],
             peaks: vec![0.0; 3 * a * m],
+            extremes: vec![(0.0, 0.0); 3 * a * m],
             ..Self::default()
         }
     }
@@ -496,9 +505,16 @@ impl Recorder {
     }
 
     /// The series of actuators `0..m` of agent `i` from `data`, one series when all are equal.
+    /// The exact extreme of `kind` (0 `u`, 1 `q`, 2 `u − q`) of actuator `l` of agent `i`.
+    pub fn extreme(&self, i: usize, l: usize, kind: usize) -> Option<(f64, f64)> {
+        self.extremes.get(3 * (i * self.m + l) + kind).copied()
+    }
+
+    /// The series of `kind` (as in [`Recorder::extreme`]) of actuators `0..m` of agent `i` from
+    /// `data`, one series when all are equal.
     fn actuator_series(
         &self,
-        data: &[Vec<f64>],
+        (data, kind): (&[Vec<f64>], usize),
         i: usize,
         symbol: &str,
         first: usize,
@@ -506,28 +522,33 @@ impl Recorder {
         let acts = &data[i * self.m..(i + 1) * self.m];
         if acts.iter().all(|a| *a == acts[0]) && self.m > 1 {
             let names: Vec<String> = (1..=self.m).map(|l| symbol.replace('#', &sub(l))).collect();
-            return vec![Series::styled(
+            let mut s = Series::styled(
                 format!("{} (identical)", names.join(" = ")),
                 first,
                 self.points(&acts[0]),
-            )];
+            );
+            s.peak = self.extreme(i, 0, kind);
+            return vec![s];
         }
         acts.iter()
             .enumerate()
             .map(|(l, a)| {
-                Series::styled(symbol.replace('#', &sub(l + 1)), first + l, self.points(a))
+                let mut s =
+                    Series::styled(symbol.replace('#', &sub(l + 1)), first + l, self.points(a));
+                s.peak = self.extreme(i, l, kind);
+                s
             })
             .collect()
     }
 
     fn input_panel(&self, setup: &Setup, i: usize, u_unit: &str, vline: &(f64, String)) -> Panel {
         // Dense, noisy lines are 1 px wide: wider ones get miter spikes at sharp reversals.
-        let mut series = self.actuator_series(&self.u, i, "u#", 0);
+        let mut series = self.actuator_series((&self.u, 0), i, "u#", 0);
         for s in &mut series {
             s.color = s.color.mix(0.5);
             s.width = 3;
         }
-        for mut s in self.actuator_series(&self.q, i, "q# = Q(u#)", 1) {
+        for mut s in self.actuator_series((&self.q, 1), i, "q# = Q(u#)", 1) {
             s.width = 1;
             s.marker = Marker::None;
             series.push(s);
@@ -551,7 +572,7 @@ impl Recorder {
             title: format!("agent {}: quantization error u − q", i + 1),
             y_label: format!("u − q [{u_unit}]"),
             series: self
-                .actuator_series(&self.uq, i, "u# − q#", 0)
+                .actuator_series((&self.uq, 2), i, "u# − q#", 0)
                 .into_iter()
                 .map(|s| Series { width: 1, ..s })
                 .collect(),
@@ -592,9 +613,12 @@ impl<const N: usize, const M: usize> Observer<N, M> for Recorder {
             for l in 0..M.min(self.m) {
                 let j = 3 * (i * self.m + l);
                 let (u, q) = (f64::from(o.u[l]), f64::from(o.q[l]));
-                peak(&mut self.peaks[j], u);
-                peak(&mut self.peaks[j + 1], q);
-                peak(&mut self.peaks[j + 2], u - q);
+                for (d, v) in [u, q, u - q].into_iter().enumerate() {
+                    peak(&mut self.peaks[j + d], v);
+                    if v.abs() > self.extremes[j + d].1.abs() {
+                        self.extremes[j + d] = (s.t, v);
+                    }
+                }
             }
         }
         let worst = s.x.iter().map(|x| (x[0] - s.yd).abs()).fold(0.0, f64::max);
@@ -830,12 +854,15 @@ fn draw_title<DB: DrawingBackend>(
     Ok(())
 }
 
-/// The largest-magnitude point of `pts` beyond the clip limit `c`.
-fn clipped_peak(pts: &[(f64, f64)], c: f64) -> Option<(f64, f64)> {
-    pts.iter()
-        .copied()
-        .filter(|(_, y)| y.abs() > c)
-        .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+/// The largest-magnitude point of a series beyond the clip limit `c`: its exact peak when
+/// known, else the largest of `pts`.
+fn clipped_peak(s: &Series, pts: &[(f64, f64)], c: f64) -> Option<(f64, f64)> {
+    s.peak.filter(|p| p.1.abs() > c).or_else(|| {
+        pts.iter()
+            .copied()
+            .filter(|(_, y)| y.abs() > c)
+            .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+    })
 }
 
 /// A note at `t` is written to the left of its peak in the right 45 % of the plot.
@@ -958,8 +985,8 @@ fn draw_panel<DB: DrawingBackend>(
     // The notes on clipped peaks occupy a strip beside the peak; the legend must not hide them.
     let mut notes = Vec::new();
     if let Some(c) = clip {
-        for sp in &pts {
-            if let Some((t, v)) = clipped_peak(sp, c) {
+        for (s, sp) in p.series.iter().zip(&pts) {
+            if let Some((t, v)) = clipped_peak(s, sp, c) {
                 let edge = v.clamp(-c, c);
                 let dir = if note_to_the_left(t, (x0, x1)) {
                     -1.0
@@ -1107,7 +1134,7 @@ fn draw_panel<DB: DrawingBackend>(
         }
         if let Some(c) = clip {
             // Mark the clipped peak of this series with its value.
-            if let Some((t, v)) = clipped_peak(pts, c) {
+            if let Some((t, v)) = clipped_peak(s, pts, c) {
                 let edge = v.clamp(-c, c);
                 let arrow = if v > 0.0 { "▲" } else { "▼" };
                 // Notes stack into the plot: downwards from the top edge, upwards from the bottom.
