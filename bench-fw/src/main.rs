@@ -70,7 +70,7 @@ fn config() -> ControllerConfig<N> {
     {
         use controller_core::{BaselineConfig, GainSelection, SchemeConfig};
         cfg.scheme = SchemeConfig::PrescribedTime(BaselineConfig::default());
-        // The paper's comparison gains (SPEC §8, Example 2's baseline).
+        // The paper's comparison gains (LAW §8, Example 2's baseline).
         cfg.gains = GainSelection::Explicit { c1: 10.0, c2: 9.0 };
     }
     cfg

@@ -1,5 +1,5 @@
-//! The adaptive laws of `μ̂`, `ξ̂`, `λ̂` (SPEC §5; the paper's (20)–(22)), forward-Euler and
-//! projected onto `[0, θ_max]`: the clamp at 0 is SPEC §6 step 3; the upper bound (default 1e6,
+//! The adaptive laws of `μ̂`, `ξ̂`, `λ̂` (LAW §5; the paper's (20)–(22)), forward-Euler and
+//! projected onto `[0, θ_max]`: the clamp at 0 is LAW §6 step 3; the upper bound (default 1e6,
 //! far above what the examples reach) keeps one absurd but finite sample from committing an
 //! estimate so large that every later step overflows `f32` (a documented deviation).
 

@@ -1,5 +1,5 @@
 //! The recursive backstepping steps `β_j`, `α_j`, `e_{j+1}` and the actual control `u`
-//! (SPEC §5; the paper's (15)–(19), (28)), shared by the proposed scheme and the baseline: the
+//! (LAW §5; the paper's (15)–(19), (28)), shared by the proposed scheme and the baseline: the
 //! scheme enters only through its [`Feedback`] term.
 
 use crate::{math, mtn::MtnAccumulator, scheme::Feedback, smoothing::smooth, MtnRegressor};

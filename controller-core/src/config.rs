@@ -13,7 +13,7 @@ use crate::{
     ConfigError, GainSelection, Gains, MtnRegressor,
 };
 
-/// Everything one agent's controller needs, with the defaults of SPEC §8 (Example 1, agent 1:
+/// Everything one agent's controller needs, with the defaults of LAW §8 (Example 1, agent 1:
 /// pinned, no neighbours). Step-indexed arrays hold step `j` at index `j−1`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

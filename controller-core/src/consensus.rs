@@ -1,4 +1,4 @@
-//! The neighbour set and the consensus error `e_{i,1}` (SPEC §2; the paper's (10)), with the
+//! The neighbour set and the consensus error `e_{i,1}` (LAW §2; the paper's (10)), with the
 //! policy for stale, missing and invalid neighbour or leader values.
 //!
 //! Policy (documented in the crate docs and `docs/RELIABILITY.md`):
@@ -114,7 +114,7 @@ impl Held {
     }
 }
 
-/// The agent's place in the graph: `S_i` neighbours, pinned or not (SPEC §2).
+/// The agent's place in the graph: `S_i` neighbours, pinned or not (LAW §2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Consensus {

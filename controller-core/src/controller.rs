@@ -1,4 +1,4 @@
-//! One agent's controller: the step order of SPEC §6 over the blocks of SPEC §4–§5.
+//! One agent's controller: the step order of LAW §6 over the blocks of LAW §4–§5.
 
 use crate::{
     adaptive::{Drives, Estimates},
@@ -142,7 +142,7 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         self.state.k as f32 * self.params.h
     }
 
-    /// One sample (SPEC §6): `x` is this agent's state, `neighbours` the latest values of its
+    /// One sample (LAW §6): `x` is this agent's state, `neighbours` the latest values of its
     /// `S_i` neighbours in configured order, `leader` the leader's `y_d` (ignored unless pinned).
     ///
     /// Never panics. A non-finite `x`, or a result that overflows `f32`, holds the previous
@@ -291,7 +291,7 @@ mod example1;
 mod tests {
     //! The per-step math (this crate's kernels with `libm`, `micromath`'s approximations with
     //! `micromath`) against the exact-math run (`libm`'s `powf`, `sqrtf`, `tanhf`) in the
-    //! closed loop of Example 1 (SPEC §8): four agents, RK4 plant with 4 substeps, faults and
+    //! closed loop of Example 1 (LAW §8): four agents, RK4 plant with 4 substeps, faults and
     //! quantizer on, h = 1 ms.
     use super::example1::Example1;
     use crate::math::with_exact_math;

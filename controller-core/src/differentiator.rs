@@ -1,5 +1,5 @@
 //! Levant's robust exact differentiator, one per virtual control `α_j` (the paper's Lemma 5 with
-//! `sign(χ_1 − α)` in the second line, SPEC §4 and §9 item 2), integrated by forward Euler.
+//! `sign(χ_1 − α)` in the second line, LAW §4 and §9 item 2), integrated by forward Euler.
 
 use crate::math;
 

@@ -1,4 +1,4 @@
-//! Predefined-time gains `c_1`, `c_2`, `k_1`, `k_2` (SPEC §3; the paper's Theorem 1).
+//! Predefined-time gains `c_1`, `c_2`, `k_1`, `k_2` (LAW §3; the paper's Theorem 1).
 
 use crate::{math, ConfigError};
 use core::f32::consts::PI;
@@ -10,9 +10,9 @@ pub const MAX_GAIN: f32 = 1.844_674_3e19;
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum GainSelection {
-    /// From `T_s`, `ζ` and the adaptation gains by SPEC §3 (the paper's choice).
+    /// From `T_s`, `ζ` and the adaptation gains by LAW §3 (the paper's choice).
     Auto,
-    /// Explicit `c_1`, `c_2` (baseline comparisons, the stricter `ϑ` of SPEC §9).
+    /// Explicit `c_1`, `c_2` (baseline comparisons, the stricter `ϑ` of LAW §9).
     Explicit {
         /// `c_1 > 0`.
         c1: f32,
@@ -43,7 +43,7 @@ pub struct Gains {
 }
 
 impl Gains {
-    /// Gains from the predefined time `T_s` (SPEC §3, `ϑ` reconstructed from (46)–(55)).
+    /// Gains from the predefined time `T_s` (LAW §3, `ϑ` reconstructed from (46)–(55)).
     pub fn predefined_time(
         ts: f32,
         zeta: f32,
@@ -81,7 +81,7 @@ impl Gains {
     }
 }
 
-/// The factor `ϑ` of SPEC §3 (the paper's `r`).
+/// The factor `ϑ` of LAW §3 (the paper's `r`).
 pub fn theta(zeta: f32, n: usize, p: f32, eta: f32, tau: f32) -> Result<f32, ConfigError> {
     check_zeta(zeta)?;
     positive(p, "p")?;

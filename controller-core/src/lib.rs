@@ -5,10 +5,10 @@
 //! quantization and actuator faults*, for one follower agent, as it runs on the agent's
 //! microcontroller: `no_std`, no allocation, no `unsafe`, `f32`, fixed size.
 //!
-//! The normative description is the project's `SPEC.md`; where it departs from the paper's
-//! printed text (typos, garbled formulas) is listed in its §9 and in `docs/DEVIATIONS.md`.
+//! The law as implemented is described in the repository's `docs/LAW.md` (cited as "LAW §k");
+//! where it departs from the paper's printed text is listed in `docs/DEVIATIONS.md`.
 //!
-//! ## Block diagram (one sample, SPEC §6)
+//! ## Block diagram (one sample, LAW §6)
 //!
 //! ```text
 //!  neighbours' y_k ─┐
@@ -23,7 +23,7 @@
 //! [`backstepping::Backstepping`] with [`MtnRegressor`], [`powers::Powers`] and
 //! [`smoothing::smooth`], [`LevantDifferentiator`], [`HysteresisQuantizer`],
 //! [`adaptive::AdaptiveLaws`], the `ϖ(t)` schedule [`smoothing::VarpiSchedule`]. The proposed
-//! predefined-time scheme and the prescribed-time baseline of SPEC §10 differ only in
+//! predefined-time scheme and the prescribed-time baseline of LAW §10 differ only in
 //! [`scheme::Scheme`]. [`Controller`] validates a [`ControllerConfig`] once and runs the steps.
 //!
 //! ## Bad input

@@ -1,4 +1,4 @@
-//! The multi-dimensional Taylor network regressor `Φ_m(X)` (the paper's Lemma 4, SPEC §4).
+//! The multi-dimensional Taylor network regressor `Φ_m(X)` (the paper's Lemma 4, LAW §4).
 //!
 //! `Φ_m(X)` holds every monomial of `X ∈ R^d` of total degree `1..=m`, `C(d+m, m) − 1` entries.
 //! The law needs only `‖Φ‖² = Σ_{k=1..m} h_k(X₁², …, X_d²)` (complete homogeneous symmetric

@@ -1,4 +1,4 @@
-//! The predefined-time powers `M(e) = sign(e)|e|^(1+ζ)` and `N(e) = sign(e)|e|^(1−ζ)` (SPEC §4).
+//! The predefined-time powers `M(e) = sign(e)|e|^(1+ζ)` and `N(e) = sign(e)|e|^(1−ζ)` (LAW §4).
 
 use crate::math;
 

@@ -1,5 +1,5 @@
 //! The hysteresis quantizer of the paper's eq. (2) with the sector property of Lemma 3
-//! (`q = P u + R`, `1−δ ≤ P ≤ 1+δ`, `|R| ≤ u_min`), SPEC §4.
+//! (`q = P u + R`, `1−δ ≤ P ≤ 1+δ`, `|R| ≤ u_min`), LAW §4.
 //!
 //! Levels are `u_c = u_min ρ^(1−c)`, `c = 1, 2, …`. With `a = |u_k|` and the direction
 //! `d = sign(u_k − u_{k−1})`, the bracket `u_c < b ≤ u_{c+1}` is searched with `b = a` when

@@ -1,6 +1,6 @@
 //! The stabilising term that tells the proposed scheme from the baseline: the predefined-time
 //! `k_1 M(e) + k_2 N(e)` of (17)–(19), or the prescribed-time `(c_1 + c_2 μ_T(t)) e` of the
-//! SPEC §10 baseline. Everything else of the backstepping design is shared.
+//! LAW §10 baseline. Everything else of the backstepping design is shared.
 
 use crate::{gains::positive, math, powers::Powers, ConfigError, Gains};
 
@@ -11,7 +11,7 @@ pub enum SchemeConfig {
     /// The paper's predefined-time law (default).
     #[default]
     PredefinedTime,
-    /// The SPEC §10 prescribed-time baseline.
+    /// The LAW §10 prescribed-time baseline.
     PrescribedTime(BaselineConfig),
 }
 

@@ -1,5 +1,5 @@
 //! The smoothing function `s_ϖ(x) = x / √(x² + ϖ²)` and the schedule `ϖ(t) = ϖ_0 e^(−κt)`
-//! floored at `ϖ_min` (SPEC §4, §6; the paper's (15), (28)).
+//! floored at `ϖ_min` (LAW §4, §6; the paper's (15), (28)).
 
 use crate::math;
 
@@ -50,7 +50,7 @@ impl VarpiSchedule {
         }
     }
 
-    /// `ϖ ← max(ϖ e^(−κh), ϖ_min)` (SPEC §6 step 5).
+    /// `ϖ ← max(ϖ e^(−κh), ϖ_min)` (LAW §6 step 5).
     #[inline]
     pub fn advance(&self, varpi: &mut f32) {
         // `max(floor)` written out (a call to `fmaxf` on a Cortex-M4 otherwise).

@@ -1,4 +1,4 @@
-//! Closed-loop check of the paper's Example 1 (SPEC §8) with the minimal RK4 plant of
+//! Closed-loop check of the paper's Example 1 (LAW §8) with the minimal RK4 plant of
 //! `common`: four agents, faults and quantizer on, h = 1 ms.
 
 mod common;

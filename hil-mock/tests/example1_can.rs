@@ -1,4 +1,4 @@
-//! Example 1 (SPEC §8) with four nodes over the simulated CAN bus, against the ideal link.
+//! Example 1 (LAW §8) with four nodes over the simulated CAN bus, against the ideal link.
 
 mod common;
 

@@ -1,4 +1,4 @@
-//! `compare`: two scenarios side by side (the proposed scheme against the SPEC §10 baseline),
+//! `compare`: two scenarios side by side (the proposed scheme against the LAW §10 baseline),
 //! one table with settling figures next to control effort, and overlaid figures.
 
 use std::{fmt::Write as _, path::Path};
@@ -10,8 +10,8 @@ use crate::{
     error::{Error, Result},
     metrics::Summary,
     report::{
-        self,
-        plots::{color, render, Panel, Recorder, Series},
+        self, fmt_time,
+        plots::{render, secs, Panel, Recorder, Series},
     },
     run::{run, RunOptions},
     scenario::Setup,
@@ -36,6 +36,11 @@ pub struct Comparison {
 
 fn ratio(b: f64, a: f64) -> Option<f64> {
     (a > 0.0 && a.is_finite() && b.is_finite()).then(|| b / a)
+}
+
+/// A Markdown table cell: `|` escaped so that `max |u|` stays one cell.
+fn cell(text: &str) -> String {
+    text.replace('|', "\\|")
 }
 
 fn opt(v: Option<f64>) -> String {
@@ -78,7 +83,12 @@ pub fn compare(a: &Setup, b: &Setup, out: &Path, progress: bool) -> Result<Strin
         )
     };
     let mut t = String::new();
-    let _ = writeln!(t, "| metric | {} | {} |", sa.scenario, sb.scenario);
+    let _ = writeln!(
+        t,
+        "| metric | {} | {} |",
+        cell(&sa.scenario),
+        cell(&sb.scenario)
+    );
     let _ = writeln!(t, "|---|---|---|");
     let rows: [(&str, String, String); 10] = [
         ("scheme", sa.scheme.clone(), sb.scheme.clone()),
@@ -133,15 +143,15 @@ pub fn compare(a: &Setup, b: &Setup, out: &Path, progress: bool) -> Result<Strin
         (
             "diverged",
             sa.divergence.map_or("no".into(), |d| {
-                format!("at t = {} (agent {})", d.time, d.agent)
+                format!("at t = {} (agent {})", fmt_time(d.time), d.agent)
             }),
             sb.divergence.map_or("no".into(), |d| {
-                format!("at t = {} (agent {})", d.time, d.agent)
+                format!("at t = {} (agent {})", fmt_time(d.time), d.agent)
             }),
         ),
     ];
     for (k, x, y) in rows {
-        let _ = writeln!(t, "| {k} | {x} | {y} |");
+        let _ = writeln!(t, "| {} | {} | {} |", cell(k), cell(&x), cell(&y));
     }
     let _ = writeln!(t, "\n{note}");
     report::write_atomic(&out.join("compare.md"), t.as_bytes())?;
@@ -161,61 +171,72 @@ pub fn compare(a: &Setup, b: &Setup, out: &Path, progress: bool) -> Result<Strin
     Ok(t)
 }
 
-fn series(label: String, i: usize, r: &Recorder, ys: &[f64]) -> Series {
-    Series {
-        label,
-        color: color(i),
-        width: 2,
-        points: r.t.iter().copied().zip(ys.iter().copied()).collect(),
-    }
-}
-
 fn overlay(out: &Path, a: &Setup, ra: &Recorder, b: &Setup, rb: &Recorder) -> Result<()> {
     let (na, nb) = (&a.scenario.name, &b.scenario.name);
-    let t_mark = a.predefined_time().max(b.predefined_time());
+    let (y_unit, u_unit) = a.plant.units();
+    // Each scheme's predefined time, labelled with its scenario.
+    let vlines: Vec<(f64, String)> = [(a, na), (b, nb)]
+        .iter()
+        .map(|(s, n)| {
+            let t = s.predefined_time();
+            (t, format!("2Tₛ = {} ({n})", secs(t)))
+        })
+        .collect();
+    let band = a.scenario.simulation.settle_band;
     let errs = vec![
-        series(na.to_string(), 0, ra, &ra.max_err),
-        series(nb.to_string(), 1, rb, &rb.max_err),
+        Series::styled(na.to_string(), 0, ra.points(&ra.max_err)),
+        Series::styled(nb.to_string(), 1, rb.points(&rb.max_err)),
     ];
     let mut panels = vec![
         Panel {
-            title: "max_i |y_i - y_d|".into(),
-            y_label: "error".into(),
+            title: "largest tracking error maxᵢ |yᵢ − y_d|".into(),
+            y_label: format!("maxᵢ |yᵢ − y_d| [{y_unit}]"),
             series: errs.clone(),
-            vline: Some((t_mark, format!("t = {t_mark}"))),
-            x_from: None,
+            vlines: vlines.clone(),
+            clip_spikes: true,
+            ..Panel::default()
         },
         Panel {
-            title: format!("max_i |y_i - y_d| after t = {t_mark}"),
-            y_label: "error".into(),
+            title: "the same, log scale".into(),
+            y_label: format!("maxᵢ |yᵢ − y_d| [{y_unit}]"),
             series: errs,
-            vline: None,
-            x_from: Some(t_mark),
+            vlines: vlines.clone(),
+            hlines: vec![(band, format!("b = {band}"))],
+            log_y: true,
+            ..Panel::default()
         },
     ];
     let mut u = Panel {
-        title: "agent 1: command u_1".into(),
-        y_label: "u".into(),
+        title: "agent 1: command u₁ (spikes clipped, peak marked)".into(),
+        y_label: format!("u₁ [{u_unit}]"),
+        vlines: vlines.clone(),
+        clip_spikes: true,
         ..Panel::default()
     };
     if let (Some(ua), Some(ub)) = (ra.u.first(), rb.u.first()) {
-        u.series.push(series(na.to_string(), 0, ra, ua));
-        u.series.push(series(nb.to_string(), 1, rb, ub));
+        for (k, (name, r, data)) in [(na, ra, ua), (nb, rb, ub)].into_iter().enumerate() {
+            let mut s = Series::styled(name.to_string(), k, r.points(data));
+            s.peak = r.extreme(0, 0, 0);
+            u.series.push(s);
+        }
     }
     let mut tr = Panel {
-        title: "agent 1 output y_1 and y_d".into(),
-        y_label: "y".into(),
+        title: "agent 1: output y₁ and leader y_d".into(),
+        y_label: format!("output y [{y_unit}]"),
+        vlines,
         ..Panel::default()
     };
-    tr.series.push(Series {
-        label: "y_d".into(),
-        color: BLACK.to_rgba(),
-        width: 1,
-        points: ra.t.iter().copied().zip(ra.yd.iter().copied()).collect(),
-    });
+    tr.series.push(Series::plain(
+        "y_d (leader)".into(),
+        BLACK.mix(0.35),
+        5,
+        ra.points(&ra.yd),
+    ));
     if let (Some(ya), Some(yb)) = (ra.y.first(), rb.y.first()) {
-        tr.series.push(series(na.to_string(), 0, ra, ya));
-        tr.series.push(series(nb.to_string(), 1, rb, yb));
+        tr.series
+            .push(Series::styled(na.to_string(), 0, ra.points(ya)));
+        tr.series
+            .push(Series::styled(nb.to_string(), 1, rb.points(yb)));
     }
     panels.push(u);
     panels.push(tr);

@@ -1,4 +1,4 @@
-//! Actuator faults `q^f = ϱ(t) q(u) + ū(t)` (SPEC §7, the paper's eq. 3) on repeating windows,
+//! Actuator faults `q^f = ϱ(t) q(u) + ū(t)` (LAW §7, the paper's eq. 3) on repeating windows,
 //! with the Assumption 4 check: never all actuators of an agent in total loss at once.
 
 use crate::{
@@ -85,6 +85,22 @@ pub struct FaultSchedule {
 }
 
 impl FaultSchedule {
+    /// The windows `[a, b)` within `[0, t_end)` in which a rule of actuator `l` (0-based) of
+    /// `agent` (0-based) is active, each with whether it is a total loss (for the figures).
+    pub fn windows(&self, agent: usize, l: usize, t_end: f64) -> Vec<(f64, f64, bool)> {
+        let Some(rules) = self.rules.get(agent * self.m + l) else {
+            return Vec::new();
+        };
+        let mut out = Vec::new();
+        for c in rules {
+            let length = c.length.unwrap_or(f64::INFINITY);
+            for s in c.starts(t_end) {
+                out.push((s, (s + length).min(t_end), c.total_loss()));
+            }
+        }
+        out
+    }
+
     /// No faults.
     pub fn healthy(agents: usize, m: usize) -> Self {
         Self {

@@ -1,4 +1,4 @@
-//! The communication graph of SPEC §2: neighbour lists and pinning, checked against
+//! The communication graph of LAW §2: neighbour lists and pinning, checked against
 //! Assumption 2 (the leader is the root of a spanning tree).
 
 use crate::{

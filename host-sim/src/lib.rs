@@ -1,8 +1,8 @@
 //! # host-sim
 //!
-//! The closed-loop simulator around `controller-core`: plants (SPEC §1, §8), the graph (§2),
+//! The closed-loop simulator around `controller-core`: plants (`docs/LAW.md` §1, §8), graph (§2),
 //! actuator faults (§7), neighbour links, metrics (§11), CSV and plots, driven by the scenario
-//! files of `SCENARIO.md`. One `Controller` per agent, stepped at the sample period with its
+//! files of `docs/SCENARIO.md`. One `Controller` per agent, stepped at the sample period with its
 //! outputs held between samples, exactly as firmware would run it; the plant is `f64`, the
 //! controller `f32`.
 //!

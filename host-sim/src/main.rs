@@ -1,4 +1,4 @@
-//! `host-sim`: run, check, search the stable sample period, compare (SCENARIO.md).
+//! `host-sim`: run, check, search the stable sample period, compare (docs/SCENARIO.md).
 
 use std::{
     path::{Path, PathBuf},
@@ -9,6 +9,7 @@ use clap::{Args, Parser, Subcommand};
 use host_sim::{
     compare::compare,
     error::{Error, Result},
+    report::{self, csv::check_size, fmt_time},
     run::{run, stable_h, RunOptions},
     scenario::{self, Setup},
 };
@@ -21,8 +22,9 @@ Examples:
   host-sim stable-h scenarios/example2.toml --band 0.1
   host-sim compare scenarios/example2.toml scenarios/example2-baseline.toml --out out/cmp
 
-Exit status: 0 run finished (also when it diverged: see summary.json), 2 invalid scenario or
-option, 1 I/O error.";
+Exit status: 0 run finished (also when it diverged: see summary.json), 2 bad input (invalid
+scenario or option, missing scenario file), 1 I/O error, 130 interrupted (temporary files are
+removed). Keys, units and outputs: docs/SCENARIO.md.";
 
 /// Closed-loop simulator of the predefined-time consensus controller (controller-core).
 #[derive(Parser, Debug)]
@@ -51,7 +53,12 @@ enum Cmd {
         #[command(flatten)]
         overrides: Overrides,
         /// Write every k-th sample to trajectory.csv.
-        #[arg(long, default_value_t = 1, value_name = "K")]
+        #[arg(
+            long,
+            default_value_t = 1,
+            value_name = "K",
+            allow_negative_numbers = true
+        )]
         decimate: u64,
         /// Skip the figures.
         #[arg(long)]
@@ -59,6 +66,9 @@ enum Cmd {
         /// No progress bar, no summary on stdout.
         #[arg(long, short)]
         quiet: bool,
+        /// Write trajectory.csv even when it is estimated above the size limit (2 GiB).
+        #[arg(long)]
+        force: bool,
     },
     /// Validate a scenario and print it resolved (defaults filled, overrides applied).
     Check {
@@ -76,16 +86,16 @@ enum Cmd {
         #[command(flatten)]
         overrides: Overrides,
         /// Error band after 2Ts that counts as stable.
-        #[arg(long, default_value_t = 0.25)]
+        #[arg(long, default_value_t = 0.25, allow_hyphen_values = true)]
         band: f64,
         /// Smallest h tried [s].
-        #[arg(long, default_value_t = 1e-5)]
+        #[arg(long, default_value_t = 1e-5, allow_hyphen_values = true)]
         h_min: f64,
         /// Largest h tried [s].
-        #[arg(long, default_value_t = 1e-2)]
+        #[arg(long, default_value_t = 1e-2, allow_hyphen_values = true)]
         h_max: f64,
         /// Stop when h_unstable / h_stable < 1 + rel-tol.
-        #[arg(long, default_value_t = 0.02)]
+        #[arg(long, default_value_t = 0.02, allow_hyphen_values = true)]
         rel_tol: f64,
         /// Print only the result.
         #[arg(long, short)]
@@ -109,7 +119,18 @@ enum Cmd {
 }
 
 fn load(path: &Path, o: &Overrides) -> Result<Setup> {
-    scenario::load(path, &o.set)
+    let setup = scenario::load(path, &o.set)?;
+    let empty = std::fs::read_to_string(path)
+        .is_ok_and(|t| t.parse::<toml::Table>().is_ok_and(|t| t.is_empty()));
+    if empty {
+        eprintln!(
+            "host-sim: note: {} sets no keys: every key takes its default (Example 1, name \
+             \"{}\"; docs/SCENARIO.md §2)",
+            path.display(),
+            setup.scenario.name
+        );
+    }
+    Ok(setup)
 }
 
 fn fmt_opt(v: Option<f64>) -> String {
@@ -125,11 +146,15 @@ fn main_inner(cli: Cli) -> Result<()> {
             decimate,
             no_plots,
             quiet,
+            force,
         } => {
             if decimate == 0 {
                 return Err(Error::invalid("--decimate", "must be >= 1"));
             }
             let setup = load(&scenario, &overrides)?;
+            if !force {
+                check_size(&setup, decimate)?;
+            }
             let opts = RunOptions {
                 out: Some(out.clone()),
                 decimate,
@@ -151,7 +176,7 @@ fn main_inner(cli: Cli) -> Result<()> {
                     fmt_opt(s.settling_time),
                     s.max_abs_u,
                     match s.divergence {
-                        Some(d) => format!("DIVERGED at t = {} (agent {})", d.time, d.agent),
+                        Some(d) => format!("DIVERGED at t = {} (agent {})", fmt_time(d.time), d.agent),
                         None => "no divergence".into(),
                     }
                 );
@@ -208,8 +233,10 @@ fn main_inner(cli: Cli) -> Result<()> {
                         t.h,
                         if t.stable { "stable" } else { "unstable" },
                         fmt_opt(t.max_error_after_predefined_time),
-                        t.diverged_at
-                            .map_or(String::new(), |d| format!(", diverged at t = {d}"))
+                        t.diverged_at.map_or(String::new(), |d| format!(
+                            ", diverged at t = {}",
+                            fmt_time(d)
+                        ))
                     );
                 }
             })?;
@@ -244,6 +271,9 @@ fn main() -> ExitCode {
         Ok(c) => c,
         Err(e) => e.exit(),
     };
+    if let Err(e) = report::remove_temp_files_on_interrupt() {
+        eprintln!("host-sim: note: {e}; an interrupted run may leave .*.tmp.* files behind");
+    }
     match main_inner(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

@@ -1,7 +1,7 @@
-//! The metrics of SPEC §11 with the definitions of SCENARIO.md, accumulated sample by sample,
+//! The metrics of LAW §11 with the definitions of docs/SCENARIO.md, accumulated sample by sample,
 //! and the `summary.json` they fill.
 
-use std::collections::HashSet;
+use std::collections::{BTreeMap, HashSet};
 
 use controller_core::Gains;
 use serde::Serialize;
@@ -42,7 +42,7 @@ pub struct AgentSummary {
     pub step_faults: u64,
 }
 
-/// `summary.json` (SCENARIO.md keys, plus run facts).
+/// `summary.json` (docs/SCENARIO.md keys, plus run facts).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Summary {
     /// Scenario name.
@@ -90,6 +90,68 @@ pub struct Summary {
     /// Network figures (`[network] kind = "can"`); absent for the ideal link.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub network: Option<NetworkSummary>,
+    /// The unit of every numeric key above, dotted for nested ones (`agents.iae`).
+    pub units: BTreeMap<&'static str, &'static str>,
+}
+
+/// Units of the numeric keys of `summary.json`: `[y]`, `[u]`, `[x]` are the units of the plant's
+/// output, actuator commands and states (docs/SCENARIO.md §2).
+const UNITS: [(&str, &str); 27] = [
+    ("h", "s"),
+    ("t_end", "s"),
+    ("samples", "count"),
+    ("c1", "1/s"),
+    ("c2", "1/s"),
+    ("k1", "1/s"),
+    ("k2", "1/s"),
+    ("predefined_time", "s"),
+    ("settle_band", "[y]"),
+    ("settling_time", "s"),
+    ("max_error_after_predefined_time", "[y]"),
+    ("max_abs_u", "[u]"),
+    ("total_u_energy", "[u]^2 s"),
+    ("divergence.time", "s"),
+    ("divergence.agent", "1-based index"),
+    ("agents.agent", "1-based index"),
+    ("agents.iae", "[y] s"),
+    ("agents.ise", "[y]^2 s"),
+    ("agents.max_abs_u", "[u]"),
+    ("agents.u_energy", "[u]^2 s"),
+    ("agents.quantizer_changes", "count"),
+    ("agents.levels_used", "count"),
+    ("agents.peak_abs_state", "[x]"),
+    ("agents.final_mu", "-"),
+    ("agents.final_xi", "-"),
+    ("agents.final_lambda", "-"),
+    ("agents.step_faults", "count"),
+];
+
+/// Units of `network`'s numeric keys (CAN runs).
+const NETWORK_UNITS: [(&str, &str); 14] = [
+    ("network.bitrate", "bit/s"),
+    ("network.bus_load_percent", "%"),
+    ("network.frames_sent", "count"),
+    ("network.frames_lost", "count"),
+    ("network.frames_corrupted", "count"),
+    ("network.deadline_misses", "count"),
+    ("network.bus_off_events", "count"),
+    ("network.max_age_s", "s"),
+    ("network.mean_age_s", "s"),
+    ("network.max_latency_s", "s"),
+    ("network.malformed", "count"),
+    ("network.stale_samples", "count"),
+    ("network.suppressed", "count"),
+    ("network.babble_frames", "count"),
+];
+
+impl Summary {
+    /// Sets the network figures (and their units).
+    pub fn set_network(&mut self, network: Option<NetworkSummary>) {
+        if network.is_some() {
+            self.units.extend(NETWORK_UNITS);
+        }
+        self.network = network;
+    }
 }
 
 #[derive(Debug, Clone)]
@@ -198,6 +260,7 @@ impl Metrics {
             diverged: divergence.is_some(),
             divergence,
             agents,
+            units: BTreeMap::from(UNITS),
             network: None,
         }
     }

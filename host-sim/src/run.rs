@@ -124,7 +124,7 @@ fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
     };
     pb.finish_and_clear();
     let mut summary = metrics.summary(setup, &sim.gains(), divergence);
-    summary.network = sim.agents().network();
+    summary.set_network(sim.agents().network());
     if let Some(dir) = &opts.out {
         if let Some(c) = csv {
             c.finish()?;
@@ -134,7 +134,7 @@ fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
         report::write_atomic(&dir.join("summary.json"), format!("{json}\n").as_bytes())?;
         if opts.plots {
             if let Some(r) = &recorder {
-                r.draw(dir, setup.predefined_time(), &setup.scenario.name)?;
+                r.draw(dir, setup, summary.settling_time)?;
             }
         }
     }

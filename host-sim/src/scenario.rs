@@ -1,4 +1,4 @@
-//! The scenario file of SCENARIO.md: serde types with the defaults of SPEC §8 (Example 1),
+//! The scenario file of docs/SCENARIO.md: serde types with the defaults of LAW §8 (Example 1),
 //! `--set` overrides and validation into a [`Setup`] the simulator runs.
 
 use std::{fmt, path::Path};
@@ -17,7 +17,7 @@ use crate::{
     plant::PlantModel,
 };
 
-/// A whole scenario as written in TOML; every key is optional (SCENARIO.md).
+/// A whole scenario as written in TOML; every key is optional (docs/SCENARIO.md).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Scenario {
@@ -62,13 +62,13 @@ impl Default for Scenario {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Simulation {
-    /// Controller sample period `h` [s] (SPEC §6).
+    /// Controller sample period `h` [s] (LAW §6).
     pub h: f64,
     /// Horizon [s].
     pub t_end: f64,
     /// RK4 plant substeps per sample.
     pub substeps: u32,
-    /// Band `b` of `settling_time` (SPEC §11).
+    /// Band `b` of `settling_time` (LAW §11).
     pub settle_band: f64,
     /// `|x| >` this (or non-finite) is divergence.
     pub divergence_bound: f64,
@@ -86,7 +86,7 @@ impl Default for Simulation {
     }
 }
 
-/// `[graph]`: who hears whom (SPEC §2), as neighbour lists or an adjacency matrix.
+/// `[graph]`: who hears whom (LAW §2), as neighbour lists or an adjacency matrix.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct GraphSpec {
@@ -182,14 +182,14 @@ impl Default for PlantSpec {
     }
 }
 
-/// Which control law (SPEC §5 or the §10 baseline).
+/// Which control law (LAW §5 or the §10 baseline).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum SchemeName {
     /// The paper's predefined-time law.
     #[default]
     PredefinedTime,
-    /// The SPEC §10 prescribed-time baseline.
+    /// The LAW §10 prescribed-time baseline.
     PrescribedTime,
 }
 
@@ -202,7 +202,7 @@ impl fmt::Display for SchemeName {
     }
 }
 
-/// `[controller]`: the design values of SPEC §3–§5, shared by all agents.
+/// `[controller]`: the design values of LAW §3–§5, shared by all agents.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ControllerSpec {
@@ -298,7 +298,7 @@ impl Default for ControllerSpec {
     }
 }
 
-/// Reading of the quantizer direction (SPEC §4).
+/// Reading of the quantizer direction (LAW §4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum DirectionName {
@@ -334,7 +334,7 @@ impl Default for QuantizerSpec {
     }
 }
 
-/// `[faults]`: actuator fault rules (SPEC §7); the default is SPEC §8's schedule.
+/// `[faults]`: actuator fault rules (LAW §7); the default is LAW §8's schedule.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct FaultsSpec {
@@ -419,7 +419,7 @@ impl<'de> Deserialize<'de> for Agents {
     }
 }
 
-/// Fault kinds of SPEC §7.
+/// Fault kinds of LAW §7.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum FaultKind {
@@ -464,7 +464,7 @@ pub struct FaultRule {
 }
 
 impl FaultRule {
-    /// SPEC §8's window `[2,4), [6,8), …` on `actuator`, for all agents, partial with no gain.
+    /// LAW §8's window `[2,4), [6,8), …` on `actuator`, for all agents, partial with no gain.
     fn window(actuator: i64) -> Self {
         Self {
             agents: Agents::All,
@@ -537,7 +537,7 @@ impl Setup {
                 let auto_gains = self.scenario.controller.c1.is_none();
                 let key = config_error_key(&e, i, auto_gains);
                 let why = if key == "controller.ts" && auto_gains {
-                    " (the gains c1, c2 of SPEC §3 computed from ts, zeta, p, eta, tau)"
+                    " (the gains c1, c2 of LAW §3 computed from ts, zeta, p, eta, tau)"
                 } else {
                     ""
                 };
@@ -697,6 +697,13 @@ pub fn load(path: &Path, sets: &[String]) -> Result<Setup> {
                 "not UTF-8 text",
             ))
         }
+        // Bad input, like a missing file (exit 2); I/O errors are reserved for files that exist.
+        Err(_) if path.is_dir() => {
+            return Err(Error::invalid(
+                format!("scenario file {}", path.display()),
+                "is a directory, not a scenario file",
+            ))
+        }
         Err(e) => return Err(Error::io(path, e)),
     };
     parse(&text, sets)
@@ -820,7 +827,7 @@ fn finite(v: f64, key: &str) -> Result<()> {
     Ok(())
 }
 
-/// SPEC §8's graph: agent 2 hears 1, agent 3 hears 1, agent 4 hears 1 and 3.
+/// LAW §8's graph: agent 2 hears 1, agent 3 hears 1, agent 4 hears 1 and 3.
 fn example_neighbours() -> Vec<Vec<i64>> {
     vec![vec![], vec![1], vec![1], vec![1, 3]]
 }

@@ -1,4 +1,4 @@
-//! The closed loop (SPEC §6 on the host): at each sample `t_k = k h` check the plant state,
+//! The closed loop (LAW §6 on the host): at each sample `t_k = k h` check the plant state,
 //! exchange outputs over the link, step every controller, let observers record, then integrate
 //! each plant over `[t_k, t_k + h)` with the quantized commands held (faults applied per stage).
 //!
@@ -21,7 +21,7 @@ use crate::{
 /// Neighbour capacity `K` of every controller (in-degree limit, [`crate::graph::MAX_NEIGHBOURS`]).
 pub const K: usize = crate::graph::MAX_NEIGHBOURS;
 
-/// Where and when a state first became non-finite or left the divergence bound (SPEC §11).
+/// Where and when a state first became non-finite or left the divergence bound (LAW §11).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Divergence {
     /// `t_k` [s].

@@ -30,7 +30,7 @@ fn example1_tracks_within_band_and_smaller_ts_is_tighter() {
         e1 < e2,
         "Ts = 1 ({e1}) must track tighter than Ts = 2 ({e2})"
     );
-    // SPEC §8 anchors (float64 reference): 0.17 and 0.09.
+    // LAW §8 anchors (float64 reference): 0.17 and 0.09.
     assert!((e2 - 0.17).abs() < 0.03, "{e2}");
     assert!((e1 - 0.09).abs() < 0.03, "{e1}");
 }

@@ -94,9 +94,11 @@ pub fn bench_target(opts: &Options) -> Result<Value> {
     );
     let mut variants = Vec::new();
     let mut rows = Vec::new();
-    for v in VARIANTS {
+    for (k, v) in VARIANTS.into_iter().enumerate() {
         let trace_file = if v.n3 { &trace_n3 } else { &trace_n2 };
+        eprintln!("bench: variant {}/{}: {}", k + 1, VARIANTS.len(), v.name);
         let elf = build(&v, trace_file, &dir)?;
+        eprintln!("bench: running {} on QEMU", v.name);
         let output = run_qemu(&elf)?;
         let fig = parse_output(&output).map_err(|e| format!("{}: {e}\n{output}", v.name))?;
         let data = fs::read(&elf).map_err(|e| format!("{}: {e}", elf.display()))?;

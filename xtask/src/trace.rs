@@ -40,9 +40,13 @@ pub fn obtain() -> Result<Trace> {
         return Err("host-sim has no binary yet".into());
     }
     let out = bench_dir().join("trace");
+    eprintln!(
+        "bench: building host-sim (release; a few minutes on a fresh checkout) and running \
+         scenarios/example1.toml for the trace"
+    );
     let status = Command::new(cargo())
         .current_dir(&root)
-        .args(["run", "--quiet", "--release", "-p", "host-sim", "--", "run"])
+        .args(["run", "--release", "-p", "host-sim", "--", "run", "--quiet"])
         .arg("scenarios/example1.toml")
         .arg("--out")
         .arg(&out)

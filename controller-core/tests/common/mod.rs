@@ -1,5 +1,5 @@
-//! A minimal closed loop of the paper's Example 1 (SPEC §8) for the core's own tests: four
-//! agents, an f64 RK4 plant with zero-order-hold inputs, the alternating fault windows of SPEC §8.
+//! A minimal closed loop of the paper's Example 1 (LAW §8) for the core's own tests: four
+//! agents, an f64 RK4 plant with zero-order-hold inputs, the alternating fault windows of LAW §8.
 //! The full simulator is `host-sim`; this keeps the core testable on its own.
 
 // Each test binary that includes this module uses a different subset of it.

@@ -1,4 +1,4 @@
-//! Shared by the integration tests: a minimal Example 1 plant (SPEC §8; RK4, 4 substeps, the
+//! Shared by the integration tests: a minimal Example 1 plant (LAW §8; RK4, 4 substeps, the
 //! intermittent faults), an ideal-link loop, a loop over the CAN network, and a log capture.
 #![allow(dead_code)]
 

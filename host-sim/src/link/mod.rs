@@ -1,4 +1,4 @@
-//! How neighbour and leader values reach each agent's controller (SPEC §2: `y_k` is the latest
+//! How neighbour and leader values reach each agent's controller (LAW §2: `y_k` is the latest
 //! value agent `i` has received). A CAN bus model plugs in here by implementing [`LinkModel`].
 
 mod ideal;

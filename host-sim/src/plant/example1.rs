@@ -1,4 +1,4 @@
-//! SPEC §8 Example 1: `ẋ_1 = x_2 + 0.8 x_1³`, `ẋ_2 = a_1 + a_2 − 2 x_1² + x_2³ + cos t`.
+//! LAW §8 Example 1: `ẋ_1 = x_2 + 0.8 x_1³`, `ẋ_2 = a_1 + a_2 − 2 x_1² + x_2³ + cos t`.
 
 use super::Plant;
 

@@ -1,4 +1,4 @@
-//! SPEC §8 Example 2: single-link manipulator `ẋ_1 = x_2`, `M ẋ_2 = a_1 + a_2 − ½ m g l sin x_1`.
+//! LAW §8 Example 2: single-link manipulator `ẋ_1 = x_2`, `M ẋ_2 = a_1 + a_2 − ½ m g l sin x_1`.
 
 use super::Plant;
 

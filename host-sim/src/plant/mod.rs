@@ -1,4 +1,4 @@
-//! Plants of SPEC §1 (the physical world, `f64`), integrated by RK4 with `substeps` per sample
+//! Plants of LAW §1 (the physical world, `f64`), integrated by RK4 with `substeps` per sample
 //! and the actuator outputs under zero-order hold (faults may vary within a sample).
 //!
 //! To add a model: implement [`Plant`] in a new file and add a [`PlantModel`] variant.
@@ -14,7 +14,7 @@ use crate::{
     scenario::PlantSpec,
 };
 
-/// One agent's dynamics `ẋ = f(t, x, a)` with `a` the actuator outputs `q^f(u_l)` (SPEC §1).
+/// One agent's dynamics `ẋ = f(t, x, a)` with `a` the actuator outputs `q^f(u_l)` (LAW §1).
 ///
 /// The time-only part of `f` (a disturbance such as `cos t`) is computed once per RK4 stage for
 /// all agents by [`Plant::at`]; [`Plant::derivative`] gets it back.
@@ -65,9 +65,9 @@ pub fn rk4<const N: usize, const M: usize, P: Plant<N, M>>(
 /// The models a scenario can name (`plant.model`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum PlantModel {
-    /// SPEC §8 Example 1.
+    /// LAW §8 Example 1.
     Example1(Example1),
-    /// SPEC §8 Example 2: single-link manipulator.
+    /// LAW §8 Example 2: single-link manipulator.
     Manipulator(Manipulator),
 }
 
@@ -128,6 +128,14 @@ impl PlantModel {
     /// Actuators per agent `m`.
     pub fn m(&self) -> usize {
         2
+    }
+
+    /// Units of the output `y` and of the actuator commands `u` (for the figures).
+    pub fn units(&self) -> (&'static str, &'static str) {
+        match self {
+            Self::Example1(_) => ("–", "–"),
+            Self::Manipulator(_) => ("rad", "N·m"),
+        }
     }
 
     /// The scenario name of the model.

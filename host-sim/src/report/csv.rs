@@ -1,4 +1,4 @@
-//! `trajectory.csv` (SCENARIO.md): `t`, `yd`, then per agent `y{i}`, `x{i}_{j}`, `e{i}_{j}`,
+//! `trajectory.csv` (docs/SCENARIO.md): `t`, `yd`, then per agent `y{i}`, `x{i}_{j}`, `e{i}_{j}`,
 //! `u{i}_{l}`, `q{i}_{l}`, `mu{i}`, `xi{i}`, `lambda{i}`; every `decimate`-th sample.
 
 use std::{
@@ -9,18 +9,68 @@ use std::{
 
 use crate::{
     error::{Error, Result},
-    report::temp_path,
+    report::{temp_path, TempFile},
+    scenario::Setup,
     sim::{Observer, SampleView},
 };
 
-/// A temporary file that is removed unless it was renamed into place (a run cut short by an
-/// I/O error leaves no stray file behind).
-struct TempFile(PathBuf);
+/// Largest `trajectory.csv` a run writes without `--force` [bytes] (2 GiB).
+pub const SIZE_LIMIT: u64 = 2 << 30;
 
-impl Drop for TempFile {
-    fn drop(&mut self) {
-        // After a successful rename there is nothing left to remove.
-        let _ = std::fs::remove_file(&self.0);
+/// Estimated bytes of one row: about 20 characters per `f64` value (`t`, `yd`, `y`, `x`) and 11
+/// per `f32` value (`e`, `u`, `q`, estimates), separators included (Example 1: 676, measured 674).
+pub fn row_bytes(agents: usize, n: usize, m: usize) -> u64 {
+    let f64_columns = 2 + agents * (1 + n);
+    let f32_columns = agents * (n + 2 * m + 3);
+    (20 * f64_columns + 11 * f32_columns) as u64
+}
+
+/// Estimated size of `trajectory.csv` for `setup` with every `decimate`-th sample [bytes].
+pub fn estimated_size(setup: &Setup, decimate: u64) -> u64 {
+    let rows = setup.samples.div_ceil(decimate.max(1));
+    rows.saturating_mul(row_bytes(setup.agents(), setup.n(), setup.m()))
+}
+
+/// The smallest `--decimate` whose estimated `trajectory.csv` is within `limit`.
+pub fn decimate_to_fit(setup: &Setup, limit: u64) -> u64 {
+    let rows = (limit / row_bytes(setup.agents(), setup.n(), setup.m())).max(1);
+    setup.samples.div_ceil(rows).max(1)
+}
+
+/// `Err` (an invalid `--decimate`, naming the one that fits) when `trajectory.csv` would exceed
+/// [`SIZE_LIMIT`].
+pub fn check_size(setup: &Setup, decimate: u64) -> Result<()> {
+    let size = estimated_size(setup, decimate);
+    if size <= SIZE_LIMIT {
+        return Ok(());
+    }
+    let fit = decimate_to_fit(setup, SIZE_LIMIT);
+    Err(Error::invalid(
+        "--decimate",
+        format!(
+            "trajectory.csv would take about {} ({} samples, every {decimate}), above the limit \
+             of {}: use --decimate {fit} (about {}), or --force to write it anyway",
+            human_bytes(size),
+            setup.samples,
+            human_bytes(SIZE_LIMIT),
+            human_bytes(estimated_size(setup, fit)),
+        ),
+    ))
+}
+
+/// `1.5 GB`-style size (decimal prefixes, 2 significant decimals).
+pub fn human_bytes(b: u64) -> String {
+    const UNITS: [&str; 6] = ["B", "kB", "MB", "GB", "TB", "PB"];
+    let mut v = b as f64;
+    let mut u = 0;
+    while v >= 1000.0 && u + 1 < UNITS.len() {
+        v /= 1000.0;
+        u += 1;
+    }
+    if u == 0 {
+        format!("{b} B")
+    } else {
+        format!("{v:.2} {}", UNITS[u])
     }
 }
 
@@ -36,8 +86,8 @@ pub struct CsvObserver {
 impl CsvObserver {
     /// Opens `path` (via a temporary name) and writes the header.
     pub fn create(path: &Path, agents: usize, n: usize, m: usize, decimate: u64) -> Result<Self> {
-        let tmp = temp_path(path);
-        let file = File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
+        let tmp = TempFile::new(temp_path(path));
+        let file = File::create(tmp.path()).map_err(|e| Error::io(tmp.path(), e))?;
         let mut wtr =
             csv::WriterBuilder::new().from_writer(BufWriter::with_capacity(1 << 16, file));
         let mut header = vec!["t".to_string(), "yd".to_string()];
@@ -49,11 +99,12 @@ impl CsvObserver {
             header.extend((1..=m).map(|l| format!("q{i}_{l}")));
             header.extend([format!("mu{i}"), format!("xi{i}"), format!("lambda{i}")]);
         }
-        wtr.write_record(&header).map_err(|e| Error::io(&tmp, e))?;
+        wtr.write_record(&header)
+            .map_err(|e| Error::io(tmp.path(), e))?;
         Ok(Self {
             wtr,
             decimate: decimate.max(1),
-            tmp: TempFile(tmp),
+            tmp,
             path: path.to_path_buf(),
             fmt: ryu::Buffer::new(),
         })
@@ -61,9 +112,11 @@ impl CsvObserver {
 
     /// Flushes and renames the file into place.
     pub fn finish(mut self) -> Result<()> {
-        self.wtr.flush().map_err(|e| Error::io(&self.tmp.0, e))?;
+        self.wtr
+            .flush()
+            .map_err(|e| Error::io(self.tmp.path(), e))?;
         drop(self.wtr);
-        std::fs::rename(&self.tmp.0, &self.path).map_err(|e| Error::io(&self.path, e))
+        self.tmp.persist(&self.path)
     }
 
     fn f64(&mut self, v: f64) -> csv::Result<()> {
@@ -101,7 +154,7 @@ impl<const N: usize, const M: usize> Observer<N, M> for CsvObserver {
         if !s.k.is_multiple_of(self.decimate) {
             return Ok(());
         }
-        self.row(s).map_err(|e| Error::io(&self.tmp.0, e))
+        self.row(s).map_err(|e| Error::io(self.tmp.path(), e))
     }
 }
 
@@ -115,7 +168,7 @@ mod cleanup_tests {
         std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
         let path = dir.join("trajectory.csv");
         let obs = CsvObserver::create(&path, 1, 2, 2, 1)?;
-        let tmp = obs.tmp.0.clone();
+        let tmp = obs.tmp.path().to_path_buf();
         assert!(tmp.exists());
         drop(obs); // the run was cut short
         assert!(!tmp.exists() && !path.exists());

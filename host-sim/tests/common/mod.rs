@@ -38,3 +38,13 @@ pub fn assert_invalid(out: &Output, key: &str) {
     assert!(err.contains(key), "message should name `{key}`: {err}");
     assert!(!err.contains("panicked"), "{err}");
 }
+
+/// Exit 0; stderr shown otherwise.
+pub fn assert_ok(out: &Output) {
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

@@ -1,0 +1,274 @@
+//! docs/SCENARIO.md cannot drift from the code: every key the scenario parser accepts (asked of
+//! the parser itself, through serde's `deny_unknown_fields` messages), every value of its
+//! enumerations, every `summary.json` key (with a unit in `units`) and every `trajectory.csv`
+//! column of real runs appears there.
+
+mod common;
+
+use std::collections::BTreeSet;
+
+use host_sim::{error::Error, run::simulate, scenario};
+use serde_json::Value;
+
+const PROBE: &str = "__probe";
+
+fn doc() -> String {
+    let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/SCENARIO.md");
+    std::fs::read_to_string(&p).expect("docs/SCENARIO.md")
+}
+
+/// The names between backticks or double quotes after "expected" in a serde message.
+fn expected_names(msg: &str) -> Vec<String> {
+    let Some(at) = msg.find("expected") else {
+        return Vec::new();
+    };
+    let tail = &msg[at..];
+    let mut names = Vec::new();
+    for q in ['`', '"'] {
+        let mut parts = tail.split(q);
+        parts.next();
+        while let (Some(name), Some(_)) = (parts.next(), parts.next()) {
+            names.push(name.to_string());
+        }
+    }
+    names
+}
+
+fn invalid_message(text: &str) -> Option<String> {
+    match scenario::parse(text, &[]) {
+        Err(Error::Invalid(m)) => Some(m),
+        _ => None,
+    }
+}
+
+/// The fields of the table at `header` (e.g. `[simulation]`, `[[faults.rule]]`, or `""` for the
+/// top level), if the parser reads a table there.
+fn fields(header: &str) -> Option<Vec<String>> {
+    let msg = invalid_message(&format!("{header}\n{PROBE} = 0\n"))?;
+    msg.contains(&format!("unknown field `{PROBE}`"))
+        .then(|| expected_names(&msg))
+}
+
+/// Every accepted key (dotted) with the values of the enumerations among them.
+fn accepted_keys(
+    prefix: &str,
+    header: &str,
+    keys: &mut BTreeSet<String>,
+    values: &mut BTreeSet<String>,
+) {
+    let Some(names) = fields(header) else {
+        panic!("the parser reads no table at {header:?}");
+    };
+    assert!(!names.is_empty(), "no field names for {header:?}");
+    for name in names {
+        let key = if prefix.is_empty() {
+            name.clone()
+        } else {
+            format!("{prefix}.{name}")
+        };
+        if fields(&format!("[{key}]")).is_some() {
+            keys.insert(format!("[{key}]"));
+            accepted_keys(&key, &format!("[{key}]"), keys, values);
+        } else if fields(&format!("[[{key}]]")).is_some() {
+            keys.insert(key.clone());
+            accepted_keys(&key, &format!("[[{key}]]"), keys, values);
+        } else {
+            // A leaf: a string probe names the accepted values of an enumeration.
+            let (table, leaf) = key.rsplit_once('.').unwrap_or(("", &key));
+            let table = if table.is_empty() {
+                String::new()
+            } else if header.starts_with("[[") {
+                format!("[[{table}]]")
+            } else {
+                format!("[{table}]")
+            };
+            let text = format!("{table}\n{leaf} = \"{PROBE}\"\n");
+            if let Some(msg) = invalid_message(&text) {
+                if msg.contains(PROBE) {
+                    values.extend(expected_names(&msg));
+                }
+            }
+            keys.insert(key);
+        }
+    }
+}
+
+#[test]
+fn every_scenario_key_the_parser_accepts_is_documented() {
+    let (mut keys, mut values) = (BTreeSet::new(), BTreeSet::new());
+    accepted_keys("", "", &mut keys, &mut values);
+    // The probe must really find the parser's keys, values and nested tables.
+    for k in [
+        "simulation.h",
+        "controller.a_check",
+        "faults.rule.kind",
+        "[network]",
+    ] {
+        assert!(keys.contains(k), "probe missed {k}: {keys:?}");
+    }
+    for v in ["prescribed-time", "magnitude", "stuck", "manipulator"] {
+        assert!(values.contains(v), "probe missed value {v}: {values:?}");
+    }
+    let doc = doc();
+    let missing: Vec<_> = keys
+        .iter()
+        .filter(|k| !doc.contains(&format!("`{k}`")))
+        .chain(values.iter().filter(|v| !doc.contains(&format!("\"{v}\""))))
+        .collect();
+    assert!(
+        missing.is_empty(),
+        "accepted by the parser but not in docs/SCENARIO.md: {missing:?}"
+    );
+}
+
+/// Dotted paths of the keys of `v` (first element of arrays of objects), and the numeric ones.
+fn json_keys(prefix: &str, v: &Value, all: &mut BTreeSet<String>, numeric: &mut BTreeSet<String>) {
+    let Value::Object(map) = v else { return };
+    for (k, x) in map {
+        let key = if prefix.is_empty() {
+            k.clone()
+        } else {
+            format!("{prefix}.{k}")
+        };
+        all.insert(key.clone());
+        match x {
+            Value::Number(_) => {
+                numeric.insert(key);
+            }
+            Value::Array(a) => {
+                if let Some(first) = a.first() {
+                    json_keys(&key, first, all, numeric);
+                }
+            }
+            Value::Object(_) if k != "units" => json_keys(&key, x, all, numeric),
+            _ => {}
+        }
+    }
+}
+
+fn summary(file: &str, sets: &[&str]) -> Value {
+    let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+    let setup = scenario::load(&common::scenario_path(file), &sets).expect("scenario");
+    serde_json::to_value(simulate(&setup).expect("run")).expect("json")
+}
+
+#[test]
+fn every_summary_key_is_documented_with_a_unit() {
+    let doc = doc();
+    // Diverged (divergence object), CAN (network object), ideal.
+    let runs = [
+        summary(
+            "example1.toml",
+            &["simulation.t_end=0.2", "controller.ts=0.001"],
+        ),
+        summary("example1-can.toml", &["simulation.t_end=0.05"]),
+        summary("example2.toml", &["simulation.t_end=0.05"]),
+    ];
+    assert!(
+        runs[0]["divergence"].is_object(),
+        "the first run must diverge"
+    );
+    assert!(runs[1]["network"].is_object());
+    for s in &runs {
+        let (mut all, mut numeric) = (BTreeSet::new(), BTreeSet::new());
+        json_keys("", s, &mut all, &mut numeric);
+        for k in &all {
+            assert!(
+                doc.contains(&format!("`{k}`")),
+                "summary.json key `{k}` not in docs/SCENARIO.md"
+            );
+        }
+        let units = s["units"].as_object().expect("units object");
+        for k in &numeric {
+            let u = units.get(k).and_then(Value::as_str);
+            assert!(
+                u.is_some_and(|u| !u.is_empty()),
+                "no unit for `{k}` in {units:?}"
+            );
+        }
+        for k in units.keys() {
+            assert!(
+                all.contains(k) || k.starts_with("divergence."),
+                "unit for a key that is not in summary.json: {k}"
+            );
+        }
+    }
+}
+
+#[test]
+fn every_trajectory_column_is_documented() {
+    let dir = common::tmp("docs-columns");
+    let out = common::bin()
+        .arg("run")
+        .arg(common::scenario_path("example1.toml"))
+        .args(["--out"])
+        .arg(&dir)
+        .args(["--set", "simulation.t_end=0.01", "--no-plots", "--quiet"])
+        .output()
+        .expect("host-sim");
+    common::assert_ok(&out);
+    let csv = std::fs::read_to_string(dir.join("trajectory.csv")).expect("csv");
+    let header = csv.lines().next().expect("header");
+    let doc = doc();
+    assert_eq!(header.split(',').count(), 50, "Example 1 has 50 columns");
+    for col in header.split(',') {
+        // x3_2 -> x{i}_{j} or x{i}_{l}
+        let mut template = String::new();
+        let mut run = 0;
+        let mut chars = col.chars().peekable();
+        while let Some(c) = chars.next() {
+            if c.is_ascii_digit() {
+                while chars.peek().is_some_and(char::is_ascii_digit) {
+                    chars.next();
+                }
+                template.push_str(["{i}", "{j}"][run.min(1)]);
+                run += 1;
+            } else {
+                template.push(c);
+            }
+        }
+        let alt = template.replace("{j}", "{l}");
+        assert!(
+            doc.contains(&format!("`{template}`")) || doc.contains(&format!("`{alt}`")),
+            "trajectory.csv column {col} ({template}) not in docs/SCENARIO.md"
+        );
+    }
+}
+
+/// Unescaped `|` in a Markdown table row (a `|` inside a code span splits the cell too).
+fn cell_bars(row: &str) -> usize {
+    row.match_indices('|')
+        .filter(|(i, _)| !row[..*i].ends_with('\\'))
+        .count()
+}
+
+#[test]
+fn every_markdown_table_row_has_the_cells_of_its_header() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mut files = vec![root.join("README.md")];
+    for e in std::fs::read_dir(root.join("docs")).expect("docs") {
+        let p = e.expect("entry").path();
+        if p.extension().is_some_and(|x| x == "md") {
+            files.push(p);
+        }
+    }
+    for f in files {
+        let text = std::fs::read_to_string(&f).expect("read");
+        let mut header = None;
+        for (n, line) in text.lines().enumerate() {
+            if !line.starts_with('|') {
+                header = None;
+                continue;
+            }
+            let bars = cell_bars(line);
+            let want = *header.get_or_insert(bars);
+            assert_eq!(
+                bars,
+                want,
+                "{}:{}: escape `|` as `\\|`: {line}",
+                f.display(),
+                n + 1
+            );
+        }
+    }
+}
