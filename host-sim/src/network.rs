@@ -15,6 +15,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::{
     error::{Error, Result},
+    report::trace::{TraceWriter, INTERFACE},
     scenario::Setup,
     sim::{Agents, K},
 };
@@ -319,12 +320,14 @@ pub struct CanAgents<const N: usize, const M: usize> {
     h_ns: Nanos,
     bitrate: u32,
     states: Vec<[f32; N]>,
+    trace: Option<TraceWriter>,
 }
 
 impl<const N: usize, const M: usize> CanAgents<N, M> {
     /// One node per agent of the validated `setup`, with its controller configuration and
-    /// neighbours, on the bus of `[network]`.
-    pub fn new(setup: &Setup) -> Result<Self> {
+    /// neighbours, on the bus of `[network]`; every frame on the bus goes to `trace` (candump
+    /// log) when given.
+    pub fn new(setup: &Setup, trace: Option<&std::path::Path>) -> Result<Self> {
         let spec = &setup.scenario.network;
         let h = setup.scenario.simulation.h;
         let stale = spec.stale_timeout.unwrap_or(2.5 * h);
@@ -352,12 +355,17 @@ impl<const N: usize, const M: usize> CanAgents<N, M> {
         }
         let cfg = bus_config(spec, h);
         let bitrate = cfg.bitrate;
-        let net = CanNetwork::new(cfg, &agents).map_err(|e| Error::invalid("network", e))?;
+        let mut net = CanNetwork::new(cfg, &agents).map_err(|e| Error::invalid("network", e))?;
+        let trace = trace.map(TraceWriter::create).transpose()?;
+        if trace.is_some() {
+            net.bus_mut().record_wire();
+        }
         Ok(Self {
             net,
             h_ns: ns(h),
             bitrate,
             states: vec![[0.0; N]; setup.agents()],
+            trace,
         })
     }
 
@@ -413,6 +421,13 @@ impl<const N: usize, const M: usize> Agents<N, M> for CanAgents<N, M> {
         let t_ns = k.saturating_mul(self.h_ns);
         let ticks = self.net.step(t_ns, &self.states, Some(yd as f32));
         out.extend(ticks.iter().map(|t| t.output));
+        if let Some(w) = self.trace.as_mut() {
+            w.write(INTERFACE, &self.net.bus_mut().take_wire_log());
+        }
+    }
+
+    fn finish(&mut self) -> Result<()> {
+        self.trace.as_mut().map_or(Ok(()), TraceWriter::finish)
     }
 
     fn gains(&self) -> Gains {

@@ -30,6 +30,8 @@ pub struct RunOptions {
     pub record: bool,
     /// Show a progress bar (only on a terminal).
     pub progress: bool,
+    /// Write every bus frame to this candump log (`kind = "can"` and `"pil"` only).
+    pub trace: Option<PathBuf>,
 }
 
 /// A finished run.
@@ -49,14 +51,19 @@ pub fn simulate(setup: &Setup) -> Result<Summary> {
 /// Runs `setup` with the outputs of `opts` over the network of its `[network]` section: the
 /// ideal link, or firmware nodes over the CAN bus.
 pub fn run(setup: &Setup, opts: &RunOptions) -> Result<RunResult> {
+    let trace = opts.trace.as_deref();
     match setup.scenario.network.kind {
+        NetworkKind::Ideal if trace.is_some() => Err(Error::invalid(
+            "--trace",
+            "needs a bus: network.kind = \"can\" or \"pil\"",
+        )),
         NetworkKind::Ideal => run_with_link(setup, opts, IdealLink),
         NetworkKind::Can => match setup.plant {
             PlantModel::Example1(p) => {
-                run_with::<_, _, 2, 2>(setup, p, CanAgents::new(setup)?, opts)
+                run_with::<_, _, 2, 2>(setup, p, CanAgents::new(setup, trace)?, opts)
             }
             PlantModel::Manipulator(p) => {
-                run_with::<_, _, 2, 2>(setup, p, CanAgents::new(setup)?, opts)
+                run_with::<_, _, 2, 2>(setup, p, CanAgents::new(setup, trace)?, opts)
             }
         },
     }
@@ -123,6 +130,7 @@ fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
         sim.run(&mut obs, |k| pb.set_position(k))?
     };
     pb.finish_and_clear();
+    sim.agents_mut().finish()?;
     let mut summary = metrics.summary(setup, &sim.gains(), divergence);
     summary.network = sim.agents().network();
     if let Some(dir) = &opts.out {

@@ -62,6 +62,10 @@ pub trait Agents<const N: usize, const M: usize> {
     fn network(&self) -> Option<crate::network::NetworkSummary> {
         None
     }
+    /// Called once after the last sample (flush a trace, stop emulators, collect figures).
+    fn finish(&mut self) -> Result<()> {
+        Ok(())
+    }
 }
 
 /// host-sim's own controllers, one per agent, hearing each other through a [`LinkModel`].
@@ -186,6 +190,11 @@ impl<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize> Sim<P, A, 
     /// The agents (e.g. to read network statistics after a run).
     pub fn agents(&self) -> &A {
         &self.agents
+    }
+
+    /// The agents, mutable (to finish them after a run).
+    pub fn agents_mut(&mut self) -> &mut A {
+        &mut self.agents
     }
 
     /// The first agent whose state is non-finite or above the bound.

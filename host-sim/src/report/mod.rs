@@ -3,6 +3,7 @@
 
 pub mod csv;
 pub mod plots;
+pub mod trace;
 
 use std::path::{Path, PathBuf};
 
