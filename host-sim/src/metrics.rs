@@ -90,6 +90,9 @@ pub struct Summary {
     /// Network figures (`[network] kind = "can"`); absent for the ideal link.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub network: Option<NetworkSummary>,
+    /// Node-firmware figures per agent (`[network] kind = "pil"`); absent otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub firmware: Option<Vec<crate::pil::FirmwareSummary>>,
 }
 
 #[derive(Debug, Clone)]
@@ -199,6 +202,7 @@ impl Metrics {
             divergence,
             agents,
             network: None,
+            firmware: None,
         }
     }
 }

@@ -11,6 +11,7 @@ use crate::{
     link::{IdealLink, LinkModel},
     metrics::{Metrics, Summary},
     network::{CanAgents, NetworkKind},
+    pil::PilAgents,
     plant::{Plant, PlantModel},
     report::{self, csv::CsvObserver, plots::Recorder},
     scenario::{self, Scenario, Setup},
@@ -64,6 +65,14 @@ pub fn run(setup: &Setup, opts: &RunOptions) -> Result<RunResult> {
             }
             PlantModel::Manipulator(p) => {
                 run_with::<_, _, 2, 2>(setup, p, CanAgents::new(setup, trace)?, opts)
+            }
+        },
+        NetworkKind::Pil => match setup.plant {
+            PlantModel::Example1(p) => {
+                run_with::<_, _, 2, 2>(setup, p, PilAgents::new(setup, trace)?, opts)
+            }
+            PlantModel::Manipulator(p) => {
+                run_with::<_, _, 2, 2>(setup, p, PilAgents::new(setup, trace)?, opts)
             }
         },
     }
@@ -133,6 +142,7 @@ fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
     sim.agents_mut().finish()?;
     let mut summary = metrics.summary(setup, &sim.gains(), divergence);
     summary.network = sim.agents().network();
+    summary.firmware = sim.agents().firmware();
     if let Some(dir) = &opts.out {
         if let Some(c) = csv {
             c.finish()?;
@@ -144,6 +154,8 @@ fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
             if let Some(r) = &recorder {
                 r.draw(dir, setup.predefined_time(), &setup.scenario.name)?;
             }
+            sim.agents()
+                .draw(dir, setup.scenario.simulation.h, &setup.scenario.name)?;
         }
     }
     Ok(RunResult { summary, recorder })
