@@ -18,7 +18,7 @@
 //! and on Ctrl-C / SIGTERM (a handler kills the registered emulators, then exits with 130).
 
 use std::{
-    io::{BufRead, BufReader, Read, Write},
+    io::{BufReader, Read, Write},
     path::{Path, PathBuf},
     process::{Child, ChildStdin, Command, Stdio},
     sync::{
@@ -209,6 +209,8 @@ impl Emulator {
             .lock()
             .map(|s| s.trim().to_string())
             .unwrap_or_default();
+        // The first line is what matters (a QEMU register dump follows a lockup).
+        let err: String = err.lines().next().unwrap_or("").chars().take(200).collect();
         let err = if err.is_empty() {
             String::new()
         } else {
@@ -231,32 +233,44 @@ impl Drop for Emulator {
 }
 
 /// Splits the emulator's output at `\r` / `\n` into frames and other text.
-fn read_output(stdout: impl Read, tx: &mpsc::Sender<Output>) {
-    let mut r = BufReader::with_capacity(1 << 14, stdout);
+///
+/// QEMU writes the UART's bytes one at a time; reading each as it comes would wake this
+/// thread for every byte. After each read the thread pauses for [`READ_PAUSE`], so a node's
+/// answer to one sample (about 200 bytes) arrives in a few reads.
+fn read_output(mut stdout: impl Read, tx: &mpsc::Sender<Output>) {
+    let mut buf = vec![0u8; 1 << 14];
     let mut line = Vec::with_capacity(64);
     loop {
-        line.clear();
-        match r.read_until(b'\r', &mut line) {
+        let n = match stdout.read(&mut buf) {
             Ok(0) | Err(_) => {
                 let _ = tx.send(Output::Eof);
                 return;
             }
-            Ok(_) => {}
-        }
-        for part in line.split(|&b| b == b'\r' || b == b'\n') {
-            if part.is_empty() {
+            Ok(n) => n,
+        };
+        for &b in &buf[..n] {
+            if b != b'\r' && b != b'\n' {
+                line.push(b);
                 continue;
             }
-            let msg = match pil::slcan_decode(part) {
+            if line.is_empty() {
+                continue;
+            }
+            let msg = match pil::slcan_decode(&line) {
                 Ok(Slcan::Frame(f)) => Output::Frame(f),
-                _ => Output::Text(String::from_utf8_lossy(part).into_owned()),
+                _ => Output::Text(String::from_utf8_lossy(&line).into_owned()),
             };
+            line.clear();
             if tx.send(msg).is_err() {
                 return;
             }
         }
+        std::thread::sleep(READ_PAUSE);
     }
 }
+
+/// Pause of the output reader after each read.
+const READ_PAUSE: Duration = Duration::from_micros(150);
 
 /// `summary.json` `firmware[]`: one agent's node firmware over the closed-loop run.
 #[derive(Debug, Clone, PartialEq, Serialize)]

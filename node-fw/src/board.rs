@@ -81,10 +81,15 @@ impl Uart {
         }
     }
 
-    /// Sends `bytes`, waiting while the transmitter is full.
+    /// Sends `bytes` (one SLCAN line), waiting while the transmitter is full before the
+    /// first byte. QEMU hands each byte to the host at once and clears TX-full before the
+    /// store returns unless the host stops reading; checking once per line instead of once
+    /// per byte halves the emulated register accesses (each one a trip through QEMU's device
+    /// lock), and a byte lost to a stalled host would make the host stop the run on a
+    /// malformed line, never pass unnoticed.
     pub fn write_all(&self, bytes: &[u8]) {
+        while read(STATE) & TX_FULL != 0 {}
         for &b in bytes {
-            while read(STATE) & TX_FULL != 0 {}
             write(DATA, u32::from(b));
         }
     }
