@@ -23,15 +23,15 @@
 //!
 //! ## One sample (host → node, then node → host)
 //!
-//! 1. for each bus frame delivered to the node since the last sample and passing its
-//!    acceptance filter (the identifiers of the agents it hears, and the leader's if it is
-//!    pinned — what a CAN controller's filter, or SLCAN's `M`/`m` acceptance registers, would
-//!    be set to): [`io::CLOCK`] (delivery time, µs) when it changed, then the frame — the node
-//!    takes it at that clock reading (the CAN receive interrupt of [`crate::Node::poll_rx`]);
-//! 2. [`io::SENSOR`] (the state `x_i`, `f32` little-endian);
-//! 3. [`io::SYNC`] (sample time `t_k`, µs): the node sets its clock and runs
-//!    [`crate::Node::tick`];
-//! 4. the node answers with its bus frame (if the tick queued one), [`io::COMMAND`] (`q`),
+//! 1. each bus frame delivered to the node since the last sample and passing its acceptance
+//!    filter (the identifiers of the agents it hears, and the leader's if it is pinned — what
+//!    a CAN controller's filter, or SLCAN's `M`/`m` acceptance registers, would be set to),
+//!    with its delivery time as SLCAN timestamp ([`Slcan::Timed`], µs since the last `SYNC`):
+//!    the node takes it at that clock reading (the CAN receive interrupt of
+//!    [`crate::Node::poll_rx`]);
+//! 2. [`io::SYNC`] with the state `x_i` (`f32` little-endian) and `t_k` as timestamp: the
+//!    node sets its clock, its sensor, and runs [`crate::Node::tick`];
+//! 3. the node answers with its bus frame (if the tick queued one), [`io::COMMAND`] (`q`),
 //!    [`io::REPORT_U`], [`io::REPORT_E`], [`io::REPORT_EST`], [`io::REPORT_STATUS`] and, last,
 //!    [`io::REPORT_COST`] (instructions of the tick).
 //!
@@ -58,13 +58,14 @@ pub mod io {
     pub const READY: u32 = 0x0001_0012;
     /// node → host: configuration rejected; 1 byte, a [`super::ConfigReject`] code.
     pub const REJECTED: u32 = 0x0001_0013;
-    /// host → node: sample time `t_k` (µs, low 32 bits, `u32` LE; the node extends it to
-    /// 64 bits, [`super::extend_clock`]): set the clock and tick.
+    /// host → node: the state `x_{i,1}`, `x_{i,2}` (`f32` LE each) of sample `t_k`, and the
+    /// command to tick. `t_k` is the timestamp (µs since the previous `SYNC`, the first
+    /// counting from 0), or, without one, the clock a `CLOCK` frame just set. A bus frame's
+    /// timestamp is likewise its delivery time since the previous `SYNC`.
     pub const SYNC: u32 = 0x0001_0080;
-    /// host → node: the clock (µs, low 32 bits as in `SYNC`) for the bus frames that follow.
+    /// host → node: the clock (µs, low 32 bits, `u32` LE, extended to 64 bits by
+    /// [`super::extend_clock`]), when a time is 2¹⁶ µs or more after the previous `SYNC`.
     pub const CLOCK: u32 = 0x0001_0081;
-    /// host → node: the state `x_{i,1}`, `x_{i,2}` (`f32` LE each).
-    pub const SENSOR: u32 = 0x0001_0200;
     /// node → host: the quantized commands `q_1`, `q_2` written to the actuators.
     pub const COMMAND: u32 = 0x0001_0300;
     /// node → host: `u_1`, `u_2` before quantization.
@@ -168,14 +169,17 @@ impl Frame for PilFrame {
     }
 }
 
-/// Longest SLCAN line: `T` + 8 id digits + DLC + 16 data digits + `\r`.
-pub const SLCAN_MAX_LINE: usize = 27;
+/// Longest SLCAN line: `T` + 8 id digits + DLC + 16 data digits + 4 timestamp digits + `\r`.
+pub const SLCAN_MAX_LINE: usize = 31;
 
 /// One SLCAN command.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Slcan {
     /// `t`, `T`, `r`, `R`: a frame.
     Frame(PilFrame),
+    /// A frame followed by SLCAN's 4-digit timestamp extension (`Z1` mode of Lawicel
+    /// adapters, there in ms); on this link: µs since the last `SYNC`, see [`io::SYNC`].
+    Timed(PilFrame, u16),
     /// `O`: open the channel.
     Open,
     /// `C`: close the channel.
@@ -222,6 +226,15 @@ fn hex_value(digits: &[u8]) -> Option<u32> {
 /// assert_eq!(slcan_decode(&buf[..n - 1]), Ok(Slcan::Frame(f)));
 /// ```
 pub fn slcan_encode(frame: &PilFrame, out: &mut [u8; SLCAN_MAX_LINE]) -> usize {
+    encode_line(frame, None, out)
+}
+
+/// The SLCAN line of `frame` with the 4-digit timestamp `ts` (see [`Slcan::Timed`]).
+pub fn slcan_encode_timed(frame: &PilFrame, ts: u16, out: &mut [u8; SLCAN_MAX_LINE]) -> usize {
+    encode_line(frame, Some(ts), out)
+}
+
+fn encode_line(frame: &PilFrame, ts: Option<u16>, out: &mut [u8; SLCAN_MAX_LINE]) -> usize {
     let (cmd, id, digits) = match (frame.id, frame.remote) {
         (Id::Standard(s), false) => (b't', u32::from(s.as_raw()), 3),
         (Id::Standard(s), true) => (b'r', u32::from(s.as_raw()), 3),
@@ -239,6 +252,12 @@ pub fn slcan_encode(frame: &PilFrame, out: &mut [u8; SLCAN_MAX_LINE]) -> usize {
         out[n] = HEX[usize::from(b >> 4)];
         out[n + 1] = HEX[usize::from(b & 0xF)];
         n += 2;
+    }
+    if let Some(ts) = ts {
+        for k in 0..4 {
+            out[n + k] = HEX[usize::from((ts >> (12 - 4 * k)) & 0xF)];
+        }
+        n += 4;
     }
     out[n] = b'\r';
     n + 1
@@ -274,16 +293,24 @@ pub fn slcan_decode(line: &[u8]) -> Result<Slcan, SlcanError> {
     } else {
         ExtendedId::new(raw).ok_or(SlcanError::Malformed)?.into()
     };
-    let payload = &rest[digits + 1..];
-    let frame = if cmd == b'r' || cmd == b'R' {
-        if !payload.is_empty() {
-            return Err(SlcanError::Malformed);
+    let mut payload = &rest[digits + 1..];
+    let data_digits = if cmd == b'r' || cmd == b'R' {
+        0
+    } else {
+        2 * usize::from(dlc)
+    };
+    let ts = match payload.len().checked_sub(data_digits) {
+        Some(0) => None,
+        Some(4) => {
+            let t = hex_value(&payload[data_digits..]).ok_or(SlcanError::Malformed)?;
+            payload = &payload[..data_digits];
+            Some(u16::try_from(t).map_err(|_| SlcanError::Malformed)?)
         }
+        _ => return Err(SlcanError::Malformed),
+    };
+    let frame = if cmd == b'r' || cmd == b'R' {
         PilFrame::new_remote(id, usize::from(dlc))
     } else {
-        if payload.len() != 2 * usize::from(dlc) {
-            return Err(SlcanError::Malformed);
-        }
         let mut data = [0u8; 8];
         for (d, pair) in data.iter_mut().zip(payload.chunks_exact(2)) {
             *d = u8::try_from(hex_value(pair).ok_or(SlcanError::Malformed)?)
@@ -291,7 +318,11 @@ pub fn slcan_decode(line: &[u8]) -> Result<Slcan, SlcanError> {
         }
         PilFrame::new(id, &data[..usize::from(dlc)])
     };
-    frame.map(Slcan::Frame).ok_or(SlcanError::Malformed)
+    let frame = frame.ok_or(SlcanError::Malformed)?;
+    Ok(match ts {
+        None => Slcan::Frame(frame),
+        Some(t) => Slcan::Timed(frame, t),
+    })
 }
 
 /// Two `f32` as the 8 data bytes of a process-I/O frame (little-endian).
@@ -643,7 +674,12 @@ mod tests {
         let f = PilFrame::io(io::SYNC, &pack_f32x2(1.0, -2.0)).expect("frame");
         let mut buf = [0u8; SLCAN_MAX_LINE];
         let n = slcan_encode(&f, &mut buf);
-        assert_eq!(n, SLCAN_MAX_LINE);
+        assert_eq!(n, SLCAN_MAX_LINE - 4);
         assert_eq!(slcan_decode(&buf[..n - 1]), Ok(Slcan::Frame(f)));
+        let n = slcan_encode_timed(&f, 0xBEEF, &mut buf);
+        assert_eq!(n, SLCAN_MAX_LINE);
+        assert_eq!(&buf[n - 5..n], b"BEEF\r");
+        assert_eq!(slcan_decode(&buf[..n - 1]), Ok(Slcan::Timed(f, 0xBEEF)));
+        assert!(slcan_decode(&buf[..n - 2]).is_err());
     }
 }

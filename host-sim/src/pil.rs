@@ -105,8 +105,8 @@ struct Emulator {
     stderr: Arc<Mutex<String>>,
     /// Bytes for the next write.
     out: Vec<u8>,
-    /// Clock last sent with `CLOCK` / `SYNC`.
-    clock_us: Option<u64>,
+    /// Time of the last `SYNC` (the origin of timestamps) [µs].
+    sync_us: u64,
 }
 
 impl Emulator {
@@ -153,7 +153,7 @@ impl Emulator {
             rx,
             stderr: err,
             out: Vec::with_capacity(1024),
-            clock_us: None,
+            sync_us: 0,
         })
     }
 
@@ -169,11 +169,18 @@ impl Emulator {
         }
     }
 
-    fn queue_clock(&mut self, t_us: u64) {
-        if self.clock_us != Some(t_us) {
-            self.queue_io(io::CLOCK, &(t_us as u32).to_le_bytes());
-            self.clock_us = Some(t_us);
-        }
+    /// `frame` at time `t_us`: timestamped relative to the last `SYNC`, or after a `CLOCK`
+    /// frame when that does not fit 16 bits.
+    fn queue_at(&mut self, frame: &PilFrame, t_us: u64) {
+        let mut buf = [0u8; SLCAN_MAX_LINE];
+        let n = match u16::try_from(t_us.saturating_sub(self.sync_us)) {
+            Ok(ts) => pil::slcan_encode_timed(frame, ts, &mut buf),
+            Err(_) => {
+                self.queue_io(io::CLOCK, &(t_us as u32).to_le_bytes());
+                pil::slcan_encode(frame, &mut buf)
+            }
+        };
+        self.out.extend_from_slice(&buf[..n]);
     }
 
     fn flush(&mut self) -> Result<()> {
@@ -257,7 +264,7 @@ fn read_output(mut stdout: impl Read, tx: &mpsc::Sender<Output>) {
                 continue;
             }
             let msg = match pil::slcan_decode(&line) {
-                Ok(Slcan::Frame(f)) => Output::Frame(f),
+                Ok(Slcan::Frame(f) | Slcan::Timed(f, _)) => Output::Frame(f),
                 _ => Output::Text(String::from_utf8_lossy(&line).into_owned()),
             };
             line.clear();
@@ -601,16 +608,17 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
                 if !d.frame.is_extended() && !self.accept[j].contains(&d.frame.raw_id()) {
                     continue;
                 }
-                emu.queue_clock(d.at_ns / 1000);
-                emu.queue(&frame);
+                emu.queue_at(&frame, d.at_ns / 1000);
                 self.sample_time[bus_node][d.from] = Some(d.submitted_ns);
             }
         }
         let t_us = t_ns / 1000;
         for (emu, xi) in self.emus.iter_mut().zip(x) {
-            emu.queue_io(io::SENSOR, &pil::pack_f32x2(xi[0] as f32, xi[1] as f32));
-            emu.queue_io(io::SYNC, &(t_us as u32).to_le_bytes());
-            emu.clock_us = Some(t_us);
+            let state = pil::pack_f32x2(xi[0] as f32, xi[1] as f32);
+            if let Some(f) = PilFrame::io(io::SYNC, &state) {
+                emu.queue_at(&f, t_us);
+            }
+            emu.sync_us = t_us;
             emu.flush()?;
         }
         for j in 0..self.emus.len() {

@@ -123,8 +123,8 @@ impl Link {
                 continue;
             }
             match pil::slcan_decode(&self.line[..n]) {
-                Ok(Slcan::Frame(f)) if !overflow => return Slcan::Frame(f),
-                Ok(Slcan::Frame(_)) | Err(_) => self.uart.write_all(b"\x07"),
+                Ok(cmd @ (Slcan::Frame(_) | Slcan::Timed(..))) if !overflow => return cmd,
+                Ok(Slcan::Frame(_) | Slcan::Timed(..)) | Err(_) => self.uart.write_all(b"\x07"),
                 Ok(other) => {
                     self.uart.write_all(b"\r");
                     return other;
@@ -152,7 +152,7 @@ fn configure(link: &mut Link) -> BoardNode {
     let mut words = [0u32; MAX_CONFIG_WORDS];
     let mut count = 0usize;
     loop {
-        let Slcan::Frame(f) = link.next() else {
+        let (Slcan::Frame(f) | Slcan::Timed(f, _)) = link.next() else {
             continue;
         };
         let reject = match f.io_id() {
@@ -204,8 +204,7 @@ fn configure(link: &mut Link) -> BoardNode {
 }
 
 /// Runs one sample and sends the bus frame, the commands and the reports.
-fn sample(link: &Link, node: &mut BoardNode, t_us: u64) {
-    node.clock_mut().0 = t_us;
+fn sample(link: &Link, node: &mut BoardNode) {
     let start = board::counter();
     let tick = node.tick();
     let end = board::counter();
@@ -262,27 +261,35 @@ fn main() -> ! {
         line: [0; SLCAN_MAX_LINE],
     };
     let mut node = configure(&mut link);
+    // Time of the last SYNC, the origin of timestamps [µs].
+    let mut sync_us = 0u64;
     loop {
-        let Slcan::Frame(f) = link.next() else {
-            continue;
+        let (f, ts) = match link.next() {
+            Slcan::Frame(f) => (f, None),
+            Slcan::Timed(f, t) => (f, Some(t)),
+            _ => continue,
         };
-        let last = node.clock_mut().0;
-        match (
-            f.io_id(),
-            pil::unpack_u32(f.data()).map(|t| pil::extend_clock(last, t)),
-        ) {
+        if let Some(t) = ts {
+            node.clock_mut().0 = sync_us + u64::from(t);
+        }
+        match (f.io_id(), pil::unpack_u32(f.data())) {
             (None, _) => {
                 // A bus frame: into the receive FIFO, taken now (the receive interrupt).
                 if node.can_mut().rx.push_back(f).is_ok() {
                     node.poll_rx();
                 }
             }
-            (Some(io::SYNC), Some(t)) => sample(&link, &mut node, t),
-            (Some(io::CLOCK), Some(t)) => node.clock_mut().0 = t,
-            (Some(io::SENSOR), None) => {
-                if let Some((a, b)) = pil::unpack_u32x2(f.data()) {
+            (Some(io::SYNC), _) => match pil::unpack_u32x2(f.data()) {
+                Some((a, b)) => {
                     node.sensor_mut().0 = [f32::from_bits(a), f32::from_bits(b)];
+                    sync_us = node.clock_mut().0;
+                    sample(&link, &mut node);
                 }
+                None => link.uart.write_all(b"\x07"),
+            },
+            (Some(io::CLOCK), Some(t)) => {
+                let c = &mut node.clock_mut().0;
+                *c = pil::extend_clock(*c, t);
             }
             (Some(io::STATS_REQUEST), _) => {
                 let stack = board::stack_high_water(painted).to_le_bytes();
