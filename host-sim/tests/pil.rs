@@ -38,13 +38,64 @@ fn pil_available() -> bool {
 }
 
 fn run(scenario: &str, dir: &std::path::Path, t_end: &str) -> std::process::Output {
-    bin()
-        .args(["run", "--quiet", "--no-plots", "--out"])
+    run_with(scenario, dir, t_end, &[])
+}
+
+fn run_with(
+    scenario: &str,
+    dir: &std::path::Path,
+    t_end: &str,
+    set: &[&str],
+) -> std::process::Output {
+    let mut cmd = bin();
+    cmd.args(["run", "--quiet", "--no-plots", "--out"])
         .arg(dir)
         .arg(scenario_path(scenario))
-        .args(["--set", &format!("simulation.t_end={t_end}")])
-        .output()
-        .expect("run host-sim")
+        .args(["--set", &format!("simulation.t_end={t_end}")]);
+    for s in set {
+        cmd.args(["--set", s]);
+    }
+    cmd.output().expect("run host-sim")
+}
+
+/// Lost frames make links stale: the node's freshness decisions depend on the delivery times
+/// the host sends as SLCAN timestamps, so they too must match the host-compiled node's.
+#[test]
+fn pil_matches_the_host_node_on_a_lossy_bus() {
+    if !pil_available() {
+        return;
+    }
+    let (can, pil) = (tmp("pil-lossy-can"), tmp("pil-lossy-pil"));
+    let set = ["network.event=[]", "network.loss=0.3"];
+    for (dir, kind) in [(&can, "\"can\""), (&pil, "\"pil\"")] {
+        let kind = format!("network.kind={kind}");
+        let mut s = set.to_vec();
+        s.push(&kind);
+        let out = run_with("example1-lossy.toml", dir, "1", &s);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let summary = |d: &std::path::Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(d.join("summary.json")).expect("summary"))
+            .expect("json")
+    };
+    let (a, b) = (summary(&can), summary(&pil));
+    assert!(
+        a["network"]["stale_samples"].as_u64() > Some(10),
+        "{}",
+        a["network"]
+    );
+    assert_eq!(a["network"]["stale_samples"], b["network"]["stale_samples"]);
+    assert_eq!(a["network"]["frames_lost"], b["network"]["frames_lost"]);
+    let ta = std::fs::read_to_string(can.join("trajectory.csv")).expect("csv");
+    let tb = std::fs::read_to_string(pil.join("trajectory.csv")).expect("csv");
+    assert!(
+        ta == tb,
+        "trajectory.csv differs between can and pil on a lossy bus"
+    );
 }
 
 /// The identity check: the firmware compiled for the Cortex-M4F and run under QEMU computes
