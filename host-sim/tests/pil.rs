@@ -266,3 +266,37 @@ fn ctrl_c_leaves_no_emulator_behind() {
         assert!(!alive(e), "emulator {e} outlived host-sim");
     }
 }
+
+/// Real CAN tooling can attach to a node: python-can's `slcan` interface (as used with
+/// CANable / USBtin adapters) opens the emulated node's UART over TCP and exchanges frames
+/// with it. Skipped without python-can and pyserial unless `REQUIRE_CANTOOLS` is set.
+#[test]
+fn python_can_slcan_talks_to_the_node() {
+    if !pil_available() {
+        return;
+    }
+    let have = Command::new("python3")
+        .args(["-c", "import can, serial"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !have {
+        assert!(
+            std::env::var_os("REQUIRE_CANTOOLS").is_none(),
+            "REQUIRE_CANTOOLS is set but python-can / pyserial are missing"
+        );
+        eprintln!("SKIPPED: python3 with python-can and pyserial not found (pip install python-can pyserial)");
+        return;
+    }
+    let py = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/slcan_node.py");
+    let out = Command::new("python3")
+        .arg(py)
+        .arg(firmware())
+        .output()
+        .expect("run python3");
+    assert!(
+        out.status.success(),
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
