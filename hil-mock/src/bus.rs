@@ -352,6 +352,8 @@ pub struct Bus {
     in_transit: VecDeque<Delivery>,
     stats: BusStats,
     babble: MockFrame,
+    /// Frames that completed on the wire (end-of-frame time), while recording.
+    wire_log: Option<Vec<(Nanos, MockFrame)>>,
 }
 
 impl Bus {
@@ -384,7 +386,23 @@ impl Bus {
             in_transit: VecDeque::new(),
             stats: BusStats::default(),
             babble,
+            wire_log: None,
         })
+    }
+
+    /// Start recording every frame that completes on the wire (delivered or lost; not the
+    /// corrupted ones), for a bus trace: see [`Bus::take_wire_log`].
+    pub fn record_wire(&mut self) {
+        self.wire_log.get_or_insert_with(Vec::new);
+    }
+
+    /// The frames recorded since the last call, in wire order, each with its end-of-frame
+    /// time (before the intermission, without `latency`); empty when not recording.
+    pub fn take_wire_log(&mut self) -> Vec<(Nanos, MockFrame)> {
+        self.wire_log
+            .as_mut()
+            .map(std::mem::take)
+            .unwrap_or_default()
     }
 
     /// The configuration.
@@ -572,13 +590,17 @@ impl Bus {
         self.busy_until = s + dur;
         self.stats.frames_sent += 1;
         self.on_success(node, babble);
+        // End of frame is before the intermission.
+        let end = s + self.bit_time_ns(bits - 3);
+        if let Some(log) = self.wire_log.as_mut() {
+            log.push((end, frame));
+        }
         let lost = self.cfg.loss > 0.0 && self.uniform() < self.cfg.loss;
         if lost {
             self.stats.frames_lost += 1;
             return;
         }
-        // End of frame is before the intermission.
-        let at = s + self.bit_time_ns(bits - 3) + self.cfg.latency_ns;
+        let at = end + self.cfg.latency_ns;
         let latency = at - submitted;
         self.stats.frames_delivered += 1;
         self.stats.max_latency_ns = self.stats.max_latency_ns.max(latency);

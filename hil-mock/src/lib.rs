@@ -42,6 +42,7 @@ pub mod mock;
 #[cfg(feature = "std")]
 pub mod network;
 pub mod node;
+pub mod pil;
 pub mod wire;
 
 pub use node::{Actuator, Clock, Node, NodeConfig, NodeError, NodeStats, Sensor, Tick, TxOutcome};

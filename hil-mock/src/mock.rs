@@ -5,76 +5,12 @@
 
 use std::collections::VecDeque;
 
-use embedded_can::{ErrorKind, Frame, Id};
+use embedded_can::ErrorKind;
 
 use crate::node::{Actuator, Clock, Sensor};
 
-/// A classical CAN frame (standard or extended id, data or remote, 0..=8 bytes).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct MockFrame {
-    id: Id,
-    remote: bool,
-    dlc: u8,
-    data: [u8; 8],
-}
-
-impl MockFrame {
-    /// Raw identifier bits (11 or 29) — the arbitration priority (lower wins).
-    pub fn raw_id(&self) -> u32 {
-        match self.id {
-            Id::Standard(s) => u32::from(s.as_raw()),
-            Id::Extended(e) => e.as_raw(),
-        }
-    }
-}
-
-impl Frame for MockFrame {
-    fn new(id: impl Into<Id>, data: &[u8]) -> Option<Self> {
-        let dlc = u8::try_from(data.len()).ok().filter(|&n| n <= 8)?;
-        let mut buf = [0; 8];
-        buf[..data.len()].copy_from_slice(data);
-        Some(Self {
-            id: id.into(),
-            remote: false,
-            dlc,
-            data: buf,
-        })
-    }
-
-    fn new_remote(id: impl Into<Id>, dlc: usize) -> Option<Self> {
-        let dlc = u8::try_from(dlc).ok().filter(|&n| n <= 8)?;
-        Some(Self {
-            id: id.into(),
-            remote: true,
-            dlc,
-            data: [0; 8],
-        })
-    }
-
-    fn is_extended(&self) -> bool {
-        matches!(self.id, Id::Extended(_))
-    }
-
-    fn is_remote_frame(&self) -> bool {
-        self.remote
-    }
-
-    fn id(&self) -> Id {
-        self.id
-    }
-
-    fn dlc(&self) -> usize {
-        usize::from(self.dlc)
-    }
-
-    fn data(&self) -> &[u8] {
-        if self.remote {
-            &[]
-        } else {
-            &self.data[..usize::from(self.dlc)]
-        }
-    }
-}
+/// The mock controller's frame: the crate's classical CAN frame (shared with the PIL link).
+pub use crate::pil::PilFrame as MockFrame;
 
 /// Errors of the mock CAN controller.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -273,6 +209,7 @@ pub type MockNode<const N: usize, const M: usize, const K: usize> =
 #[cfg(test)]
 mod tests {
     use super::*;
+    use embedded_can::Frame;
     use embedded_can::{nb::Can, StandardId};
 
     fn frame(id: u16) -> MockFrame {

@@ -138,6 +138,11 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
         &self.bus
     }
 
+    /// The bus (e.g. to record a trace: [`Bus::record_wire`]).
+    pub fn bus_mut(&mut self) -> &mut Bus {
+        &mut self.bus
+    }
+
     /// The nodes; agent `i` is at index `i − 1`.
     pub fn nodes(&self) -> &[MockNode<N, M, K>] {
         &self.nodes

@@ -7,7 +7,7 @@
 //! controller `f32`.
 //!
 //! Layers: [`scenario`] (TOML, `--set`, validation) → [`graph`], [`plant`], [`faults`],
-//! [`link`] or [`network`] → [`sim`] (the loop) → [`metrics`], [`report`] → [`run`] (commands).
+//! [`link`], [`network`] or [`pil`] → [`sim`] (the loop) → [`metrics`], [`report`] → [`run`] (commands).
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
@@ -18,6 +18,7 @@ pub mod graph;
 pub mod link;
 pub mod metrics;
 pub mod network;
+pub mod pil;
 pub mod plant;
 pub mod report;
 pub mod run;

@@ -18,6 +18,7 @@ const EXAMPLES: &str = "\
 Examples:
   host-sim run scenarios/example1.toml --out out/example1
   host-sim run scenarios/example1.toml --out out/ts1 --set controller.ts=1 --decimate 10
+  host-sim run scenarios/example1-can.toml --out out/can --trace out/can/bus.log
   host-sim check scenarios/example2.toml --set simulation.h=2e-4
   host-sim stable-h scenarios/example2.toml --band 0.1
   host-sim compare scenarios/example2.toml scenarios/example2-baseline.toml --out out/cmp
@@ -69,6 +70,10 @@ enum Cmd {
         /// Write trajectory.csv even when it is estimated above the size limit (2 GiB).
         #[arg(long)]
         force: bool,
+        /// Write every frame on the bus to this file, candump log format (network.kind = "can"
+        /// or "pil"); docs/wire.dbc decodes it.
+        #[arg(long, value_name = "FILE")]
+        trace: Option<PathBuf>,
     },
     /// Validate a scenario and print it resolved (defaults filled, overrides applied).
     Check {
@@ -147,6 +152,7 @@ fn main_inner(cli: Cli) -> Result<()> {
             no_plots,
             quiet,
             force,
+            trace,
         } => {
             if decimate == 0 {
                 return Err(Error::invalid("--decimate", "must be >= 1"));
@@ -161,6 +167,7 @@ fn main_inner(cli: Cli) -> Result<()> {
                 plots: !no_plots,
                 record: false,
                 progress: !quiet,
+                trace,
             };
             let r = run(&setup, &opts)?;
             if !quiet {

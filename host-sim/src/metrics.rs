@@ -92,6 +92,9 @@ pub struct Summary {
     pub network: Option<NetworkSummary>,
     /// The unit of every numeric key above, dotted for nested ones (`agents.iae`).
     pub units: BTreeMap<&'static str, &'static str>,
+    /// Node-firmware figures per agent (`[network] kind = "pil"`); absent otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub firmware: Option<Vec<crate::pil::FirmwareSummary>>,
 }
 
 /// Units of the numeric keys of `summary.json`: `[y]`, `[u]`, `[x]` are the units of the plant's
@@ -144,6 +147,21 @@ const NETWORK_UNITS: [(&str, &str); 14] = [
     ("network.babble_frames", "count"),
 ];
 
+/// Units of `firmware`'s numeric keys (PIL runs).
+const FIRMWARE_UNITS: [(&str, &str); 8] = [
+    ("firmware.agent", "1-based index"),
+    ("firmware.steps", "count"),
+    ("firmware.instructions_min", "instructions per Node::tick"),
+    (
+        "firmware.instructions_median",
+        "instructions per Node::tick",
+    ),
+    ("firmware.instructions_p99", "instructions per Node::tick"),
+    ("firmware.instructions_max", "instructions per Node::tick"),
+    ("firmware.instructions_resolution", "instructions"),
+    ("firmware.stack_bytes", "B"),
+];
+
 impl Summary {
     /// Sets the network figures (and their units).
     pub fn set_network(&mut self, network: Option<NetworkSummary>) {
@@ -151,6 +169,14 @@ impl Summary {
             self.units.extend(NETWORK_UNITS);
         }
         self.network = network;
+    }
+
+    /// Sets the node-firmware figures of a PIL run (and their units).
+    pub fn set_firmware(&mut self, firmware: Option<Vec<crate::pil::FirmwareSummary>>) {
+        if firmware.is_some() {
+            self.units.extend(FIRMWARE_UNITS);
+        }
+        self.firmware = firmware;
     }
 }
 
@@ -262,6 +288,7 @@ impl Metrics {
             agents,
             units: BTreeMap::from(UNITS),
             network: None,
+            firmware: None,
         }
     }
 }

@@ -7,7 +7,7 @@
 
 use controller_core::{Gains, StepOutput};
 use hil_mock::{
-    bus::{BusConfig, BusEvent, EventKind, Nanos},
+    bus::{BusConfig, BusEvent, BusStats, EventKind, Nanos},
     network::{AgentSetup, CanNetwork},
     NodeConfig,
 };
@@ -15,6 +15,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::{
     error::{Error, Result},
+    report::trace::{TraceWriter, INTERFACE},
     scenario::Setup,
     sim::{Agents, K},
 };
@@ -28,6 +29,9 @@ pub enum NetworkKind {
     Ideal,
     /// Firmware nodes over the simulated CAN bus.
     Can,
+    /// The node firmware on one emulated Cortex-M4F per agent, over the simulated CAN bus
+    /// ([`crate::pil`]).
+    Pil,
 }
 
 impl NetworkKind {
@@ -36,6 +40,7 @@ impl NetworkKind {
         match self {
             Self::Ideal => "ideal",
             Self::Can => "can",
+            Self::Pil => "pil",
         }
     }
 }
@@ -167,23 +172,32 @@ pub fn validate(spec: &NetworkSpec, agents: usize, h: f64, t_end: f64) -> Result
             format!("must be >= 0 (got {})", spec.seed),
         ));
     }
-    if spec.kind == NetworkKind::Can {
+    if matches!(spec.kind, NetworkKind::Can | NetworkKind::Pil) {
         if agents > MAX_CAN_AGENTS {
             return Err(Error::invalid(
                 "network.kind",
-                format!("\"can\" carries at most {MAX_CAN_AGENTS} agents (got {agents})"),
+                format!(
+                    "\"{}\" carries at most {MAX_CAN_AGENTS} agents (got {agents})",
+                    spec.kind.as_str()
+                ),
             ));
         }
         if h < 1e-6 {
             return Err(Error::invalid(
                 "simulation.h",
-                format!("must be >= 1e-6 s with network.kind = \"can\" (got {h})"),
+                format!(
+                    "must be >= 1e-6 s with network.kind = \"{}\" (got {h})",
+                    spec.kind.as_str()
+                ),
             ));
         }
         if t_end > 1e9 {
             return Err(Error::invalid(
                 "simulation.t_end",
-                format!("must be <= 1e9 s with network.kind = \"can\" (got {t_end})"),
+                format!(
+                    "must be <= 1e9 s with network.kind = \"{}\" (got {t_end})",
+                    spec.kind.as_str()
+                ),
             ));
         }
     }
@@ -313,18 +327,50 @@ pub struct NetworkSummary {
     pub babble_frames: u64,
 }
 
+impl NetworkSummary {
+    /// The figures of a run over a bus with statistics `s`; `malformed` and `stale_samples`
+    /// are the nodes' counts, summed.
+    pub fn new(
+        kind: NetworkKind,
+        bitrate: u32,
+        s: &BusStats,
+        malformed: u64,
+        stale_samples: u64,
+    ) -> Self {
+        Self {
+            kind: kind.as_str().into(),
+            bitrate,
+            bus_load_percent: s.load_percent(),
+            frames_sent: s.frames_sent,
+            frames_lost: s.frames_lost,
+            frames_corrupted: s.frames_corrupted,
+            deadline_misses: s.deadline_misses,
+            bus_off_events: s.bus_off_events,
+            max_age_s: s.max_age_s(),
+            mean_age_s: s.mean_age_s(),
+            max_latency_s: s.max_latency_ns as f64 * 1e-9,
+            malformed,
+            stale_samples,
+            suppressed: s.suppressed,
+            babble_frames: s.babble_frames,
+        }
+    }
+}
+
 /// Every agent a `hil-mock` node over the simulated CAN bus (`kind = "can"`).
 pub struct CanAgents<const N: usize, const M: usize> {
     net: CanNetwork<N, M, K>,
     h_ns: Nanos,
     bitrate: u32,
     states: Vec<[f32; N]>,
+    trace: Option<TraceWriter>,
 }
 
 impl<const N: usize, const M: usize> CanAgents<N, M> {
     /// One node per agent of the validated `setup`, with its controller configuration and
-    /// neighbours, on the bus of `[network]`.
-    pub fn new(setup: &Setup) -> Result<Self> {
+    /// neighbours, on the bus of `[network]`; every frame on the bus goes to `trace` (candump
+    /// log) when given.
+    pub fn new(setup: &Setup, trace: Option<&std::path::Path>) -> Result<Self> {
         let spec = &setup.scenario.network;
         let h = setup.scenario.simulation.h;
         let stale = spec.stale_timeout.unwrap_or(2.5 * h);
@@ -352,12 +398,17 @@ impl<const N: usize, const M: usize> CanAgents<N, M> {
         }
         let cfg = bus_config(spec, h);
         let bitrate = cfg.bitrate;
-        let net = CanNetwork::new(cfg, &agents).map_err(|e| Error::invalid("network", e))?;
+        let mut net = CanNetwork::new(cfg, &agents).map_err(|e| Error::invalid("network", e))?;
+        let trace = trace.map(TraceWriter::create).transpose()?;
+        if trace.is_some() {
+            net.bus_mut().record_wire();
+        }
         Ok(Self {
             net,
             h_ns: ns(h),
             bitrate,
             states: vec![[0.0; N]; setup.agents()],
+            trace,
         })
     }
 
@@ -368,31 +419,20 @@ impl<const N: usize, const M: usize> CanAgents<N, M> {
 
     /// The figures of `summary.json` `network`.
     pub fn summary(&self) -> NetworkSummary {
-        let s = self.net.stats();
         let nodes = self.net.nodes();
-        NetworkSummary {
-            kind: NetworkKind::Can.as_str().into(),
-            bitrate: self.bitrate,
-            bus_load_percent: s.load_percent(),
-            frames_sent: s.frames_sent,
-            frames_lost: s.frames_lost,
-            frames_corrupted: s.frames_corrupted,
-            deadline_misses: s.deadline_misses,
-            bus_off_events: s.bus_off_events,
-            max_age_s: s.max_age_s(),
-            mean_age_s: s.mean_age_s(),
-            max_latency_s: s.max_latency_ns as f64 * 1e-9,
-            malformed: nodes
+        NetworkSummary::new(
+            NetworkKind::Can,
+            self.bitrate,
+            &self.net.stats(),
+            nodes
                 .iter()
                 .map(|n| u64::from(n.stats().malformed.total()))
                 .sum(),
-            stale_samples: nodes
+            nodes
                 .iter()
                 .map(|n| u64::from(n.stats().stale_samples))
                 .sum(),
-            suppressed: s.suppressed,
-            babble_frames: s.babble_frames,
-        }
+        )
     }
 }
 
@@ -404,7 +444,7 @@ impl<const N: usize, const M: usize> Agents<N, M> for CanAgents<N, M> {
         x: &[[f64; N]],
         yd: f64,
         out: &mut Vec<StepOutput<N, M>>,
-    ) {
+    ) -> Result<()> {
         for (s, x) in self.states.iter_mut().zip(x) {
             for (d, v) in s.iter_mut().zip(x) {
                 *d = *v as f32;
@@ -413,6 +453,14 @@ impl<const N: usize, const M: usize> Agents<N, M> for CanAgents<N, M> {
         let t_ns = k.saturating_mul(self.h_ns);
         let ticks = self.net.step(t_ns, &self.states, Some(yd as f32));
         out.extend(ticks.iter().map(|t| t.output));
+        if let Some(w) = self.trace.as_mut() {
+            w.write(INTERFACE, &self.net.bus_mut().take_wire_log());
+        }
+        Ok(())
+    }
+
+    fn finish(&mut self) -> Result<()> {
+        self.trace.as_mut().map_or(Ok(()), TraceWriter::finish)
     }
 
     fn gains(&self) -> Gains {

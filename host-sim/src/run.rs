@@ -11,6 +11,7 @@ use crate::{
     link::{IdealLink, LinkModel},
     metrics::{Metrics, Summary},
     network::{CanAgents, NetworkKind},
+    pil::PilAgents,
     plant::{Plant, PlantModel},
     report::{self, csv::CsvObserver, plots::Recorder},
     scenario::{self, Scenario, Setup},
@@ -30,6 +31,8 @@ pub struct RunOptions {
     pub record: bool,
     /// Show a progress bar (only on a terminal).
     pub progress: bool,
+    /// Write every bus frame to this candump log (`kind = "can"` and `"pil"` only).
+    pub trace: Option<PathBuf>,
 }
 
 /// A finished run.
@@ -49,14 +52,27 @@ pub fn simulate(setup: &Setup) -> Result<Summary> {
 /// Runs `setup` with the outputs of `opts` over the network of its `[network]` section: the
 /// ideal link, or firmware nodes over the CAN bus.
 pub fn run(setup: &Setup, opts: &RunOptions) -> Result<RunResult> {
+    let trace = opts.trace.as_deref();
     match setup.scenario.network.kind {
+        NetworkKind::Ideal if trace.is_some() => Err(Error::invalid(
+            "--trace",
+            "needs a bus: network.kind = \"can\" or \"pil\"",
+        )),
         NetworkKind::Ideal => run_with_link(setup, opts, IdealLink),
         NetworkKind::Can => match setup.plant {
             PlantModel::Example1(p) => {
-                run_with::<_, _, 2, 2>(setup, p, CanAgents::new(setup)?, opts)
+                run_with::<_, _, 2, 2>(setup, p, CanAgents::new(setup, trace)?, opts)
             }
             PlantModel::Manipulator(p) => {
-                run_with::<_, _, 2, 2>(setup, p, CanAgents::new(setup)?, opts)
+                run_with::<_, _, 2, 2>(setup, p, CanAgents::new(setup, trace)?, opts)
+            }
+        },
+        NetworkKind::Pil => match setup.plant {
+            PlantModel::Example1(p) => {
+                run_with::<_, _, 2, 2>(setup, p, PilAgents::new(setup, trace)?, opts)
+            }
+            PlantModel::Manipulator(p) => {
+                run_with::<_, _, 2, 2>(setup, p, PilAgents::new(setup, trace)?, opts)
             }
         },
     }
@@ -123,8 +139,10 @@ fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
         sim.run(&mut obs, |k| pb.set_position(k))?
     };
     pb.finish_and_clear();
+    sim.agents_mut().finish()?;
     let mut summary = metrics.summary(setup, &sim.gains(), divergence);
     summary.set_network(sim.agents().network());
+    summary.set_firmware(sim.agents().firmware());
     if let Some(dir) = &opts.out {
         if let Some(c) = csv {
             c.finish()?;
@@ -136,6 +154,8 @@ fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
             if let Some(r) = &recorder {
                 r.draw(dir, setup, summary.settling_time)?;
             }
+            sim.agents()
+                .draw(dir, setup.scenario.simulation.h, &setup.scenario.name)?;
         }
     }
     Ok(RunResult { summary, recorder })

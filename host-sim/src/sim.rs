@@ -55,12 +55,32 @@ pub trait Observer<const N: usize, const M: usize> {
 pub trait Agents<const N: usize, const M: usize> {
     /// Sample `k` at `t`: plant states `x` and `y_d(t)`; pushes one output per agent, in agent
     /// order, onto the (cleared) `out`. The plant holds each output's `q` over `[t, t + h)`.
-    fn control(&mut self, k: u64, t: f64, x: &[[f64; N]], yd: f64, out: &mut Vec<StepOutput<N, M>>);
+    /// An error (e.g. an emulated node that stopped answering) ends the run.
+    fn control(
+        &mut self,
+        k: u64,
+        t: f64,
+        x: &[[f64; N]],
+        yd: f64,
+        out: &mut Vec<StepOutput<N, M>>,
+    ) -> Result<()>;
     /// The gains in force (agent 1's; all agents share the design values).
     fn gains(&self) -> Gains;
     /// Network figures for `summary.json` (none for a link model).
     fn network(&self) -> Option<crate::network::NetworkSummary> {
         None
+    }
+    /// Node-firmware figures for `summary.json` (processor in the loop only).
+    fn firmware(&self) -> Option<Vec<crate::pil::FirmwareSummary>> {
+        None
+    }
+    /// Figures of the agents' own (e.g. the firmware's cost per step) into `dir`.
+    fn draw(&self, _dir: &std::path::Path, _h: f64, _title: &str) -> Result<()> {
+        Ok(())
+    }
+    /// Called once after the last sample (flush a trace, stop emulators, collect figures).
+    fn finish(&mut self) -> Result<()> {
+        Ok(())
     }
 }
 
@@ -103,7 +123,7 @@ impl<L: LinkModel, const N: usize, const M: usize> Agents<N, M> for Linked<L, N,
         x: &[[f64; N]],
         yd: f64,
         out: &mut Vec<StepOutput<N, M>>,
-    ) {
+    ) -> Result<()> {
         for (y, x) in self.y.iter_mut().zip(x) {
             *y = x[0] as f32;
         }
@@ -116,6 +136,7 @@ impl<L: LinkModel, const N: usize, const M: usize> Agents<N, M> for Linked<L, N,
             }
             out.push(c.step(&xs, self.inbox.of(&self.graph, i), self.inbox.leader[i]));
         }
+        Ok(())
     }
 
     fn gains(&self) -> Gains {
@@ -188,6 +209,11 @@ impl<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize> Sim<P, A, 
         &self.agents
     }
 
+    /// The agents, mutable (to finish them after a run).
+    pub fn agents_mut(&mut self) -> &mut A {
+        &mut self.agents
+    }
+
     /// The first agent whose state is non-finite or above the bound.
     fn diverged_agent(&self) -> Option<usize> {
         self.x
@@ -210,7 +236,7 @@ impl<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize> Sim<P, A, 
                     agent: i + 1,
                 }));
             }
-            let yd = self.control(k, t);
+            let yd = self.control(k, t)?;
             let view = SampleView {
                 k,
                 t,
@@ -234,16 +260,16 @@ impl<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize> Sim<P, A, 
     }
 
     /// Every agent's step (links included); returns `y_d(t_k)`.
-    fn control(&mut self, k: u64, t: f64) -> f64 {
+    fn control(&mut self, k: u64, t: f64) -> Result<f64> {
         let yd = self.leader.yd(t);
         self.out.clear();
-        self.agents.control(k, t, &self.x, yd, &mut self.out);
+        self.agents.control(k, t, &self.x, yd, &mut self.out)?;
         for (q, o) in self.q.iter_mut().zip(&self.out) {
             for (q, &v) in q.iter_mut().zip(&o.q) {
                 *q = f64::from(v);
             }
         }
-        yd
+        Ok(yd)
     }
 
     /// Every plant over `[t, t + h)`: RK4 substeps, commands held, faults per stage time.

@@ -3,6 +3,7 @@
 
 pub mod csv;
 pub mod plots;
+pub mod trace;
 
 use std::{
     path::{Path, PathBuf},
@@ -21,10 +22,27 @@ fn temp_files() -> MutexGuard<'static, Vec<PathBuf>> {
 /// Exit status of a run interrupted by Ctrl-C or SIGTERM (128 + SIGINT, the shell convention).
 pub const INTERRUPTED: i32 = 130;
 
-/// On Ctrl-C (SIGINT) or SIGTERM: removes every open temporary file, then exits with
-/// [`INTERRUPTED`]. Call once per process.
+/// Further clean-ups of an interrupted run (e.g. stopping emulators), run before the temporary
+/// files are removed.
+static ON_INTERRUPT: Mutex<Vec<fn()>> = Mutex::new(Vec::new());
+
+/// Registers `f` to run on Ctrl-C or SIGTERM (the process has one handler:
+/// [`remove_temp_files_on_interrupt`]).
+pub fn also_on_interrupt(f: fn()) {
+    let mut hooks = ON_INTERRUPT.lock().unwrap_or_else(|e| e.into_inner());
+    if !hooks.contains(&f) {
+        hooks.push(f);
+    }
+}
+
+/// On Ctrl-C (SIGINT) or SIGTERM: runs the hooks of [`also_on_interrupt`], removes every open
+/// temporary file, then exits with [`INTERRUPTED`]. Call once per process.
 pub fn remove_temp_files_on_interrupt() -> Result<()> {
     ctrlc::set_handler(|| {
+        let hooks = ON_INTERRUPT.lock().map(|h| h.clone()).unwrap_or_default();
+        for hook in hooks {
+            hook();
+        }
         for p in temp_files().iter() {
             let _ = std::fs::remove_file(p);
         }

@@ -1,0 +1,685 @@
+//! The processor-in-the-loop link (`no_std`): what host-sim and the node firmware (`node-fw`,
+//! one emulated Cortex-M4F per agent) say to each other over the board's UART.
+//!
+//! ## Framing: SLCAN (Lawicel ASCII)
+//!
+//! Every message is a classical CAN frame in the serial-line CAN adapter protocol that
+//! CANable/USBtin adapters, Linux `slcand` and python-can's `slcan` interface speak:
+//! `tIIIL<data hex>\r` (11-bit id), `TIIIIIIIIL<data hex>\r` (29-bit id), `O\r` open,
+//! `C\r` close, `S0`..`S8\r` bit rate (answered with `\r`; an unknown command with `\a`). The
+//! node sends its frames unsolicited (no `z` acknowledgement, as in auto-poll mode).
+//!
+//! ## Two kinds of frames on one link
+//!
+//! * **Bus frames** (11-bit ids, the wire format of [`crate::wire`], or anything a babbling
+//!   node floods): the host delivers those the bus model delivered to this node, and forwards
+//!   the node's own frame to the bus model.
+//! * **Process-I/O frames** (29-bit ids, [`io`]): configuration, sample timing, sensors,
+//!   actuators and diagnostics between the node and the host that owns plant and leader. The
+//!   bus protocol never uses 29-bit ids ([`crate::wire::decode`] rejects them), so the two can
+//!   never be confused, whatever a babbling node sends. They model the node's local I/O and
+//!   are not put through the bus model (on a 1 Mbit/s bus they would not fit into a 1 ms
+//!   sample next to the five value frames).
+//!
+//! ## One sample (host → node, then node → host)
+//!
+//! 1. each bus frame delivered to the node since the last sample and passing its acceptance
+//!    filter (the identifiers of the agents it hears, and the leader's if it is pinned — what
+//!    a CAN controller's filter, or SLCAN's `M`/`m` acceptance registers, would be set to),
+//!    with its delivery time as SLCAN timestamp ([`Slcan::Timed`], µs since the last `SYNC`):
+//!    the node takes it at that clock reading (the CAN receive interrupt of
+//!    [`crate::Node::poll_rx`]);
+//! 2. [`io::SYNC`] with the state `x_i` (`f32` little-endian) and `t_k` as timestamp: the
+//!    node sets its clock, its sensor, and runs [`crate::Node::tick`];
+//! 3. the node answers with its bus frame (if the tick queued one), [`io::COMMAND`] (`q`),
+//!    [`io::REPORT_U`], [`io::REPORT_E`], [`io::REPORT_EST`], [`io::REPORT_STATUS`] and, last,
+//!    [`io::REPORT_COST`] (instructions of the tick).
+//!
+//! Start-up: the host sends the configuration as [`io::CONFIG`] frames (two 32-bit words each,
+//! [`encode_config`]) and [`io::CONFIG_END`] (word count); the node answers [`io::READY`] or
+//! [`io::REJECTED`]. At the end [`io::STATS_REQUEST`] is answered by [`io::STATS`] (painted
+//! stack high-water mark).
+
+use controller_core::{
+    BaselineConfig, ControllerConfig, GainSelection, QuantizerConfig, QuantizerDirection,
+    SchemeConfig,
+};
+use embedded_can::{ExtendedId, Frame, Id, StandardId};
+
+use crate::node::NodeConfig;
+
+/// 29-bit identifiers of the process-I/O frames.
+pub mod io {
+    /// host → node: one or two configuration words (`u32` little-endian each), in order.
+    pub const CONFIG: u32 = 0x0001_0010;
+    /// host → node: end of configuration; 2 bytes, the word count (`u16` LE).
+    pub const CONFIG_END: u32 = 0x0001_0011;
+    /// node → host: configuration accepted; 1 byte, the agent number.
+    pub const READY: u32 = 0x0001_0012;
+    /// node → host: configuration rejected; 1 byte, a [`super::ConfigReject`] code.
+    pub const REJECTED: u32 = 0x0001_0013;
+    /// host → node: the state `x_{i,1}`, `x_{i,2}` (`f32` LE each) of sample `t_k`, and the
+    /// command to tick. `t_k` is the timestamp (µs since the previous `SYNC`, the first
+    /// counting from 0), or, without one, the clock a `CLOCK` frame just set. A bus frame's
+    /// timestamp is likewise its delivery time since the previous `SYNC`.
+    pub const SYNC: u32 = 0x0001_0080;
+    /// host → node: the clock (µs, low 32 bits, `u32` LE, extended to 64 bits by
+    /// [`super::extend_clock`]), when a time is 2¹⁶ µs or more after the previous `SYNC`.
+    pub const CLOCK: u32 = 0x0001_0081;
+    /// node → host: the quantized commands `q_1`, `q_2` written to the actuators.
+    pub const COMMAND: u32 = 0x0001_0300;
+    /// node → host: `u_1`, `u_2` before quantization.
+    pub const REPORT_U: u32 = 0x0001_0301;
+    /// node → host: the errors `e_1`, `e_2`.
+    pub const REPORT_E: u32 = 0x0001_0302;
+    /// node → host: the estimates `μ̂`, `ξ̂`.
+    pub const REPORT_EST: u32 = 0x0001_0303;
+    /// node → host: `λ̂` (`f32`), fault code (0 none, 1 invalid state, 2 non-finite result),
+    /// stale, missing and dropped neighbours, leader flags (bit 0 stale, bit 1 missing).
+    pub const REPORT_STATUS: u32 = 0x0001_0304;
+    /// node → host, last frame of a sample: instructions of the tick (`u32` LE), the tick's
+    /// SysTick resolution (`u32` LE, instructions per count).
+    pub const REPORT_COST: u32 = 0x0001_0305;
+    /// host → node: report the statistics.
+    pub const STATS_REQUEST: u32 = 0x0001_0090;
+    /// node → host: stack high-water mark (bytes, `u32` LE), malformed bus frames received
+    /// (`u32` LE).
+    pub const STATS: u32 = 0x0001_0091;
+}
+
+/// A classical CAN frame (standard or extended id, data or remote, 0..=8 bytes): the frames
+/// of SLCAN, of `mock::MockCan` and of the bus model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PilFrame {
+    id: Id,
+    remote: bool,
+    dlc: u8,
+    data: [u8; 8],
+}
+
+impl PilFrame {
+    /// A process-I/O data frame with 29-bit identifier `id`; `None` if `id` or `data` is too
+    /// long.
+    pub fn io(id: u32, data: &[u8]) -> Option<Self> {
+        Self::new(ExtendedId::new(id)?, data)
+    }
+
+    /// The 29-bit identifier of a process-I/O frame; `None` for an 11-bit (bus) frame.
+    pub fn io_id(&self) -> Option<u32> {
+        match self.id {
+            Id::Extended(e) => Some(e.as_raw()),
+            Id::Standard(_) => None,
+        }
+    }
+
+    /// Raw identifier bits (11 or 29) — the arbitration priority (lower wins).
+    pub fn raw_id(&self) -> u32 {
+        match self.id {
+            Id::Standard(s) => u32::from(s.as_raw()),
+            Id::Extended(e) => e.as_raw(),
+        }
+    }
+}
+
+impl Frame for PilFrame {
+    fn new(id: impl Into<Id>, data: &[u8]) -> Option<Self> {
+        let dlc = u8::try_from(data.len()).ok().filter(|&n| n <= 8)?;
+        let mut buf = [0; 8];
+        buf[..data.len()].copy_from_slice(data);
+        Some(Self {
+            id: id.into(),
+            remote: false,
+            dlc,
+            data: buf,
+        })
+    }
+
+    fn new_remote(id: impl Into<Id>, dlc: usize) -> Option<Self> {
+        let dlc = u8::try_from(dlc).ok().filter(|&n| n <= 8)?;
+        Some(Self {
+            id: id.into(),
+            remote: true,
+            dlc,
+            data: [0; 8],
+        })
+    }
+
+    fn is_extended(&self) -> bool {
+        matches!(self.id, Id::Extended(_))
+    }
+
+    fn is_remote_frame(&self) -> bool {
+        self.remote
+    }
+
+    fn id(&self) -> Id {
+        self.id
+    }
+
+    fn dlc(&self) -> usize {
+        usize::from(self.dlc)
+    }
+
+    fn data(&self) -> &[u8] {
+        if self.remote {
+            &[]
+        } else {
+            &self.data[..usize::from(self.dlc)]
+        }
+    }
+}
+
+/// Longest SLCAN line: `T` + 8 id digits + DLC + 16 data digits + 4 timestamp digits + `\r`.
+pub const SLCAN_MAX_LINE: usize = 31;
+
+/// One SLCAN command.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Slcan {
+    /// `t`, `T`, `r`, `R`: a frame.
+    Frame(PilFrame),
+    /// A frame followed by SLCAN's 4-digit timestamp extension (`Z1` mode of Lawicel
+    /// adapters, there in ms); on this link: µs since the last `SYNC`, see [`io::SYNC`].
+    Timed(PilFrame, u16),
+    /// `O`: open the channel.
+    Open,
+    /// `C`: close the channel.
+    Close,
+    /// `S0`..`S8`: the standard bit-rate codes (10 k .. 1 Mbit/s).
+    Bitrate(u8),
+}
+
+/// Why an SLCAN line was rejected.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SlcanError {
+    /// Empty line or unknown command letter.
+    UnknownCommand,
+    /// Wrong length, a non-hex digit, an out-of-range id or DLC.
+    Malformed,
+}
+
+const HEX: &[u8; 16] = b"0123456789ABCDEF";
+
+fn hex_digit(b: u8) -> Option<u8> {
+    match b {
+        b'0'..=b'9' => Some(b - b'0'),
+        b'a'..=b'f' => Some(b - b'a' + 10),
+        b'A'..=b'F' => Some(b - b'A' + 10),
+        _ => None,
+    }
+}
+
+fn hex_value(digits: &[u8]) -> Option<u32> {
+    digits
+        .iter()
+        .try_fold(0u32, |v, &d| Some((v << 4) | u32::from(hex_digit(d)?)))
+}
+
+/// The SLCAN line of `frame` (ending in `\r`) in `out`; returns its length.
+///
+/// ```
+/// use embedded_can::{Frame, StandardId};
+/// use hil_mock::pil::{slcan_decode, slcan_encode, PilFrame, Slcan, SLCAN_MAX_LINE};
+/// let f = PilFrame::new(StandardId::new(0x101).unwrap(), &[0x1F, 0x05, 0, 0x01]).unwrap();
+/// let mut buf = [0u8; SLCAN_MAX_LINE];
+/// let n = slcan_encode(&f, &mut buf);
+/// assert_eq!(&buf[..n], b"t10141F050001\r");
+/// assert_eq!(slcan_decode(&buf[..n - 1]), Ok(Slcan::Frame(f)));
+/// ```
+pub fn slcan_encode(frame: &PilFrame, out: &mut [u8; SLCAN_MAX_LINE]) -> usize {
+    encode_line(frame, None, out)
+}
+
+/// The SLCAN line of `frame` with the 4-digit timestamp `ts` (see [`Slcan::Timed`]).
+pub fn slcan_encode_timed(frame: &PilFrame, ts: u16, out: &mut [u8; SLCAN_MAX_LINE]) -> usize {
+    encode_line(frame, Some(ts), out)
+}
+
+fn encode_line(frame: &PilFrame, ts: Option<u16>, out: &mut [u8; SLCAN_MAX_LINE]) -> usize {
+    let (cmd, id, digits) = match (frame.id, frame.remote) {
+        (Id::Standard(s), false) => (b't', u32::from(s.as_raw()), 3),
+        (Id::Standard(s), true) => (b'r', u32::from(s.as_raw()), 3),
+        (Id::Extended(e), false) => (b'T', e.as_raw(), 8),
+        (Id::Extended(e), true) => (b'R', e.as_raw(), 8),
+    };
+    out[0] = cmd;
+    for (k, o) in out[1..=digits].iter_mut().enumerate() {
+        *o = HEX[((id >> (4 * (digits - 1 - k))) & 0xF) as usize];
+    }
+    let mut n = digits + 1;
+    out[n] = b'0' + frame.dlc;
+    n += 1;
+    for &b in frame.data() {
+        out[n] = HEX[usize::from(b >> 4)];
+        out[n + 1] = HEX[usize::from(b & 0xF)];
+        n += 2;
+    }
+    if let Some(ts) = ts {
+        for k in 0..4 {
+            out[n + k] = HEX[usize::from((ts >> (12 - 4 * k)) & 0xF)];
+        }
+        n += 4;
+    }
+    out[n] = b'\r';
+    n + 1
+}
+
+/// Parse one SLCAN line (without its `\r`). Never panics.
+pub fn slcan_decode(line: &[u8]) -> Result<Slcan, SlcanError> {
+    let (&cmd, rest) = line.split_first().ok_or(SlcanError::UnknownCommand)?;
+    let digits = match cmd {
+        b't' | b'r' => 3,
+        b'T' | b'R' => 8,
+        b'O' if rest.is_empty() => return Ok(Slcan::Open),
+        b'C' if rest.is_empty() => return Ok(Slcan::Close),
+        b'S' => {
+            return match rest {
+                [d @ b'0'..=b'8'] => Ok(Slcan::Bitrate(d - b'0')),
+                _ => Err(SlcanError::Malformed),
+            }
+        }
+        _ => return Err(SlcanError::UnknownCommand),
+    };
+    let id_digits = rest.get(..digits).ok_or(SlcanError::Malformed)?;
+    let raw = hex_value(id_digits).ok_or(SlcanError::Malformed)?;
+    let dlc = rest
+        .get(digits)
+        .and_then(|&d| d.checked_sub(b'0'))
+        .filter(|&d| d <= 8)
+        .ok_or(SlcanError::Malformed)?;
+    let id: Id = if digits == 3 {
+        StandardId::new(u16::try_from(raw).map_err(|_| SlcanError::Malformed)?)
+            .ok_or(SlcanError::Malformed)?
+            .into()
+    } else {
+        ExtendedId::new(raw).ok_or(SlcanError::Malformed)?.into()
+    };
+    let mut payload = &rest[digits + 1..];
+    let data_digits = if cmd == b'r' || cmd == b'R' {
+        0
+    } else {
+        2 * usize::from(dlc)
+    };
+    let ts = match payload.len().checked_sub(data_digits) {
+        Some(0) => None,
+        Some(4) => {
+            let t = hex_value(&payload[data_digits..]).ok_or(SlcanError::Malformed)?;
+            payload = &payload[..data_digits];
+            Some(u16::try_from(t).map_err(|_| SlcanError::Malformed)?)
+        }
+        _ => return Err(SlcanError::Malformed),
+    };
+    let frame = if cmd == b'r' || cmd == b'R' {
+        PilFrame::new_remote(id, usize::from(dlc))
+    } else {
+        let mut data = [0u8; 8];
+        for (d, pair) in data.iter_mut().zip(payload.chunks_exact(2)) {
+            *d = u8::try_from(hex_value(pair).ok_or(SlcanError::Malformed)?)
+                .map_err(|_| SlcanError::Malformed)?;
+        }
+        PilFrame::new(id, &data[..usize::from(dlc)])
+    };
+    let frame = frame.ok_or(SlcanError::Malformed)?;
+    Ok(match ts {
+        None => Slcan::Frame(frame),
+        Some(t) => Slcan::Timed(frame, t),
+    })
+}
+
+/// Two `f32` as the 8 data bytes of a process-I/O frame (little-endian).
+pub fn pack_f32x2(a: f32, b: f32) -> [u8; 8] {
+    let (a, b) = (a.to_le_bytes(), b.to_le_bytes());
+    [a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]]
+}
+
+/// The two `u32` (or `f32` bit patterns) of 8 data bytes; `None` for another length.
+pub fn unpack_u32x2(data: &[u8]) -> Option<(u32, u32)> {
+    let [a0, a1, a2, a3, b0, b1, b2, b3] = *data else {
+        return None;
+    };
+    Some((
+        u32::from_le_bytes([a0, a1, a2, a3]),
+        u32::from_le_bytes([b0, b1, b2, b3]),
+    ))
+}
+
+/// The `u32` of 4 data bytes; `None` for another length.
+pub fn unpack_u32(data: &[u8]) -> Option<u32> {
+    let [a, b, c, d] = *data else {
+        return None;
+    };
+    Some(u32::from_le_bytes([a, b, c, d]))
+}
+
+/// The 64-bit clock (µs) after `last` whose low 32 bits are `low`: the host's time never goes
+/// back and advances by less than 2³² µs (71 min) between two messages.
+///
+/// ```
+/// use hil_mock::pil::extend_clock;
+/// assert_eq!(extend_clock(5, 7), 7);
+/// assert_eq!(extend_clock(0xFFFF_FFF0, 0x10), 0x1_0000_0010);
+/// ```
+pub fn extend_clock(last: u64, low: u32) -> u64 {
+    let t = (last & !0xFFFF_FFFF) | u64::from(low);
+    if t < last {
+        t + (1 << 32)
+    } else {
+        t
+    }
+}
+
+/// Configuration words at most (`N` ≤ 4, `K` ≤ 16).
+pub const MAX_CONFIG_WORDS: usize = 64;
+
+/// The configuration of one node as 32-bit words: node settings, then every field of the
+/// controller configuration (`f32` as bit patterns, options and enums as tags), in the order
+/// [`decode_config`] reads them.
+pub struct ConfigWords {
+    words: [u32; MAX_CONFIG_WORDS],
+    len: usize,
+}
+
+impl ConfigWords {
+    fn push(&mut self, w: u32) {
+        if let Some(slot) = self.words.get_mut(self.len) {
+            *slot = w;
+        }
+        self.len += 1;
+    }
+
+    fn f32s(&mut self, v: &[f32]) {
+        for x in v {
+            self.push(x.to_bits());
+        }
+    }
+
+    /// The words; `None` when they did not fit [`MAX_CONFIG_WORDS`].
+    pub fn as_slice(&self) -> Option<&[u32]> {
+        self.words.get(..self.len)
+    }
+}
+
+/// Why a configuration could not be read (sent back in [`io::REJECTED`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+pub enum ConfigReject {
+    /// Fewer or more words than the layout needs.
+    WordCount = 1,
+    /// An enum tag or a count out of range.
+    BadTag = 2,
+    /// The node rejected the decoded configuration ([`crate::NodeError`]).
+    Node = 3,
+    /// A frame other than `CONFIG` / `CONFIG_END` arrived before the configuration was complete.
+    Unexpected = 4,
+}
+
+/// The words of `node` and `ctrl` (see [`ConfigWords`]).
+pub fn encode_config<const N: usize, const K: usize>(
+    node: &NodeConfig<K>,
+    ctrl: &ControllerConfig<N>,
+) -> ConfigWords {
+    let mut w = ConfigWords {
+        words: [0; MAX_CONFIG_WORDS],
+        len: 0,
+    };
+    let count = u32::try_from(ctrl.neighbour_count).unwrap_or(u32::MAX);
+    w.push(u32::from(node.agent) | (count << 8) | (u32::from(ctrl.pinned) << 16));
+    w.push(u32::try_from(ctrl.mtn_order).unwrap_or(u32::MAX));
+    for chunk in node.neighbours.chunks(4) {
+        let mut b = [0u8; 4];
+        b[..chunk.len()].copy_from_slice(chunk);
+        w.push(u32::from_le_bytes(b));
+    }
+    w.push(node.stale_timeout_us as u32);
+    w.push((node.stale_timeout_us >> 32) as u32);
+    w.f32s(&[ctrl.h, ctrl.ts, ctrl.zeta]);
+    match ctrl.gains {
+        GainSelection::Auto => w.f32s(&[0.0, 0.0, 0.0]),
+        GainSelection::Explicit { c1, c2 } => w.f32s(&[1.0, c1, c2]),
+    }
+    w.f32s(&ctrl.a_check);
+    w.f32s(&[ctrl.p, ctrl.eta, ctrl.tau, ctrl.gamma]);
+    w.f32s(&ctrl.phi_low);
+    w.f32s(&ctrl.phi_up);
+    w.f32s(&ctrl.eps_bar);
+    w.f32s(&[
+        ctrl.diff_l1,
+        ctrl.diff_l2,
+        ctrl.varpi0,
+        ctrl.varpi_decay,
+        ctrl.varpi_min,
+        ctrl.mu0,
+        ctrl.xi0,
+        ctrl.lambda0,
+        ctrl.estimate_max,
+    ]);
+    match ctrl.quantizer {
+        None => w.f32s(&[0.0, 0.0, 0.0]),
+        Some(q) => {
+            let dir = match q.direction {
+                QuantizerDirection::Signed => 1.0,
+                QuantizerDirection::Magnitude => 2.0,
+            };
+            w.f32s(&[dir, q.rho, q.u_min]);
+        }
+    }
+    match ctrl.scheme {
+        SchemeConfig::PredefinedTime => w.f32s(&[0.0, 0.0, 0.0, 0.0]),
+        SchemeConfig::PrescribedTime(b) => match b.t_prescribed {
+            None => w.f32s(&[1.0, b.kappa, b.mu_max, 0.0]),
+            Some(t) => w.f32s(&[2.0, b.kappa, b.mu_max, t]),
+        },
+    }
+    w
+}
+
+struct Reader<'a> {
+    words: &'a [u32],
+    at: usize,
+}
+
+impl Reader<'_> {
+    fn u32(&mut self) -> Result<u32, ConfigReject> {
+        let w = *self.words.get(self.at).ok_or(ConfigReject::WordCount)?;
+        self.at += 1;
+        Ok(w)
+    }
+
+    fn f32(&mut self) -> Result<f32, ConfigReject> {
+        self.u32().map(f32::from_bits)
+    }
+
+    fn f32s<const N: usize>(&mut self) -> Result<[f32; N], ConfigReject> {
+        let mut a = [0.0; N];
+        for x in &mut a {
+            *x = self.f32()?;
+        }
+        Ok(a)
+    }
+
+    fn tag(&mut self, max: u8) -> Result<u8, ConfigReject> {
+        let t = self.f32()?;
+        (0..=max)
+            .find(|&k| t == f32::from(k))
+            .ok_or(ConfigReject::BadTag)
+    }
+}
+
+/// The node and controller configuration of [`encode_config`]'s words. Values are checked
+/// later by [`crate::Node::new`]; here only the layout (count, tags) is.
+pub fn decode_config<const N: usize, const K: usize>(
+    words: &[u32],
+) -> Result<(NodeConfig<K>, ControllerConfig<N>), ConfigReject> {
+    let mut r = Reader { words, at: 0 };
+    let head = r.u32()?;
+    let mtn_order = usize::try_from(r.u32()?).map_err(|_| ConfigReject::BadTag)?;
+    let mut neighbours = [0u8; K];
+    for chunk in neighbours.chunks_mut(4) {
+        let b = r.u32()?.to_le_bytes();
+        chunk.copy_from_slice(&b[..chunk.len()]);
+    }
+    let stale_timeout_us = u64::from(r.u32()?) | (u64::from(r.u32()?) << 32);
+    let [h, ts, zeta] = r.f32s()?;
+    let gains = match r.tag(1)? {
+        0 => {
+            r.f32s::<2>()?;
+            GainSelection::Auto
+        }
+        _ => {
+            let [c1, c2] = r.f32s()?;
+            GainSelection::Explicit { c1, c2 }
+        }
+    };
+    let a_check = r.f32s()?;
+    let [p, eta, tau, gamma] = r.f32s()?;
+    let phi_low = r.f32s()?;
+    let phi_up = r.f32s()?;
+    let eps_bar = r.f32s()?;
+    let [diff_l1, diff_l2, varpi0, varpi_decay, varpi_min, mu0, xi0, lambda0, estimate_max] =
+        r.f32s()?;
+    let quantizer = match r.tag(2)? {
+        0 => {
+            r.f32s::<2>()?;
+            None
+        }
+        d => {
+            let [rho, u_min] = r.f32s()?;
+            let direction = if d == 1 {
+                QuantizerDirection::Signed
+            } else {
+                QuantizerDirection::Magnitude
+            };
+            Some(QuantizerConfig {
+                rho,
+                u_min,
+                direction,
+            })
+        }
+    };
+    let scheme = match r.tag(2)? {
+        0 => {
+            r.f32s::<3>()?;
+            SchemeConfig::PredefinedTime
+        }
+        t => {
+            let [kappa, mu_max, tp] = r.f32s()?;
+            SchemeConfig::PrescribedTime(BaselineConfig {
+                kappa,
+                mu_max,
+                t_prescribed: (t == 2).then_some(tp),
+            })
+        }
+    };
+    if r.at != words.len() {
+        return Err(ConfigReject::WordCount);
+    }
+    let node = NodeConfig {
+        agent: (head & 0xFF) as u8,
+        neighbours,
+        stale_timeout_us,
+    };
+    let ctrl = ControllerConfig {
+        h,
+        neighbour_count: ((head >> 8) & 0xFF) as usize,
+        pinned: (head >> 16) & 1 == 1,
+        ts,
+        zeta,
+        gains,
+        a_check,
+        p,
+        eta,
+        tau,
+        gamma,
+        mtn_order,
+        phi_low,
+        phi_up,
+        eps_bar,
+        diff_l1,
+        diff_l2,
+        varpi0,
+        varpi_decay,
+        varpi_min,
+        mu0,
+        xi0,
+        lambda0,
+        estimate_max,
+        quantizer,
+        scheme,
+    };
+    Ok((node, ctrl))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn config_round_trips() {
+        let node = NodeConfig::<16> {
+            agent: 4,
+            neighbours: [1, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 9],
+            stale_timeout_us: (7 << 32) | 2500,
+        };
+        let mut ctrl = ControllerConfig::<2> {
+            neighbour_count: 2,
+            pinned: false,
+            gains: GainSelection::Explicit { c1: 10.0, c2: 9.0 },
+            quantizer: None,
+            ..ControllerConfig::default()
+        };
+        for scheme in [
+            SchemeConfig::PredefinedTime,
+            SchemeConfig::PrescribedTime(BaselineConfig::default()),
+            SchemeConfig::PrescribedTime(BaselineConfig {
+                t_prescribed: Some(3.0),
+                ..BaselineConfig::default()
+            }),
+        ] {
+            ctrl.scheme = scheme;
+            let w = encode_config(&node, &ctrl);
+            let words = w.as_slice().expect("fits");
+            assert_eq!(decode_config::<2, 16>(words), Ok((node, ctrl)));
+            assert_eq!(
+                decode_config::<2, 16>(&words[..words.len() - 1]),
+                Err(ConfigReject::WordCount)
+            );
+        }
+        let d = ControllerConfig::<2>::default();
+        let w = encode_config(&node, &d);
+        assert_eq!(
+            decode_config::<2, 16>(w.as_slice().expect("fits")),
+            Ok((node, d))
+        );
+    }
+
+    #[test]
+    fn slcan_rejects_garbage_without_panicking() {
+        for line in [
+            &b""[..],
+            b"x",
+            b"t",
+            b"t10",
+            b"t1014",
+            b"t1019",
+            b"t80000",
+            b"tG000",
+            b"t1012ABC",
+            b"T2000000000",
+            b"r1011AA",
+            b"S9",
+        ] {
+            assert!(slcan_decode(line).is_err(), "{line:?}");
+        }
+        assert_eq!(slcan_decode(b"O"), Ok(Slcan::Open));
+        assert_eq!(slcan_decode(b"S8"), Ok(Slcan::Bitrate(8)));
+        let f = PilFrame::io(io::SYNC, &pack_f32x2(1.0, -2.0)).expect("frame");
+        let mut buf = [0u8; SLCAN_MAX_LINE];
+        let n = slcan_encode(&f, &mut buf);
+        assert_eq!(n, SLCAN_MAX_LINE - 4);
+        assert_eq!(slcan_decode(&buf[..n - 1]), Ok(Slcan::Frame(f)));
+        let n = slcan_encode_timed(&f, 0xBEEF, &mut buf);
+        assert_eq!(n, SLCAN_MAX_LINE);
+        assert_eq!(&buf[n - 5..n], b"BEEF\r");
+        assert_eq!(slcan_decode(&buf[..n - 1]), Ok(Slcan::Timed(f, 0xBEEF)));
+        assert!(slcan_decode(&buf[..n - 2]).is_err());
+    }
+}

@@ -1,0 +1,706 @@
+//! `[network] kind = "pil"`: processor in the loop. Every follower runs the node firmware
+//! (`node-fw`: `hil_mock::Node` built for `thumbv7em-none-eabihf`) on its own emulated
+//! Cortex-M4F, `qemu-system-arm -M mps2-an386 -icount shift=0`, whose UART0 is the emulator's
+//! standard input and output; the host keeps the plant, the leader and `hil-mock`'s bus model
+//! (bit timing, loss, corruption, silent and babbling nodes), and speaks the link protocol of
+//! [`hil_mock::pil`] (SLCAN) with each node.
+//!
+//! Per sample `t_k` (as [`hil_mock::network::CanNetwork::step`] does for host-compiled nodes):
+//! the bus runs to `t_k`; each delivered frame goes to every other node that is not bus-off,
+//! preceded by the delivery time (`CLOCK`); then `SENSOR` (the state as `f32`) and `SYNC`
+//! (`t_k`) go to every node, which ticks and answers with its bus frame, its commands and
+//! reports; the host submits the nodes' frames and the leader's `y_d(t_k)` at `t_k`. All
+//! nodes work on a sample at the same time (one emulator per core).
+//!
+//! An emulator that exits (a firmware panic ends QEMU through semihosting), sends something
+//! that is not the expected answer, or does not answer within [`ANSWER_TIMEOUT`] stops the run
+//! with an error naming the agent. Every emulator is killed when the run ends, on an error
+//! and on Ctrl-C / SIGTERM (a handler kills the registered emulators, then exits with 130).
+
+use std::{
+    io::{BufReader, Read, Write},
+    path::{Path, PathBuf},
+    process::{Child, ChildStdin, Command, Stdio},
+    sync::{
+        mpsc::{self, Receiver, RecvTimeoutError},
+        Arc, Mutex,
+    },
+    time::Duration,
+};
+
+use controller_core::{Estimates, Gains, LinkReport, StepFault, StepOutput, StepStatus};
+use embedded_can::Frame;
+use hil_mock::{
+    bus::{Bus, Nanos},
+    mock::MockFrame,
+    pil::{self, io, PilFrame, Slcan, SLCAN_MAX_LINE},
+    wire::{self, Source},
+    NodeConfig,
+};
+use serde::Serialize;
+
+use crate::{
+    error::{Error, Result},
+    network::{bus_config, NetworkKind, NetworkSummary, MAX_CAN_AGENTS},
+    report::{
+        plots::{render, Panel, Series},
+        trace::{TraceWriter, INTERFACE},
+    },
+    scenario::Setup,
+    sim::{Agents, K},
+};
+
+/// The emulator.
+pub const QEMU: &str = "qemu-system-arm";
+/// How to get it (Debian/Ubuntu).
+pub const QEMU_INSTALL: &str = "apt-get update && apt-get install -y qemu-system-arm";
+/// Environment variable naming the firmware ELF (default: [`default_firmware`]).
+pub const FIRMWARE_ENV: &str = "HOST_SIM_NODE_FW";
+/// Longest wait for one answer of a node (start-up or one sample); a healthy node answers a
+/// sample in well under a millisecond of host time.
+pub const ANSWER_TIMEOUT: Duration = Duration::from_secs(20);
+
+/// The firmware built in the source tree: `node-fw/target/thumbv7em-none-eabihf/release/node-fw`.
+pub fn default_firmware() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../node-fw/target/thumbv7em-none-eabihf/release/node-fw")
+}
+
+fn find_in_path(program: &str) -> Option<PathBuf> {
+    let path = std::env::var_os("PATH")?;
+    std::env::split_paths(&path)
+        .map(|d| d.join(program))
+        .find(|p| p.is_file())
+}
+
+/// Emulators alive, for the Ctrl-C handler.
+static RUNNING: Mutex<Vec<(u32, Child)>> = Mutex::new(Vec::new());
+
+/// Stops every emulator still running (the interrupt hook of a PIL run).
+fn kill_all() {
+    if let Ok(mut running) = RUNNING.lock() {
+        for (_, c) in running.iter_mut() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+        running.clear();
+    }
+    eprintln!("host-sim: interrupted; emulators stopped");
+}
+
+/// What an emulator printed: an SLCAN frame, or anything else (a panic message, `\a`).
+enum Output {
+    Frame(PilFrame),
+    Text(String),
+    Eof,
+}
+
+/// One node's emulator.
+struct Emulator {
+    agent: usize,
+    pid: u32,
+    stdin: ChildStdin,
+    rx: Receiver<Output>,
+    stderr: Arc<Mutex<String>>,
+    /// Bytes for the next write.
+    out: Vec<u8>,
+    /// Time of the last `SYNC` (the origin of timestamps) [µs].
+    sync_us: u64,
+}
+
+impl Emulator {
+    fn spawn(agent: usize, firmware: &Path) -> Result<Self> {
+        let mut child = Command::new(QEMU)
+            .args(["-M", "mps2-an386", "-cpu", "cortex-m4", "-nographic"])
+            .args(["-monitor", "none", "-serial", "stdio"])
+            .args(["-semihosting-config", "enable=on,target=native"])
+            .args(["-icount", "shift=0", "-kernel"])
+            .arg(firmware)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .map_err(|e| Error::Io(format!("agent {agent}: cannot start {QEMU}: {e}")))?;
+        let pid = child.id();
+        let (stdin, stdout, stderr) =
+            match (child.stdin.take(), child.stdout.take(), child.stderr.take()) {
+                (Some(i), Some(o), Some(e)) => (i, o, e),
+                _ => {
+                    let _ = child.kill();
+                    let _ = child.wait();
+                    return Err(Error::Io(format!("agent {agent}: {QEMU} has no pipes")));
+                }
+            };
+        if let Ok(mut r) = RUNNING.lock() {
+            r.push((pid, child));
+        }
+        let (tx, rx) = mpsc::channel();
+        std::thread::spawn(move || read_output(stdout, &tx));
+        let err = Arc::new(Mutex::new(String::new()));
+        let err2 = Arc::clone(&err);
+        std::thread::spawn(move || {
+            let mut s = String::new();
+            let _ = BufReader::new(stderr).read_to_string(&mut s);
+            if let Ok(mut e) = err2.lock() {
+                e.push_str(&s);
+            }
+        });
+        Ok(Self {
+            agent,
+            pid,
+            stdin,
+            rx,
+            stderr: err,
+            out: Vec::with_capacity(1024),
+            sync_us: 0,
+        })
+    }
+
+    fn queue(&mut self, frame: &PilFrame) {
+        let mut buf = [0u8; SLCAN_MAX_LINE];
+        let n = pil::slcan_encode(frame, &mut buf);
+        self.out.extend_from_slice(&buf[..n]);
+    }
+
+    fn queue_io(&mut self, id: u32, data: &[u8]) {
+        if let Some(f) = PilFrame::io(id, data) {
+            self.queue(&f);
+        }
+    }
+
+    /// `frame` at time `t_us`: timestamped relative to the last `SYNC`, or after a `CLOCK`
+    /// frame when that does not fit 16 bits.
+    fn queue_at(&mut self, frame: &PilFrame, t_us: u64) {
+        let mut buf = [0u8; SLCAN_MAX_LINE];
+        let n = match u16::try_from(t_us.saturating_sub(self.sync_us)) {
+            Ok(ts) => pil::slcan_encode_timed(frame, ts, &mut buf),
+            Err(_) => {
+                self.queue_io(io::CLOCK, &(t_us as u32).to_le_bytes());
+                pil::slcan_encode(frame, &mut buf)
+            }
+        };
+        self.out.extend_from_slice(&buf[..n]);
+    }
+
+    fn flush(&mut self) -> Result<()> {
+        let r = self
+            .stdin
+            .write_all(&self.out)
+            .and_then(|()| self.stdin.flush());
+        self.out.clear();
+        r.map_err(|e| self.failure(&format!("cannot write to its UART ({e})")))
+    }
+
+    /// The next frame, or the error that names the agent.
+    fn next_frame(&mut self, waiting_for: &str) -> Result<PilFrame> {
+        let what = match self.rx.recv_timeout(ANSWER_TIMEOUT) {
+            Ok(Output::Frame(f)) => return Ok(f),
+            Ok(Output::Text(t)) => format!("sent {t:?} while the host waited for {waiting_for}"),
+            Ok(Output::Eof) | Err(RecvTimeoutError::Disconnected) => {
+                // Let the stderr reader finish.
+                std::thread::sleep(Duration::from_millis(100));
+                format!("emulator exited while the host waited for {waiting_for}")
+            }
+            Err(RecvTimeoutError::Timeout) => format!(
+                "no answer within {} s while the host waited for {waiting_for}",
+                ANSWER_TIMEOUT.as_secs()
+            ),
+        };
+        Err(self.failure(&what))
+    }
+
+    fn failure(&self, what: &str) -> Error {
+        let err = self
+            .stderr
+            .lock()
+            .map(|s| s.trim().to_string())
+            .unwrap_or_default();
+        // The first line is what matters (a QEMU register dump follows a lockup).
+        let err: String = err.lines().next().unwrap_or("").chars().take(200).collect();
+        let err = if err.is_empty() {
+            String::new()
+        } else {
+            format!("; {QEMU}: {err}")
+        };
+        Error::Io(format!("PIL agent {}: {what}{err}", self.agent))
+    }
+}
+
+impl Drop for Emulator {
+    fn drop(&mut self) {
+        if let Ok(mut running) = RUNNING.lock() {
+            if let Some(pos) = running.iter().position(|(p, _)| *p == self.pid) {
+                let (_, mut c) = running.swap_remove(pos);
+                let _ = c.kill();
+                let _ = c.wait();
+            }
+        }
+    }
+}
+
+/// Splits the emulator's output at `\r` / `\n` into frames and other text.
+///
+/// QEMU writes the UART's bytes one at a time; reading each as it comes would wake this
+/// thread for every byte. After each read the thread pauses for [`READ_PAUSE`], so a node's
+/// answer to one sample (about 200 bytes) arrives in a few reads.
+fn read_output(mut stdout: impl Read, tx: &mpsc::Sender<Output>) {
+    let mut buf = vec![0u8; 1 << 14];
+    let mut line = Vec::with_capacity(64);
+    loop {
+        let n = match stdout.read(&mut buf) {
+            Ok(0) | Err(_) => {
+                let _ = tx.send(Output::Eof);
+                return;
+            }
+            Ok(n) => n,
+        };
+        for &b in &buf[..n] {
+            if b != b'\r' && b != b'\n' {
+                line.push(b);
+                continue;
+            }
+            if line.is_empty() {
+                continue;
+            }
+            let msg = match pil::slcan_decode(&line) {
+                Ok(Slcan::Frame(f) | Slcan::Timed(f, _)) => Output::Frame(f),
+                _ => Output::Text(String::from_utf8_lossy(&line).into_owned()),
+            };
+            line.clear();
+            if tx.send(msg).is_err() {
+                return;
+            }
+        }
+        std::thread::sleep(READ_PAUSE);
+    }
+}
+
+/// Pause of the output reader after each read.
+const READ_PAUSE: Duration = Duration::from_micros(150);
+
+/// `summary.json` `firmware[]`: one agent's node firmware over the closed-loop run.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FirmwareSummary {
+    /// 1-based agent.
+    pub agent: usize,
+    /// Ticks measured (= samples).
+    pub steps: usize,
+    /// Fewest instructions of one `Node::tick`.
+    pub instructions_min: u32,
+    /// Median over the run.
+    pub instructions_median: u32,
+    /// 99th percentile (nearest rank).
+    pub instructions_p99: u32,
+    /// Most instructions of one tick.
+    pub instructions_max: u32,
+    /// Resolution of the counts (instructions per SysTick count).
+    pub instructions_resolution: u32,
+    /// Stack high-water mark of the whole firmware (painted), bytes.
+    pub stack_bytes: u32,
+}
+
+fn nearest_rank(sorted: &[u32], p: f64) -> u32 {
+    if sorted.is_empty() {
+        return 0;
+    }
+    let rank = ((p * sorted.len() as f64).ceil() as usize).clamp(1, sorted.len());
+    sorted[rank - 1]
+}
+
+/// Every follower on its own emulated Cortex-M4F, the leader and the bus on the host.
+pub struct PilAgents<const N: usize, const M: usize> {
+    emus: Vec<Emulator>,
+    bus: Bus,
+    h_ns: Nanos,
+    bitrate: u32,
+    leader_seq: u8,
+    pinned: Vec<bool>,
+    neighbours: Vec<Vec<usize>>,
+    /// Acceptance filter of each node: the standard identifiers it hears.
+    accept: Vec<Vec<u32>>,
+    /// `sample_time[receiver][sender]`: sample time of the latest frame delivered.
+    sample_time: Vec<Vec<Option<Nanos>>>,
+    costs: Vec<Vec<u32>>,
+    resolution: u32,
+    stale_samples: u64,
+    stacks: Vec<u32>,
+    malformed: u64,
+    gains: Gains,
+    trace: Option<TraceWriter>,
+}
+
+impl<const N: usize, const M: usize> PilAgents<N, M> {
+    /// Starts one emulator per agent of the validated `setup` and configures its node.
+    pub fn new(setup: &Setup, trace: Option<&Path>) -> Result<Self> {
+        if N != 2 || M != 2 {
+            return Err(Error::invalid(
+                "network.kind",
+                "\"pil\" supports plants with n = 2 states and m = 2 actuators",
+            ));
+        }
+        if find_in_path(QEMU).is_none() {
+            return Err(Error::invalid(
+                "network.kind",
+                format!("\"pil\" needs {QEMU} on PATH; install it: {QEMU_INSTALL}"),
+            ));
+        }
+        let firmware = std::env::var_os(FIRMWARE_ENV).map_or_else(default_firmware, PathBuf::from);
+        if !firmware.is_file() {
+            return Err(Error::invalid(
+                "network.kind",
+                format!(
+                    "\"pil\" needs the node firmware at {} (build it: cd node-fw && cargo build \
+                     --release; or set {FIRMWARE_ENV})",
+                    firmware.display()
+                ),
+            ));
+        }
+        // Without it Ctrl-C still ends the process group; only a lone SIGINT to host-sim would
+        // leave emulators behind.
+        crate::report::also_on_interrupt(kill_all);
+        let spec = &setup.scenario.network;
+        let h = setup.scenario.simulation.h;
+        let stale = spec.stale_timeout.unwrap_or(2.5 * h);
+        let stale_timeout_us = ((stale * 1e6).round() as u64).max(1);
+        let agents = setup.agents();
+        if agents > MAX_CAN_AGENTS {
+            return Err(Error::invalid(
+                "network.kind",
+                format!("\"pil\" carries at most {MAX_CAN_AGENTS} agents (got {agents})"),
+            ));
+        }
+        let mut emus = Vec::with_capacity(agents);
+        let mut pinned = Vec::with_capacity(agents);
+        let mut neighbours = Vec::with_capacity(agents);
+        let mut gains = None;
+        for i in 0..agents {
+            let mut list = [0u8; K];
+            let heard: Vec<usize> = setup.graph.neighbours(i).to_vec();
+            for (d, &k) in list.iter_mut().zip(&heard) {
+                *d = u8::try_from(k + 1).unwrap_or(0);
+            }
+            let node = NodeConfig {
+                agent: u8::try_from(i + 1).unwrap_or(0),
+                neighbours: list,
+                stale_timeout_us,
+            };
+            let ctrl = setup.controller_config::<N>(i)?;
+            if gains.is_none() {
+                let c = controller_core::Controller::<N, M, K>::new(&ctrl)
+                    .map_err(|e| Error::invalid(format!("controller (agent {})", i + 1), e))?;
+                gains = Some(*c.params().gains());
+            }
+            pinned.push(ctrl.pinned);
+            neighbours.push(heard.iter().map(|k| k + 1).collect());
+            let mut emu = Emulator::spawn(i + 1, &firmware)?;
+            let words = pil::encode_config(&node, &ctrl);
+            let words = words.as_slice().ok_or_else(|| {
+                Error::invalid("network.kind", "configuration too large for the PIL link")
+            })?;
+            for pair in words.chunks(2) {
+                let bytes: Vec<u8> = pair.iter().flat_map(|w| w.to_le_bytes()).collect();
+                emu.queue_io(io::CONFIG, &bytes);
+            }
+            let count = u16::try_from(words.len()).unwrap_or(u16::MAX);
+            emu.queue_io(io::CONFIG_END, &count.to_le_bytes());
+            emu.flush()?;
+            emus.push(emu);
+        }
+        for emu in &mut emus {
+            let f = emu.next_frame("READY")?;
+            match (f.io_id(), f.data()) {
+                (Some(io::READY), [a]) if usize::from(*a) == emu.agent => {}
+                (Some(io::REJECTED), [code]) => {
+                    return Err(emu.failure(&format!("configuration rejected (code {code})")))
+                }
+                _ => return Err(emu.failure(&format!("unexpected start-up answer {f:?}"))),
+            }
+        }
+        let accept = neighbours
+            .iter()
+            .zip(&pinned)
+            .map(|(heard, &p): (&Vec<usize>, &bool)| {
+                let leader = p.then_some(Source::Leader);
+                heard
+                    .iter()
+                    .map(|&a| Source::Agent(u8::try_from(a).unwrap_or(0)))
+                    .chain(leader)
+                    .filter_map(|s| s.raw_id().map(u32::from))
+                    .collect()
+            })
+            .collect();
+        let cfg = bus_config(spec, h);
+        let bitrate = cfg.bitrate;
+        let mut bus = Bus::new(cfg, agents + 1).map_err(|e| Error::invalid("network", e))?;
+        let trace = trace.map(TraceWriter::create).transpose()?;
+        if trace.is_some() {
+            bus.record_wire();
+        }
+        Ok(Self {
+            emus,
+            bus,
+            h_ns: (h * 1e9).round() as Nanos,
+            bitrate,
+            leader_seq: 0,
+            pinned,
+            neighbours,
+            accept,
+            sample_time: vec![vec![None; agents + 1]; agents + 1],
+            costs: vec![Vec::with_capacity(usize::try_from(setup.samples).unwrap_or(0)); agents],
+            resolution: 0,
+            stale_samples: 0,
+            stacks: vec![0; agents],
+            malformed: 0,
+            gains: gains.unwrap_or(Gains {
+                c1: f32::NAN,
+                c2: f32::NAN,
+                k1: f32::NAN,
+                k2: f32::NAN,
+            }),
+            trace,
+        })
+    }
+
+    /// Per-agent figures of the firmware (after the run).
+    pub fn firmware(&self) -> Vec<FirmwareSummary> {
+        self.costs
+            .iter()
+            .zip(&self.stacks)
+            .enumerate()
+            .map(|(i, (c, &stack))| {
+                let mut s = c.clone();
+                s.sort_unstable();
+                FirmwareSummary {
+                    agent: i + 1,
+                    steps: s.len(),
+                    instructions_min: s.first().copied().unwrap_or(0),
+                    instructions_median: nearest_rank(&s, 0.5),
+                    instructions_p99: nearest_rank(&s, 0.99),
+                    instructions_max: s.last().copied().unwrap_or(0),
+                    instructions_resolution: self.resolution,
+                    stack_bytes: stack,
+                }
+            })
+            .collect()
+    }
+
+    /// Instructions of every tick, per agent (for the figure).
+    pub fn costs(&self) -> &[Vec<u32>] {
+        &self.costs
+    }
+
+    fn collect(&mut self, j: usize, t_ns: Nanos) -> Result<StepOutput<N, M>> {
+        let mut out = StepOutput {
+            u: [0.0; M],
+            q: [0.0; M],
+            e: [0.0; N],
+            // Not reported over the link (no output uses them).
+            alpha: [f32::NAN; N],
+            beta: [f32::NAN; N],
+            estimates: Estimates {
+                mu: 0.0,
+                xi: 0.0,
+                lambda: 0.0,
+            },
+            varpi: f32::NAN,
+            status: StepStatus::default(),
+        };
+        let pair = |f: &PilFrame| {
+            pil::unpack_u32x2(f.data()).map(|(a, b)| (f32::from_bits(a), f32::from_bits(b)))
+        };
+        loop {
+            let emu = &mut self.emus[j];
+            let f = emu.next_frame("the answer to SYNC")?;
+            let Some(id) = f.io_id() else {
+                let frame = MockFrame::new(f.id(), f.data())
+                    .ok_or_else(|| emu.failure("sent a frame the bus cannot carry"))?;
+                // Refusals (silent, bus-off) are counted by the bus.
+                let _ = self.bus.submit(j + 1, t_ns, frame);
+                continue;
+            };
+            let bad = || emu.failure(&format!("malformed report {f:?}"));
+            match id {
+                io::COMMAND => {
+                    let (a, b) = pair(&f).ok_or_else(bad)?;
+                    out.q[0] = a;
+                    out.q[1] = b;
+                }
+                io::REPORT_U => {
+                    let (a, b) = pair(&f).ok_or_else(bad)?;
+                    out.u[0] = a;
+                    out.u[1] = b;
+                }
+                io::REPORT_E => {
+                    let (a, b) = pair(&f).ok_or_else(bad)?;
+                    out.e[0] = a;
+                    out.e[1] = b;
+                }
+                io::REPORT_EST => {
+                    let (a, b) = pair(&f).ok_or_else(bad)?;
+                    out.estimates.mu = a;
+                    out.estimates.xi = b;
+                }
+                io::REPORT_STATUS => {
+                    let [l0, l1, l2, l3, fault, stale, missing, leader] = *f.data() else {
+                        return Err(bad());
+                    };
+                    out.estimates.lambda = f32::from_le_bytes([l0, l1, l2, l3]);
+                    out.status.fault = match fault {
+                        0 => None,
+                        1 => Some(StepFault::InvalidState),
+                        _ => Some(StepFault::NonFiniteResult),
+                    };
+                    out.status.links = LinkReport {
+                        stale_neighbours: stale,
+                        missing_neighbours: missing,
+                        leader_stale: leader & 1 != 0,
+                        leader_missing: leader & 2 != 0,
+                        ..LinkReport::default()
+                    };
+                    self.stale_samples += u64::from(stale);
+                }
+                io::REPORT_COST => {
+                    let (cost, res) = pil::unpack_u32x2(f.data()).ok_or_else(bad)?;
+                    self.costs[j].push(cost);
+                    self.resolution = res;
+                    return Ok(out);
+                }
+                _ => return Err(bad()),
+            }
+        }
+    }
+
+    fn record_ages(&mut self, t_ns: Nanos) {
+        for (j, heard) in self.neighbours.iter().enumerate() {
+            let receiver = j + 1;
+            let leader = self.pinned[j].then_some(0);
+            for &sender in heard.iter().chain(leader.iter()) {
+                if let Some(ts) = self.sample_time[receiver][sender] {
+                    self.bus.record_age(t_ns.saturating_sub(ts));
+                }
+            }
+        }
+    }
+}
+
+impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
+    fn control(
+        &mut self,
+        k: u64,
+        _t: f64,
+        x: &[[f64; N]],
+        yd: f64,
+        out: &mut Vec<StepOutput<N, M>>,
+    ) -> Result<()> {
+        let t_ns = k.saturating_mul(self.h_ns);
+        for d in self.bus.advance_to(t_ns) {
+            let Some(frame) = PilFrame::new(d.frame.id(), d.frame.data()) else {
+                continue;
+            };
+            for (j, emu) in self.emus.iter_mut().enumerate() {
+                let bus_node = j + 1;
+                if bus_node == d.from || self.bus.is_bus_off(bus_node, d.at_ns) {
+                    continue;
+                }
+                if !d.frame.is_extended() && !self.accept[j].contains(&d.frame.raw_id()) {
+                    continue;
+                }
+                emu.queue_at(&frame, d.at_ns / 1000);
+                self.sample_time[bus_node][d.from] = Some(d.submitted_ns);
+            }
+        }
+        let t_us = t_ns / 1000;
+        for (emu, xi) in self.emus.iter_mut().zip(x) {
+            let state = pil::pack_f32x2(xi[0] as f32, xi[1] as f32);
+            if let Some(f) = PilFrame::io(io::SYNC, &state) {
+                emu.queue_at(&f, t_us);
+            }
+            emu.sync_us = t_us;
+            emu.flush()?;
+        }
+        for j in 0..self.emus.len() {
+            out.push(self.collect(j, t_ns)?);
+        }
+        self.record_ages(t_ns);
+        if let Some((f, _)) = wire::encode::<MockFrame>(Source::Leader, yd as f32, self.leader_seq)
+        {
+            let _ = self.bus.submit(0, t_ns, f);
+        }
+        self.leader_seq = (self.leader_seq + 1) % wire::SEQ_MODULUS;
+        if let Some(w) = self.trace.as_mut() {
+            w.write(INTERFACE, &self.bus.take_wire_log());
+        }
+        Ok(())
+    }
+
+    fn gains(&self) -> Gains {
+        self.gains
+    }
+
+    fn network(&self) -> Option<NetworkSummary> {
+        Some(NetworkSummary::new(
+            NetworkKind::Pil,
+            self.bitrate,
+            &self.bus.stats(),
+            self.malformed,
+            self.stale_samples,
+        ))
+    }
+
+    fn firmware(&self) -> Option<Vec<FirmwareSummary>> {
+        Some(PilAgents::firmware(self))
+    }
+
+    /// `firmware.png` / `.svg`: instructions of every tick against time, per agent (the
+    /// largest of each 10 consecutive ticks, so no peak is lost), and the median.
+    fn draw(&self, dir: &Path, h: f64, title: &str) -> Result<()> {
+        const STRIDE: usize = 10;
+        let series = self
+            .costs
+            .iter()
+            .enumerate()
+            .map(|(i, c)| {
+                let points = c
+                    .chunks(STRIDE)
+                    .enumerate()
+                    .map(|(b, w)| {
+                        let peak = w.iter().copied().max().unwrap_or(0);
+                        ((b * STRIDE) as f64 * h, f64::from(peak))
+                    })
+                    .collect();
+                Series {
+                    width: 1,
+                    ..Series::styled(format!("agent {}", i + 1), i, points)
+                }
+            })
+            .collect();
+        let panel = Panel {
+            title: format!(
+                "{title}: node firmware instructions per tick (QEMU mps2-an386, Cortex-M4F)"
+            ),
+            y_label: "instructions per tick".into(),
+            series,
+            ..Panel::default()
+        };
+        render(dir, "firmware", &[panel], (1, 1), (1000, 560))
+    }
+
+    fn finish(&mut self) -> Result<()> {
+        for emu in &mut self.emus {
+            emu.queue_io(io::STATS_REQUEST, &[]);
+            emu.flush()?;
+        }
+        for (j, emu) in self.emus.iter_mut().enumerate() {
+            let f = emu.next_frame("STATS")?;
+            match (f.io_id(), pil::unpack_u32x2(f.data())) {
+                (Some(io::STATS), Some((stack, malformed))) => {
+                    self.stacks[j] = stack;
+                    self.malformed += u64::from(malformed);
+                }
+                _ => return Err(emu.failure(&format!("unexpected answer to STATS_REQUEST {f:?}"))),
+            }
+        }
+        self.emus.clear();
+        self.trace.as_mut().map_or(Ok(()), TraceWriter::finish)
+    }
+}

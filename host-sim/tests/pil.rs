@@ -1,0 +1,302 @@
+//! `[network] kind = "pil"`: the node firmware on emulated Cortex-M4Fs. Needs
+//! `qemu-system-arm` and the firmware (`cd node-fw && cargo build --release`); without them the
+//! tests that run emulators are skipped with a message, unless `REQUIRE_PIL` is set (CI builds
+//! the firmware, installs QEMU and sets it).
+
+mod common;
+
+use std::{
+    path::PathBuf,
+    process::{Command, Stdio},
+    time::{Duration, Instant},
+};
+
+use common::{assert_invalid, bin, scenario_path, tmp};
+
+fn firmware() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../node-fw/target/thumbv7em-none-eabihf/release/node-fw")
+}
+
+fn pil_available() -> bool {
+    let qemu = Command::new("qemu-system-arm")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    let ok = qemu && firmware().is_file();
+    if !ok {
+        assert!(
+            std::env::var_os("REQUIRE_PIL").is_none(),
+            "REQUIRE_PIL is set but qemu-system-arm or {} is missing",
+            firmware().display()
+        );
+        eprintln!(
+            "SKIPPED: needs qemu-system-arm and the node firmware (cd node-fw && cargo build --release)"
+        );
+    }
+    ok
+}
+
+fn run(scenario: &str, dir: &std::path::Path, t_end: &str) -> std::process::Output {
+    run_with(scenario, dir, t_end, &[])
+}
+
+fn run_with(
+    scenario: &str,
+    dir: &std::path::Path,
+    t_end: &str,
+    set: &[&str],
+) -> std::process::Output {
+    let mut cmd = bin();
+    cmd.args(["run", "--quiet", "--no-plots", "--out"])
+        .arg(dir)
+        .arg(scenario_path(scenario))
+        .args(["--set", &format!("simulation.t_end={t_end}")]);
+    for s in set {
+        cmd.args(["--set", s]);
+    }
+    cmd.output().expect("run host-sim")
+}
+
+/// Lost frames make links stale: the node's freshness decisions depend on the delivery times
+/// the host sends as SLCAN timestamps, so they too must match the host-compiled node's.
+#[test]
+fn pil_matches_the_host_node_on_a_lossy_bus() {
+    if !pil_available() {
+        return;
+    }
+    let (can, pil) = (tmp("pil-lossy-can"), tmp("pil-lossy-pil"));
+    let set = ["network.event=[]", "network.loss=0.3"];
+    for (dir, kind) in [(&can, "\"can\""), (&pil, "\"pil\"")] {
+        let kind = format!("network.kind={kind}");
+        let mut s = set.to_vec();
+        s.push(&kind);
+        let out = run_with("example1-lossy.toml", dir, "1", &s);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let summary = |d: &std::path::Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(d.join("summary.json")).expect("summary"))
+            .expect("json")
+    };
+    let (a, b) = (summary(&can), summary(&pil));
+    assert!(
+        a["network"]["stale_samples"].as_u64() > Some(10),
+        "{}",
+        a["network"]
+    );
+    assert_eq!(a["network"]["stale_samples"], b["network"]["stale_samples"]);
+    assert_eq!(a["network"]["frames_lost"], b["network"]["frames_lost"]);
+    let ta = std::fs::read_to_string(can.join("trajectory.csv")).expect("csv");
+    let tb = std::fs::read_to_string(pil.join("trajectory.csv")).expect("csv");
+    assert!(
+        ta == tb,
+        "trajectory.csv differs between can and pil on a lossy bus"
+    );
+}
+
+/// The identity check: the firmware compiled for the Cortex-M4F and run under QEMU computes
+/// the same `f32` commands as the host-compiled node, sample for sample (every column of
+/// `trajectory.csv`, printed with the shortest round-trip representation, is equal).
+#[test]
+fn pil_commands_are_bit_identical_to_the_host_node() {
+    if !pil_available() {
+        return;
+    }
+    let (can, pil) = (tmp("pil-identity-can"), tmp("pil-identity-pil"));
+    let out = run("example1-can.toml", &can, "1");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = run("example1-pil.toml", &pil, "1");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let a = std::fs::read_to_string(can.join("trajectory.csv")).expect("can csv");
+    let b = std::fs::read_to_string(pil.join("trajectory.csv")).expect("pil csv");
+    assert_eq!(a.lines().count(), 1001);
+    if let Some((k, (la, lb))) = a
+        .lines()
+        .zip(b.lines())
+        .enumerate()
+        .find(|(_, (x, y))| x != y)
+    {
+        panic!("first differing row {k}:\ncan: {la}\npil: {lb}");
+    }
+    assert_eq!(a, b);
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(pil.join("summary.json")).expect("summary"))
+            .expect("json");
+    let fw = s["firmware"].as_array().expect("firmware array");
+    assert_eq!(fw.len(), 4);
+    for (i, f) in fw.iter().enumerate() {
+        assert_eq!(f["agent"], i + 1);
+        assert_eq!(f["steps"], 1000);
+        let get = |k: &str| f[k].as_u64().unwrap_or_else(|| panic!("{k} in {f}"));
+        let (min, med, p99, max) = (
+            get("instructions_min"),
+            get("instructions_median"),
+            get("instructions_p99"),
+            get("instructions_max"),
+        );
+        // Node::tick = Controller::step (≈ 1,200, cargo xtask bench-target) plus the node's
+        // frame handling; ordered statistics.
+        assert!(
+            min >= 1000 && min <= med && med <= p99 && p99 <= max && max < 20_000,
+            "{f}"
+        );
+        let stack = get("stack_bytes");
+        assert!(stack > 512 && stack < 64 * 1024, "{f}");
+    }
+    assert_eq!(s["network"]["kind"], "pil");
+    assert_eq!(s["network"]["frames_sent"], 4995);
+}
+
+#[test]
+fn missing_qemu_is_exit_2_with_the_install_command() {
+    let dir = tmp("pil-no-qemu");
+    let out = bin()
+        .env("PATH", "/nonexistent")
+        .args(["run", "--quiet", "--no-plots", "--out"])
+        .arg(&dir)
+        .arg(scenario_path("example1-pil.toml"))
+        .output()
+        .expect("run host-sim");
+    assert_invalid(&out, "network.kind");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("apt-get install -y qemu-system-arm"), "{err}");
+}
+
+/// A firmware that does not start (here: not an ELF) stops the run with a message naming the
+/// agent, and leaves no emulator behind.
+#[test]
+fn a_dead_emulator_stops_the_run_naming_the_agent() {
+    if !pil_available() {
+        return;
+    }
+    let dir = tmp("pil-dead");
+    let bogus = dir.join("not-an-elf");
+    std::fs::write(&bogus, b"not firmware").expect("write");
+    let out = bin()
+        .env("HOST_SIM_NODE_FW", &bogus)
+        .args(["run", "--quiet", "--no-plots", "--out"])
+        .arg(&dir)
+        .arg(scenario_path("example1-pil.toml"))
+        .output()
+        .expect("run host-sim");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("PIL agent 1:"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+}
+
+fn children(pid: u32) -> Vec<u32> {
+    let mut out = Vec::new();
+    let Ok(tasks) = std::fs::read_dir(format!("/proc/{pid}/task")) else {
+        return out;
+    };
+    for t in tasks.flatten() {
+        if let Ok(s) = std::fs::read_to_string(t.path().join("children")) {
+            out.extend(s.split_whitespace().filter_map(|c| c.parse::<u32>().ok()));
+        }
+    }
+    out
+}
+
+fn alive(pid: u32) -> bool {
+    // A zombie (state Z) has exited.
+    std::fs::read_to_string(format!("/proc/{pid}/stat")).is_ok_and(|s| {
+        s.rsplit(')')
+            .next()
+            .is_some_and(|r| !r.trim_start().starts_with('Z'))
+    })
+}
+
+/// SIGINT to host-sim alone (not its process group) in the middle of a run: it exits and
+/// no emulator outlives it.
+#[test]
+fn ctrl_c_leaves_no_emulator_behind() {
+    if !pil_available() {
+        return;
+    }
+    let dir = tmp("pil-sigint");
+    let child = bin()
+        .args(["run", "--quiet", "--no-plots", "--out"])
+        .arg(&dir)
+        .arg(scenario_path("example1-pil.toml"))
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn host-sim");
+    let pid = child.id();
+    let start = Instant::now();
+    let emulators = loop {
+        let c = children(pid);
+        if c.len() >= 4 {
+            break c;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "emulators did not start"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    // Let the run get going.
+    std::thread::sleep(Duration::from_millis(1500));
+    let status = Command::new("kill")
+        .args(["-INT", &pid.to_string()])
+        .status()
+        .expect("kill");
+    assert!(status.success());
+    let out = child.wait_with_output().expect("wait");
+    assert_eq!(
+        out.status.code(),
+        Some(130),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for e in emulators {
+        assert!(!alive(e), "emulator {e} outlived host-sim");
+    }
+}
+
+/// Real CAN tooling can attach to a node: python-can's `slcan` interface (as used with
+/// CANable / USBtin adapters) opens the emulated node's UART over TCP and exchanges frames
+/// with it. Skipped without python-can and pyserial unless `REQUIRE_CANTOOLS` is set.
+#[test]
+fn python_can_slcan_talks_to_the_node() {
+    if !pil_available() {
+        return;
+    }
+    let have = Command::new("python3")
+        .args(["-c", "import can, serial"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !have {
+        assert!(
+            std::env::var_os("REQUIRE_CANTOOLS").is_none(),
+            "REQUIRE_CANTOOLS is set but python-can / pyserial are missing"
+        );
+        eprintln!("SKIPPED: python3 with python-can and pyserial not found (pip install python-can pyserial)");
+        return;
+    }
+    let py = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/slcan_node.py");
+    let out = Command::new("python3")
+        .arg(py)
+        .arg(firmware())
+        .output()
+        .expect("run python3");
+    assert!(
+        out.status.success(),
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

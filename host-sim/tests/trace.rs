@@ -1,0 +1,87 @@
+//! `--trace`: the candump log of a CAN run decodes, with `docs/wire.dbc` and Python's cantools,
+//! back to the values in `trajectory.csv` (within the Q7.16 resolution). The Python check is
+//! skipped (with a message) when `cantools`/`python-can` are not installed, unless
+//! `REQUIRE_CANTOOLS` is set (CI installs them and sets it).
+
+mod common;
+
+use std::{path::PathBuf, process::Command};
+
+use common::{assert_invalid, bin, scenario_path, tmp};
+
+fn cantools_available() -> bool {
+    let ok = Command::new("python3")
+        .args(["-c", "import can, cantools"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !ok {
+        assert!(
+            std::env::var_os("REQUIRE_CANTOOLS").is_none(),
+            "REQUIRE_CANTOOLS is set but `python3 -c 'import can, cantools'` fails"
+        );
+        eprintln!("SKIPPED: python3 with cantools and python-can not found (pip install cantools python-can)");
+    }
+    ok
+}
+
+#[test]
+fn can_trace_decodes_to_the_trajectory() {
+    let dir = tmp("trace-can");
+    let trace = dir.join("bus.log");
+    let out = bin()
+        .args(["run", "--quiet", "--no-plots", "--out"])
+        .arg(&dir)
+        .arg(scenario_path("example1-can.toml"))
+        .args(["--set", "simulation.t_end=0.3", "--trace"])
+        .arg(&trace)
+        .output()
+        .expect("run host-sim");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let log = std::fs::read_to_string(&trace).expect("trace written");
+    let lines: Vec<&str> = log.lines().collect();
+    // 5 frames per sample, the last sample's still on the bus.
+    assert_eq!(lines.len(), 299 * 5);
+    assert_eq!(lines[0], "(0.000092) can0 100#00000000");
+    assert!(lines[1].starts_with("(0.000187) can0 101#"), "{}", lines[1]);
+    if !cantools_available() {
+        return;
+    }
+    let dbc = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../docs/wire.dbc");
+    let py = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/decode_trace.py");
+    let check = Command::new("python3")
+        .arg(py)
+        .arg(dbc)
+        .arg(&trace)
+        .arg(dir.join("trajectory.csv"))
+        .args(["0.001", "4"])
+        .output()
+        .expect("run python3");
+    let stdout = String::from_utf8_lossy(&check.stdout);
+    assert!(
+        check.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&check.stderr)
+    );
+    assert!(
+        stdout.contains("decoded 1495 frames over 299 samples"),
+        "{stdout}"
+    );
+}
+
+#[test]
+fn trace_needs_a_bus() {
+    let dir = tmp("trace-ideal");
+    let out = bin()
+        .args(["run", "--quiet", "--no-plots", "--out"])
+        .arg(&dir)
+        .arg(scenario_path("example1.toml"))
+        .arg("--trace")
+        .arg(dir.join("bus.log"))
+        .output()
+        .expect("run host-sim");
+    assert_invalid(&out, "--trace");
+}

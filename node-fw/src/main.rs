@@ -1,0 +1,307 @@
+//! Processor-in-the-loop node firmware: one follower agent on an emulated Cortex-M4F (QEMU
+//! `mps2-an386`, `-icount shift=0`), started by `host-sim` for `[network] kind = "pil"`.
+//!
+//! `hil_mock::Node`, unchanged, runs over this board: its CAN controller is an SLCAN link on
+//! UART0 ([`UartCan`]), its clock is the network time the host sends ([`NetClock`]), its
+//! sensor and actuator are process-I/O frames ([`PlantSensor`], [`HeldCommand`]). The link
+//! protocol (identifiers, one sample's exchange, start-up configuration) is
+//! `hil_mock::pil`; `docs/NETWORK.md` §9 describes it. One binary serves every agent: the agent
+//! number, its neighbours and the controller configuration arrive at start-up.
+//!
+//! Measured per tick: the instructions of `Node::tick` (SysTick, 40-instruction resolution;
+//! the UART traffic before and after is not counted: the tick only fills the mailbox and the
+//! actuator register), reported in `REPORT_COST`; the stack high-water mark of the whole
+//! firmware (painted at start-up), reported on request in `STATS`.
+#![no_std]
+#![no_main]
+#![deny(unsafe_code)]
+
+#[allow(unsafe_code)]
+mod board;
+
+use board::Uart;
+use controller_core::StepFault;
+use cortex_m_rt::entry;
+use embedded_can::Frame as _;
+use hil_mock::{
+    node::{Actuator, Clock, Node, Sensor},
+    pil::{self, io, ConfigReject, PilFrame, Slcan, MAX_CONFIG_WORDS, SLCAN_MAX_LINE},
+};
+use panic_semihosting as _;
+
+/// State order `n` and actuators `m` of the plants host-sim ships.
+const N: usize = 2;
+/// Actuators.
+const M: usize = 2;
+/// Neighbour capacity, as host-sim's (`graph::MAX_NEIGHBOURS`).
+const K: usize = 16;
+/// Received bus frames held between two ticks at most.
+const RX_DEPTH: usize = 64;
+
+/// The CAN controller: a receive FIFO filled from the SLCAN link, one transmit mailbox that
+/// the main loop empties onto the link after the tick.
+#[derive(Default)]
+struct UartCan {
+    rx: heapless::Deque<PilFrame, RX_DEPTH>,
+    tx: Option<PilFrame>,
+}
+
+impl embedded_can::nb::Can for UartCan {
+    type Frame = PilFrame;
+    type Error = core::convert::Infallible;
+
+    fn transmit(&mut self, frame: &PilFrame) -> nb::Result<Option<PilFrame>, Self::Error> {
+        Ok(self.tx.replace(*frame))
+    }
+
+    fn receive(&mut self) -> nb::Result<PilFrame, Self::Error> {
+        self.rx.pop_front().ok_or(nb::Error::WouldBlock)
+    }
+}
+
+/// Network time [µs], set by the host's `CLOCK` and `SYNC` frames.
+#[derive(Default)]
+struct NetClock(u64);
+
+impl Clock for NetClock {
+    fn now_us(&mut self) -> u64 {
+        self.0
+    }
+}
+
+/// The latest `SENSOR` frame.
+#[derive(Default)]
+struct PlantSensor([f32; N]);
+
+impl Sensor<N> for PlantSensor {
+    type Error = core::convert::Infallible;
+    fn read(&mut self) -> Result<[f32; N], Self::Error> {
+        Ok(self.0)
+    }
+}
+
+/// The actuator register: the commands of the last tick, sent as `COMMAND` after it.
+#[derive(Default)]
+struct HeldCommand([f32; M]);
+
+impl Actuator<M> for HeldCommand {
+    type Error = core::convert::Infallible;
+    fn write(&mut self, q: &[f32; M]) -> Result<(), Self::Error> {
+        self.0 = *q;
+        Ok(())
+    }
+}
+
+type BoardNode = Node<UartCan, NetClock, PlantSensor, HeldCommand, N, M, K>;
+
+/// Reads SLCAN lines from the UART.
+struct Link {
+    uart: Uart,
+    line: [u8; SLCAN_MAX_LINE],
+}
+
+impl Link {
+    /// The next command; malformed lines are answered with BEL (`\a`) and skipped.
+    fn next(&mut self) -> Slcan {
+        loop {
+            let mut n = 0;
+            let mut overflow = false;
+            loop {
+                match self.uart.read_byte() {
+                    b'\r' => break,
+                    b'\n' => {}
+                    b => match self.line.get_mut(n) {
+                        Some(slot) => {
+                            *slot = b;
+                            n += 1;
+                        }
+                        None => overflow = true,
+                    },
+                }
+            }
+            if n == 0 && !overflow {
+                continue;
+            }
+            match pil::slcan_decode(&self.line[..n]) {
+                Ok(cmd @ (Slcan::Frame(_) | Slcan::Timed(..))) if !overflow => return cmd,
+                Ok(Slcan::Frame(_) | Slcan::Timed(..)) | Err(_) => self.uart.write_all(b"\x07"),
+                Ok(other) => {
+                    self.uart.write_all(b"\r");
+                    return other;
+                }
+            }
+        }
+    }
+
+    fn send(&self, frame: &PilFrame) {
+        let mut buf = [0u8; SLCAN_MAX_LINE];
+        let n = pil::slcan_encode(frame, &mut buf);
+        self.uart.write_all(&buf[..n]);
+    }
+
+    fn send_io(&self, id: u32, data: &[u8]) {
+        if let Some(f) = PilFrame::io(id, data) {
+            self.send(&f);
+        }
+    }
+}
+
+/// Waits for a complete configuration and builds the node; every rejection is reported and
+/// the node waits for the next attempt.
+fn configure(link: &mut Link) -> BoardNode {
+    let mut words = [0u32; MAX_CONFIG_WORDS];
+    let mut count = 0usize;
+    loop {
+        let (Slcan::Frame(f) | Slcan::Timed(f, _)) = link.next() else {
+            continue;
+        };
+        let reject = match f.io_id() {
+            Some(io::CONFIG) if f.data().len() % 4 == 0 => {
+                for w in f.data().chunks_exact(4) {
+                    if let Some(slot) = words.get_mut(count) {
+                        *slot = u32::from_le_bytes([w[0], w[1], w[2], w[3]]);
+                    }
+                    count += 1;
+                }
+                continue;
+            }
+            Some(io::CONFIG_END) => {
+                let sent = match *f.data() {
+                    [lo, hi] => usize::from(u16::from_le_bytes([lo, hi])),
+                    _ => usize::MAX,
+                };
+                let result = if sent != count || count > MAX_CONFIG_WORDS {
+                    Err(ConfigReject::WordCount)
+                } else {
+                    pil::decode_config::<N, K>(&words[..count])
+                };
+                count = 0;
+                match result {
+                    Ok((node_cfg, ctrl_cfg)) => match Node::new(
+                        &node_cfg,
+                        &ctrl_cfg,
+                        UartCan::default(),
+                        NetClock::default(),
+                        PlantSensor::default(),
+                        HeldCommand::default(),
+                    ) {
+                        Ok(node) => {
+                            link.send_io(io::READY, &[node_cfg.agent]);
+                            return node;
+                        }
+                        Err(_) => ConfigReject::Node,
+                    },
+                    Err(e) => e,
+                }
+            }
+            _ => {
+                count = 0;
+                ConfigReject::Unexpected
+            }
+        };
+        link.send_io(io::REJECTED, &[reject as u8]);
+    }
+}
+
+/// Runs one sample and sends the bus frame, the commands and the reports.
+fn sample(link: &Link, node: &mut BoardNode) {
+    let start = board::counter();
+    let tick = node.tick();
+    let end = board::counter();
+    if let Some(f) = node.can_mut().tx.take() {
+        link.send(&f);
+    }
+    let o = &tick.output;
+    let q = node.actuator().0;
+    link.send_io(io::COMMAND, &pil::pack_f32x2(q[0], q[1]));
+    link.send_io(io::REPORT_U, &pil::pack_f32x2(o.u[0], o.u[1]));
+    link.send_io(io::REPORT_E, &pil::pack_f32x2(o.e[0], o.e[1]));
+    link.send_io(
+        io::REPORT_EST,
+        &pil::pack_f32x2(o.estimates.mu, o.estimates.xi),
+    );
+    let fault = match o.status.fault {
+        None => 0,
+        Some(StepFault::InvalidState) => 1,
+        Some(StepFault::NonFiniteResult) => 2,
+    };
+    let l = &o.status.links;
+    let lambda = o.estimates.lambda.to_le_bytes();
+    link.send_io(
+        io::REPORT_STATUS,
+        &[
+            lambda[0],
+            lambda[1],
+            lambda[2],
+            lambda[3],
+            fault,
+            l.stale_neighbours,
+            l.missing_neighbours,
+            u8::from(l.leader_stale) | (u8::from(l.leader_missing) << 1),
+        ],
+    );
+    let cost = board::instructions(start, end).to_le_bytes();
+    let res = board::INSN_PER_TICK.to_le_bytes();
+    link.send_io(
+        io::REPORT_COST,
+        &[
+            cost[0], cost[1], cost[2], cost[3], res[0], res[1], res[2], res[3],
+        ],
+    );
+}
+
+#[entry]
+fn main() -> ! {
+    let painted = board::paint_stack();
+    if let Some(p) = cortex_m::Peripherals::take() {
+        board::start_counter(p.SYST);
+    }
+    let mut link = Link {
+        uart: Uart::init(),
+        line: [0; SLCAN_MAX_LINE],
+    };
+    let mut node = configure(&mut link);
+    // Time of the last SYNC, the origin of timestamps [µs].
+    let mut sync_us = 0u64;
+    loop {
+        let (f, ts) = match link.next() {
+            Slcan::Frame(f) => (f, None),
+            Slcan::Timed(f, t) => (f, Some(t)),
+            _ => continue,
+        };
+        if let Some(t) = ts {
+            node.clock_mut().0 = sync_us + u64::from(t);
+        }
+        match (f.io_id(), pil::unpack_u32(f.data())) {
+            (None, _) => {
+                // A bus frame: into the receive FIFO, taken now (the receive interrupt).
+                if node.can_mut().rx.push_back(f).is_ok() {
+                    node.poll_rx();
+                }
+            }
+            (Some(io::SYNC), _) => match pil::unpack_u32x2(f.data()) {
+                Some((a, b)) => {
+                    node.sensor_mut().0 = [f32::from_bits(a), f32::from_bits(b)];
+                    sync_us = node.clock_mut().0;
+                    sample(&link, &mut node);
+                }
+                None => link.uart.write_all(b"\x07"),
+            },
+            (Some(io::CLOCK), Some(t)) => {
+                let c = &mut node.clock_mut().0;
+                *c = pil::extend_clock(*c, t);
+            }
+            (Some(io::STATS_REQUEST), _) => {
+                let stack = board::stack_high_water(painted).to_le_bytes();
+                let bad = node.stats().malformed.total().to_le_bytes();
+                link.send_io(
+                    io::STATS,
+                    &[
+                        stack[0], stack[1], stack[2], stack[3], bad[0], bad[1], bad[2], bad[3],
+                    ],
+                );
+            }
+            _ => link.uart.write_all(b"\x07"),
+        }
+    }
+}
