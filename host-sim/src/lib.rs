@@ -7,10 +7,11 @@
 //! controller `f32`.
 //!
 //! Layers: [`scenario`] (TOML, `--set`, validation) → [`graph`], [`plant`], [`faults`],
-//! [`link`] or [`network`] → [`sim`] (the loop) → [`metrics`], [`report`] → [`run`] (commands).
+//! [`link`] or [`network`] → [`sim`] (the loop) → [`metrics`], [`report`] → [`run`] (commands) → [`campaign`] (many runs).
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod campaign;
 pub mod compare;
 pub mod error;
 pub mod faults;

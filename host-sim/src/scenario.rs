@@ -704,7 +704,16 @@ pub fn load(path: &Path, sets: &[String]) -> Result<Setup> {
 
 /// Parses scenario text with overrides and validates it.
 pub fn parse(text: &str, sets: &[String]) -> Result<Setup> {
-    let mut table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
+    let mut table = parse_table(text)?;
+    for s in sets {
+        apply_set(&mut table, s)?;
+    }
+    from_table(table)
+}
+
+/// Scenario text as a TOML table, before overrides (a syntax error names line and column).
+pub fn parse_table(text: &str) -> Result<toml::Table> {
+    text.parse().map_err(|e: toml::de::Error| {
         let at = e
             .span()
             .map(|s| {
@@ -713,10 +722,11 @@ pub fn parse(text: &str, sets: &[String]) -> Result<Setup> {
             })
             .unwrap_or_default();
         Error::Invalid(format!("TOML syntax{at}: {}", e.message()))
-    })?;
-    for s in sets {
-        apply_set(&mut table, s)?;
-    }
+    })
+}
+
+/// A scenario table (overrides applied) deserialized and validated.
+pub fn from_table(table: toml::Table) -> Result<Setup> {
     let scenario: Scenario =
         serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
             let path = one_based(&e.path().to_string());
@@ -731,7 +741,7 @@ pub fn parse(text: &str, sets: &[String]) -> Result<Setup> {
 }
 
 /// Rewrites serde's 0-based `[k]` indices as 1-based, like every other message.
-fn one_based(path: &str) -> String {
+pub fn one_based(path: &str) -> String {
     let mut out = String::with_capacity(path.len());
     let mut rest = path;
     while let Some(open) = rest.find('[') {
