@@ -428,6 +428,11 @@ fn line(root: &Draw<'_>, t: &Table, a: &crate::campaign::spec::Axis) -> DrawResu
     for (kind, colour, label) in [
         (Cell::Diverged, RGBColor(200, 30, 30), "diverged"),
         (Cell::Invalid, RGBColor(120, 120, 120), "invalid"),
+        (
+            Cell::Missing,
+            RGBColor(255, 127, 14),
+            "no value (e.g. never settled)",
+        ),
     ] {
         let marks: Vec<(f64, f64)> = t
             .cells

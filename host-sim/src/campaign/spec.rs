@@ -327,10 +327,15 @@ impl Plan {
         for (i, a) in file.axis.iter().enumerate() {
             let what = format!("axis[{}].key", i + 1);
             let key = KeyPath::parse(&a.key, &what)?;
-            let first = a.values.first().ok_or_else(|| {
-                Error::invalid(format!("axis[{}].values", i + 1), "must not be empty")
-            })?;
-            check_key(&key, &table, &defaults, first, &what)?;
+            if a.values.is_empty() {
+                return Err(Error::invalid(
+                    format!("axis[{}].values", i + 1),
+                    "must not be empty",
+                ));
+            }
+            for v in &a.values {
+                check_key(&key, &table, &defaults, v, &what)?;
+            }
             grid = grid
                 .checked_mul(a.values.len() as u64)
                 .ok_or_else(|| Error::invalid("axis", "too many runs"))?;
