@@ -766,7 +766,8 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
     (line, col)
 }
 
-/// Applies one `key=value` override: a dotted key and a TOML value (a bare word is a string).
+/// Applies one `key=value` override: a dotted key (array entries with 1-based `[i]`, e.g.
+/// `plant.x0[2][1]`) and a TOML value (a bare word is a string).
 pub fn apply_set(table: &mut toml::Table, set: &str) -> Result<()> {
     let Some((key, raw)) = set.split_once('=') else {
         return Err(Error::invalid(format!("--set {set}"), "expected key=value"));
@@ -787,6 +788,9 @@ pub fn apply_set(table: &mut toml::Table, set: &str) -> Result<()> {
             ))
         }
     };
+    if key.contains('[') {
+        return crate::campaign::spec::set_indexed(table, key, value);
+    }
     let parts: Vec<&str> = key.split('.').collect();
     if parts.iter().any(|p| p.is_empty()) {
         return Err(Error::invalid(format!("--set {key}"), "empty key segment"));

@@ -169,8 +169,12 @@ fn sampled_array_entries_equal_runs_and_threads_do_not_change_bytes() {
         let sets = vec![
             "simulation.t_end=3".to_string(),
             "simulation.h=0.002".to_string(),
-            format!("plant.x0=[[0.02, 0.8], [{}, 1.0], [0.01, 0.09], [0.0, 0.7]]", r[x]),
-            format!("faults.rule=[{{agents = \"all\", actuator = 1, kind = \"partial\", gain = 0.5, start = {}, period = 4.0, length = 2.0}}, {{agents = \"all\", actuator = 2, kind = \"stuck\", bias = 0.0, amplitude = 1.0, omega = 1.0, start = 2.0, period = 4.0, length = 2.0}}]", r[start]),
+            format!(
+                "plant.x0=[[0.02, 0.8], [{}, 1.0], [0.01, 0.09], [0.0, 0.7]]",
+                r[x]
+            ),
+            // The indexed key through --set itself (the x0 above spells the whole array).
+            format!("faults.rule[1].start={}", r[start]),
         ];
         assert_row_is_run(&h, r, &scenario, &sets);
     }
@@ -318,4 +322,31 @@ fn invalid_campaign_files_exit_2_naming_the_key() {
         .output()
         .expect("sweep");
     assert_invalid(&o, "--shard");
+}
+
+#[test]
+fn set_takes_one_based_array_entries() {
+    let scenario = common::scenario_path("example1.toml");
+    let o = bin()
+        .arg("check")
+        .arg(&scenario)
+        .args([
+            "--set",
+            "plant.x0[2][1]=0.5",
+            "--set",
+            "faults.rule[2].start=1.5",
+        ])
+        .output()
+        .expect("check");
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(text.contains("[0.5, 1.0]"), "{text}");
+    assert!(text.contains("start = 1.5"), "{text}");
+    let o = bin()
+        .arg("check")
+        .arg(&scenario)
+        .args(["--set", "plant.x0[9][1]=0"])
+        .output()
+        .expect("check");
+    assert_invalid(&o, "plant.x0[9][1]");
 }

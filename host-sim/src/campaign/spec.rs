@@ -170,18 +170,23 @@ impl KeyPath {
         self.segments.iter().any(|s| !s.index.is_empty())
     }
 
-    /// Sets the key in a scenario table: a plain key exactly as `--set` does; an array entry
-    /// in place, the array taken from `defaults` (the resolved scenario) when the file left
-    /// it out.
-    pub fn apply(
+    /// Sets the key in a scenario table, exactly as `--set key=value` does.
+    pub fn apply(&self, table: &mut toml::Table, value: &toml::Value) -> Result<()> {
+        if self.indexed() {
+            self.set_entry(table, &default_table()?, value)
+        } else {
+            scenario::apply_set(table, &format!("{}={}", self.text, inline(value)))
+        }
+    }
+
+    /// Sets an array entry in place; an array the table leaves out is first copied from
+    /// `defaults`.
+    fn set_entry(
         &self,
         table: &mut toml::Table,
         defaults: &toml::Table,
         value: &toml::Value,
     ) -> Result<()> {
-        if !self.indexed() {
-            return scenario::apply_set(table, &format!("{}={}", self.text, inline(value)));
-        }
         let missing = || Error::invalid(&self.text, "no such entry in the scenario");
         let mut cur = table;
         let mut def = Some(defaults);
@@ -228,6 +233,21 @@ impl KeyPath {
     }
 }
 
+/// The default scenario as a table (the arrays an indexed key falls back to).
+fn default_table() -> Result<toml::Table> {
+    match toml::Value::try_from(Scenario::default()) {
+        Ok(toml::Value::Table(t)) => Ok(t),
+        _ => Err(Error::Invalid(
+            "the default scenario cannot be written as TOML".into(),
+        )),
+    }
+}
+
+/// `--set` of a key with 1-based array indices (`plant.x0[2][1]=0.5`).
+pub fn set_indexed(table: &mut toml::Table, key: &str, value: toml::Value) -> Result<()> {
+    KeyPath::parse(key, &format!("--set {key}"))?.set_entry(table, &default_table()?, &value)
+}
+
 /// A TOML value written inline (what follows `key=` in `--set`).
 fn inline(v: &toml::Value) -> String {
     v.to_string()
@@ -255,7 +275,6 @@ pub struct Plan {
     /// Base scenario (file + `set`), as resolved by the validator.
     pub base: Scenario,
     table: toml::Table,
-    defaults: toml::Table,
     axes: Vec<KeyPath>,
     samples: Vec<KeyPath>,
     grid: u64,
@@ -306,10 +325,6 @@ impl Plan {
         let base = scenario::from_table(table.clone())
             .map_err(|e| Error::invalid("scenario (with set)", e.to_string()))?
             .scenario;
-        let defaults = match toml::Value::try_from(&base) {
-            Ok(toml::Value::Table(t)) => t,
-            _ => return Err(Error::invalid("scenario", "cannot be written back as TOML")),
-        };
         if file.draws == 0 {
             return Err(Error::invalid("draws", "must be >= 1"));
         }
@@ -334,7 +349,7 @@ impl Plan {
                 ));
             }
             for v in &a.values {
-                check_key(&key, &table, &defaults, v, &what)?;
+                check_key(&key, &table, v, &what)?;
             }
             grid = grid
                 .checked_mul(a.values.len() as u64)
@@ -346,13 +361,7 @@ impl Plan {
             let what = format!("sample[{}]", i + 1);
             s.check(&what)?;
             let key = KeyPath::parse(&s.key, &format!("{what}.key"))?;
-            check_key(
-                &key,
-                &table,
-                &defaults,
-                &s.example(),
-                &format!("{what}.key"),
-            )?;
+            check_key(&key, &table, &s.example(), &format!("{what}.key"))?;
             samples.push(key);
         }
         let all: Vec<&str> = axes.iter().chain(&samples).map(KeyPath::as_str).collect();
@@ -375,7 +384,6 @@ impl Plan {
             file,
             base,
             table,
-            defaults,
             axes,
             samples,
             grid,
@@ -426,22 +434,16 @@ impl Plan {
             .zip(&p.axis_values)
             .chain(self.samples.iter().zip(&p.sampled))
         {
-            k.apply(&mut t, &self.defaults, v)?;
+            k.apply(&mut t, v)?;
         }
         scenario::from_table(t)
     }
 }
 
 /// The key exists: set to `value` on the base it deserializes without an unknown field.
-fn check_key(
-    key: &KeyPath,
-    table: &toml::Table,
-    defaults: &toml::Table,
-    value: &toml::Value,
-    what: &str,
-) -> Result<()> {
+fn check_key(key: &KeyPath, table: &toml::Table, value: &toml::Value, what: &str) -> Result<()> {
     let mut t = table.clone();
-    key.apply(&mut t, defaults, value)
+    key.apply(&mut t, value)
         .map_err(|e| Error::invalid(what, e.to_string()))?;
     match scenario::from_table(t) {
         Err(Error::Invalid(m)) if m.contains("unknown field") || m.contains("invalid type") => {
@@ -463,14 +465,14 @@ mod tests {
     fn indexed_keys_are_one_based_and_fill_from_defaults() -> Result<()> {
         let defaults = table("[plant]\nx0 = [[1.0, 2.0], [3.0, 4.0]]");
         let mut t = table("[plant]\nmodel = \"example1\"");
-        KeyPath::parse("plant.x0[2][1]", "k")?.apply(
+        KeyPath::parse("plant.x0[2][1]", "k")?.set_entry(
             &mut t,
             &defaults,
             &toml::Value::Float(9.0),
         )?;
         assert_eq!(t["plant"]["x0"][1][0].as_float(), Some(9.0));
         assert_eq!(t["plant"]["x0"][0][1].as_float(), Some(2.0));
-        let out = KeyPath::parse("plant.x0[3][1]", "k")?.apply(
+        let out = KeyPath::parse("plant.x0[3][1]", "k")?.set_entry(
             &mut t,
             &defaults,
             &toml::Value::Float(0.0),
