@@ -273,6 +273,15 @@ fn two_shards_merge_to_the_unsharded_bytes() {
         .output()
         .expect("sweep");
     assert_invalid(&wrong, "--shard");
+    let other = bin()
+        .arg("sweep")
+        .arg(campaign("monte-carlo.toml"))
+        .arg("--out")
+        .arg(&s1)
+        .args(["--shard", "1/2", "--quiet"])
+        .output()
+        .expect("sweep");
+    assert_invalid(&other, "--out");
 }
 
 #[test]
@@ -303,6 +312,8 @@ fn invalid_campaign_files_exit_2_naming_the_key() {
         ("draws = 0", "draws"),
         ("colour = 1", "colour"),
         ("[plot]\nmetric = \"speed\"", "plot.metric"),
+        ("[output]\nruns = [5]", "output.runs"),
+        ("set = [\"controller.zeta=2\"]", "controller.zeta"),
     ];
     for (i, (body, key)) in cases.iter().enumerate() {
         let f = dir.join(format!("c{i}.toml"));
@@ -317,6 +328,16 @@ fn invalid_campaign_files_exit_2_naming_the_key() {
             .expect("sweep");
         assert_invalid(&o, key);
     }
+    let f = dir.join("missing-scenario.toml");
+    std::fs::write(&f, "scenario = \"nowhere.toml\"\n").expect("write");
+    let o = bin()
+        .arg("sweep")
+        .arg(&f)
+        .arg("--out")
+        .arg(dir.join("out-missing"))
+        .output()
+        .expect("sweep");
+    assert_invalid(&o, "scenario");
     let o = bin()
         .args(["sweep", "x.toml", "--out", "o", "--shard", "3/2"])
         .output()

@@ -385,3 +385,25 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<SweepReport> {
     rep.figures = plots::draw(&meta.campaign, &base, &meta.columns, &rows, out)?;
     Ok(rep)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Shard;
+
+    #[test]
+    fn shards_partition_the_runs() -> crate::Result<()> {
+        let shards = [
+            Shard::parse("1/3")?,
+            Shard::parse(" 2 / 3 ")?,
+            Shard::parse("3/3")?,
+        ];
+        for run in 0..100 {
+            assert_eq!(shards.iter().filter(|s| s.has(run)).count(), 1);
+        }
+        assert_eq!(shards.iter().map(|s| s.count(100)).sum::<u64>(), 100);
+        for bad in ["0/2", "3/2", "1", "a/b", "1/0", "-1/2"] {
+            assert!(Shard::parse(bad).is_err(), "{bad}");
+        }
+        Ok(())
+    }
+}

@@ -233,6 +233,13 @@ impl KeyPath {
     }
 }
 
+/// The message of an error without its kind (for wrapping it in another key's message).
+fn inner(e: &Error) -> &str {
+    match e {
+        Error::Invalid(m) | Error::Io(m) => m,
+    }
+}
+
 /// The default scenario as a table (the arrays an indexed key falls back to).
 fn default_table() -> Result<toml::Table> {
     match toml::Value::try_from(Scenario::default()) {
@@ -317,13 +324,14 @@ impl Plan {
         let spath: PathBuf = dir.join(&file.scenario);
         let text = std::fs::read_to_string(&spath)
             .map_err(|e| Error::invalid("scenario", format!("{}: {e}", spath.display())))?;
-        let mut table = scenario::parse_table(&text)
-            .map_err(|e| Error::invalid("scenario", format!("{}: {e}", spath.display())))?;
+        let mut table = scenario::parse_table(&text).map_err(|e| {
+            Error::invalid("scenario", format!("{}: {}", spath.display(), inner(&e)))
+        })?;
         for s in &file.set {
-            scenario::apply_set(&mut table, s).map_err(|e| Error::invalid("set", e.to_string()))?;
+            scenario::apply_set(&mut table, s).map_err(|e| Error::invalid("set", inner(&e)))?;
         }
         let base = scenario::from_table(table.clone())
-            .map_err(|e| Error::invalid("scenario (with set)", e.to_string()))?
+            .map_err(|e| Error::invalid("scenario (with set)", inner(&e)))?
             .scenario;
         if file.draws == 0 {
             return Err(Error::invalid("draws", "must be >= 1"));
@@ -444,7 +452,7 @@ impl Plan {
 fn check_key(key: &KeyPath, table: &toml::Table, value: &toml::Value, what: &str) -> Result<()> {
     let mut t = table.clone();
     key.apply(&mut t, value)
-        .map_err(|e| Error::invalid(what, e.to_string()))?;
+        .map_err(|e| Error::invalid(what, inner(&e)))?;
     match scenario::from_table(t) {
         Err(Error::Invalid(m)) if m.contains("unknown field") || m.contains("invalid type") => {
             Err(Error::invalid(what, format!("`{}`: {m}", key.as_str())))
