@@ -135,11 +135,18 @@ enum Cmd {
     },
 }
 
-fn print_campaign(r: &campaign::SweepReport, out: &Path) {
-    println!(
-        "{} runs ({} resumed from the journal, {} run now): {} diverged, {} invalid",
-        r.runs, r.resumed, r.ran, r.diverged, r.invalid
-    );
+fn print_campaign(r: &campaign::SweepReport, out: &Path, merged: bool) {
+    if merged {
+        println!(
+            "{} runs merged: {} diverged, {} invalid",
+            r.runs, r.diverged, r.invalid
+        );
+    } else {
+        println!(
+            "{} runs ({} resumed from the journal, {} run now): {} diverged, {} invalid",
+            r.runs, r.resumed, r.ran, r.diverged, r.invalid
+        );
+    }
     for f in &r.figures {
         println!("figure {}", f.display());
     }
@@ -284,7 +291,7 @@ fn main_inner(cli: Cli) -> Result<()> {
             let started = std::time::Instant::now();
             let r = campaign::sweep(&campaign, &out, shard, !quiet)?;
             if !quiet {
-                print_campaign(&r, &out);
+                print_campaign(&r, &out, false);
                 let s = started.elapsed().as_secs_f64();
                 println!("{:.1} s, {:.1} runs/s", s, r.ran as f64 / s.max(1e-9));
             }
@@ -292,7 +299,7 @@ fn main_inner(cli: Cli) -> Result<()> {
         }
         Cmd::Merge { dirs, out } => {
             let r = campaign::merge(&dirs, &out)?;
-            print_campaign(&r, &out);
+            print_campaign(&r, &out, true);
             Ok(())
         }
     }

@@ -371,3 +371,14 @@ fn set_takes_one_based_array_entries() {
         .expect("check");
     assert_invalid(&o, "plant.x0[9][1]");
 }
+
+#[test]
+fn one_axis_draws_a_line() {
+    let out = tmp("campaign-line");
+    sweep(&campaign("line.toml"), &out, &[], "2");
+    let (h, rows) = table(&out);
+    assert_eq!(h[1], "controller.ts");
+    assert_eq!(rows.len(), 3);
+    assert!(out.join("line.png").exists());
+    assert!(!out.join("map.png").exists());
+}
