@@ -227,6 +227,8 @@ fn killed_campaign_resumes_without_running_twice() {
         .collect();
     let unique: BTreeSet<&String> = runs.iter().collect();
     assert_eq!(runs.len(), 24, "each run once in the journal: {runs:?}");
+    // A grid with draws: the Monte Carlo figure and the map of per-point medians.
+    assert!(out.join("montecarlo.png").exists() && out.join("map.png").exists());
     assert_eq!(unique.len(), 24);
 }
 

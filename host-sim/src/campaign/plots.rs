@@ -30,7 +30,11 @@ enum Cell {
 /// The columns the figures read, per row in run order.
 struct Table {
     metric: String,
+    /// How a cell came about (per grid point of a campaign with draws: the median).
+    summary: String,
     cells: Vec<Cell>,
+    /// Per cell: diverged runs of all runs behind it (one run per cell without draws).
+    diverged: Vec<(usize, usize)>,
     settling: Vec<Option<f64>>,
     ts: Vec<f64>,
 }
@@ -53,7 +57,9 @@ impl Table {
         let ts_col = col("controller.ts");
         let mut t = Self {
             metric: metric.into(),
+            summary: String::new(),
             cells: Vec::new(),
+            diverged: Vec::new(),
             settling: Vec::new(),
             ts: Vec::new(),
         };
@@ -76,8 +82,51 @@ impl Table {
             });
             t.settling.push(num(st));
             t.ts.push(ts_col.and_then(num).unwrap_or(base_ts));
+            let div = usize::from(t.cells.last() == Some(&Cell::Diverged));
+            t.diverged.push((div, 1));
         }
         Ok(t)
+    }
+
+    /// One cell per grid point: the median of the metric over its `draws` runs (diverged if
+    /// none has a value and one diverged; invalid if all are).
+    fn per_point(&self, draws: usize) -> Self {
+        let mut t = Self {
+            metric: self.metric.clone(),
+            summary: format!(", median of {draws} draws"),
+            cells: Vec::new(),
+            diverged: Vec::new(),
+            settling: Vec::new(),
+            ts: Vec::new(),
+        };
+        for (k, group) in self.cells.chunks(draws.max(1)).enumerate() {
+            let mut v: Vec<f64> = group
+                .iter()
+                .filter_map(|c| match c {
+                    Cell::Value(x) => Some(*x),
+                    _ => None,
+                })
+                .collect();
+            v.sort_by(f64::total_cmp);
+            let div = group.iter().filter(|c| **c == Cell::Diverged).count();
+            t.cells.push(if let Some(&m) = v.get(v.len() / 2) {
+                Cell::Value(if v.len().is_multiple_of(2) {
+                    0.5 * (v[v.len() / 2 - 1] + m)
+                } else {
+                    m
+                })
+            } else if div > 0 {
+                Cell::Diverged
+            } else if group.iter().all(|c| *c == Cell::Invalid) {
+                Cell::Invalid
+            } else {
+                Cell::Missing
+            });
+            t.diverged.push((div, group.len()));
+            t.settling.push(None);
+            t.ts.push(self.ts.get(k * draws).copied().unwrap_or(f64::NAN));
+        }
+        t
     }
 
     fn values(&self) -> impl Iterator<Item = f64> + '_ {
@@ -162,7 +211,13 @@ pub fn draw(
         let p = out.join("montecarlo.png");
         png(&p, (1300, 560), |root| monte_carlo(root, &t))?;
         written.push(p);
-    } else if file.axis.len() == 1 {
+    }
+    let t = if file.draws > 1 {
+        t.per_point(file.draws as usize)
+    } else {
+        t
+    };
+    if file.axis.len() == 1 {
         let p = out.join("line.png");
         png(&p, (1000, 600), |root| line(root, &t, &file.axis[0]))?;
         written.push(p);
@@ -170,7 +225,7 @@ pub fn draw(
         let p = out.join("map.png");
         let (a, b) = (&file.axis[0], &file.axis[1]);
         let size = (
-            (300 + 100 * a.values.len()).clamp(900, 1800) as u32,
+            (300 + 100 * a.values.len()).clamp(1000, 1800) as u32,
             (200 + 60 * b.values.len()).clamp(500, 1400) as u32,
         );
         png(&p, size, |root| heatmap(root, &t, a, b))?;
@@ -230,8 +285,8 @@ fn heatmap(
     let metric = t.metric.as_str();
     let mut chart = ChartBuilder::on(&main)
         .caption(
-            format!("{metric} over {} x {}", a.key, b.key),
-            ("sans-serif", 20),
+            format!("{metric} over {} x {}{}", a.key, b.key, t.summary),
+            ("sans-serif", 18),
         )
         .margin(12)
         .x_label_area_size(48)
@@ -267,15 +322,21 @@ fn heatmap(
     let font = ("sans-serif", 13).into_font();
     for (run, cell) in t.cells.iter().enumerate() {
         let (i, j) = ((run / ny) as i32, (run % ny) as i32);
+        let (div, of) = t.diverged[run];
+        let share = if of > 1 && div > 0 {
+            format!(" ({div}/{of} div.)")
+        } else {
+            String::new()
+        };
         let cell_at = |di: i32, dj: i32| (SegmentValue::Exact(i + di), SegmentValue::Exact(j + dj));
         let (fill, text, ink) = match cell {
             Cell::Value(v) => {
                 let f = norm(*v);
                 let c = ViridisRGB::get_color(f as f32);
-                (c, short(*v), if f > 0.6 { BLACK } else { WHITE })
+                (c, short(*v) + &share, if f > 0.6 { BLACK } else { WHITE })
             }
             Cell::Missing => (WHITE, "none".into(), BLACK),
-            Cell::Diverged => (RGBColor(200, 30, 30), "diverged".into(), WHITE),
+            Cell::Diverged => (RGBColor(200, 30, 30), format!("diverged{share}"), WHITE),
             Cell::Invalid => (RGBColor(190, 190, 190), "invalid".into(), BLACK),
         };
         chart
@@ -396,7 +457,10 @@ fn line(root: &Draw<'_>, t: &Table, a: &crate::campaign::spec::Axis) -> DrawResu
     };
     let yf = move |v: &f64| short(yscale.from(*v));
     let mut c = ChartBuilder::on(root)
-        .caption(format!("{} over {}", t.metric, a.key), ("sans-serif", 20))
+        .caption(
+            format!("{} over {}{}", t.metric, a.key, t.summary),
+            ("sans-serif", 20),
+        )
         .margin(12)
         .x_label_area_size(48)
         .y_label_area_size(80)
