@@ -7,7 +7,8 @@
 //! controller `f32`.
 //!
 //! Layers: [`scenario`] (TOML, `--set`, validation) → [`graph`], [`plant`], [`faults`],
-//! [`link`] or [`network`] → [`sim`] (the loop) → [`metrics`], [`report`] → [`run`] (commands) → [`campaign`] (many runs).
+//! [`link`] or [`network`] → [`sim`] (the loop) → [`metrics`], [`report`] → [`run`] (commands)
+//! → [`campaign`] (many runs: grids, Monte Carlo, shards).
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
