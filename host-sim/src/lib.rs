@@ -7,10 +7,12 @@
 //! controller `f32`.
 //!
 //! Layers: [`scenario`] (TOML, `--set`, validation) → [`graph`], [`plant`], [`faults`],
-//! [`link`], [`network`] or [`pil`] → [`sim`] (the loop) → [`metrics`], [`report`] → [`run`] (commands).
+//! [`link`], [`network`] or [`pil`] → [`sim`] (the loop) → [`metrics`], [`report`] → [`run`]
+//! (commands) → [`campaign`] (many runs: grids, Monte Carlo, shards).
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod campaign;
 pub mod compare;
 pub mod error;
 pub mod faults;

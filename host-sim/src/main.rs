@@ -1,4 +1,4 @@
-//! `host-sim`: run, check, search the stable sample period, compare (docs/SCENARIO.md).
+//! `host-sim`: run, check, search the stable sample period, compare, campaigns (docs/SCENARIO.md).
 
 use std::{
     path::{Path, PathBuf},
@@ -7,6 +7,7 @@ use std::{
 
 use clap::{Args, Parser, Subcommand};
 use host_sim::{
+    campaign::{self, Shard},
     compare::compare,
     error::{Error, Result},
     report::{self, csv::check_size, fmt_time},
@@ -22,6 +23,9 @@ Examples:
   host-sim check scenarios/example2.toml --set simulation.h=2e-4
   host-sim stable-h scenarios/example2.toml --band 0.1
   host-sim compare scenarios/example2.toml scenarios/example2-baseline.toml --out out/cmp
+  host-sim sweep campaigns/example1-ts-h.toml --out out/map1
+  host-sim sweep campaigns/example1-ts-h.toml --out out/s2 --shard 2/4
+  host-sim merge out/s1 out/s2 out/s3 out/s4 --out out/map1
 
 Exit status: 0 run finished (also when it diverged: see summary.json), 2 bad input (invalid
 scenario or option, missing scenario file), 1 I/O error, 130 interrupted (temporary files are
@@ -121,6 +125,47 @@ enum Cmd {
         #[arg(long, short)]
         quiet: bool,
     },
+    /// Run a campaign (grid axes, Monte Carlo draws) in parallel into results.csv; resumable.
+    Sweep {
+        /// Campaign file (TOML); its scenario path is relative to it.
+        campaign: PathBuf,
+        /// Output directory (results.csv, campaign.json, runs.journal, figures).
+        #[arg(long)]
+        out: PathBuf,
+        /// Run only shard k of N (runs with run mod N = k - 1); combine with `merge`.
+        #[arg(long, value_name = "K/N")]
+        shard: Option<String>,
+        /// No progress bar, no summary on stdout.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Combine the directories of all shards of a campaign into one (as an unsharded sweep).
+    Merge {
+        /// Shard output directories.
+        #[arg(required = true)]
+        dirs: Vec<PathBuf>,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+    },
+}
+
+fn print_campaign(r: &campaign::SweepReport, out: &Path, merged: bool) {
+    if merged {
+        println!(
+            "{} runs merged: {} diverged, {} invalid",
+            r.runs, r.diverged, r.invalid
+        );
+    } else {
+        println!(
+            "{} runs ({} resumed from the journal, {} run now): {} diverged, {} invalid",
+            r.runs, r.resumed, r.ran, r.diverged, r.invalid
+        );
+    }
+    for f in &r.figures {
+        println!("figure {}", f.display());
+    }
+    println!("wrote {}", out.join("results.csv").display());
 }
 
 fn load(path: &Path, o: &Overrides) -> Result<Setup> {
@@ -268,6 +313,27 @@ fn main_inner(cli: Cli) -> Result<()> {
             let table = compare(&sa, &sb, &out, !quiet)?;
             print!("{table}");
             println!("wrote {}", out.display());
+            Ok(())
+        }
+        Cmd::Sweep {
+            campaign,
+            out,
+            shard,
+            quiet,
+        } => {
+            let shard = shard.as_deref().map_or(Ok(Shard::ALL), Shard::parse)?;
+            let started = std::time::Instant::now();
+            let r = campaign::sweep(&campaign, &out, shard, !quiet)?;
+            if !quiet {
+                print_campaign(&r, &out, false);
+                let s = started.elapsed().as_secs_f64();
+                println!("{:.1} s, {:.1} runs/s", s, r.ran as f64 / s.max(1e-9));
+            }
+            Ok(())
+        }
+        Cmd::Merge { dirs, out } => {
+            let r = campaign::merge(&dirs, &out)?;
+            print_campaign(&r, &out, true);
             Ok(())
         }
     }

@@ -711,7 +711,16 @@ pub fn load(path: &Path, sets: &[String]) -> Result<Setup> {
 
 /// Parses scenario text with overrides and validates it.
 pub fn parse(text: &str, sets: &[String]) -> Result<Setup> {
-    let mut table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
+    let mut table = parse_table(text)?;
+    for s in sets {
+        apply_set(&mut table, s)?;
+    }
+    from_table(table)
+}
+
+/// Scenario text as a TOML table, before overrides (a syntax error names line and column).
+pub fn parse_table(text: &str) -> Result<toml::Table> {
+    text.parse().map_err(|e: toml::de::Error| {
         let at = e
             .span()
             .map(|s| {
@@ -720,10 +729,11 @@ pub fn parse(text: &str, sets: &[String]) -> Result<Setup> {
             })
             .unwrap_or_default();
         Error::Invalid(format!("TOML syntax{at}: {}", e.message()))
-    })?;
-    for s in sets {
-        apply_set(&mut table, s)?;
-    }
+    })
+}
+
+/// A scenario table (overrides applied) deserialized and validated.
+pub fn from_table(table: toml::Table) -> Result<Setup> {
     let scenario: Scenario =
         serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
             let path = one_based(&e.path().to_string());
@@ -738,7 +748,7 @@ pub fn parse(text: &str, sets: &[String]) -> Result<Setup> {
 }
 
 /// Rewrites serde's 0-based `[k]` indices as 1-based, like every other message.
-fn one_based(path: &str) -> String {
+pub fn one_based(path: &str) -> String {
     let mut out = String::with_capacity(path.len());
     let mut rest = path;
     while let Some(open) = rest.find('[') {
@@ -763,7 +773,8 @@ fn line_col(text: &str, offset: usize) -> (usize, usize) {
     (line, col)
 }
 
-/// Applies one `key=value` override: a dotted key and a TOML value (a bare word is a string).
+/// Applies one `key=value` override: a dotted key (array entries with 1-based `[i]`, e.g.
+/// `plant.x0[2][1]`) and a TOML value (a bare word is a string).
 pub fn apply_set(table: &mut toml::Table, set: &str) -> Result<()> {
     let Some((key, raw)) = set.split_once('=') else {
         return Err(Error::invalid(format!("--set {set}"), "expected key=value"));
@@ -784,6 +795,9 @@ pub fn apply_set(table: &mut toml::Table, set: &str) -> Result<()> {
             ))
         }
     };
+    if key.contains('[') {
+        return crate::campaign::spec::set_indexed(table, key, value);
+    }
     let parts: Vec<&str> = key.split('.').collect();
     if parts.iter().any(|p| p.is_empty()) {
         return Err(Error::invalid(format!("--set {key}"), "empty key segment"));

@@ -33,7 +33,8 @@ const MARKERS_PER_SERIES: usize = 20;
 static FONT: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
 static FONT_ONCE: Once = Once::new();
 
-fn register_font() {
+/// Registers the bundled font as "sans-serif" (once per process).
+pub fn register_font() {
     FONT_ONCE.call_once(|| {
         // A bundled font: no system font lookup (works on a bare CI machine).
         let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);

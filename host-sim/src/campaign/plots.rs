@@ -1,0 +1,702 @@
+//! Campaign figures from `results.csv`: a heatmap over a 2-D grid (diverged and invalid cells
+//! marked), a line over a 1-D grid, and for Monte Carlo a histogram of the metric beside the
+//! empirical CDF of the settling time with the predefined time `2 T_s` marked.
+
+use std::{collections::BTreeMap, ops::Range, path::Path, path::PathBuf};
+
+use plotters::{
+    coord::{ranged1d::SegmentValue, Shift},
+    prelude::*,
+    style::colors::colormaps::ViridisRGB,
+};
+
+use crate::{
+    campaign::spec::CampaignFile,
+    error::{Error, Result},
+    report::{plots::register_font, temp_path},
+    scenario::Scenario,
+};
+
+/// What a row says about the plotted metric.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Cell {
+    Value(f64),
+    /// Finished without a value (e.g. never settled).
+    Missing,
+    Diverged,
+    Invalid,
+}
+
+/// The columns the figures read, per row in run order.
+struct Table {
+    metric: String,
+    /// How a cell came about (per grid point of a campaign with draws: the median).
+    summary: String,
+    cells: Vec<Cell>,
+    /// Per cell: diverged runs of all runs behind it (one run per cell without draws).
+    diverged: Vec<(usize, usize)>,
+    settling: Vec<Option<f64>>,
+    ts: Vec<f64>,
+}
+
+impl Table {
+    fn new(
+        metric: &str,
+        base_ts: f64,
+        header: &[String],
+        rows: &BTreeMap<u64, String>,
+    ) -> Result<Self> {
+        let col = |n: &str| header.iter().position(|h| h == n);
+        let need = |n: &str| col(n).ok_or_else(|| Error::Io(format!("results.csv: no column {n}")));
+        let (m, d, s, st) = (
+            need(metric)?,
+            need("diverged")?,
+            need("status")?,
+            need("settling_time")?,
+        );
+        let ts_col = col("controller.ts");
+        let mut t = Self {
+            metric: metric.into(),
+            summary: String::new(),
+            cells: Vec::new(),
+            diverged: Vec::new(),
+            settling: Vec::new(),
+            ts: Vec::new(),
+        };
+        for line in rows.values() {
+            let mut rdr = csv::ReaderBuilder::new()
+                .has_headers(false)
+                .from_reader(line.as_bytes());
+            let rec = rdr
+                .records()
+                .next()
+                .and_then(|r| r.ok())
+                .ok_or_else(|| Error::Io(format!("results.csv: bad row {line}")))?;
+            let num = |i: usize| rec.get(i).and_then(|v| v.parse::<f64>().ok());
+            t.cells.push(if rec.get(s) == Some("invalid") {
+                Cell::Invalid
+            } else if rec.get(d) == Some("true") {
+                Cell::Diverged
+            } else {
+                num(m).map_or(Cell::Missing, Cell::Value)
+            });
+            t.settling.push(num(st));
+            t.ts.push(ts_col.and_then(num).unwrap_or(base_ts));
+            let div = usize::from(t.cells.last() == Some(&Cell::Diverged));
+            t.diverged.push((div, 1));
+        }
+        Ok(t)
+    }
+
+    /// One cell per grid point: the median of the metric over its `draws` runs (diverged if
+    /// none has a value and one diverged; invalid if all are).
+    fn per_point(&self, draws: usize) -> Self {
+        let mut t = Self {
+            metric: self.metric.clone(),
+            summary: format!(", median of {draws} draws"),
+            cells: Vec::new(),
+            diverged: Vec::new(),
+            settling: Vec::new(),
+            ts: Vec::new(),
+        };
+        for (k, group) in self.cells.chunks(draws.max(1)).enumerate() {
+            let mut v: Vec<f64> = group
+                .iter()
+                .filter_map(|c| match c {
+                    Cell::Value(x) => Some(*x),
+                    _ => None,
+                })
+                .collect();
+            v.sort_by(f64::total_cmp);
+            let div = group.iter().filter(|c| **c == Cell::Diverged).count();
+            t.cells.push(if let Some(&m) = v.get(v.len() / 2) {
+                Cell::Value(if v.len().is_multiple_of(2) {
+                    0.5 * (v[v.len() / 2 - 1] + m)
+                } else {
+                    m
+                })
+            } else if div > 0 {
+                Cell::Diverged
+            } else if group.iter().all(|c| *c == Cell::Invalid) {
+                Cell::Invalid
+            } else {
+                Cell::Missing
+            });
+            t.diverged.push((div, group.len()));
+            t.settling.push(None);
+            t.ts.push(self.ts.get(k * draws).copied().unwrap_or(f64::NAN));
+        }
+        t
+    }
+
+    fn values(&self) -> impl Iterator<Item = f64> + '_ {
+        self.cells.iter().filter_map(|c| match c {
+            Cell::Value(v) if v.is_finite() => Some(*v),
+            _ => None,
+        })
+    }
+}
+
+/// Decimal or log10 scale for a set of values.
+#[derive(Debug, Clone, Copy)]
+struct Scale {
+    log: bool,
+}
+
+impl Scale {
+    fn for_values(v: impl Iterator<Item = f64> + Clone) -> Self {
+        let lo = v.clone().fold(f64::INFINITY, f64::min);
+        let hi = v.fold(f64::NEG_INFINITY, f64::max);
+        Self {
+            log: lo > 0.0 && hi / lo > 20.0,
+        }
+    }
+    fn to(self, v: f64) -> f64 {
+        if self.log {
+            v.log10()
+        } else {
+            v
+        }
+    }
+    fn from(self, v: f64) -> f64 {
+        if self.log {
+            10f64.powf(v)
+        } else {
+            v
+        }
+    }
+    fn range(self, v: impl Iterator<Item = f64>) -> Range<f64> {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for x in v.map(|x| self.to(x)).filter(|x| x.is_finite()) {
+            lo = lo.min(x);
+            hi = hi.max(x);
+        }
+        if !lo.is_finite() {
+            return 0.0..1.0;
+        }
+        let pad = ((hi - lo) * 0.05).max(1e-9 + lo.abs().max(hi.abs()) * 1e-3);
+        lo - pad..hi + pad
+    }
+}
+
+/// Three significant digits.
+fn short(v: f64) -> String {
+    if v == 0.0 {
+        "0".into()
+    } else if (1e-4..1e4).contains(&v.abs()) {
+        let digits = (2 - v.abs().log10().floor() as i32).clamp(0, 6) as usize;
+        let s = format!("{v:.digits$}");
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
+        }
+    } else {
+        format!("{v:.2e}")
+    }
+}
+
+/// Writes the figures that fit the campaign's shape; returns their paths.
+pub fn draw(
+    file: &CampaignFile,
+    base: &Scenario,
+    header: &[String],
+    rows: &BTreeMap<u64, String>,
+    out: &Path,
+) -> Result<Vec<PathBuf>> {
+    register_font();
+    let t = Table::new(&file.plot.metric, base.controller.ts, header, rows)?;
+    let mut written = Vec::new();
+    if file.draws > 1 || (file.axis.is_empty() && !file.sample.is_empty()) {
+        let p = out.join("montecarlo.png");
+        png(&p, (1300, 560), |root| monte_carlo(root, &t))?;
+        written.push(p);
+    }
+    let t = if file.draws > 1 {
+        t.per_point(file.draws as usize)
+    } else {
+        t
+    };
+    if file.axis.len() == 1 {
+        let p = out.join("line.png");
+        png(&p, (1000, 600), |root| line(root, &t, &file.axis[0]))?;
+        written.push(p);
+    } else if file.axis.len() == 2 {
+        let p = out.join("map.png");
+        let (a, b) = (&file.axis[0], &file.axis[1]);
+        let size = (
+            (300 + 100 * a.values.len()).clamp(1000, 1800) as u32,
+            (200 + 60 * b.values.len()).clamp(500, 1400) as u32,
+        );
+        png(&p, size, |root| heatmap(root, &t, a, b))?;
+        written.push(p);
+    }
+    Ok(written)
+}
+
+type Draw<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
+type DrawResult = std::result::Result<(), String>;
+
+fn png(path: &Path, size: (u32, u32), f: impl FnOnce(&Draw<'_>) -> DrawResult) -> Result<()> {
+    let tmp = temp_path(path);
+    {
+        let root = BitMapBackend::new(&tmp, size).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| Error::io(path, e))?;
+        f(&root).map_err(|e| Error::io(path, e))?;
+        root.present().map_err(|e| Error::io(path, e))?;
+    }
+    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+}
+
+fn err(e: impl std::fmt::Display) -> String {
+    e.to_string()
+}
+
+fn axis_number(v: &toml::Value) -> Option<f64> {
+    v.as_float().or_else(|| v.as_integer().map(|i| i as f64))
+}
+
+fn axis_label(v: &toml::Value) -> String {
+    axis_number(v).map_or_else(|| crate::campaign::spec::cell(v), short)
+}
+
+/// Heatmap: first axis across, second axis up; colour = metric (log10 when it spans decades).
+fn heatmap(
+    root: &Draw<'_>,
+    t: &Table,
+    a: &crate::campaign::spec::Axis,
+    b: &crate::campaign::spec::Axis,
+) -> DrawResult {
+    let (nx, ny) = (a.values.len(), b.values.len());
+    let scale = Scale::for_values(t.values().collect::<Vec<_>>().into_iter());
+    let vals: Vec<f64> = t.values().map(|v| scale.to(v)).collect();
+    let lo = vals.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = vals.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let (lo, hi) = if lo.is_finite() && hi > lo {
+        (lo, hi)
+    } else if lo.is_finite() {
+        (lo - 0.5, lo + 0.5)
+    } else {
+        (0.0, 1.0)
+    };
+    let norm = |v: f64| ((scale.to(v) - lo) / (hi - lo)).clamp(0.0, 1.0);
+    let (w, _) = root.dim_in_pixel();
+    let (main, bar) = root.split_horizontally(w.saturating_sub(150));
+    let metric = t.metric.as_str();
+    let mut chart = ChartBuilder::on(&main)
+        .caption(
+            format!("{metric} over {} x {}{}", a.key, b.key, t.summary),
+            ("sans-serif", 18),
+        )
+        .margin(12)
+        .x_label_area_size(48)
+        .y_label_area_size(80)
+        .build_cartesian_2d(
+            (0..nx as i32 - 1).into_segmented(),
+            (0..ny as i32 - 1).into_segmented(),
+        )
+        .map_err(err)?;
+    let label = |axis: &crate::campaign::spec::Axis, v: &SegmentValue<i32>| match v {
+        SegmentValue::CenterOf(i) => axis
+            .values
+            .get(*i as usize)
+            .map(axis_label)
+            .unwrap_or_default(),
+        _ => String::new(),
+    };
+    let xl = |v: &SegmentValue<i32>| label(a, v);
+    let yl = |v: &SegmentValue<i32>| label(b, v);
+    chart
+        .configure_mesh()
+        .disable_mesh()
+        .x_labels(nx)
+        .y_labels(ny)
+        .x_desc(a.key.as_str())
+        .y_desc(b.key.as_str())
+        .x_label_formatter(&xl)
+        .y_label_formatter(&yl)
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 16))
+        .draw()
+        .map_err(err)?;
+    let font = ("sans-serif", 13).into_font();
+    for (run, cell) in t.cells.iter().enumerate() {
+        let (i, j) = ((run / ny) as i32, (run % ny) as i32);
+        let (div, of) = t.diverged[run];
+        let share = if of > 1 && div > 0 {
+            format!(" ({div}/{of} div.)")
+        } else {
+            String::new()
+        };
+        let cell_at = |di: i32, dj: i32| (SegmentValue::Exact(i + di), SegmentValue::Exact(j + dj));
+        let (fill, text, ink) = match cell {
+            Cell::Value(v) => {
+                let f = norm(*v);
+                let c = ViridisRGB::get_color(f as f32);
+                (c, short(*v) + &share, if f > 0.6 { BLACK } else { WHITE })
+            }
+            Cell::Missing => (WHITE, "none".into(), BLACK),
+            Cell::Diverged => (RGBColor(200, 30, 30), format!("diverged{share}"), WHITE),
+            Cell::Invalid => (RGBColor(190, 190, 190), "invalid".into(), BLACK),
+        };
+        chart
+            .draw_series([Rectangle::new(
+                [cell_at(0, 0), cell_at(1, 1)],
+                fill.filled(),
+            )])
+            .map_err(err)?;
+        chart
+            .draw_series([Rectangle::new(
+                [cell_at(0, 0), cell_at(1, 1)],
+                WHITE.stroke_width(1),
+            )])
+            .map_err(err)?;
+        if metric == "settling_time" {
+            if let Cell::Value(v) = cell {
+                if *v <= 2.0 * t.ts[run] {
+                    chart
+                        .draw_series([Rectangle::new(
+                            [cell_at(0, 0), cell_at(1, 1)],
+                            RGBColor(255, 140, 0).stroke_width(4),
+                        )])
+                        .map_err(err)?;
+                }
+            }
+        }
+        if nx * ny <= 400 {
+            let style = font
+                .clone()
+                .color(&ink)
+                .pos(plotters::style::text_anchor::Pos::new(
+                    plotters::style::text_anchor::HPos::Center,
+                    plotters::style::text_anchor::VPos::Center,
+                ));
+            chart
+                .draw_series([Text::new(
+                    text,
+                    (SegmentValue::CenterOf(i), SegmentValue::CenterOf(j)),
+                    style,
+                )])
+                .map_err(err)?;
+        }
+    }
+    colour_bar(&bar, lo, hi, scale, metric)
+}
+
+fn colour_bar(area: &Draw<'_>, lo: f64, hi: f64, scale: Scale, metric: &str) -> DrawResult {
+    let fmt = move |v: &f64| short(scale.from(*v));
+    let mut c = ChartBuilder::on(area)
+        .margin_top(50)
+        .margin_bottom(60)
+        .margin_right(10)
+        .y_label_area_size(70)
+        .build_cartesian_2d(0f64..1.0, lo..hi)
+        .map_err(err)?;
+    c.configure_mesh()
+        .disable_mesh()
+        .disable_x_axis()
+        .y_label_formatter(&fmt)
+        .y_desc(if scale.log {
+            format!("{metric} (log)")
+        } else {
+            metric.to_string()
+        })
+        .label_style(("sans-serif", 12))
+        .draw()
+        .map_err(err)?;
+    let steps = 100;
+    c.draw_series((0..steps).map(|k| {
+        let a = lo + (hi - lo) * k as f64 / steps as f64;
+        let b = lo + (hi - lo) * (k + 1) as f64 / steps as f64;
+        let col = ViridisRGB::get_color(k as f32 / (steps - 1) as f32);
+        Rectangle::new([(0.0, a), (1.0, b)], col.filled())
+    }))
+    .map_err(err)?;
+    Ok(())
+}
+
+/// Line over the one axis; diverged and invalid runs as markers along the top.
+fn line(root: &Draw<'_>, t: &Table, a: &crate::campaign::spec::Axis) -> DrawResult {
+    let numeric = a.values.iter().all(|v| axis_number(v).is_some());
+    let xs: Vec<f64> = a
+        .values
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            if numeric {
+                axis_number(v).unwrap_or(0.0)
+            } else {
+                i as f64
+            }
+        })
+        .collect();
+    let xscale = if numeric {
+        Scale::for_values(xs.iter().copied())
+    } else {
+        Scale { log: false }
+    };
+    let yscale = Scale::for_values(t.values().collect::<Vec<_>>().into_iter());
+    let mut yr = yscale.range(t.values());
+    let settle = t.metric == "settling_time";
+    if settle {
+        let pt = t.ts.iter().map(|ts| 2.0 * ts).collect::<Vec<_>>();
+        let r = yscale.range(t.values().chain(pt));
+        yr = r;
+    }
+    let xr = xscale.range(xs.iter().copied());
+    let top = yr.end - (yr.end - yr.start) * 0.03;
+    let xf = move |v: &f64| {
+        if numeric {
+            short(xscale.from(*v))
+        } else {
+            a.values
+                .get(v.round() as usize)
+                .map(axis_label)
+                .unwrap_or_default()
+        }
+    };
+    let yf = move |v: &f64| short(yscale.from(*v));
+    let mut c = ChartBuilder::on(root)
+        .caption(
+            format!("{} over {}{}", t.metric, a.key, t.summary),
+            ("sans-serif", 20),
+        )
+        .margin(12)
+        .x_label_area_size(48)
+        .y_label_area_size(80)
+        .build_cartesian_2d(xr, yr.clone())
+        .map_err(err)?;
+    mesh(
+        &mut c,
+        &xf,
+        &yf,
+        &with_scale(&a.key, xscale),
+        &with_scale(&t.metric, yscale),
+    )?;
+    let pts: Vec<(f64, f64)> = t
+        .cells
+        .iter()
+        .zip(&xs)
+        .filter_map(|(c, &x)| match c {
+            Cell::Value(v) => Some((xscale.to(x), yscale.to(*v))),
+            _ => None,
+        })
+        .collect();
+    let blue = plotters::style::RGBColor(31, 119, 180);
+    c.draw_series(LineSeries::new(pts.clone(), blue.stroke_width(2)))
+        .map_err(err)?
+        .label(t.metric.as_str())
+        .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], blue.stroke_width(2)));
+    c.draw_series(pts.iter().map(|&p| Circle::new(p, 4, blue.filled())))
+        .map_err(err)?;
+    for (kind, colour, label) in [
+        (Cell::Diverged, RGBColor(200, 30, 30), "diverged"),
+        (Cell::Invalid, RGBColor(120, 120, 120), "invalid"),
+        (
+            Cell::Missing,
+            RGBColor(255, 127, 14),
+            "no value (e.g. never settled)",
+        ),
+    ] {
+        let marks: Vec<(f64, f64)> = t
+            .cells
+            .iter()
+            .zip(&xs)
+            .filter(|(c, _)| **c == kind)
+            .map(|(_, &x)| (xscale.to(x), top))
+            .collect();
+        if !marks.is_empty() {
+            c.draw_series(
+                marks
+                    .iter()
+                    .map(|&p| Cross::new(p, 7, colour.stroke_width(3))),
+            )
+            .map_err(err)?
+            .label(label)
+            .legend(move |(x, y)| Cross::new((x + 9, y), 6, colour.stroke_width(3)));
+        }
+    }
+    if settle {
+        let grey = BLACK.mix(0.55).stroke_width(2);
+        let pt: Vec<(f64, f64)> = xs
+            .iter()
+            .zip(&t.ts)
+            .map(|(&x, &ts)| (xscale.to(x), yscale.to(2.0 * ts)))
+            .collect();
+        c.draw_series(LineSeries::new(pt, grey))
+            .map_err(err)?
+            .label("predefined time 2Ts")
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], grey));
+    }
+    legend(&mut c, SeriesLabelPosition::UpperRight)
+}
+
+fn with_scale(name: &str, s: Scale) -> String {
+    if s.log {
+        format!("{name} (log scale)")
+    } else {
+        name.to_string()
+    }
+}
+
+type Chart<'a, 'b> = ChartContext<
+    'a,
+    BitMapBackend<'b>,
+    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+>;
+
+fn mesh<'a, 'b: 'a>(
+    c: &mut Chart<'a, 'b>,
+    xf: &dyn Fn(&f64) -> String,
+    yf: &dyn Fn(&f64) -> String,
+    xd: &str,
+    yd: &str,
+) -> DrawResult {
+    c.configure_mesh()
+        .x_label_formatter(xf)
+        .y_label_formatter(yf)
+        .x_desc(xd)
+        .y_desc(yd)
+        .label_style(("sans-serif", 13))
+        .axis_desc_style(("sans-serif", 15))
+        .draw()
+        .map_err(err)
+}
+
+fn legend<'a, 'b: 'a>(c: &mut Chart<'a, 'b>, at: SeriesLabelPosition) -> DrawResult {
+    c.configure_series_labels()
+        .position(at)
+        .label_font(("sans-serif", 13))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(err)
+}
+
+/// Histogram of the metric (runs with a value) and the empirical CDF of the settling time
+/// over all finished runs (never settled or diverged count as not settled), with `2 T_s`.
+fn monte_carlo(root: &Draw<'_>, t: &Table) -> DrawResult {
+    let panels = root.split_evenly((1, 2));
+    let n = t.cells.len();
+    let diverged = t.cells.iter().filter(|c| **c == Cell::Diverged).count();
+    let invalid = t.cells.iter().filter(|c| **c == Cell::Invalid).count();
+    let vals: Vec<f64> = t.values().collect();
+    let scale = Scale::for_values(vals.iter().copied());
+    let tv: Vec<f64> = vals.iter().map(|&v| scale.to(v)).collect();
+    let xr = scale.range(vals.iter().copied());
+    let bins = 40usize;
+    let width = (xr.end - xr.start) / bins as f64;
+    let mut counts = vec![0u32; bins];
+    for v in &tv {
+        let b = (((v - xr.start) / width) as usize).min(bins - 1);
+        counts[b] += 1;
+    }
+    let ymax = f64::from(counts.iter().copied().max().unwrap_or(1)).max(1.0) * 1.1;
+    let xf = move |v: &f64| short(scale.from(*v));
+    let yf = |v: &f64| format!("{v:.0}");
+    let mut c = ChartBuilder::on(&panels[0])
+        .caption(
+            format!(
+                "{}: {} of {n} runs ({diverged} diverged, {invalid} invalid)",
+                t.metric,
+                vals.len()
+            ),
+            ("sans-serif", 17),
+        )
+        .margin(12)
+        .x_label_area_size(48)
+        .y_label_area_size(64)
+        .build_cartesian_2d(xr.clone(), 0.0..ymax)
+        .map_err(err)?;
+    mesh(&mut c, &xf, &yf, &with_scale(&t.metric, scale), "runs")?;
+    let blue = RGBColor(31, 119, 180);
+    c.draw_series(counts.iter().enumerate().map(|(b, &k)| {
+        let x0 = xr.start + b as f64 * width;
+        Rectangle::new(
+            [(x0, 0.0), (x0 + width, f64::from(k))],
+            blue.mix(0.75).filled(),
+        )
+    }))
+    .map_err(err)?;
+    let predefined = t.ts.iter().copied().fold(f64::NEG_INFINITY, f64::max) * 2.0;
+    let mut settled: Vec<f64> = t
+        .cells
+        .iter()
+        .zip(&t.settling)
+        .filter(|(c, _)| **c != Cell::Invalid)
+        .filter_map(|(_, s)| *s)
+        .collect();
+    settled.sort_by(f64::total_cmp);
+    let finished = n - invalid;
+    let by_predefined = t
+        .settling
+        .iter()
+        .zip(&t.ts)
+        .filter(|(s, ts)| s.is_some_and(|s| s <= 2.0 * **ts))
+        .count();
+    let share = |k: usize| k as f64 / finished.max(1) as f64;
+    let tmax = settled
+        .last()
+        .copied()
+        .unwrap_or(0.0)
+        .max(predefined)
+        .max(1e-9)
+        * 1.05;
+    let mut c = ChartBuilder::on(&panels[1])
+        .caption(
+            format!(
+                "settling time: {:.1} % settle, {:.1} % by 2Ts",
+                100.0 * share(settled.len()),
+                100.0 * share(by_predefined)
+            ),
+            ("sans-serif", 17),
+        )
+        .margin(12)
+        .x_label_area_size(48)
+        .y_label_area_size(64)
+        .build_cartesian_2d(0.0..tmax, 0.0..1.02)
+        .map_err(err)?;
+    let xf = |v: &f64| short(*v);
+    let yf = |v: &f64| format!("{v:.1}");
+    mesh(
+        &mut c,
+        &xf,
+        &yf,
+        "settling_time [s]",
+        "share of runs settled (empirical CDF)",
+    )?;
+    let mut step = vec![(0.0, 0.0)];
+    for (k, &s) in settled.iter().enumerate() {
+        step.push((s, share(k)));
+        step.push((s, share(k + 1)));
+    }
+    step.push((tmax, share(settled.len())));
+    c.draw_series(LineSeries::new(step, blue.stroke_width(2)))
+        .map_err(err)?
+        .label("empirical CDF")
+        .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], blue.stroke_width(2)));
+    let grey = BLACK.mix(0.55).stroke_width(2);
+    c.draw_series(LineSeries::new(
+        [(predefined, 0.0), (predefined, 1.02)],
+        grey,
+    ))
+    .map_err(err)?
+    .label(format!("predefined time 2Ts = {}", short(predefined)))
+    .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], grey));
+    legend(&mut c, SeriesLabelPosition::LowerRight)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::short;
+
+    #[test]
+    fn short_numbers() {
+        assert_eq!(short(0.001), "0.001");
+        assert_eq!(short(0.1703), "0.17");
+        assert_eq!(short(47.21), "47.2");
+        assert_eq!(short(2.0), "2");
+        assert_eq!(short(0.0), "0");
+        assert_eq!(short(16519.0), "1.65e4");
+    }
+}

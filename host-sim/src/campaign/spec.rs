@@ -1,0 +1,494 @@
+//! The campaign file: a base scenario, overrides for every run, grid axes and Monte Carlo
+//! draws over scenario keys; checked once into a [`Plan`] that builds each run's scenario.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::{
+    campaign::sample::Sample,
+    error::{Error, Result},
+    scenario::{self, Scenario, Setup},
+};
+
+/// The campaign file as written (`docs/CAMPAIGNS.md`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CampaignFile {
+    /// Base scenario, relative to the campaign file.
+    pub scenario: String,
+    /// Overrides applied to every run, as `--set`.
+    #[serde(default)]
+    pub set: Vec<String>,
+    /// Grid axes: every combination, row-major, first axis slowest.
+    #[serde(default)]
+    pub axis: Vec<Axis>,
+    /// Monte Carlo: keys drawn afresh for every run.
+    #[serde(default)]
+    pub sample: Vec<Sample>,
+    /// Draws per grid point (default 1).
+    #[serde(default = "one")]
+    pub draws: u64,
+    /// Seed of the draws.
+    #[serde(default)]
+    pub seed: u64,
+    /// Runs that also write the full `host-sim run` outputs.
+    #[serde(default)]
+    pub output: OutputSpec,
+    /// The metric drawn in the figures.
+    #[serde(default)]
+    pub plot: PlotSpec,
+}
+
+fn one() -> u64 {
+    1
+}
+
+/// One `[[axis]]`: a key and its values.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Axis {
+    /// Scenario key, dotted, with 1-based `[i]` for array entries.
+    pub key: String,
+    /// Values (any TOML value the key accepts).
+    pub values: Vec<toml::Value>,
+}
+
+/// `[output]`: per-run outputs for chosen runs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSpec {
+    /// Run indices whose `summary.json`, `trajectory.csv` and plots go to `runs/<run>/`.
+    #[serde(default)]
+    pub runs: Vec<u64>,
+    /// Every `decimate`-th sample in those trajectories.
+    #[serde(default = "ten")]
+    pub decimate: u64,
+}
+
+fn ten() -> u64 {
+    10
+}
+
+impl Default for OutputSpec {
+    fn default() -> Self {
+        Self {
+            runs: Vec::new(),
+            decimate: ten(),
+        }
+    }
+}
+
+/// `[plot]`: what the campaign figures show.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlotSpec {
+    /// A metric column of `results.csv`.
+    #[serde(default = "default_metric")]
+    pub metric: String,
+}
+
+impl Default for PlotSpec {
+    fn default() -> Self {
+        Self {
+            metric: default_metric(),
+        }
+    }
+}
+
+fn default_metric() -> String {
+    "max_error_after_predefined_time".into()
+}
+
+/// Metrics a figure can show (numeric columns of `results.csv`).
+pub const PLOT_METRICS: [&str; 5] = [
+    "divergence_time",
+    "settling_time",
+    "max_error_after_predefined_time",
+    "max_abs_u",
+    "total_u_energy",
+];
+
+/// One step of a key path: a table key, then 0-based array indices.
+#[derive(Debug, Clone, PartialEq)]
+struct Segment {
+    name: String,
+    index: Vec<usize>,
+}
+
+/// A scenario key: `controller.ts`, or with 1-based array entries `plant.x0[2][1]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct KeyPath {
+    text: String,
+    segments: Vec<Segment>,
+}
+
+impl KeyPath {
+    /// Parses a key; `what` names it in messages (e.g. `axis[1].key`).
+    pub fn parse(text: &str, what: &str) -> Result<Self> {
+        let bad = |why: &str| Error::invalid(what, format!("`{text}`: {why}"));
+        let mut segments = Vec::new();
+        for part in text.split('.') {
+            let (name, mut rest) = match part.find('[') {
+                Some(i) => (&part[..i], &part[i..]),
+                None => (part, ""),
+            };
+            if name.is_empty() || !name.chars().all(|c| c.is_alphanumeric() || c == '_') {
+                return Err(bad("expected dotted names with optional [i] indices"));
+            }
+            let mut index = Vec::new();
+            while !rest.is_empty() {
+                let close = rest
+                    .find(']')
+                    .filter(|_| rest.starts_with('['))
+                    .ok_or_else(|| bad("unbalanced [ ]"))?;
+                let i: usize = rest[1..close]
+                    .parse()
+                    .ok()
+                    .filter(|&i| i >= 1)
+                    .ok_or_else(|| bad("indices are integers from 1"))?;
+                index.push(i - 1);
+                rest = &rest[close + 1..];
+            }
+            segments.push(Segment {
+                name: name.into(),
+                index,
+            });
+        }
+        Ok(Self {
+            text: text.into(),
+            segments,
+        })
+    }
+
+    /// The key as written.
+    pub fn as_str(&self) -> &str {
+        &self.text
+    }
+
+    fn indexed(&self) -> bool {
+        self.segments.iter().any(|s| !s.index.is_empty())
+    }
+
+    /// Sets the key in a scenario table, exactly as `--set key=value` does.
+    pub fn apply(&self, table: &mut toml::Table, value: &toml::Value) -> Result<()> {
+        if self.indexed() {
+            self.set_entry(table, &default_table()?, value)
+        } else {
+            scenario::apply_set(table, &format!("{}={}", self.text, inline(value)))
+        }
+    }
+
+    /// Sets an array entry in place; an array the table leaves out is first copied from
+    /// `defaults`.
+    fn set_entry(
+        &self,
+        table: &mut toml::Table,
+        defaults: &toml::Table,
+        value: &toml::Value,
+    ) -> Result<()> {
+        let missing = || Error::invalid(&self.text, "no such entry in the scenario");
+        let mut cur = table;
+        let mut def = Some(defaults);
+        for (i, seg) in self.segments.iter().enumerate() {
+            let last = i + 1 == self.segments.len();
+            let dflt = def.and_then(|d| d.get(&seg.name));
+            if !cur.contains_key(&seg.name) {
+                let v = match dflt {
+                    Some(v) if !seg.index.is_empty() => v.clone(),
+                    _ if seg.index.is_empty() && !last => toml::Value::Table(toml::Table::new()),
+                    _ => return Err(missing()),
+                };
+                cur.insert(seg.name.clone(), v);
+            }
+            let mut slot = cur.get_mut(&seg.name).ok_or_else(missing)?;
+            let mut dslot = dflt;
+            for &k in &seg.index {
+                let len = slot.as_array().map(Vec::len);
+                slot = match slot {
+                    toml::Value::Array(a) => a.get_mut(k).ok_or_else(|| {
+                        Error::invalid(
+                            &self.text,
+                            format!(
+                                "index {} out of range ({} entries)",
+                                k + 1,
+                                len.unwrap_or(0)
+                            ),
+                        )
+                    })?,
+                    _ => return Err(Error::invalid(&self.text, "not an array")),
+                };
+                dslot = dslot.and_then(|d| d.as_array()).and_then(|a| a.get(k));
+            }
+            if last {
+                *slot = value.clone();
+                return Ok(());
+            }
+            cur = slot
+                .as_table_mut()
+                .ok_or_else(|| Error::invalid(&self.text, "not a table"))?;
+            def = dslot.and_then(toml::Value::as_table);
+        }
+        Ok(())
+    }
+}
+
+/// The message of an error without its kind (for wrapping it in another key's message).
+fn inner(e: &Error) -> &str {
+    match e {
+        Error::Invalid(m) | Error::Io(m) => m,
+    }
+}
+
+/// The default scenario as a table (the arrays an indexed key falls back to).
+fn default_table() -> Result<toml::Table> {
+    match toml::Value::try_from(Scenario::default()) {
+        Ok(toml::Value::Table(t)) => Ok(t),
+        _ => Err(Error::Invalid(
+            "the default scenario cannot be written as TOML".into(),
+        )),
+    }
+}
+
+/// `--set` of a key with 1-based array indices (`plant.x0[2][1]=0.5`).
+pub fn set_indexed(table: &mut toml::Table, key: &str, value: toml::Value) -> Result<()> {
+    KeyPath::parse(key, &format!("--set {key}"))?.set_entry(table, &default_table()?, &value)
+}
+
+/// A TOML value written inline (what follows `key=` in `--set`).
+fn inline(v: &toml::Value) -> String {
+    v.to_string()
+}
+
+/// A value as a `results.csv` cell: strings bare, numbers as `summary.json` writes them.
+pub fn cell(v: &toml::Value) -> String {
+    match v {
+        toml::Value::String(s) => s.clone(),
+        toml::Value::Float(f) => json_number(*f),
+        other => inline(other),
+    }
+}
+
+/// A number as `serde_json` writes it (so cells equal `summary.json`).
+pub fn json_number(v: f64) -> String {
+    serde_json::to_string(&v).unwrap_or_default()
+}
+
+/// The checked campaign: base scenario table, keys and how to build run `i`.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    /// The file as read (with defaults).
+    pub file: CampaignFile,
+    /// Base scenario (file + `set`), as resolved by the validator.
+    pub base: Scenario,
+    table: toml::Table,
+    axes: Vec<KeyPath>,
+    samples: Vec<KeyPath>,
+    grid: u64,
+}
+
+/// One run's scenario before validation.
+#[derive(Debug, Clone)]
+pub struct RunPoint {
+    /// Run index.
+    pub run: u64,
+    /// One value per axis.
+    pub axis_values: Vec<toml::Value>,
+    /// Draw index within the grid point.
+    pub draw: u64,
+    /// One value per `[[sample]]`.
+    pub sampled: Vec<toml::Value>,
+}
+
+impl Plan {
+    /// Reads and checks a campaign file.
+    pub fn load(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|e| {
+            Error::invalid(format!("campaign file {}", path.display()), e.to_string())
+        })?;
+        let what = format!("campaign file {}", path.display());
+        let table: toml::Table = text
+            .parse()
+            .map_err(|e: toml::de::Error| Error::invalid(&what, e.message()))?;
+        let file: CampaignFile = serde_path_to_error::deserialize(toml::Value::Table(table))
+            .map_err(|e| {
+                let key = scenario::one_based(&e.path().to_string());
+                Error::invalid(format!("{what}: {key}"), e.inner().message())
+            })?;
+        let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        Self::new(file, &dir)
+    }
+
+    /// Checks `file`; its scenario path is relative to `dir`.
+    pub fn new(file: CampaignFile, dir: &Path) -> Result<Self> {
+        let spath: PathBuf = dir.join(&file.scenario);
+        let text = std::fs::read_to_string(&spath)
+            .map_err(|e| Error::invalid("scenario", format!("{}: {e}", spath.display())))?;
+        let mut table = scenario::parse_table(&text).map_err(|e| {
+            Error::invalid("scenario", format!("{}: {}", spath.display(), inner(&e)))
+        })?;
+        for s in &file.set {
+            scenario::apply_set(&mut table, s).map_err(|e| Error::invalid("set", inner(&e)))?;
+        }
+        let base = scenario::from_table(table.clone())
+            .map_err(|e| Error::invalid("scenario (with set)", inner(&e)))?
+            .scenario;
+        if file.draws == 0 {
+            return Err(Error::invalid("draws", "must be >= 1"));
+        }
+        if file.output.decimate == 0 {
+            return Err(Error::invalid("output.decimate", "must be >= 1"));
+        }
+        if !PLOT_METRICS.contains(&file.plot.metric.as_str()) {
+            return Err(Error::invalid(
+                "plot.metric",
+                format!("`{}` is not one of {PLOT_METRICS:?}", file.plot.metric),
+            ));
+        }
+        let mut grid: u64 = 1;
+        let mut axes = Vec::new();
+        for (i, a) in file.axis.iter().enumerate() {
+            let what = format!("axis[{}].key", i + 1);
+            let key = KeyPath::parse(&a.key, &what)?;
+            if a.values.is_empty() {
+                return Err(Error::invalid(
+                    format!("axis[{}].values", i + 1),
+                    "must not be empty",
+                ));
+            }
+            for v in &a.values {
+                check_key(&key, &table, v, &what)?;
+            }
+            grid = grid
+                .checked_mul(a.values.len() as u64)
+                .ok_or_else(|| Error::invalid("axis", "too many runs"))?;
+            axes.push(key);
+        }
+        let mut samples = Vec::new();
+        for (i, s) in file.sample.iter().enumerate() {
+            let what = format!("sample[{}]", i + 1);
+            s.check(&what)?;
+            let key = KeyPath::parse(&s.key, &format!("{what}.key"))?;
+            check_key(&key, &table, &s.example(), &format!("{what}.key"))?;
+            samples.push(key);
+        }
+        let all: Vec<&str> = axes.iter().chain(&samples).map(KeyPath::as_str).collect();
+        for (i, k) in all.iter().enumerate() {
+            if all[..i].contains(k) {
+                return Err(Error::invalid(k, "given twice in the campaign"));
+            }
+        }
+        grid.checked_mul(file.draws)
+            .ok_or_else(|| Error::invalid("draws", "too many runs"))?;
+        for &r in &file.output.runs {
+            if r >= grid * file.draws {
+                return Err(Error::invalid(
+                    "output.runs",
+                    format!("run {r} does not exist ({} runs)", grid * file.draws),
+                ));
+            }
+        }
+        Ok(Self {
+            file,
+            base,
+            table,
+            axes,
+            samples,
+            grid,
+        })
+    }
+
+    /// Total runs: grid points × draws.
+    pub fn runs(&self) -> u64 {
+        self.grid * self.file.draws
+    }
+
+    /// The axis keys (column names).
+    pub fn axis_keys(&self) -> Vec<String> {
+        self.file.axis.iter().map(|a| a.key.clone()).collect()
+    }
+
+    /// The sampled keys (column names).
+    pub fn sample_keys(&self) -> Vec<String> {
+        self.file.sample.iter().map(|s| s.key.clone()).collect()
+    }
+
+    /// Values of run `run`: grid position (row-major, first axis slowest), then its draws.
+    pub fn point(&self, run: u64) -> RunPoint {
+        let draws = self.file.draws;
+        let (mut g, draw) = (run / draws, run % draws);
+        let mut axis_values = vec![toml::Value::Boolean(false); self.file.axis.len()];
+        for (slot, a) in axis_values.iter_mut().zip(&self.file.axis).rev() {
+            let n = a.values.len() as u64;
+            *slot = a.values[(g % n) as usize].clone();
+            g /= n;
+        }
+        let mut rng = crate::campaign::sample::run_rng(self.file.seed, run);
+        let sampled = self.file.sample.iter().map(|s| s.draw(&mut rng)).collect();
+        RunPoint {
+            run,
+            axis_values,
+            draw,
+            sampled,
+        }
+    }
+
+    /// The validated scenario of a run (an invalid combination is an `Err` for its row).
+    pub fn setup(&self, p: &RunPoint) -> Result<Setup> {
+        let mut t = self.table.clone();
+        for (k, v) in self
+            .axes
+            .iter()
+            .zip(&p.axis_values)
+            .chain(self.samples.iter().zip(&p.sampled))
+        {
+            k.apply(&mut t, v)?;
+        }
+        scenario::from_table(t)
+    }
+}
+
+/// The key exists: set to `value` on the base it deserializes without an unknown field.
+fn check_key(key: &KeyPath, table: &toml::Table, value: &toml::Value, what: &str) -> Result<()> {
+    let mut t = table.clone();
+    key.apply(&mut t, value)
+        .map_err(|e| Error::invalid(what, inner(&e)))?;
+    match scenario::from_table(t) {
+        Err(Error::Invalid(m)) if m.contains("unknown field") || m.contains("invalid type") => {
+            Err(Error::invalid(what, format!("`{}`: {m}", key.as_str())))
+        }
+        _ => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn table(s: &str) -> toml::Table {
+        s.parse().unwrap_or_default()
+    }
+
+    #[test]
+    fn indexed_keys_are_one_based_and_fill_from_defaults() -> Result<()> {
+        let defaults = table("[plant]\nx0 = [[1.0, 2.0], [3.0, 4.0]]");
+        let mut t = table("[plant]\nmodel = \"example1\"");
+        KeyPath::parse("plant.x0[2][1]", "k")?.set_entry(
+            &mut t,
+            &defaults,
+            &toml::Value::Float(9.0),
+        )?;
+        assert_eq!(t["plant"]["x0"][1][0].as_float(), Some(9.0));
+        assert_eq!(t["plant"]["x0"][0][1].as_float(), Some(2.0));
+        let out = KeyPath::parse("plant.x0[3][1]", "k")?.set_entry(
+            &mut t,
+            &defaults,
+            &toml::Value::Float(0.0),
+        );
+        assert!(out.is_err_and(|e| e.to_string().contains("index 3 out of range")));
+        assert!(KeyPath::parse("plant.x0[0]", "k").is_err());
+        assert!(KeyPath::parse("plant..x0", "k").is_err());
+        assert!(KeyPath::parse("plant.x0[1", "k").is_err());
+        Ok(())
+    }
+}
