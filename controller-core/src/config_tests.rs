@@ -3,7 +3,7 @@
 
 use crate::{
     BaselineConfig, ConfigError, Controller, ControllerConfig, GainSelection, Gains,
-    QuantizerConfig, SchemeConfig,
+    QuantizerConfig, SafetyConfig, SchemeConfig,
 };
 
 type C = Controller<2, 2, 4>;
@@ -23,7 +23,7 @@ fn quantizer(rho: f32, u_min: f32) -> Option<QuantizerConfig> {
 }
 
 /// One configuration per variant, and the variant it must give.
-fn cases() -> [(Result<C, ConfigError>, ConfigError); 20] {
+fn cases() -> [(Result<C, ConfigError>, ConfigError); 21] {
     use ConfigError as E;
     let baseline = |mu_max, kappa| {
         SchemeConfig::PrescribedTime(BaselineConfig {
@@ -68,6 +68,15 @@ fn cases() -> [(Result<C, ConfigError>, ConfigError); 20] {
             Gains::predefined_time(1.0, 0.5, 0, 1.0, 1.0, 1.0).map(|_| default_controller()),
             E::ZeroStateOrder,
         ),
+        (
+            with(|c| {
+                c.safety = Some(SafetyConfig {
+                    u_max: Some(0.005),
+                    ..SafetyConfig::default()
+                })
+            }),
+            E::UMaxNotAboveUMin,
+        ),
     ]
 }
 
@@ -77,7 +86,7 @@ fn default_controller() -> C {
 
 #[test]
 fn every_variant_is_reached() {
-    let mut seen = [false; 20];
+    let mut seen = [false; 21];
     for (i, (got, want)) in cases().into_iter().enumerate() {
         assert_eq!(got.err(), Some(want), "case {i}");
         let slot = match want {
@@ -101,6 +110,7 @@ fn every_variant_is_reached() {
             ConfigError::MuMaxBelowOne => 17,
             ConfigError::ZeroStateOrder => 18,
             ConfigError::GainTooLarge(_) => 19,
+            ConfigError::UMaxNotAboveUMin => 20,
         };
         seen[slot] = true;
     }
@@ -141,6 +151,23 @@ fn more_parameters_are_named() {
         .err(),
         Some(E::NonPositive("kappa"))
     );
+    let safety = |u_max, du_max, recovery_time| {
+        with(|c| {
+            c.safety = Some(SafetyConfig {
+                u_max,
+                du_max,
+                recovery_time,
+            })
+        })
+        .err()
+    };
+    assert_eq!(safety(Some(-1.0), None, 0.2), Some(E::NonPositive("u_max")));
+    assert_eq!(
+        safety(None, Some(f32::NAN), 0.2),
+        Some(E::NonFinite("du_max"))
+    );
+    assert_eq!(safety(None, None, -1.0), Some(E::Negative("recovery_time")));
+    assert_eq!(safety(Some(20.0), Some(1e4), 0.2), None);
     // Messages name the parameter.
     extern crate std;
     use std::string::ToString;

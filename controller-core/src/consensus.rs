@@ -10,7 +10,10 @@
 //!   was one, the link's term is left out of `e_{i,1}` and of `Φ_1` for this sample (as if the
 //!   neighbour agreed with the agent) and the link is counted as missing.
 
-use crate::mtn::MtnAccumulator;
+use crate::{
+    mtn::MtnAccumulator,
+    safety::{Guard, Recovery},
+};
 
 /// One value received over the network, as the node hands it to the controller.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -114,6 +117,13 @@ impl Held {
     }
 }
 
+/// The neighbour values (in configured order) and the leader value of one sample.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Links<'a> {
+    pub(crate) neighbours: &'a [Link],
+    pub(crate) leader: Link,
+}
+
 /// The agent's place in the graph: `S_i` neighbours, pinned or not (SPEC §2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -149,13 +159,40 @@ impl Consensus {
         phi: &mut MtnAccumulator,
         report: &mut LinkReport,
     ) -> f32 {
+        let mut unused = Recovery::default();
+        let paper = crate::safety::Paper;
+        let links = Links { neighbours, leader };
+        self.guarded_error(memory, &mut unused, &paper, y, links, phi, report)
+    }
+
+    /// [`Self::consensus_error`] with each resolved value passed through `guard`'s re-entry
+    /// (the identity for the paper's law).
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub(crate) fn guarded_error<const K: usize, G: Guard>(
+        &self,
+        memory: &mut LinkMemory<K>,
+        recovery: &mut Recovery<K>,
+        guard: &G,
+        y: f32,
+        links: Links<'_>,
+        phi: &mut MtnAccumulator,
+        report: &mut LinkReport,
+    ) -> f32 {
+        let Links { neighbours, leader } = links;
         report.count_mismatch = neighbours.len() != self.neighbours as usize;
         phi.push(y);
         let mut e = 0.0;
-        let slots = memory.neighbours.iter_mut().take(self.neighbours as usize);
-        for (k, held) in slots.enumerate() {
+        let slots = memory
+            .neighbours
+            .iter_mut()
+            .zip(recovery.neighbours.iter_mut())
+            .take(self.neighbours as usize);
+        for (k, (held, reentry)) in slots.enumerate() {
             let link = neighbours.get(k).copied().unwrap_or(Link::Missing);
-            let yk = match held.resolve(link) {
+            let resolved = held.resolve(link);
+            let fresh = matches!(resolved, Resolved::Value(_));
+            let yk = match resolved {
                 Resolved::Value(v) => Some(v),
                 Resolved::Stale(v) => {
                     report.stale_neighbours += 1;
@@ -173,13 +210,15 @@ impl Consensus {
                     None
                 }
             };
-            if let Some(yk) = yk {
+            if let Some(yk) = guard.reenter(reentry, yk, fresh) {
                 e += y - yk;
                 phi.push(yk);
             }
         }
         if self.pinned {
-            let yd = match memory.leader.resolve(leader) {
+            let resolved = memory.leader.resolve(leader);
+            let fresh = matches!(resolved, Resolved::Value(_));
+            let yd = match resolved {
                 Resolved::Value(v) => Some(v),
                 Resolved::Stale(v) => {
                     report.leader_stale = true;
@@ -195,7 +234,7 @@ impl Consensus {
                     None
                 }
             };
-            if let Some(yd) = yd {
+            if let Some(yd) = guard.reenter(&mut recovery.leader, yd, fresh) {
                 e += y - yd;
             }
         }

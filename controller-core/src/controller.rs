@@ -4,10 +4,11 @@ use crate::{
     adaptive::{Drives, Estimates},
     backstepping::Estimated,
     config::{ControllerConfig, Params},
-    consensus::{Link, LinkMemory, LinkReport},
+    consensus::{Link, LinkMemory, LinkReport, Links},
     differentiator::DifferentiatorState,
     math,
     quantizer::QuantizerState,
+    safety::{Guard, Paper, Recovery},
     ConfigError,
 };
 
@@ -30,6 +31,9 @@ pub struct StepStatus {
     pub fault: Option<StepFault>,
     /// Stale, missing and invalid neighbour / leader values of this sample.
     pub links: LinkReport,
+    /// A safety limit (magnitude or rate) changed this sample's command; the adaptive laws
+    /// were not integrated (always `false` with safety off).
+    pub limited: bool,
 }
 
 /// What one step returns: the commands and the internal signals worth logging.
@@ -77,6 +81,8 @@ pub struct State<const N: usize, const M: usize, const K: usize> {
     pub q: [f32; M],
     /// Remembered neighbour and leader values.
     pub links: LinkMemory<K>,
+    /// Re-entry of returning links and the held-step flag (used only with safety on).
+    pub recovery: Recovery<K>,
 }
 
 /// The predefined-time adaptive consensus controller of one follower agent: `n = N` states,
@@ -119,6 +125,7 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
             u: [0.0; M],
             q: [0.0; M],
             links: LinkMemory::default(),
+            recovery: Recovery::default(),
         }
     }
 
@@ -148,7 +155,26 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
     /// Never panics. A non-finite `x`, or a result that overflows `f32`, holds the previous
     /// command and commits nothing (see [`StepFault`]); neighbour and leader values follow the
     /// policy of [`crate::consensus`].
+    ///
+    /// With safety on ([`crate::SafetyConfig`]) the command is limited before the quantizer,
+    /// the adaptive laws pause while a limit is active, returning links are blended in and the
+    /// differentiators restart after a held step ([`crate::safety`]); with it off this is the
+    /// paper's law, the same code as without the feature.
     pub fn step(&mut self, x: &[f32; N], neighbours: &[Link], leader: Link) -> StepOutput<N, M> {
+        let links = Links { neighbours, leader };
+        match self.params.safety {
+            None => self.step_with(&Paper, x, links),
+            Some(safety) => self.step_with(&safety, x, links),
+        }
+    }
+
+    #[inline(always)]
+    fn step_with<G: Guard>(
+        &mut self,
+        guard: &G,
+        x: &[f32; N],
+        links_in: Links<'_>,
+    ) -> StepOutput<N, M> {
         let p = &self.params;
         let s = &mut self.state;
         let t = s.k as f32 * p.h;
@@ -159,16 +185,20 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         // 1. e_1 from the latest neighbour / leader values, then β_j, α_j, e_{j+1}.
         let mut links = LinkReport::default();
         let mut phi1 = p.backstepping.mtn.accumulator();
-        let e1 = p.consensus.consensus_error(
+        let e1 = p.consensus.guarded_error(
             &mut s.links,
+            &mut s.recovery,
+            guard,
             x[0],
-            neighbours,
-            leader,
+            links_in,
             &mut phi1,
             &mut links,
         );
         if x.iter().any(|v| !v.is_finite()) {
-            return held(s, varpi, StepFault::InvalidState, links);
+            return held(s, guard, varpi, StepFault::InvalidState, links);
+        }
+        if G::ENABLED && s.recovery.after_hold {
+            s.differentiators = [DifferentiatorState::default(); N];
         }
         let mut alpha_dot = [0.0; N];
         for (d, st) in alpha_dot.iter_mut().zip(s.differentiators.iter()) {
@@ -189,8 +219,9 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
             },
         );
 
-        // 2. u_l, then q_l = Q_l(u_l).
-        let u = [sig.u; M];
+        // 2. u_l (limited with safety on), then q_l = Q_l(u_l).
+        let (u_l, limited) = guard.limit(sig.u, s.u[0]);
+        let u = [u_l; M];
         let mut quantizers = s.quantizers;
         let mut q = u;
         if let Some(qz) = &p.quantizer {
@@ -224,7 +255,12 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
             xi: p.eta * math::abs(e_n * sig.tanh_n),
             lambda: p.tau * math::abs(e_n * sig.beta[N - 1]),
         };
-        let estimates = p.laws.next(&est, &drives);
+        // Conditional integration: the laws pause while a limit is active.
+        let estimates = if limited {
+            est
+        } else {
+            p.laws.next(&est, &drives)
+        };
 
         // 4. Differentiators of α_j, j < n.
         let mut differentiators = s.differentiators;
@@ -235,13 +271,16 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         // All finite: `0·v` is ±0 for a finite `v` and NaN for ±∞ or NaN, so one comparison
         // of the sum replaces a test per value.
         let mut probe =
-            0.0 * sig.u + 0.0 * estimates.mu + 0.0 * estimates.xi + 0.0 * estimates.lambda;
+            0.0 * u_l + 0.0 * estimates.mu + 0.0 * estimates.xi + 0.0 * estimates.lambda;
         for d in &differentiators {
             probe += 0.0 * d.chi1 + 0.0 * d.chi2;
         }
         let finite = probe == 0.0;
         if !finite {
-            return held(s, varpi, StepFault::NonFiniteResult, links);
+            return held(s, guard, varpi, StepFault::NonFiniteResult, links);
+        }
+        if G::ENABLED {
+            s.recovery.after_hold = false;
         }
         s.quantizers = quantizers;
         s.estimates = estimates;
@@ -256,18 +295,26 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
             beta: sig.beta,
             estimates,
             varpi,
-            status: StepStatus { fault: None, links },
+            status: StepStatus {
+                fault: None,
+                links,
+                limited,
+            },
         }
     }
 }
 
 /// The fault result: previous command held, nothing committed.
-fn held<const N: usize, const M: usize, const K: usize>(
-    s: &State<N, M, K>,
+fn held<const N: usize, const M: usize, const K: usize, G: Guard>(
+    s: &mut State<N, M, K>,
+    _: &G,
     varpi: f32,
     fault: StepFault,
     links: LinkReport,
 ) -> StepOutput<N, M> {
+    if G::ENABLED {
+        s.recovery.after_hold = true;
+    }
     StepOutput {
         u: s.u,
         q: s.q,
@@ -279,6 +326,7 @@ fn held<const N: usize, const M: usize, const K: usize>(
         status: StepStatus {
             fault: Some(fault),
             links,
+            limited: false,
         },
     }
 }

@@ -64,6 +64,7 @@ pub mod math;
 pub mod mtn;
 pub mod powers;
 pub mod quantizer;
+pub mod safety;
 pub mod scheme;
 pub mod smoothing;
 
@@ -76,4 +77,5 @@ pub use error::ConfigError;
 pub use gains::{GainSelection, Gains};
 pub use mtn::MtnRegressor;
 pub use quantizer::{HysteresisQuantizer, QuantizerConfig, QuantizerDirection};
+pub use safety::SafetyConfig;
 pub use scheme::{BaselineConfig, SchemeConfig};

@@ -5,7 +5,7 @@ use std::{fmt, path::Path};
 
 use controller_core::{
     BaselineConfig, ConfigError, Controller, ControllerConfig, GainSelection, QuantizerConfig,
-    QuantizerDirection, SchemeConfig,
+    QuantizerDirection, SafetyConfig, SchemeConfig,
 };
 use serde::{de, Deserialize, Deserializer, Serialize, Serializer};
 
@@ -40,6 +40,10 @@ pub struct Scenario {
     /// `[network]` (added by this project: `docs/NETWORK.md`); left out of `check` when ideal.
     #[serde(skip_serializing_if = "NetworkSpec::is_default")]
     pub network: NetworkSpec,
+    /// `[safety]` (SCENARIO.md additions; `docs/DEVIATIONS.md` §3); left out of `check` when
+    /// it is the default.
+    #[serde(skip_serializing_if = "SafetySpec::is_default")]
+    pub safety: SafetySpec,
 }
 
 impl Default for Scenario {
@@ -54,7 +58,52 @@ impl Default for Scenario {
             quantizer: QuantizerSpec::default(),
             faults: FaultsSpec::default(),
             network: NetworkSpec::default(),
+            safety: SafetySpec::default(),
         }
+    }
+}
+
+/// `[safety]`: command limits, anti-windup and recovery of `controller-core`'s
+/// [`controller_core::safety`]. Off by default: the paper's law.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SafetySpec {
+    /// On: limits, conditional integration, bumpless re-entry, differentiator re-seeding.
+    pub enabled: bool,
+    /// Limit of `|u|` per actuator before the quantizer [command units]; absent: none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub u_max: Option<f64>,
+    /// Limit of `|du/dt|` [command units / s]; absent: none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub du_max: Option<f64>,
+    /// `T_r` [s]: a returning neighbour / leader value is blended in over this time.
+    pub recovery_time: f64,
+}
+
+impl Default for SafetySpec {
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            u_max: None,
+            du_max: None,
+            recovery_time: f64::from(SafetyConfig::default().recovery_time),
+        }
+    }
+}
+
+impl SafetySpec {
+    /// The default (off, nothing set).
+    pub fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
+
+    /// The controller's settings, `None` when off.
+    pub fn config(&self) -> Option<SafetyConfig> {
+        self.enabled.then(|| SafetyConfig {
+            u_max: self.u_max.map(|v| v as f32),
+            du_max: self.du_max.map(|v| v as f32),
+            recovery_time: self.recovery_time as f32,
+        })
     }
 }
 
@@ -640,6 +689,7 @@ impl Setup {
                 },
             }),
             scheme,
+            safety: self.scenario.safety.config(),
         })
     }
 }
@@ -652,6 +702,7 @@ fn config_error_key(e: &ConfigError, i: usize, auto_gains: bool) -> String {
         // Computed gains out of range: the user wrote ts (and zeta, p, eta, tau).
         "c1" | "c2" if auto_gains => "controller.ts".to_string(),
         "rho" | "u_min" => format!("quantizer.{p}"),
+        "u_max" | "du_max" | "recovery_time" => format!("safety.{p}"),
         p => format!("controller.{p}"),
     };
     match *e {
@@ -676,6 +727,7 @@ fn config_error_key(e: &ConfigError, i: usize, auto_gains: bool) -> String {
         ConfigError::InitialEstimateAboveMax => param("estimate_max"),
         ConfigError::MuMaxBelowOne => param("mu_max"),
         ConfigError::ZeroStateOrder => "plant.model".into(),
+        ConfigError::UMaxNotAboveUMin => "safety.u_max".into(),
         _ => "controller".into(),
     }
 }
@@ -946,6 +998,34 @@ pub fn validate(mut scenario: Scenario) -> Result<Setup> {
             ));
         }
         positive(q.u_min, "quantizer.u_min")?;
+    }
+
+    // Checked whether on or off, so a typo does not wait for the day it is switched on.
+    let sf = &scenario.safety;
+    for (k, v) in [("safety.u_max", sf.u_max), ("safety.du_max", sf.du_max)] {
+        if let Some(v) = v {
+            positive(v, k)?;
+            if v > f64::from(f32::MAX) {
+                return Err(Error::invalid(k, format!("must fit f32 (got {v:e})")));
+            }
+        }
+    }
+    if !sf.recovery_time.is_finite() || !(0.0..=1e6).contains(&sf.recovery_time) {
+        return Err(Error::invalid(
+            "safety.recovery_time",
+            format!("must lie in [0, 1e6] s (got {})", sf.recovery_time),
+        ));
+    }
+    if let (Some(u_max), true) = (sf.u_max, q.enabled) {
+        if u_max <= q.u_min {
+            return Err(Error::invalid(
+                "safety.u_max",
+                format!(
+                    "must be above quantizer.u_min = {} (got {u_max}): every command would quantize to 0",
+                    q.u_min
+                ),
+            ));
+        }
     }
 
     let graph = Graph::from_spec(&scenario.graph)?;
