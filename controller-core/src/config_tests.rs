@@ -151,23 +151,26 @@ fn more_parameters_are_named() {
         .err(),
         Some(E::NonPositive("kappa"))
     );
-    let safety = |u_max, du_max, recovery_time| {
+    let safety = |u_max, du_max, recovery_rate| {
         with(|c| {
             c.safety = Some(SafetyConfig {
                 u_max,
                 du_max,
-                recovery_time,
+                recovery_rate,
             })
         })
         .err()
     };
-    assert_eq!(safety(Some(-1.0), None, 0.2), Some(E::NonPositive("u_max")));
+    assert_eq!(safety(Some(-1.0), None, 1.0), Some(E::NonPositive("u_max")));
     assert_eq!(
-        safety(None, Some(f32::NAN), 0.2),
+        safety(None, Some(f32::NAN), 1.0),
         Some(E::NonFinite("du_max"))
     );
-    assert_eq!(safety(None, None, -1.0), Some(E::Negative("recovery_time")));
-    assert_eq!(safety(Some(20.0), Some(1e4), 0.2), None);
+    assert_eq!(
+        safety(None, None, -1.0),
+        Some(E::NonPositive("recovery_rate"))
+    );
+    assert_eq!(safety(Some(20.0), Some(1e4), f32::INFINITY), None);
     // Messages name the parameter.
     extern crate std;
     use std::string::ToString;

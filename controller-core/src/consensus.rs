@@ -10,10 +10,7 @@
 //!   was one, the link's term is left out of `e_{i,1}` and of `Φ_1` for this sample (as if the
 //!   neighbour agreed with the agent) and the link is counted as missing.
 
-use crate::{
-    mtn::MtnAccumulator,
-    safety::{Guard, Recovery},
-};
+use crate::mtn::MtnAccumulator;
 
 /// One value received over the network, as the node hands it to the controller.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -117,13 +114,6 @@ impl Held {
     }
 }
 
-/// The neighbour values (in configured order) and the leader value of one sample.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Links<'a> {
-    pub(crate) neighbours: &'a [Link],
-    pub(crate) leader: Link,
-}
-
 /// The agent's place in the graph: `S_i` neighbours, pinned or not (SPEC §2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -136,6 +126,11 @@ impl Consensus {
     /// `S_i` neighbours (at most `K`, checked by the controller's config) and the pinning `r_i`.
     pub const fn new(neighbours: u8, pinned: bool) -> Self {
         Self { neighbours, pinned }
+    }
+
+    /// `S_i` as a count: the number of neighbour values `step` expects.
+    pub const fn neighbour_count(&self) -> usize {
+        self.neighbours as usize
     }
 
     /// `S_i = Σ_k a_{i,k}`.
@@ -159,40 +154,13 @@ impl Consensus {
         phi: &mut MtnAccumulator,
         report: &mut LinkReport,
     ) -> f32 {
-        let mut unused = Recovery::default();
-        let paper = crate::safety::Paper;
-        let links = Links { neighbours, leader };
-        self.guarded_error(memory, &mut unused, &paper, y, links, phi, report)
-    }
-
-    /// [`Self::consensus_error`] with each resolved value passed through `guard`'s re-entry
-    /// (the identity for the paper's law).
-    #[allow(clippy::too_many_arguments)]
-    #[inline]
-    pub(crate) fn guarded_error<const K: usize, G: Guard>(
-        &self,
-        memory: &mut LinkMemory<K>,
-        recovery: &mut Recovery<K>,
-        guard: &G,
-        y: f32,
-        links: Links<'_>,
-        phi: &mut MtnAccumulator,
-        report: &mut LinkReport,
-    ) -> f32 {
-        let Links { neighbours, leader } = links;
         report.count_mismatch = neighbours.len() != self.neighbours as usize;
         phi.push(y);
         let mut e = 0.0;
-        let slots = memory
-            .neighbours
-            .iter_mut()
-            .zip(recovery.neighbours.iter_mut())
-            .take(self.neighbours as usize);
-        for (k, (held, reentry)) in slots.enumerate() {
+        let slots = memory.neighbours.iter_mut().take(self.neighbours as usize);
+        for (k, held) in slots.enumerate() {
             let link = neighbours.get(k).copied().unwrap_or(Link::Missing);
-            let resolved = held.resolve(link);
-            let fresh = matches!(resolved, Resolved::Value(_));
-            let yk = match resolved {
+            let yk = match held.resolve(link) {
                 Resolved::Value(v) => Some(v),
                 Resolved::Stale(v) => {
                     report.stale_neighbours += 1;
@@ -210,15 +178,13 @@ impl Consensus {
                     None
                 }
             };
-            if let Some(yk) = guard.reenter(reentry, yk, fresh) {
+            if let Some(yk) = yk {
                 e += y - yk;
                 phi.push(yk);
             }
         }
         if self.pinned {
-            let resolved = memory.leader.resolve(leader);
-            let fresh = matches!(resolved, Resolved::Value(_));
-            let yd = match resolved {
+            let yd = match memory.leader.resolve(leader) {
                 Resolved::Value(v) => Some(v),
                 Resolved::Stale(v) => {
                     report.leader_stale = true;
@@ -234,7 +200,7 @@ impl Consensus {
                     None
                 }
             };
-            if let Some(yd) = guard.reenter(&mut recovery.leader, yd, fresh) {
+            if let Some(yd) = yd {
                 e += y - yd;
             }
         }

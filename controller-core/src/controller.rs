@@ -4,11 +4,11 @@ use crate::{
     adaptive::{Drives, Estimates},
     backstepping::Estimated,
     config::{ControllerConfig, Params},
-    consensus::{Link, LinkMemory, LinkReport, Links},
+    consensus::{Link, LinkMemory, LinkReport},
     differentiator::DifferentiatorState,
     math,
     quantizer::QuantizerState,
-    safety::{Guard, Paper, Recovery},
+    safety::Recovery,
     ConfigError,
 };
 
@@ -159,22 +159,36 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
     /// With safety on ([`crate::SafetyConfig`]) the command is limited before the quantizer,
     /// the adaptive laws pause while a limit is active, returning links are blended in and the
     /// differentiators restart after a held step ([`crate::safety`]); with it off this is the
-    /// paper's law, the same code as without the feature.
+    /// paper's law: none of that code runs.
     pub fn step(&mut self, x: &[f32; N], neighbours: &[Link], leader: Link) -> StepOutput<N, M> {
-        let links = Links { neighbours, leader };
-        match self.params.safety {
-            None => self.step_with(&Paper, x, links),
-            Some(safety) => self.step_with(&safety, x, links),
+        // With safety on: returning links re-enter at the recovery rate, differentiators
+        // restart after a held step (out of line; with safety off, one branch).
+        // More values than slots: the law counts a mismatch from the (cut) slice unless told.
+        let overlong = neighbours.len() > K;
+        let reentered: [Link; K];
+        let (neighbours, leader) = match &self.params.safety {
+            None => (neighbours, leader),
+            Some(safety) => {
+                let s = &mut self.state;
+                if s.recovery.after_hold {
+                    s.differentiators = [DifferentiatorState::default(); N];
+                }
+                let (links, leader) = s.recovery.reenter_links(safety, neighbours, leader);
+                reentered = links;
+                (&reentered[..neighbours.len().min(K)], leader)
+            }
+        };
+        let mut out = self.law(x, neighbours, leader);
+        if self.params.safety.is_some() {
+            out.status.links.count_mismatch |= overlong;
+            self.state.recovery.after_hold = out.status.fault.is_some();
         }
+        out
     }
 
+    /// The law of SPEC §5–§6 on the links as given; the limits of [`crate::safety`] when on.
     #[inline(always)]
-    fn step_with<G: Guard>(
-        &mut self,
-        guard: &G,
-        x: &[f32; N],
-        links_in: Links<'_>,
-    ) -> StepOutput<N, M> {
+    fn law(&mut self, x: &[f32; N], neighbours: &[Link], leader: Link) -> StepOutput<N, M> {
         let p = &self.params;
         let s = &mut self.state;
         let t = s.k as f32 * p.h;
@@ -185,20 +199,16 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         // 1. e_1 from the latest neighbour / leader values, then β_j, α_j, e_{j+1}.
         let mut links = LinkReport::default();
         let mut phi1 = p.backstepping.mtn.accumulator();
-        let e1 = p.consensus.guarded_error(
+        let e1 = p.consensus.consensus_error(
             &mut s.links,
-            &mut s.recovery,
-            guard,
             x[0],
-            links_in,
+            neighbours,
+            leader,
             &mut phi1,
             &mut links,
         );
         if x.iter().any(|v| !v.is_finite()) {
-            return held(s, guard, varpi, StepFault::InvalidState, links);
-        }
-        if G::ENABLED && s.recovery.after_hold {
-            s.differentiators = [DifferentiatorState::default(); N];
+            return held(s, varpi, StepFault::InvalidState, links);
         }
         let mut alpha_dot = [0.0; N];
         for (d, st) in alpha_dot.iter_mut().zip(s.differentiators.iter()) {
@@ -220,7 +230,10 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         );
 
         // 2. u_l (limited with safety on), then q_l = Q_l(u_l).
-        let (u_l, limited) = guard.limit(sig.u, s.u[0]);
+        let (u_l, limited) = match &p.safety {
+            None => (sig.u, false),
+            Some(safety) => safety.limit(sig.u, s.u[0]),
+        };
         let u = [u_l; M];
         let mut quantizers = s.quantizers;
         let mut q = u;
@@ -277,10 +290,7 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         }
         let finite = probe == 0.0;
         if !finite {
-            return held(s, guard, varpi, StepFault::NonFiniteResult, links);
-        }
-        if G::ENABLED {
-            s.recovery.after_hold = false;
+            return held(s, varpi, StepFault::NonFiniteResult, links);
         }
         s.quantizers = quantizers;
         s.estimates = estimates;
@@ -305,16 +315,12 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
 }
 
 /// The fault result: previous command held, nothing committed.
-fn held<const N: usize, const M: usize, const K: usize, G: Guard>(
-    s: &mut State<N, M, K>,
-    _: &G,
+fn held<const N: usize, const M: usize, const K: usize>(
+    s: &State<N, M, K>,
     varpi: f32,
     fault: StepFault,
     links: LinkReport,
 ) -> StepOutput<N, M> {
-    if G::ENABLED {
-        s.recovery.after_hold = true;
-    }
     StepOutput {
         u: s.u,
         q: s.q,

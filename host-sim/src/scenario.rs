@@ -76,8 +76,9 @@ pub struct SafetySpec {
     /// Limit of `|du/dt|` [command units / s]; absent: none.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub du_max: Option<f64>,
-    /// `T_r` [s]: a returning neighbour / leader value is blended in over this time.
-    pub recovery_time: f64,
+    /// `v_r` [units of `y` / s]: a returning neighbour / leader value's jump is removed at
+    /// this speed (`inf`: used at once).
+    pub recovery_rate: f64,
 }
 
 impl Default for SafetySpec {
@@ -86,7 +87,7 @@ impl Default for SafetySpec {
             enabled: false,
             u_max: None,
             du_max: None,
-            recovery_time: f64::from(SafetyConfig::default().recovery_time),
+            recovery_rate: f64::from(SafetyConfig::default().recovery_rate),
         }
     }
 }
@@ -102,7 +103,7 @@ impl SafetySpec {
         self.enabled.then(|| SafetyConfig {
             u_max: self.u_max.map(|v| v as f32),
             du_max: self.du_max.map(|v| v as f32),
-            recovery_time: self.recovery_time as f32,
+            recovery_rate: self.recovery_rate as f32,
         })
     }
 }
@@ -702,7 +703,7 @@ fn config_error_key(e: &ConfigError, i: usize, auto_gains: bool) -> String {
         // Computed gains out of range: the user wrote ts (and zeta, p, eta, tau).
         "c1" | "c2" if auto_gains => "controller.ts".to_string(),
         "rho" | "u_min" => format!("quantizer.{p}"),
-        "u_max" | "du_max" | "recovery_time" => format!("safety.{p}"),
+        "u_max" | "du_max" | "recovery_rate" => format!("safety.{p}"),
         p => format!("controller.{p}"),
     };
     match *e {
@@ -1010,10 +1011,13 @@ pub fn validate(mut scenario: Scenario) -> Result<Setup> {
             }
         }
     }
-    if !sf.recovery_time.is_finite() || !(0.0..=1e6).contains(&sf.recovery_time) {
+    if sf.recovery_rate.is_nan() || sf.recovery_rate <= 0.0 {
         return Err(Error::invalid(
-            "safety.recovery_time",
-            format!("must lie in [0, 1e6] s (got {})", sf.recovery_time),
+            "safety.recovery_rate",
+            format!(
+                "must be > 0 (units of y per second; inf: no blending) (got {})",
+                sf.recovery_rate
+            ),
         ));
     }
     if let (Some(u_max), true) = (sf.u_max, q.enabled) {

@@ -184,8 +184,8 @@ fn bad_safety_values_name_the_key() {
         ("safety.u_max=0.005", "safety.u_max"),
         ("safety.du_max=0", "safety.du_max"),
         ("safety.du_max=1e300", "safety.du_max"),
-        ("safety.recovery_time=-0.1", "safety.recovery_time"),
-        ("safety.recovery_time=nan", "safety.recovery_time"),
+        ("safety.recovery_rate=0", "safety.recovery_rate"),
+        ("safety.recovery_rate=nan", "safety.recovery_rate"),
         ("safety.umax=3", "safety"),
         ("safety.enabled=1", "safety.enabled"),
     ] {
