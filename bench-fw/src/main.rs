@@ -78,7 +78,8 @@ fn config() -> ControllerConfig<N> {
         cfg.safety = Some(controller_core::SafetyConfig {
             u_max: Some(40.0),
             du_max: Some(2000.0),
-            recovery_rate: 0.5,
+            recovery_rate: 1.0,
+            recovery_jump: 0.05,
         });
     }
     cfg

@@ -157,6 +157,7 @@ fn more_parameters_are_named() {
                 u_max,
                 du_max,
                 recovery_rate,
+                recovery_jump: 0.05,
             })
         })
         .err()
@@ -171,6 +172,16 @@ fn more_parameters_are_named() {
         Some(E::NonPositive("recovery_rate"))
     );
     assert_eq!(safety(Some(20.0), Some(1e4), f32::INFINITY), None);
+    assert_eq!(
+        with(|c| {
+            c.safety = Some(SafetyConfig {
+                recovery_jump: -1.0,
+                ..SafetyConfig::default()
+            })
+        })
+        .err(),
+        Some(E::Negative("recovery_jump"))
+    );
     // Messages name the parameter.
     extern crate std;
     use std::string::ToString;

@@ -10,7 +10,8 @@
 //!   a stale, missing, invalid or silent period enters `e_{i,1}` (10) as
 //!   `ŷ_k(t) = y_k(t) + o_k(t)`, where the offset `o_k = ŷ_k(t_r⁻) − y_k(t_r)` (the last value
 //!   used minus the returning one) shrinks to 0 at `v_r` per second (`recovery_rate`), i.e.
-//!   within `|o_k(t_r)| / v_r`; while a link is degraded the last value used is held.
+//!   within `|o_k(t_r)| / v_r`; while a link is degraded the last value used is held. Jumps up
+//!   to `recovery_jump` re-enter at once (`o_k = 0`).
 //! * **Re-seeded differentiators** after a held step (NaN state or overflow): the first valid
 //!   step restarts every differentiator at `χ_1 = α`, `χ_2 = 0`, as on the first sample.
 //!
@@ -30,6 +31,10 @@ pub struct SafetyConfig {
     /// `v_r` [units of `y` per s]: speed at which a returning link's jump is removed from the
     /// value used (`∞`: no blending, the returning value is used at once).
     pub recovery_rate: f32,
+    /// Jumps up to this size [units of `y`] re-enter at once: the small steps that brief
+    /// staleness (lost frames) produces, which the law handles and which blending would turn
+    /// into a lag that builds up under frequent loss.
+    pub recovery_jump: f32,
 }
 
 impl Default for SafetyConfig {
@@ -38,6 +43,7 @@ impl Default for SafetyConfig {
             u_max: None,
             du_max: None,
             recovery_rate: 1.0,
+            recovery_jump: 0.05,
         }
     }
 }
@@ -49,6 +55,7 @@ pub struct Safety {
     u_max: f32,
     du_step: f32,
     blend_step: f32,
+    jump: f32,
 }
 
 impl Safety {
@@ -73,6 +80,7 @@ impl Safety {
             u_max,
             du_step,
             blend_step: v * h,
+            jump: crate::gains::non_negative(cfg.recovery_jump, "recovery_jump")?,
         })
     }
 
@@ -163,7 +171,10 @@ impl Safety {
             return Some(mem.used);
         }
         if fresh && mem.degraded && mem.seen {
-            mem.offset = mem.used - v;
+            let jump = mem.used - v;
+            if crate::math::abs(jump) > self.jump {
+                mem.offset = jump;
+            }
         }
         mem.degraded = !fresh;
         mem.offset -= clamp(mem.offset, self.blend_step);
@@ -203,6 +214,7 @@ mod tests {
                 u_max,
                 du_max,
                 recovery_rate: rate,
+                recovery_jump: 0.05,
             },
             h,
         )
@@ -235,6 +247,9 @@ mod tests {
         for (u, w) in used.iter().zip(want) {
             assert!((u - w).abs() < 1e-6, "{used:?}");
         }
+        // A small jump (lost frames) re-enters at once.
+        s.reenter(&mut m, Some(3.0), false);
+        assert_eq!(s.reenter(&mut m, Some(3.04), true), Some(3.04));
         // Without blending the returning value is used at once.
         let direct = safety(None, None, f32::INFINITY, 0.1);
         let mut m = Reentry::default();
@@ -256,6 +271,7 @@ mod tests {
                 u_max: Some(u_max),
                 du_max: None,
                 recovery_rate: 1.0,
+                recovery_jump: 0.05,
             }),
             ..crate::ControllerConfig::default()
         };
@@ -326,6 +342,7 @@ mod tests {
                     u_max,
                     du_max,
                     recovery_rate,
+                    recovery_jump: 0.0,
                 },
                 1e-3,
             )

@@ -30,6 +30,8 @@ pub struct RunOptions {
     pub record: bool,
     /// Show a progress bar (only on a terminal).
     pub progress: bool,
+    /// Keep `(t, max_i |y_i − y_d|, max_{i,l} |u_{i,l}|)` of every sample in the result.
+    pub trace: bool,
 }
 
 /// A finished run.
@@ -39,6 +41,25 @@ pub struct RunResult {
     pub summary: Summary,
     /// Plot series, when recorded.
     pub recorder: Option<Recorder>,
+    /// Per sample `(t, max error, max |u|)`, when asked for (`RunOptions::trace`).
+    pub trace: Option<Vec<[f64; 3]>>,
+}
+
+/// Collects the per-sample worst error and command (for fault campaigns).
+struct Trace(Vec<[f64; 3]>);
+
+impl<const N: usize, const M: usize> Observer<N, M> for Trace {
+    fn sample(&mut self, s: &crate::sim::SampleView<'_, N, M>) -> Result<()> {
+        let err = s.x.iter().map(|x| (x[0] - s.yd).abs()).fold(0.0, f64::max);
+        let u = s
+            .out
+            .iter()
+            .flat_map(|o| o.u.iter())
+            .map(|u| f64::from(u.abs()))
+            .fold(0.0, f64::max);
+        self.0.push([s.t, err, u]);
+        Ok(())
+    }
 }
 
 /// Runs `setup` without writing anything: the summary only.
@@ -112,8 +133,12 @@ fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
         None => None,
     };
     let pb = progress_bar(setup.samples, opts.progress);
+    let mut trace = opts.trace.then(|| Trace(Vec::new()));
     let divergence = {
         let mut obs: Vec<&mut dyn Observer<N, M>> = vec![&mut metrics];
+        if let Some(t) = trace.as_mut() {
+            obs.push(t);
+        }
         if let Some(r) = recorder.as_mut() {
             obs.push(r);
         }
@@ -138,7 +163,11 @@ fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
             }
         }
     }
-    Ok(RunResult { summary, recorder })
+    Ok(RunResult {
+        summary,
+        recorder,
+        trace: trace.map(|t| t.0),
+    })
 }
 
 /// One trial of the stable-`h` search.

@@ -79,6 +79,8 @@ pub struct SafetySpec {
     /// `v_r` [units of `y` / s]: a returning neighbour / leader value's jump is removed at
     /// this speed (`inf`: used at once).
     pub recovery_rate: f64,
+    /// Jumps up to this size [units of `y`] re-enter at once.
+    pub recovery_jump: f64,
 }
 
 impl Default for SafetySpec {
@@ -88,6 +90,7 @@ impl Default for SafetySpec {
             u_max: None,
             du_max: None,
             recovery_rate: f64::from(SafetyConfig::default().recovery_rate),
+            recovery_jump: f64::from(SafetyConfig::default().recovery_jump),
         }
     }
 }
@@ -104,6 +107,7 @@ impl SafetySpec {
             u_max: self.u_max.map(|v| v as f32),
             du_max: self.du_max.map(|v| v as f32),
             recovery_rate: self.recovery_rate as f32,
+            recovery_jump: self.recovery_jump as f32,
         })
     }
 }
@@ -393,6 +397,14 @@ pub struct FaultsSpec {
     /// The rules (`[[faults.rule]]`).
     #[serde(default = "default_rules")]
     pub rule: Vec<FaultRule>,
+    /// Sensor faults (`[[faults.sensor]]`): an agent's controller reads a NaN state on
+    /// `[from, until)` (the plant is not affected).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub sensor: Vec<SensorFault>,
+    /// Run schedules with all `m` actuators of an agent in total loss at once (beyond
+    /// Assumption 4; for fault campaigns). Default false: such a schedule is rejected.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub beyond_assumption4: bool,
 }
 
 impl Default for FaultsSpec {
@@ -400,8 +412,22 @@ impl Default for FaultsSpec {
         Self {
             enabled: true,
             rule: default_rules(),
+            sensor: Vec::new(),
+            beyond_assumption4: false,
         }
     }
+}
+
+/// One `[[faults.sensor]]` window: agent `agent` (1-based) reads NaN on `[from, until)`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorFault {
+    /// 1-based agent.
+    pub agent: i64,
+    /// Start [s].
+    pub from: f64,
+    /// End [s], exclusive.
+    pub until: f64,
 }
 
 fn default_rules() -> Vec<FaultRule> {
@@ -703,7 +729,7 @@ fn config_error_key(e: &ConfigError, i: usize, auto_gains: bool) -> String {
         // Computed gains out of range: the user wrote ts (and zeta, p, eta, tau).
         "c1" | "c2" if auto_gains => "controller.ts".to_string(),
         "rho" | "u_min" => format!("quantizer.{p}"),
-        "u_max" | "du_max" | "recovery_rate" => format!("safety.{p}"),
+        "u_max" | "du_max" | "recovery_rate" | "recovery_jump" => format!("safety.{p}"),
         p => format!("controller.{p}"),
     };
     match *e {
@@ -1020,6 +1046,12 @@ pub fn validate(mut scenario: Scenario) -> Result<Setup> {
             ),
         ));
     }
+    if !sf.recovery_jump.is_finite() || sf.recovery_jump < 0.0 {
+        return Err(Error::invalid(
+            "safety.recovery_jump",
+            format!("must be a finite number >= 0 (got {})", sf.recovery_jump),
+        ));
+    }
     if let (Some(u_max), true) = (sf.u_max, q.enabled) {
         if u_max <= q.u_min {
             return Err(Error::invalid(
@@ -1086,11 +1118,28 @@ pub fn validate(mut scenario: Scenario) -> Result<Setup> {
         }
     }
     crate::network::validate(&scenario.network, graph.len(), sim.h, sim.t_end)?;
-    let faults = if scenario.faults.enabled {
-        FaultSchedule::from_rules(&scenario.faults.rule, graph.len(), m, sim.t_end)?
-    } else {
+    let faults = if !scenario.faults.enabled {
         FaultSchedule::healthy(graph.len(), m)
+    } else if scenario.faults.beyond_assumption4 {
+        FaultSchedule::compile(&scenario.faults.rule, graph.len(), m)?
+    } else {
+        FaultSchedule::from_rules(&scenario.faults.rule, graph.len(), m, sim.t_end)?
     };
+    for (j, f) in scenario.faults.sensor.iter().enumerate() {
+        let key = |k: &str| format!("faults.sensor[{}].{k}", j + 1);
+        if f.agent < 1 || f.agent as usize > graph.len() {
+            return Err(Error::invalid(
+                key("agent"),
+                format!("agent {} out of range 1..={}", f.agent, graph.len()),
+            ));
+        }
+        if !(f.from.is_finite() && f.until.is_finite() && f.from < f.until) {
+            return Err(Error::invalid(
+                key("until"),
+                format!("need finite from < until (got {} .. {})", f.from, f.until),
+            ));
+        }
+    }
     let x0 = x0.clone();
     let setup = Setup {
         scenario,

@@ -186,6 +186,7 @@ fn bad_safety_values_name_the_key() {
         ("safety.du_max=1e300", "safety.du_max"),
         ("safety.recovery_rate=0", "safety.recovery_rate"),
         ("safety.recovery_rate=nan", "safety.recovery_rate"),
+        ("safety.recovery_jump=-1", "safety.recovery_jump"),
         ("safety.umax=3", "safety"),
         ("safety.enabled=1", "safety.enabled"),
     ] {

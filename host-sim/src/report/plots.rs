@@ -19,7 +19,7 @@ const TARGET_POINTS: u64 = 4000;
 static FONT: &[u8] = include_bytes!("../../assets/DejaVuSans.ttf");
 static FONT_ONCE: Once = Once::new();
 
-fn register_font() {
+pub(crate) fn register_font() {
     FONT_ONCE.call_once(|| {
         // A bundled font: no system font lookup (works on a bare CI machine).
         let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
