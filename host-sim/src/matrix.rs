@@ -435,7 +435,7 @@ pub fn draw(
             )
             .map_err(|e| e.to_string())?;
         }
-        legend(&mut c)?;
+        legend(&mut c, SeriesLabelPosition::UpperLeft)?;
 
         let t_hi = results
             .iter()
@@ -491,23 +491,126 @@ pub fn draw(
             )
             .map_err(|e| e.to_string())?;
         }
-        legend(&mut c)?;
+        legend(&mut c, SeriesLabelPosition::UpperLeft)?;
         root.present().map_err(|e| e.to_string())
     };
     draw().map_err(|e| crate::Error::io(path, e))?;
     std::fs::rename(&tmp, path).map_err(|e| crate::Error::io(path, e))
 }
 
-/// The legend box, upper left.
+/// The legend box at `at`.
 fn legend<'a, DB: plotters::prelude::DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
     c: &mut plotters::chart::ChartContext<'a, DB, CT>,
+    at: plotters::chart::SeriesLabelPosition,
 ) -> std::result::Result<(), String> {
     use plotters::prelude::*;
     c.configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
+        .position(at)
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .label_font(("sans-serif", 13))
         .draw()
         .map_err(|e| e.to_string())
+}
+
+/// One run of a torque-limit sweep (`host-sim/tests/torque_limit.rs`).
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct LimitPoint {
+    /// `u_max`.
+    pub u_max: f64,
+    /// `settling_time` of the run (band `settle_band`).
+    pub settling_time: Option<f64>,
+    /// `max_error_after_predefined_time`.
+    pub max_error_after_predefined_time: Option<f64>,
+    /// Share of actuator-samples at the limit.
+    pub saturated_fraction: f64,
+}
+
+/// Settling time and max error after `2 T_s` against `u_max` (log x), with the `2 T_s` line.
+pub fn draw_limit_sweep(
+    path: &std::path::Path,
+    points: &[LimitPoint],
+    two_ts: f64,
+    title: &str,
+) -> Result<()> {
+    use plotters::prelude::*;
+    crate::report::plots::register_font();
+    let tmp = crate::report::temp_path(path);
+    let (lo, hi) = points.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), p| {
+        (lo.min(p.u_max), hi.max(p.u_max))
+    });
+    let t_hi = points
+        .iter()
+        .filter_map(|p| p.settling_time)
+        .fold(2.0 * two_ts, f64::max)
+        * 1.1;
+    let e_hi = points
+        .iter()
+        .filter_map(|p| p.max_error_after_predefined_time)
+        .fold(0.1, f64::max)
+        * 1.1;
+    let draw = || -> std::result::Result<(), String> {
+        let root = BitMapBackend::new(&tmp, (1100, 800)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| e.to_string())?;
+        let (top, bottom) = root.split_vertically(400);
+        let x_range = (lo / 1.2..hi * 1.2).log_scale();
+        let settling: fn(&LimitPoint) -> Option<f64> = |p| p.settling_time;
+        let error: fn(&LimitPoint) -> Option<f64> = |p| p.max_error_after_predefined_time;
+        let panels = [
+            (&top, "settling time (band settle_band) [s]", t_hi, settling),
+            (&bottom, "max |y_i - y_d| after 2 Ts", e_hi, error),
+        ];
+        for (k, (area, label, y_hi, value)) in panels.into_iter().enumerate() {
+            let caption = if k == 0 {
+                format!("{title}: torque limit u_max vs settling")
+            } else {
+                "tracking error after the predefined time 2 Ts".to_string()
+            };
+            let mut c = ChartBuilder::on(area)
+                .caption(caption, ("sans-serif", 18))
+                .margin(10)
+                .x_label_area_size(34)
+                .y_label_area_size(70)
+                .build_cartesian_2d(x_range.clone(), 0.0..y_hi)
+                .map_err(|e| e.to_string())?;
+            c.configure_mesh()
+                .x_desc("u_max per actuator (log)")
+                .y_desc(label)
+                .x_label_formatter(&|v| format!("{v:.0}"))
+                .label_style(("sans-serif", 13))
+                .draw()
+                .map_err(|e| e.to_string())?;
+            if k == 0 {
+                let style = BLACK.mix(0.6).stroke_width(2);
+                c.draw_series(LineSeries::new(
+                    [(lo / 1.2, two_ts), (hi * 1.2, two_ts)],
+                    style,
+                ))
+                .map_err(|e| e.to_string())?
+                .label(format!("2 Ts = {two_ts} s"))
+                .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], style));
+            }
+            let pts: Vec<(f64, f64)> = points
+                .iter()
+                .filter_map(|p| value(p).map(|v| (p.u_max, v)))
+                .collect();
+            c.draw_series(LineSeries::new(pts.clone(), BLUE.stroke_width(2)))
+                .map_err(|e| e.to_string())?;
+            c.draw_series(pts.iter().map(|&p| Circle::new(p, 4, BLUE.filled())))
+                .map_err(|e| e.to_string())?
+                .label("Example 2, [safety] u_max")
+                .legend(|(x, y)| Circle::new((x + 9, y), 4, BLUE.filled()));
+            let never: Vec<(f64, f64)> = points
+                .iter()
+                .filter(|p| value(p).is_none())
+                .map(|p| (p.u_max, y_hi / 1.1))
+                .collect();
+            c.draw_series(never.iter().map(|&p| Cross::new(p, 6, RED.stroke_width(2))))
+                .map_err(|e| e.to_string())?;
+            legend(&mut c, SeriesLabelPosition::UpperRight)?;
+        }
+        root.present().map_err(|e| e.to_string())
+    };
+    draw().map_err(|e| crate::Error::io(path, e))?;
+    std::fs::rename(&tmp, path).map_err(|e| crate::Error::io(path, e))
 }
