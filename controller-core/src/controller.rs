@@ -282,9 +282,10 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         }
 
         // All finite: `0·v` is ±0 for a finite `v` and NaN for ±∞ or NaN, so one comparison
-        // of the sum replaces a test per value.
+        // of the sum replaces a test per value. The law's `u` before any limit: a limit must
+        // not hide an overflow.
         let mut probe =
-            0.0 * u_l + 0.0 * estimates.mu + 0.0 * estimates.xi + 0.0 * estimates.lambda;
+            0.0 * sig.u + 0.0 * estimates.mu + 0.0 * estimates.xi + 0.0 * estimates.lambda;
         for d in &differentiators {
             probe += 0.0 * d.chi1 + 0.0 * d.chi2;
         }
