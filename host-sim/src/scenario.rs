@@ -89,8 +89,10 @@ impl Default for SafetySpec {
             enabled: false,
             u_max: None,
             du_max: None,
-            recovery_rate: f64::from(SafetyConfig::default().recovery_rate),
-            recovery_jump: f64::from(SafetyConfig::default().recovery_jump),
+            // `SafetyConfig::default()`'s values, written as f64 so that `check` prints them
+            // as written (tested in `safety_defaults_match_the_controller`).
+            recovery_rate: 1.0,
+            recovery_jump: 0.05,
         }
     }
 }
@@ -1160,6 +1162,18 @@ pub fn to_toml(s: &Scenario) -> String {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn safety_defaults_match_the_controller() {
+        let (spec, core) = (
+            super::SafetySpec::default(),
+            controller_core::SafetyConfig::default(),
+        );
+        assert_eq!(spec.recovery_rate as f32, core.recovery_rate);
+        assert_eq!(spec.recovery_jump as f32, core.recovery_jump);
+        assert_eq!((spec.u_max, spec.du_max), (None, None));
+        assert!(core.u_max.is_none() && core.du_max.is_none());
+    }
+
     use super::*;
 
     #[test]
