@@ -161,29 +161,24 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
     /// differentiators restart after a held step ([`crate::safety`]); with it off this is the
     /// paper's law: none of that code runs.
     pub fn step(&mut self, x: &[f32; N], neighbours: &[Link], leader: Link) -> StepOutput<N, M> {
-        // With safety on: returning links re-enter at the recovery rate, differentiators
-        // restart after a held step (out of line; with safety off, one branch).
-        // More values than slots: the law counts a mismatch from the (cut) slice unless told.
-        let overlong = neighbours.len() > K;
+        // With safety on: differentiators restart after a held step and returning links
+        // re-enter at the recovery rate (out of line; with safety off, one branch). More
+        // values than slots (a wiring error, counted by the law) go through as given.
         let reentered: [Link; K];
         let (neighbours, leader) = match &self.params.safety {
-            None => (neighbours, leader),
-            Some(safety) => {
+            Some(safety) if neighbours.len() <= K => {
                 let s = &mut self.state;
                 if s.recovery.after_hold {
                     s.differentiators = [DifferentiatorState::default(); N];
+                    s.recovery.after_hold = false;
                 }
                 let (links, leader) = s.recovery.reenter_links(safety, neighbours, leader);
                 reentered = links;
-                (&reentered[..neighbours.len().min(K)], leader)
+                (&reentered[..neighbours.len()], leader)
             }
+            _ => (neighbours, leader),
         };
-        let mut out = self.law(x, neighbours, leader);
-        if self.params.safety.is_some() {
-            out.status.links.count_mismatch |= overlong;
-            self.state.recovery.after_hold = out.status.fault.is_some();
-        }
-        out
+        self.law(x, neighbours, leader)
     }
 
     /// The law of SPEC §5–§6 on the links as given; the limits of [`crate::safety`] when on.
@@ -317,11 +312,13 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
 
 /// The fault result: previous command held, nothing committed.
 fn held<const N: usize, const M: usize, const K: usize>(
-    s: &State<N, M, K>,
+    s: &mut State<N, M, K>,
     varpi: f32,
     fault: StepFault,
     links: LinkReport,
 ) -> StepOutput<N, M> {
+    // Read only with safety on (the next valid step re-seeds the differentiators).
+    s.recovery.after_hold = true;
     StepOutput {
         u: s.u,
         q: s.q,
