@@ -73,6 +73,15 @@ fn config() -> ControllerConfig<N> {
         // The paper's comparison gains (LAW §8, Example 2's baseline).
         cfg.gains = GainSelection::Explicit { c1: 10.0, c2: 9.0 };
     }
+    #[cfg(feature = "safety")]
+    {
+        cfg.safety = Some(controller_core::SafetyConfig {
+            u_max: Some(40.0),
+            du_max: Some(2000.0),
+            recovery_rate: 1.0,
+            recovery_jump: 0.05,
+        });
+    }
     cfg
 }
 

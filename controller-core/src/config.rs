@@ -8,6 +8,7 @@ use crate::{
     differentiator::LevantDifferentiator,
     gains::{non_negative, positive},
     quantizer::{HysteresisQuantizer, QuantizerConfig},
+    safety::{Safety, SafetyConfig},
     scheme::{Scheme, SchemeConfig},
     smoothing::VarpiSchedule,
     ConfigError, GainSelection, Gains, MtnRegressor,
@@ -70,6 +71,9 @@ pub struct ControllerConfig<const N: usize> {
     pub quantizer: Option<QuantizerConfig>,
     /// Proposed scheme or baseline.
     pub scheme: SchemeConfig,
+    /// Command limits, anti-windup and recovery ([`crate::safety`]); `None` (default) is the
+    /// paper's law.
+    pub safety: Option<SafetyConfig>,
 }
 
 impl<const N: usize> Default for ControllerConfig<N> {
@@ -101,6 +105,7 @@ impl<const N: usize> Default for ControllerConfig<N> {
             estimate_max: 1e6,
             quantizer: Some(QuantizerConfig::default()),
             scheme: SchemeConfig::PredefinedTime,
+            safety: None,
         }
     }
 }
@@ -124,6 +129,7 @@ pub struct Params<const N: usize> {
     pub(crate) quantizer: Option<HysteresisQuantizer>,
     pub(crate) varpi: VarpiSchedule,
     pub(crate) initial: Estimates,
+    pub(crate) safety: Option<Safety>,
 }
 
 impl<const N: usize> Params<N> {
@@ -238,6 +244,18 @@ impl<const N: usize> Params<N> {
             return Err(ConfigError::InitialEstimateAboveMax);
         }
         let scheme = Scheme::new(&cfg.scheme, &gains, cfg.zeta, cfg.ts)?;
+        let safety = match &cfg.safety {
+            Some(sc) => {
+                let safety = Safety::new(sc, cfg.h)?;
+                if let Some(q) = &cfg.quantizer {
+                    if safety.u_max() <= q.u_min {
+                        return Err(ConfigError::UMaxNotAboveUMin);
+                    }
+                }
+                Some(safety)
+            }
+            None => None,
+        };
         Ok(Self {
             h: cfg.h,
             gains,
@@ -261,6 +279,7 @@ impl<const N: usize> Params<N> {
             quantizer,
             varpi: VarpiSchedule::new(cfg.varpi0, cfg.varpi_decay, cfg.varpi_min, cfg.h),
             initial,
+            safety,
         })
     }
 
@@ -282,5 +301,10 @@ impl<const N: usize> Params<N> {
     /// `A_i`.
     pub const fn a(&self) -> f32 {
         self.consensus.a()
+    }
+
+    /// The safety settings, if on.
+    pub const fn safety(&self) -> Option<&Safety> {
+        self.safety.as_ref()
     }
 }

@@ -3,7 +3,7 @@
 
 use crate::{
     BaselineConfig, ConfigError, Controller, ControllerConfig, GainSelection, Gains,
-    QuantizerConfig, SchemeConfig,
+    QuantizerConfig, SafetyConfig, SchemeConfig,
 };
 
 type C = Controller<2, 2, 4>;
@@ -23,7 +23,7 @@ fn quantizer(rho: f32, u_min: f32) -> Option<QuantizerConfig> {
 }
 
 /// One configuration per variant, and the variant it must give.
-fn cases() -> [(Result<C, ConfigError>, ConfigError); 21] {
+fn cases() -> [(Result<C, ConfigError>, ConfigError); 22] {
     use ConfigError as E;
     let baseline = |mu_max, kappa| {
         SchemeConfig::PrescribedTime(BaselineConfig {
@@ -69,6 +69,15 @@ fn cases() -> [(Result<C, ConfigError>, ConfigError); 21] {
             Gains::predefined_time(1.0, 0.5, 0, 1.0, 1.0, 1.0).map(|_| default_controller()),
             E::ZeroStateOrder,
         ),
+        (
+            with(|c| {
+                c.safety = Some(SafetyConfig {
+                    u_max: Some(0.005),
+                    ..SafetyConfig::default()
+                })
+            }),
+            E::UMaxNotAboveUMin,
+        ),
     ]
 }
 
@@ -78,7 +87,7 @@ fn default_controller() -> C {
 
 #[test]
 fn every_variant_is_reached() {
-    let mut seen = [false; 21];
+    let mut seen = [false; 22];
     for (i, (got, want)) in cases().into_iter().enumerate() {
         assert_eq!(got.err(), Some(want), "case {i}");
         let slot = match want {
@@ -103,6 +112,7 @@ fn every_variant_is_reached() {
             ConfigError::ZeroStateOrder => 18,
             ConfigError::GainTooLarge(_) => 19,
             ConfigError::DerivedOverflow(_) => 20,
+            ConfigError::UMaxNotAboveUMin => 21,
         };
         seen[slot] = true;
     }
@@ -155,6 +165,37 @@ fn more_parameters_are_named() {
         c.phi_up = [f32::MAX; 2];
     };
     assert_eq!(with(huge_up).err(), Some(E::DerivedOverflow("phi_up")));
+    let safety = |u_max, du_max, recovery_rate| {
+        with(|c| {
+            c.safety = Some(SafetyConfig {
+                u_max,
+                du_max,
+                recovery_rate,
+                recovery_jump: 0.05,
+            })
+        })
+        .err()
+    };
+    assert_eq!(safety(Some(-1.0), None, 1.0), Some(E::NonPositive("u_max")));
+    assert_eq!(
+        safety(None, Some(f32::NAN), 1.0),
+        Some(E::NonFinite("du_max"))
+    );
+    assert_eq!(
+        safety(None, None, -1.0),
+        Some(E::NonPositive("recovery_rate"))
+    );
+    assert_eq!(safety(Some(20.0), Some(1e4), f32::INFINITY), None);
+    assert_eq!(
+        with(|c| {
+            c.safety = Some(SafetyConfig {
+                recovery_jump: -1.0,
+                ..SafetyConfig::default()
+            })
+        })
+        .err(),
+        Some(E::Negative("recovery_jump"))
+    );
     // Messages name the parameter.
     extern crate std;
     use std::string::ToString;

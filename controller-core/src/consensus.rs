@@ -128,6 +128,11 @@ impl Consensus {
         Self { neighbours, pinned }
     }
 
+    /// `S_i` as a count: the number of neighbour values `step` expects.
+    pub const fn neighbour_count(&self) -> usize {
+        self.neighbours as usize
+    }
+
     /// `S_i = Σ_k a_{i,k}`.
     pub const fn s(&self) -> f32 {
         self.neighbours as f32

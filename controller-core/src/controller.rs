@@ -8,6 +8,7 @@ use crate::{
     differentiator::DifferentiatorState,
     math,
     quantizer::QuantizerState,
+    safety::Recovery,
     ConfigError,
 };
 
@@ -30,6 +31,9 @@ pub struct StepStatus {
     pub fault: Option<StepFault>,
     /// Stale, missing and invalid neighbour / leader values of this sample.
     pub links: LinkReport,
+    /// A safety limit (magnitude or rate) changed this sample's command; the adaptive laws
+    /// were not integrated (always `false` with safety off).
+    pub limited: bool,
 }
 
 /// What one step returns: the commands and the internal signals worth logging.
@@ -77,6 +81,8 @@ pub struct State<const N: usize, const M: usize, const K: usize> {
     pub q: [f32; M],
     /// Remembered neighbour and leader values.
     pub links: LinkMemory<K>,
+    /// Re-entry of returning links and the held-step flag (used only with safety on).
+    pub recovery: Recovery<K>,
 }
 
 /// The predefined-time adaptive consensus controller of one follower agent: `n = N` states,
@@ -119,6 +125,7 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
             u: [0.0; M],
             q: [0.0; M],
             links: LinkMemory::default(),
+            recovery: Recovery::default(),
         }
     }
 
@@ -148,7 +155,35 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
     /// Never panics. A non-finite `x`, or a result that overflows `f32`, holds the previous
     /// command and commits nothing (see [`StepFault`]); neighbour and leader values follow the
     /// policy of [`crate::consensus`].
+    ///
+    /// With safety on ([`crate::SafetyConfig`]) the command is limited before the quantizer,
+    /// the adaptive laws pause while a limit is active, returning links are blended in and the
+    /// differentiators restart after a held step ([`crate::safety`]); with it off this is the
+    /// paper's law: none of that code runs.
     pub fn step(&mut self, x: &[f32; N], neighbours: &[Link], leader: Link) -> StepOutput<N, M> {
+        // With safety on: differentiators restart after a held step and returning links
+        // re-enter at the recovery rate (out of line; with safety off, one branch). More
+        // values than slots (a wiring error, counted by the law) go through as given.
+        let reentered: [Link; K];
+        let (neighbours, leader) = match &self.params.safety {
+            Some(safety) if neighbours.len() <= K => {
+                let s = &mut self.state;
+                if s.recovery.after_hold {
+                    s.differentiators = [DifferentiatorState::default(); N];
+                    s.recovery.after_hold = false;
+                }
+                let (links, leader) = s.recovery.reenter_links(safety, neighbours, leader);
+                reentered = links;
+                (&reentered[..neighbours.len()], leader)
+            }
+            _ => (neighbours, leader),
+        };
+        self.law(x, neighbours, leader)
+    }
+
+    /// The law of SPEC §5–§6 on the links as given; the limits of [`crate::safety`] when on.
+    #[inline(always)]
+    fn law(&mut self, x: &[f32; N], neighbours: &[Link], leader: Link) -> StepOutput<N, M> {
         let p = &self.params;
         let s = &mut self.state;
         let t = s.k as f32 * p.h;
@@ -189,8 +224,12 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
             },
         );
 
-        // 2. u_l, then q_l = Q_l(u_l).
-        let u = [sig.u; M];
+        // 2. u_l (limited with safety on), then q_l = Q_l(u_l).
+        let (u_l, limited) = match &p.safety {
+            None => (sig.u, false),
+            Some(safety) => safety.limit(sig.u, s.u[0]),
+        };
+        let u = [u_l; M];
         let mut quantizers = s.quantizers;
         let mut q = u;
         if let Some(qz) = &p.quantizer {
@@ -224,7 +263,12 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
             xi: p.eta * math::abs(e_n * sig.tanh_n),
             lambda: p.tau * math::abs(e_n * sig.beta[N - 1]),
         };
-        let estimates = p.laws.next(&est, &drives);
+        // Conditional integration: the laws pause while a limit is active.
+        let estimates = if limited {
+            est
+        } else {
+            p.laws.next(&est, &drives)
+        };
 
         // 4. Differentiators of α_j, j < n.
         let mut differentiators = s.differentiators;
@@ -233,7 +277,8 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         }
 
         // All finite: `0·v` is ±0 for a finite `v` and NaN for ±∞ or NaN, so one comparison
-        // of the sum replaces a test per value.
+        // of the sum replaces a test per value. The law's `u` before any limit: a limit must
+        // not hide an overflow.
         let mut probe =
             0.0 * sig.u + 0.0 * estimates.mu + 0.0 * estimates.xi + 0.0 * estimates.lambda;
         for d in &differentiators {
@@ -256,18 +301,24 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
             beta: sig.beta,
             estimates,
             varpi,
-            status: StepStatus { fault: None, links },
+            status: StepStatus {
+                fault: None,
+                links,
+                limited,
+            },
         }
     }
 }
 
 /// The fault result: previous command held, nothing committed.
 fn held<const N: usize, const M: usize, const K: usize>(
-    s: &State<N, M, K>,
+    s: &mut State<N, M, K>,
     varpi: f32,
     fault: StepFault,
     links: LinkReport,
 ) -> StepOutput<N, M> {
+    // Read only with safety on (the next valid step re-seeds the differentiators).
+    s.recovery.after_hold = true;
     StepOutput {
         u: s.u,
         q: s.q,
@@ -279,6 +330,7 @@ fn held<const N: usize, const M: usize, const K: usize>(
         status: StepStatus {
             fault: Some(fault),
             links,
+            limited: false,
         },
     }
 }

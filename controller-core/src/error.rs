@@ -64,6 +64,9 @@ pub enum ConfigError {
     MuMaxBelowOne,
     /// The state order `n` (const generic `N`) must be ≥ 1.
     ZeroStateOrder,
+    /// Safety: `u_max` is at or below the quantizer's `u_min`, so every command would be
+    /// quantized to 0.
+    UMaxNotAboveUMin,
 }
 
 impl fmt::Display for ConfigError {
@@ -106,6 +109,9 @@ impl fmt::Display for ConfigError {
             }
             Self::MuMaxBelowOne => f.write_str("baseline `mu_max` must be >= 1"),
             Self::ZeroStateOrder => f.write_str("state order n must be >= 1"),
+            Self::UMaxNotAboveUMin => {
+                f.write_str("safety `u_max` must be above the quantizer's `u_min`")
+            }
         }
     }
 }

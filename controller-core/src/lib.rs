@@ -33,6 +33,14 @@
 //! as soon as valid inputs return. Stale, missing or invalid neighbour and leader values follow
 //! the policy of [`consensus`].
 //!
+//! ## Safety (off by default)
+//!
+//! [`ControllerConfig::safety`] adds what the paper's law lacks for real actuators
+//! ([`safety`]): magnitude and rate limits of the command before the quantizer, conditional
+//! integration of the adaptive laws while a limit is active, rate-limited re-entry of neighbour
+//! and leader values returning after an outage, and re-seeded differentiators after a held step.
+//! `None` is the law as printed.
+//!
 //! ## Features
 //!
 //! * `libm` (default): accurate math. Configuration-time `powf`, `expf`, `logf` from `libm`;
@@ -64,6 +72,7 @@ pub mod math;
 pub mod mtn;
 pub mod powers;
 pub mod quantizer;
+pub mod safety;
 pub mod scheme;
 pub mod smoothing;
 
@@ -76,4 +85,5 @@ pub use error::ConfigError;
 pub use gains::{GainSelection, Gains};
 pub use mtn::MtnRegressor;
 pub use quantizer::{HysteresisQuantizer, QuantizerConfig, QuantizerDirection};
+pub use safety::SafetyConfig;
 pub use scheme::{BaselineConfig, SchemeConfig};

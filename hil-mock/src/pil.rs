@@ -42,7 +42,7 @@
 
 use controller_core::{
     BaselineConfig, ControllerConfig, GainSelection, QuantizerConfig, QuantizerDirection,
-    SchemeConfig,
+    SafetyConfig, SchemeConfig,
 };
 use embedded_can::{ExtendedId, Frame, Id, StandardId};
 
@@ -469,6 +469,17 @@ pub fn encode_config<const N: usize, const K: usize>(
             Some(t) => w.f32s(&[2.0, b.kappa, b.mu_max, t]),
         },
     }
+    // Safety: a tag, then u_max and du_max (NaN for none), recovery rate and jump.
+    match ctrl.safety {
+        None => w.f32s(&[0.0, 0.0, 0.0, 0.0, 0.0]),
+        Some(s) => w.f32s(&[
+            1.0,
+            s.u_max.unwrap_or(f32::NAN),
+            s.du_max.unwrap_or(f32::NAN),
+            s.recovery_rate,
+            s.recovery_jump,
+        ]),
+    }
     w
 }
 
@@ -569,6 +580,21 @@ pub fn decode_config<const N: usize, const K: usize>(
             })
         }
     };
+    let safety = match r.tag(1)? {
+        0 => {
+            r.f32s::<4>()?;
+            None
+        }
+        _ => {
+            let [u_max, du_max, recovery_rate, recovery_jump] = r.f32s()?;
+            Some(SafetyConfig {
+                u_max: (!u_max.is_nan()).then_some(u_max),
+                du_max: (!du_max.is_nan()).then_some(du_max),
+                recovery_rate,
+                recovery_jump,
+            })
+        }
+    };
     if r.at != words.len() {
         return Err(ConfigReject::WordCount);
     }
@@ -604,6 +630,7 @@ pub fn decode_config<const N: usize, const K: usize>(
         estimate_max,
         quantizer,
         scheme,
+        safety,
     };
     Ok((node, ctrl))
 }
@@ -641,6 +668,26 @@ mod tests {
             assert_eq!(
                 decode_config::<2, 16>(&words[..words.len() - 1]),
                 Err(ConfigReject::WordCount)
+            );
+        }
+        for safety in [
+            SafetyConfig {
+                u_max: Some(40.0),
+                du_max: None,
+                ..SafetyConfig::default()
+            },
+            SafetyConfig {
+                u_max: None,
+                du_max: Some(2000.0),
+                recovery_rate: f32::INFINITY,
+                recovery_jump: 0.0,
+            },
+        ] {
+            ctrl.safety = Some(safety);
+            let w = encode_config(&node, &ctrl);
+            assert_eq!(
+                decode_config::<2, 16>(w.as_slice().expect("fits")),
+                Ok((node, ctrl))
             );
         }
         let d = ControllerConfig::<2>::default();

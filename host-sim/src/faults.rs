@@ -111,6 +111,14 @@ impl FaultSchedule {
 
     /// Compiles and checks the scenario's rules (keys, ranges, Assumption 4 over `[0, t_end)`).
     pub fn from_rules(rules: &[FaultRule], agents: usize, m: usize, t_end: f64) -> Result<Self> {
+        let s = Self::compile(rules, agents, m)?;
+        s.check_assumption4(t_end)?;
+        Ok(s)
+    }
+
+    /// Compiles and checks the rules (keys, ranges) without the Assumption 4 check
+    /// (`faults.beyond_assumption4 = true`: total loss of an agent on purpose).
+    pub fn compile(rules: &[FaultRule], agents: usize, m: usize) -> Result<Self> {
         let mut s = Self::healthy(agents, m);
         for (r, rule) in rules.iter().enumerate() {
             let key = |k: &str| format!("faults.rule[{}].{k}", r + 1);
@@ -222,7 +230,6 @@ impl FaultSchedule {
                 s.rules[i * m + l].push(c);
             }
         }
-        s.check_assumption4(t_end)?;
         Ok(s)
     }
 

@@ -18,6 +18,7 @@ pub mod error;
 pub mod faults;
 pub mod graph;
 pub mod link;
+pub mod matrix;
 pub mod metrics;
 pub mod network;
 pub mod pil;

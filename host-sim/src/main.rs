@@ -10,6 +10,7 @@ use host_sim::{
     campaign::{self, Shard},
     compare::compare,
     error::{Error, Result},
+    matrix,
     report::{self, csv::check_size, fmt_time},
     run::{run, stable_h, RunOptions},
     scenario::{self, Setup},
@@ -109,6 +110,19 @@ enum Cmd {
         /// Print only the result.
         #[arg(long, short)]
         quiet: bool,
+    },
+    /// Fault matrix of a CAN scenario: silent neighbour / leader, babbling nodes, frame loss,
+    /// corruption, NaN sensor bursts, stuck actuators; each with [safety] as given and off.
+    ///
+    /// Writes matrix.md, matrix.json and matrix.png into --out (docs/RELIABILITY.md §4).
+    FaultMatrix {
+        /// Scenario file (TOML) with [network] kind = "can".
+        scenario: PathBuf,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+        #[command(flatten)]
+        overrides: Overrides,
     },
     /// Run two scenarios; write one table (compare.md, compare.json) and overlaid plots.
     Compare {
@@ -213,6 +227,7 @@ fn main_inner(cli: Cli) -> Result<()> {
                 record: false,
                 progress: !quiet,
                 trace,
+                worst: false,
             };
             let r = run(&setup, &opts)?;
             if !quiet {
@@ -299,6 +314,29 @@ fn main_inner(cli: Cli) -> Result<()> {
                 (Some(s), None) => println!("stable at h-max = {s:.4e} s (band {band})"),
                 (None, _) => println!("unstable even at h-min = {h_min:.4e} s (band {band})"),
             }
+            Ok(())
+        }
+        Cmd::FaultMatrix {
+            scenario,
+            out,
+            overrides,
+        } => {
+            let setup = load(&scenario, &overrides)?;
+            let s = &setup.scenario;
+            let (t_f, _) = matrix::timing(s.controller.ts);
+            let cells = matrix::cells(setup.agents(), t_f);
+            let results = matrix::run_matrix(s, &cells, true)?;
+            let two_ts = setup.predefined_time();
+            let u_max = s.safety.enabled.then_some(s.safety.u_max).flatten();
+            let table = matrix::markdown(&results, two_ts, u_max);
+            report::create_dir(&out)?;
+            report::write_atomic(&out.join("matrix.md"), table.as_bytes())?;
+            let json = serde_json::to_string_pretty(&results)
+                .map_err(|e| Error::Io(format!("matrix.json: {e}")))?;
+            report::write_atomic(&out.join("matrix.json"), format!("{json}\n").as_bytes())?;
+            matrix::draw(&out.join("matrix.png"), &results, two_ts, u_max, &s.name)?;
+            print!("{table}");
+            println!("wrote {}", out.display());
             Ok(())
         }
         Cmd::Compare {

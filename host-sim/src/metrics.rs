@@ -81,6 +81,8 @@ pub struct Summary {
     pub max_abs_u: f64,
     /// `Σ_i u_energy`.
     pub total_u_energy: f64,
+    /// Share of actuator-samples whose command a `[safety]` limit changed (0 with safety off).
+    pub saturated_fraction: f64,
     /// The run stopped on divergence.
     pub diverged: bool,
     /// Where and when.
@@ -191,6 +193,7 @@ struct Acc {
     peak: f64,
     est: [f32; 3],
     faults: u64,
+    limited: u64,
 }
 
 /// Accumulates the metrics while the loop runs.
@@ -204,6 +207,7 @@ pub struct Metrics {
     last_outside: Option<u64>,
     max_after: Option<f64>,
     prev_q: Vec<f32>,
+    m: usize,
     agents: Vec<Acc>,
 }
 
@@ -222,6 +226,7 @@ impl Metrics {
             peak: 0.0,
             est: [0.0; 3],
             faults: 0,
+            limited: 0,
         };
         Self {
             h: sim.h,
@@ -232,6 +237,7 @@ impl Metrics {
             last_outside: None,
             max_after: None,
             prev_q: vec![0.0; setup.agents() * setup.m()],
+            m: setup.m(),
             agents: vec![acc; setup.agents()],
         }
     }
@@ -283,6 +289,11 @@ impl Metrics {
             max_error_after_predefined_time: self.max_after,
             max_abs_u: agents.iter().map(|a| a.max_abs_u).fold(0.0, f64::max),
             total_u_energy: agents.iter().map(|a| a.u_energy).sum(),
+            saturated_fraction: {
+                let actuator_samples = (self.seen * (self.m * self.agents.len()) as u64).max(1);
+                let limited: u64 = self.agents.iter().map(|a| a.limited).sum();
+                limited as f64 * self.m as f64 / actuator_samples as f64
+            },
             diverged: divergence.is_some(),
             divergence,
             agents,
@@ -323,6 +334,8 @@ impl<const N: usize, const M: usize> Observer<N, M> for Metrics {
             if o.status.fault.is_some() {
                 a.faults += 1;
             }
+            // One command for all actuators (DEVIATIONS §2): all or none are at a limit.
+            a.limited += u64::from(o.status.limited);
         }
         if worst > self.band {
             self.last_outside = Some(s.k);

@@ -33,6 +33,8 @@ pub struct RunOptions {
     pub progress: bool,
     /// Write every bus frame to this candump log (`kind = "can"` and `"pil"` only).
     pub trace: Option<PathBuf>,
+    /// Keep `(t, max_i |y_i − y_d|, max_{i,l} |u_{i,l}|)` of every sample in the result.
+    pub worst: bool,
 }
 
 /// A finished run.
@@ -42,6 +44,25 @@ pub struct RunResult {
     pub summary: Summary,
     /// Plot series, when recorded.
     pub recorder: Option<Recorder>,
+    /// Per sample `(t, max error, max |u|)`, when asked for (`RunOptions::worst`).
+    pub worst: Option<Vec<[f64; 3]>>,
+}
+
+/// Collects the per-sample worst error and command (for fault campaigns).
+struct WorstPerSample(Vec<[f64; 3]>);
+
+impl<const N: usize, const M: usize> Observer<N, M> for WorstPerSample {
+    fn sample(&mut self, s: &crate::sim::SampleView<'_, N, M>) -> Result<()> {
+        let err = s.x.iter().map(|x| (x[0] - s.yd).abs()).fold(0.0, f64::max);
+        let u = s
+            .out
+            .iter()
+            .flat_map(|o| o.u.iter())
+            .map(|u| f64::from(u.abs()))
+            .fold(0.0, f64::max);
+        self.0.push([s.t, err, u]);
+        Ok(())
+    }
 }
 
 /// Runs `setup` without writing anything: the summary only.
@@ -128,8 +149,12 @@ fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
         None => None,
     };
     let pb = progress_bar(setup.samples, opts.progress);
+    let mut worst = opts.worst.then(|| WorstPerSample(Vec::new()));
     let divergence = {
         let mut obs: Vec<&mut dyn Observer<N, M>> = vec![&mut metrics];
+        if let Some(w) = worst.as_mut() {
+            obs.push(w);
+        }
         if let Some(r) = recorder.as_mut() {
             obs.push(r);
         }
@@ -158,7 +183,11 @@ fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
                 .draw(dir, setup.scenario.simulation.h, &setup.scenario.name)?;
         }
     }
-    Ok(RunResult { summary, recorder })
+    Ok(RunResult {
+        summary,
+        recorder,
+        worst: worst.map(|w| w.0),
+    })
 }
 
 /// One trial of the stable-`h` search.

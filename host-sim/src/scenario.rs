@@ -5,7 +5,7 @@ use std::{fmt, path::Path};
 
 use controller_core::{
     BaselineConfig, ConfigError, Controller, ControllerConfig, GainSelection, QuantizerConfig,
-    QuantizerDirection, SchemeConfig,
+    QuantizerDirection, SafetyConfig, SchemeConfig,
 };
 use serde::{de, Deserialize, Deserializer, Serialize, Serializer};
 
@@ -40,6 +40,10 @@ pub struct Scenario {
     /// `[network]` (added by this project: `docs/NETWORK.md`); left out of `check` when ideal.
     #[serde(skip_serializing_if = "NetworkSpec::is_default")]
     pub network: NetworkSpec,
+    /// `[safety]` (SCENARIO.md additions; `docs/DEVIATIONS.md` §3); left out of `check` when
+    /// it is the default.
+    #[serde(skip_serializing_if = "SafetySpec::is_default")]
+    pub safety: SafetySpec,
 }
 
 impl Default for Scenario {
@@ -54,7 +58,59 @@ impl Default for Scenario {
             quantizer: QuantizerSpec::default(),
             faults: FaultsSpec::default(),
             network: NetworkSpec::default(),
+            safety: SafetySpec::default(),
         }
+    }
+}
+
+/// `[safety]`: command limits, anti-windup and recovery of `controller-core`'s
+/// [`controller_core::safety`]. Off by default: the paper's law.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SafetySpec {
+    /// On: limits, conditional integration, bumpless re-entry, differentiator re-seeding.
+    pub enabled: bool,
+    /// Limit of `|u|` per actuator before the quantizer [command units]; absent: none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub u_max: Option<f64>,
+    /// Limit of `|du/dt|` [command units / s]; absent: none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub du_max: Option<f64>,
+    /// `v_r` [units of `y` / s]: a returning neighbour / leader value's jump is removed at
+    /// this speed (`inf`: used at once).
+    pub recovery_rate: f64,
+    /// Jumps up to this size [units of `y`] re-enter at once.
+    pub recovery_jump: f64,
+}
+
+impl Default for SafetySpec {
+    fn default() -> Self {
+        Self {
+            enabled: false,
+            u_max: None,
+            du_max: None,
+            // `SafetyConfig::default()`'s values, written as f64 so that `check` prints them
+            // as written (tested in `safety_defaults_match_the_controller`).
+            recovery_rate: 1.0,
+            recovery_jump: 0.05,
+        }
+    }
+}
+
+impl SafetySpec {
+    /// The default (off, nothing set).
+    pub fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
+
+    /// The controller's settings, `None` when off.
+    pub fn config(&self) -> Option<SafetyConfig> {
+        self.enabled.then(|| SafetyConfig {
+            u_max: self.u_max.map(|v| v as f32),
+            du_max: self.du_max.map(|v| v as f32),
+            recovery_rate: self.recovery_rate as f32,
+            recovery_jump: self.recovery_jump as f32,
+        })
     }
 }
 
@@ -343,6 +399,14 @@ pub struct FaultsSpec {
     /// The rules (`[[faults.rule]]`).
     #[serde(default = "default_rules")]
     pub rule: Vec<FaultRule>,
+    /// Sensor faults (`[[faults.sensor]]`): an agent's controller reads a NaN state on
+    /// `[from, until)` (the plant is not affected).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub sensor: Vec<SensorFault>,
+    /// Run schedules with all `m` actuators of an agent in total loss at once (beyond
+    /// Assumption 4; for fault campaigns). Default false: such a schedule is rejected.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub beyond_assumption4: bool,
 }
 
 impl Default for FaultsSpec {
@@ -350,8 +414,22 @@ impl Default for FaultsSpec {
         Self {
             enabled: true,
             rule: default_rules(),
+            sensor: Vec::new(),
+            beyond_assumption4: false,
         }
     }
+}
+
+/// One `[[faults.sensor]]` window: agent `agent` (1-based) reads NaN on `[from, until)`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorFault {
+    /// 1-based agent.
+    pub agent: i64,
+    /// Start [s].
+    pub from: f64,
+    /// End [s], exclusive.
+    pub until: f64,
 }
 
 fn default_rules() -> Vec<FaultRule> {
@@ -640,6 +718,7 @@ impl Setup {
                 },
             }),
             scheme,
+            safety: self.scenario.safety.config(),
         })
     }
 }
@@ -652,6 +731,7 @@ fn config_error_key(e: &ConfigError, i: usize, auto_gains: bool) -> String {
         // Computed gains out of range: the user wrote ts (and zeta, p, eta, tau).
         "c1" | "c2" if auto_gains => "controller.ts".to_string(),
         "rho" | "u_min" => format!("quantizer.{p}"),
+        "u_max" | "du_max" | "recovery_rate" | "recovery_jump" => format!("safety.{p}"),
         p => format!("controller.{p}"),
     };
     match *e {
@@ -677,6 +757,7 @@ fn config_error_key(e: &ConfigError, i: usize, auto_gains: bool) -> String {
         ConfigError::InitialEstimateAboveMax => param("estimate_max"),
         ConfigError::MuMaxBelowOne => param("mu_max"),
         ConfigError::ZeroStateOrder => "plant.model".into(),
+        ConfigError::UMaxNotAboveUMin => "safety.u_max".into(),
         _ => "controller".into(),
     }
 }
@@ -970,6 +1051,43 @@ pub fn validate(mut scenario: Scenario) -> Result<Setup> {
         positive(q.u_min, "quantizer.u_min")?;
     }
 
+    // Checked whether on or off, so a typo does not wait for the day it is switched on.
+    let sf = &scenario.safety;
+    for (k, v) in [("safety.u_max", sf.u_max), ("safety.du_max", sf.du_max)] {
+        if let Some(v) = v {
+            positive(v, k)?;
+            if v > f64::from(f32::MAX) {
+                return Err(Error::invalid(k, format!("must fit f32 (got {v:e})")));
+            }
+        }
+    }
+    if sf.recovery_rate.is_nan() || sf.recovery_rate <= 0.0 {
+        return Err(Error::invalid(
+            "safety.recovery_rate",
+            format!(
+                "must be > 0 (units of y per second; inf: no blending) (got {})",
+                sf.recovery_rate
+            ),
+        ));
+    }
+    if !sf.recovery_jump.is_finite() || sf.recovery_jump < 0.0 {
+        return Err(Error::invalid(
+            "safety.recovery_jump",
+            format!("must be a finite number >= 0 (got {})", sf.recovery_jump),
+        ));
+    }
+    if let (Some(u_max), true) = (sf.u_max, q.enabled) {
+        if u_max <= q.u_min {
+            return Err(Error::invalid(
+                "safety.u_max",
+                format!(
+                    "must be above quantizer.u_min = {} (got {u_max}): every command would quantize to 0",
+                    q.u_min
+                ),
+            ));
+        }
+    }
+
     let graph = Graph::from_spec(&scenario.graph)?;
     let plant = PlantModel::from_spec(&scenario.plant)?;
     let (n, m) = (plant.n(), plant.m());
@@ -1024,11 +1142,28 @@ pub fn validate(mut scenario: Scenario) -> Result<Setup> {
         }
     }
     crate::network::validate(&scenario.network, graph.len(), sim.h, sim.t_end)?;
-    let faults = if scenario.faults.enabled {
-        FaultSchedule::from_rules(&scenario.faults.rule, graph.len(), m, sim.t_end)?
-    } else {
+    let faults = if !scenario.faults.enabled {
         FaultSchedule::healthy(graph.len(), m)
+    } else if scenario.faults.beyond_assumption4 {
+        FaultSchedule::compile(&scenario.faults.rule, graph.len(), m)?
+    } else {
+        FaultSchedule::from_rules(&scenario.faults.rule, graph.len(), m, sim.t_end)?
     };
+    for (j, f) in scenario.faults.sensor.iter().enumerate() {
+        let key = |k: &str| format!("faults.sensor[{}].{k}", j + 1);
+        if f.agent < 1 || f.agent as usize > graph.len() {
+            return Err(Error::invalid(
+                key("agent"),
+                format!("agent {} out of range 1..={}", f.agent, graph.len()),
+            ));
+        }
+        if !(f.from.is_finite() && f.until.is_finite() && f.from < f.until) {
+            return Err(Error::invalid(
+                key("until"),
+                format!("need finite from < until (got {} .. {})", f.from, f.until),
+            ));
+        }
+    }
     let x0 = x0.clone();
     let setup = Setup {
         scenario,
@@ -1049,6 +1184,18 @@ pub fn to_toml(s: &Scenario) -> String {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn safety_defaults_match_the_controller() {
+        let (spec, core) = (
+            super::SafetySpec::default(),
+            controller_core::SafetyConfig::default(),
+        );
+        assert_eq!(spec.recovery_rate as f32, core.recovery_rate);
+        assert_eq!(spec.recovery_jump as f32, core.recovery_jump);
+        assert_eq!((spec.u_max, spec.du_max), (None, None));
+        assert!(core.u_max.is_none() && core.du_max.is_none());
+    }
+
     use super::*;
 
     #[test]

@@ -158,6 +158,9 @@ pub struct Sim<P, A, const N: usize, const M: usize> {
     substeps: u32,
     bound: f64,
     samples: u64,
+    /// `[[faults.sensor]]`: (0-based agent, from, until) on which the agent reads NaN.
+    sensor: Vec<(usize, f64, f64)>,
+    seen: Vec<[f64; N]>,
 }
 
 impl<P: Plant<N, M>, L: LinkModel, const N: usize, const M: usize> Sim<P, Linked<L, N, M>, N, M> {
@@ -196,6 +199,15 @@ impl<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize> Sim<P, A, 
             substeps: sim.substeps,
             bound: sim.divergence_bound,
             samples: setup.samples,
+            sensor: if setup.scenario.faults.enabled {
+                let f = &setup.scenario.faults.sensor;
+                f.iter()
+                    .map(|f| ((f.agent - 1) as usize, f.from, f.until))
+                    .collect()
+            } else {
+                Vec::new()
+            },
+            seen: Vec::new(),
         })
     }
 
@@ -263,7 +275,18 @@ impl<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize> Sim<P, A, 
     fn control(&mut self, k: u64, t: f64) -> Result<f64> {
         let yd = self.leader.yd(t);
         self.out.clear();
-        self.agents.control(k, t, &self.x, yd, &mut self.out)?;
+        if self.sensor.is_empty() {
+            self.agents.control(k, t, &self.x, yd, &mut self.out)?;
+        } else {
+            // What the controllers read: NaN for an agent inside one of its sensor windows.
+            self.seen.clone_from(&self.x);
+            for &(i, from, until) in &self.sensor {
+                if (from..until).contains(&t) {
+                    self.seen[i] = [f64::NAN; N];
+                }
+            }
+            self.agents.control(k, t, &self.seen, yd, &mut self.out)?;
+        }
         for (q, o) in self.q.iter_mut().zip(&self.out) {
             for (q, &v) in q.iter_mut().zip(&o.q) {
                 *q = f64::from(v);

@@ -41,8 +41,8 @@ pub struct Variant {
     pub n3: bool,
 }
 
-/// The variants of issue 5.
-pub const VARIANTS: [Variant; 4] = [
+/// The variants of issue 5, and `[safety]` on (issue 13).
+pub const VARIANTS: [Variant; 5] = [
     Variant {
         name: "libm-n2m2",
         features: "libm",
@@ -62,6 +62,11 @@ pub const VARIANTS: [Variant; 4] = [
         name: "libm-n3m3",
         features: "libm,n3",
         n3: true,
+    },
+    Variant {
+        name: "safety-n2m2",
+        features: "libm,safety",
+        n3: false,
     },
 ];
 

@@ -1,0 +1,369 @@
+//! Deployment safety, an addition to the paper's law (off by default; `docs/DEVIATIONS.md` §3):
+//!
+//! * **Limits** of the command before the quantizer: the rate `|u_k − u_{k−1}| ≤ du_max h`,
+//!   then the magnitude `|u_k| ≤ u_max`, i.e. `u_k = sat_{u_max}(u_{k−1} + sat_{du_max h}(u*_k −
+//!   u_{k−1}))` with `u*_k` the law's (28).
+//! * **Anti-windup** by conditional integration (Åström & Hägglund, *Advanced PID Control*,
+//!   2006, ch. 3): in a sample where a limit changed the command, the adaptive laws (20)–(22)
+//!   are not integrated: `θ̂_{k+1} = θ̂_k` for `μ̂, ξ̂, λ̂`.
+//! * **Rate-limited re-entry** of neighbour and leader values: a link that returns fresh after
+//!   a stale, missing, invalid or silent period enters `e_{i,1}` (10) as
+//!   `ŷ_k(t) = y_k(t) + o_k(t)`, where the offset `o_k = ŷ_k(t_r⁻) − y_k(t_r)` (the last value
+//!   used minus the returning one) shrinks to 0 at `v_r` per second (`recovery_rate`), i.e.
+//!   within `|o_k(t_r)| / v_r`; while a link is degraded the last value used is held. Jumps up
+//!   to `recovery_jump` re-enter at once (`o_k = 0`).
+//! * **Re-seeded differentiators** after a held step (NaN state or overflow): the first valid
+//!   step restarts every differentiator at `χ_1 = α`, `χ_2 = 0`, as on the first sample.
+//!
+//! [`Safety`] holds the validated settings. The step applies the re-entry to the links before
+//! the law and the limits inside it; with safety off (`None`) none of this code runs.
+
+use crate::{gains::positive, ConfigError, Link};
+
+/// Safety settings as a user writes them (units of the command `u` and seconds).
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SafetyConfig {
+    /// Limit of `|u|` per actuator before the quantizer (`None`: no magnitude limit).
+    pub u_max: Option<f32>,
+    /// Limit of `|du/dt|` [units/s] (`None`: no rate limit).
+    pub du_max: Option<f32>,
+    /// `v_r` [units of `y` per s]: speed at which a returning link's jump is removed from the
+    /// value used (`∞`: no blending, the returning value is used at once).
+    pub recovery_rate: f32,
+    /// Jumps up to this size [units of `y`] re-enter at once: the small steps that brief
+    /// staleness (lost frames) produces, which the law handles and which blending would turn
+    /// into a lag that builds up under frequent loss.
+    pub recovery_jump: f32,
+}
+
+impl Default for SafetyConfig {
+    fn default() -> Self {
+        Self {
+            u_max: None,
+            du_max: None,
+            recovery_rate: 1.0,
+            recovery_jump: 0.05,
+        }
+    }
+}
+
+/// Validated safety settings for sample period `h`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Safety {
+    u_max: f32,
+    du_step: f32,
+    blend_step: f32,
+    jump: f32,
+}
+
+impl Safety {
+    /// Validates `cfg` for sample period `h` (> 0, checked by the caller).
+    pub fn new(cfg: &SafetyConfig, h: f32) -> Result<Self, ConfigError> {
+        let u_max = match cfg.u_max {
+            Some(v) => positive(v, "u_max")?,
+            None => f32::INFINITY,
+        };
+        let du_step = match cfg.du_max {
+            Some(v) => positive(v, "du_max")? * h,
+            None => f32::INFINITY,
+        };
+        let v = cfg.recovery_rate;
+        if v.is_nan() {
+            return Err(ConfigError::NonFinite("recovery_rate"));
+        }
+        if v <= 0.0 {
+            return Err(ConfigError::NonPositive("recovery_rate"));
+        }
+        Ok(Self {
+            u_max,
+            du_step,
+            blend_step: v * h,
+            jump: crate::gains::non_negative(cfg.recovery_jump, "recovery_jump")?,
+        })
+    }
+
+    /// The magnitude limit (`∞` without one).
+    pub const fn u_max(&self) -> f32 {
+        self.u_max
+    }
+}
+
+/// Re-entry memory of one link.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Reentry {
+    used: f32,
+    offset: f32,
+    degraded: bool,
+    seen: bool,
+}
+
+/// Safety memory of one agent: re-entry of `K` neighbour links and the leader, and whether
+/// the previous step was held.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Recovery<const K: usize> {
+    pub(crate) neighbours: [Reentry; K],
+    pub(crate) leader: Reentry,
+    pub(crate) after_hold: bool,
+}
+
+impl<const K: usize> Recovery<K> {
+    /// The links as the law sees them with safety on: each value passed through the re-entry
+    /// of its slot, same kinds (a stale value stays `Stale`, a missing one `Missing`), so the
+    /// consensus policy and its counts are unchanged. At most `K` neighbour entries.
+    #[inline(never)]
+    pub(crate) fn reenter_links(
+        &mut self,
+        safety: &Safety,
+        neighbours: &[Link],
+        leader: Link,
+    ) -> ([Link; K], Link) {
+        let mut out = [Link::Missing; K];
+        for ((o, l), mem) in out
+            .iter_mut()
+            .zip(neighbours)
+            .zip(self.neighbours.iter_mut())
+        {
+            *o = reenter_link(safety, mem, *l);
+        }
+        (out, reenter_link(safety, &mut self.leader, leader))
+    }
+}
+
+/// One link through [`Safety::reenter`], keeping its kind; invalid and missing values go
+/// through unchanged (the consensus policy replaces them by the last value used).
+fn reenter_link(safety: &Safety, mem: &mut Reentry, link: Link) -> Link {
+    let (v, fresh) = match link {
+        Link::Fresh(v) if v.is_finite() => (v, true),
+        Link::Stale(v) if v.is_finite() => (v, false),
+        other => {
+            mem.degraded |= mem.seen;
+            return other;
+        }
+    };
+    match safety.reenter(mem, Some(v), fresh) {
+        Some(y) if fresh => Link::Fresh(y),
+        Some(y) => Link::Stale(y),
+        None => link,
+    }
+}
+
+impl<const K: usize> Default for Recovery<K> {
+    fn default() -> Self {
+        Self {
+            neighbours: [Reentry::default(); K],
+            leader: Reentry::default(),
+            after_hold: false,
+        }
+    }
+}
+
+impl Safety {
+    /// Rate-limited re-entry of one link: the value to use for it this sample.
+    #[inline]
+    fn reenter(&self, mem: &mut Reentry, y: Option<f32>, fresh: bool) -> Option<f32> {
+        let v = y?;
+        if !fresh && mem.seen {
+            mem.degraded = true;
+            return Some(mem.used);
+        }
+        if fresh && mem.degraded && mem.seen {
+            let jump = mem.used - v;
+            if crate::math::abs(jump) > self.jump {
+                mem.offset = jump;
+            }
+        }
+        mem.degraded = !fresh;
+        mem.offset -= clamp(mem.offset, self.blend_step);
+        mem.used = v + mem.offset;
+        mem.seen = true;
+        Some(mem.used)
+    }
+
+    /// The limited command and whether a limit changed it.
+    #[inline]
+    pub(crate) fn limit(&self, u: f32, prev: f32) -> (f32, bool) {
+        let v = prev + clamp(u - prev, self.du_step);
+        let v = clamp(v, self.u_max);
+        (v, v != u)
+    }
+}
+
+/// `x` limited to `[−b, b]` (`b ≥ 0`, may be `∞`); NaN stays NaN.
+#[inline]
+fn clamp(x: f32, b: f32) -> f32 {
+    if x > b {
+        b
+    } else if x < -b {
+        -b
+    } else {
+        x
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn safety(u_max: Option<f32>, du_max: Option<f32>, rate: f32, h: f32) -> Safety {
+        Safety::new(
+            &SafetyConfig {
+                u_max,
+                du_max,
+                recovery_rate: rate,
+                recovery_jump: 0.05,
+            },
+            h,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn rate_then_magnitude_limit_by_hand() {
+        let s = safety(Some(5.0), Some(100.0), 1.0, 0.01); // at most 1 per sample
+        assert_eq!(s.limit(3.5, 3.0), (3.5, false));
+        assert_eq!(s.limit(10.0, 3.0), (4.0, true));
+        assert_eq!(s.limit(-10.0, 3.0), (2.0, true));
+        assert_eq!(s.limit(5.5, 4.9), (5.0, true));
+        assert_eq!(s.limit(-5.5, -5.0), (-5.0, true));
+        let none = safety(None, None, 1.0, 0.01);
+        assert_eq!(none.limit(1e30, -1e30), (1e30, false));
+        assert!(none.limit(f32::NAN, 0.0).0.is_nan());
+    }
+
+    #[test]
+    fn returning_link_is_blended_in_at_the_recovery_rate() {
+        // h = 0.1, v_r = 5: 0.5 per sample, a jump of 2 is removed in 4 samples.
+        let s = safety(None, None, 5.0, 0.1);
+        let mut m = Reentry::default();
+        assert_eq!(s.reenter(&mut m, Some(1.0), true), Some(1.0));
+        assert_eq!(s.reenter(&mut m, Some(1.0), false), Some(1.0)); // stale: held
+        assert_eq!(s.reenter(&mut m, Some(1.0), false), Some(1.0));
+        let used: [f32; 5] = core::array::from_fn(|_| s.reenter(&mut m, Some(3.0), true).unwrap());
+        let want = [1.5, 2.0, 2.5, 3.0, 3.0];
+        for (u, w) in used.iter().zip(want) {
+            assert!((u - w).abs() < 1e-6, "{used:?}");
+        }
+        // A small jump (lost frames) re-enters at once.
+        s.reenter(&mut m, Some(3.0), false);
+        assert_eq!(s.reenter(&mut m, Some(3.04), true), Some(3.04));
+        // Without blending the returning value is used at once.
+        let direct = safety(None, None, f32::INFINITY, 0.1);
+        let mut m = Reentry::default();
+        direct.reenter(&mut m, Some(1.0), true);
+        direct.reenter(&mut m, Some(1.0), false);
+        assert_eq!(direct.reenter(&mut m, Some(3.0), true), Some(3.0));
+        // A link that never delivered stays out; its first value is used as it is.
+        let mut m = Reentry::default();
+        assert_eq!(s.reenter(&mut m, None, false), None);
+        assert_eq!(s.reenter(&mut m, Some(2.0), true), Some(2.0));
+    }
+
+    /// Agent 2 of the examples (hears agent 1 only) with safety on.
+    fn agent(u_max: f32) -> crate::Controller<2, 2, 4> {
+        let cfg = crate::ControllerConfig::<2> {
+            neighbour_count: 1,
+            pinned: false,
+            safety: Some(SafetyConfig {
+                u_max: Some(u_max),
+                du_max: None,
+                recovery_rate: 1.0,
+                recovery_jump: 0.05,
+            }),
+            ..crate::ControllerConfig::default()
+        };
+        crate::Controller::new(&cfg).expect("valid")
+    }
+
+    #[test]
+    fn limited_command_pauses_the_adaptive_laws() {
+        let mut c = agent(1.0);
+        let initial = c.state().estimates;
+        for _ in 0..50 {
+            let o = c.step(&[1.0, 0.0], &[Link::Fresh(0.0)], Link::Missing);
+            assert!(
+                o.status.limited && o.u.iter().all(|u| u.abs() == 1.0),
+                "{o:?}"
+            );
+            assert_eq!(o.estimates, initial);
+        }
+        // Without safety the same error integrates the estimates at once.
+        let cfg = crate::ControllerConfig::<2> {
+            neighbour_count: 1,
+            pinned: false,
+            ..crate::ControllerConfig::default()
+        };
+        let mut free = crate::Controller::<2, 2, 4>::new(&cfg).expect("valid");
+        let o = free.step(&[1.0, 0.0], &[Link::Fresh(0.0)], Link::Missing);
+        assert!(!o.status.limited && o.estimates != initial, "{o:?}");
+    }
+
+    #[test]
+    fn returning_neighbour_moves_e1_at_the_recovery_rate_and_nan_reseeds() {
+        let mut c = agent(1e3);
+        let y = [0.2, 0.0];
+        for _ in 0..10 {
+            c.step(&y, &[Link::Fresh(0.0)], Link::Missing);
+        }
+        for _ in 0..100 {
+            c.step(&y, &[Link::Stale(0.0)], Link::Missing);
+        }
+        // Back with a jump of 0.5: e_1 = y − ŷ moves by h·v_r = 1e-3 per sample.
+        let mut e_prev = 0.2;
+        for k in 0..600 {
+            let o = c.step(&y, &[Link::Fresh(0.5)], Link::Missing);
+            let want = if k < 500 {
+                0.2 - 1e-3 * (k + 1) as f32
+            } else {
+                -0.3
+            };
+            assert!((o.e[0] - want).abs() < 1e-4, "k = {k}: {}", o.e[0]);
+            assert!((o.e[0] - e_prev).abs() <= 1e-3 + 1e-6);
+            e_prev = o.e[0];
+        }
+        // A NaN state holds the command; the next valid step restarts the differentiator.
+        assert!(c.state().differentiators[0].chi2 != 0.0);
+        let held = c.step(&[f32::NAN, 0.0], &[Link::Fresh(0.5)], Link::Missing);
+        assert!(held.status.fault.is_some());
+        let o = c.step(&y, &[Link::Fresh(0.5)], Link::Missing);
+        assert!(o.status.fault.is_none());
+        let d = c.state().differentiators[0];
+        assert_eq!((d.chi1, d.chi2), (o.alpha[0], 0.0));
+    }
+
+    #[test]
+    fn invalid_settings_name_the_parameter() {
+        let bad = |u_max, du_max, recovery_rate| {
+            Safety::new(
+                &SafetyConfig {
+                    u_max,
+                    du_max,
+                    recovery_rate,
+                    recovery_jump: 0.0,
+                },
+                1e-3,
+            )
+            .unwrap_err()
+        };
+        assert_eq!(bad(Some(0.0), None, 0.1), ConfigError::NonPositive("u_max"));
+        assert_eq!(
+            bad(Some(f32::NAN), None, 0.1),
+            ConfigError::NonFinite("u_max")
+        );
+        assert_eq!(
+            bad(None, Some(-1.0), 0.1),
+            ConfigError::NonPositive("du_max")
+        );
+        assert_eq!(
+            bad(None, None, f32::NAN),
+            ConfigError::NonFinite("recovery_rate")
+        );
+        assert_eq!(
+            bad(None, None, 0.0),
+            ConfigError::NonPositive("recovery_rate")
+        );
+    }
+}
