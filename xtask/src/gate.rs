@@ -9,9 +9,9 @@
 //!                                "flash_config_bytes": 3000 }, … } }
 //! ```
 //! A variant fails the gate when any of its five figures exceeds `budget · (1 + tolerance)`,
-//! when its stack or the flash it links (step + configuration code) exceeds the absolute goals
-//! ([`STACK_GOAL`], [`FLASH_GOAL`]; set for Example 1's agent, so for the `n = m = 2` variants;
-//! `libm-n3m3` is held to its budget only), when a
+//! when its stack or its step's flash exceeds the absolute goals ([`STACK_GOAL`], [`FLASH_GOAL`];
+//! set for Example 1's agent, so for the `n = m = 2` variants; `libm-n3m3` is held to its budget
+//! only), when a
 //! step of the replayed trace faulted, when it ran no step, or when it is missing from
 //! `step.json`. A budget that could let anything through is rejected before any comparison:
 //! a tolerance outside `[0, MAX_TOLERANCE]`, a missing or unknown variant, a missing, zero or
@@ -27,8 +27,9 @@ pub const TOLERANCE: f64 = 0.10;
 pub const MAX_TOLERANCE: f64 = 0.10;
 /// Absolute goal for the painted stack of one step, bytes (issue 5).
 pub const STACK_GOAL: u64 = 512;
-/// Absolute goal for the flash a firmware links for the controller (the step and
-/// `Controller::new` with their callees), bytes (issues 5 and 14).
+/// Absolute goal for the flash of the step and its callees, bytes (issue 5). The configuration
+/// code a firmware links beside it (`flash_config_bytes`) is gated by its budget; step and
+/// configuration together are over this goal since `[safety]` (README, bench table).
 pub const FLASH_GOAL: u64 = 16 * 1024;
 
 /// The gated figures: the key in `step.json` and in the budget, and its unit for messages.
@@ -230,22 +231,13 @@ pub fn compare(step: &Value, budget: &Value) -> Result<Vec<String>> {
     Ok(out)
 }
 
-/// The absolute goals, whatever the budget: stack, and the flash the firmware links.
+/// The absolute goals, whatever the budget: stack and the step's flash.
 fn goals(name: &str, v: &Value) -> Vec<String> {
     let mut out = Vec::new();
-    if let Some(stack) = v["stack_bytes"].as_u64().filter(|&s| s > STACK_GOAL) {
-        out.push(format!(
-            "FAIL {name}: stack_bytes {stack} B > the goal of {STACK_GOAL} B"
-        ));
-    }
-    let linked = v["flash_bytes"]
-        .as_u64()
-        .zip(v["flash_config_bytes"].as_u64())
-        .map(|(step, config)| step + config);
-    if let Some(linked) = linked.filter(|&f| f > FLASH_GOAL) {
-        out.push(format!(
-            "FAIL {name}: flash_bytes + flash_config_bytes = {linked} B > the goal of {FLASH_GOAL} B"
-        ));
+    for (key, goal) in [("stack_bytes", STACK_GOAL), ("flash_bytes", FLASH_GOAL)] {
+        if let Some(m) = v[key].as_u64().filter(|&m| m > goal) {
+            out.push(format!("FAIL {name}: {key} {m} B > the goal of {goal} B"));
+        }
     }
     out
 }
@@ -355,11 +347,10 @@ mod tests {
         let f = failures(&step_at(1000, 1500, 600, 20_000), &budget);
         assert_eq!(f.len(), 2 * n2, "{f:?}");
         assert!(f.iter().all(|l| l.contains("goal") && !l.contains("n3m3")));
-        // Step and configuration code fit one by one but not together.
-        let budget = budget_at(1000, 1500, 400, 15_000);
-        let f = failures(&step_at(1000, 1500, 400, 15_000), &budget);
-        assert_eq!(f.len(), n2, "{f:?}");
-        assert!(f[0].contains("17000 B > the goal of 16384 B"), "{f:?}");
+        assert!(
+            f[1].contains("flash_bytes 20000 B > the goal of 16384 B"),
+            "{f:?}"
+        );
     }
 
     #[test]
