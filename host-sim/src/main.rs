@@ -16,6 +16,23 @@ use host_sim::{
     scenario::{self, Setup},
 };
 
+/// `println!` that ignores a closed standard output (`host-sim check … | head -1`): the echo is
+/// informational, the files are the results, and a closed pipe must not panic the process.
+macro_rules! outln {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($t)*);
+    }};
+}
+
+/// `print!` that ignores a closed standard output (see [`outln`]).
+macro_rules! out {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stdout(), $($t)*);
+    }};
+}
+
 const EXAMPLES: &str = "\
 Examples:
   host-sim run scenarios/example1.toml --out out/example1
@@ -166,20 +183,26 @@ enum Cmd {
 
 fn print_campaign(r: &campaign::SweepReport, out: &Path, merged: bool) {
     if merged {
-        println!(
+        outln!(
             "{} runs merged: {} diverged, {} invalid",
-            r.runs, r.diverged, r.invalid
+            r.runs,
+            r.diverged,
+            r.invalid
         );
     } else {
-        println!(
+        outln!(
             "{} runs ({} resumed from the journal, {} run now): {} diverged, {} invalid",
-            r.runs, r.resumed, r.ran, r.diverged, r.invalid
+            r.runs,
+            r.resumed,
+            r.ran,
+            r.diverged,
+            r.invalid
         );
     }
     for f in &r.figures {
-        println!("figure {}", f.display());
+        outln!("figure {}", f.display());
     }
-    println!("wrote {}", out.join("results.csv").display());
+    outln!("wrote {}", out.join("results.csv").display());
 }
 
 fn load(path: &Path, o: &Overrides) -> Result<Setup> {
@@ -232,7 +255,7 @@ fn main_inner(cli: Cli) -> Result<()> {
             let r = run(&setup, &opts)?;
             if !quiet {
                 let s = &r.summary;
-                println!(
+                outln!(
                     "{}: c1 = {:.3}, c2 = {:.3}; max error after 2Ts = {}; settling time ({}) = {}; \
                      max |u| = {:.3}; {}",
                     s.scenario,
@@ -248,7 +271,7 @@ fn main_inner(cli: Cli) -> Result<()> {
                     }
                 );
                 if let Some(n) = &s.network {
-                    println!(
+                    outln!(
                         "network: {} at {} bit/s; bus load {:.2} %; frames sent {}, lost {}, \
                          corrupted {}; deadline misses {}; bus-off events {}; age of data used \
                          max {:.4} s, mean {:.4} s",
@@ -264,7 +287,7 @@ fn main_inner(cli: Cli) -> Result<()> {
                         n.mean_age_s
                     );
                 }
-                println!("wrote {}", out.display());
+                outln!("wrote {}", out.display());
             }
             Ok(())
         }
@@ -273,8 +296,8 @@ fn main_inner(cli: Cli) -> Result<()> {
             overrides,
         } => {
             let setup = load(&scenario, &overrides)?;
-            print!("{}", scenario::to_toml(&setup.scenario));
-            println!(
+            out!("{}", scenario::to_toml(&setup.scenario));
+            outln!(
                 "# ok: {} agents, n = {}, m = {}, {} samples",
                 setup.agents(),
                 setup.n(),
@@ -295,7 +318,7 @@ fn main_inner(cli: Cli) -> Result<()> {
             let setup = load(&scenario, &overrides)?;
             let r = stable_h(&setup.scenario, band, h_min, h_max, rel_tol, |t| {
                 if !quiet {
-                    println!(
+                    outln!(
                         "h = {:.4e}: {}, max error after 2Ts = {}{}",
                         t.h,
                         if t.stable { "stable" } else { "unstable" },
@@ -309,10 +332,10 @@ fn main_inner(cli: Cli) -> Result<()> {
             })?;
             match (r.largest_stable_h, r.smallest_unstable_h) {
                 (Some(s), Some(u)) => {
-                    println!("largest stable h = {s:.4e} s (unstable at {u:.4e} s; band {band})")
+                    outln!("largest stable h = {s:.4e} s (unstable at {u:.4e} s; band {band})")
                 }
-                (Some(s), None) => println!("stable at h-max = {s:.4e} s (band {band})"),
-                (None, _) => println!("unstable even at h-min = {h_min:.4e} s (band {band})"),
+                (Some(s), None) => outln!("stable at h-max = {s:.4e} s (band {band})"),
+                (None, _) => outln!("unstable even at h-min = {h_min:.4e} s (band {band})"),
             }
             Ok(())
         }
@@ -335,8 +358,8 @@ fn main_inner(cli: Cli) -> Result<()> {
                 .map_err(|e| Error::Io(format!("matrix.json: {e}")))?;
             report::write_atomic(&out.join("matrix.json"), format!("{json}\n").as_bytes())?;
             matrix::draw(&out.join("matrix.png"), &results, two_ts, u_max, &s.name)?;
-            print!("{table}");
-            println!("wrote {}", out.display());
+            out!("{table}");
+            outln!("wrote {}", out.display());
             Ok(())
         }
         Cmd::Compare {
@@ -349,8 +372,8 @@ fn main_inner(cli: Cli) -> Result<()> {
             let sa = load(&a, &overrides)?;
             let sb = load(&b, &overrides)?;
             let table = compare(&sa, &sb, &out, !quiet)?;
-            print!("{table}");
-            println!("wrote {}", out.display());
+            out!("{table}");
+            outln!("wrote {}", out.display());
             Ok(())
         }
         Cmd::Sweep {
@@ -365,7 +388,7 @@ fn main_inner(cli: Cli) -> Result<()> {
             if !quiet {
                 print_campaign(&r, &out, false);
                 let s = started.elapsed().as_secs_f64();
-                println!("{:.1} s, {:.1} runs/s", s, r.ran as f64 / s.max(1e-9));
+                outln!("{:.1} s, {:.1} runs/s", s, r.ran as f64 / s.max(1e-9));
             }
             Ok(())
         }

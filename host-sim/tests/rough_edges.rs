@@ -1,6 +1,6 @@
 //! What a new user runs into: one exit-code rule (bad input 2, I/O 1, interrupted 130), option
 //! messages, the size limit of `trajectory.csv`, temporary files on Ctrl-C, `compare.md`
-//! tables, time formatting, negative option values, empty scenario files.
+//! tables, time formatting, negative option values, empty scenario files, a closed stdout.
 
 mod common;
 
@@ -276,4 +276,31 @@ fn an_empty_scenario_file_runs_the_defaults_with_a_note() {
         "no note for a real scenario: {}",
         stderr(&out)
     );
+}
+
+/// `host-sim check … | head -1`: standard output closed before the first line is written. The
+/// echo is dropped, the command still finishes normally, and nothing panics (a `println!` on a
+/// closed pipe used to abort with "failed printing to stdout: Broken pipe", found by the
+/// campaign work).
+#[test]
+fn a_closed_standard_output_is_not_a_panic() {
+    use std::process::Stdio;
+    for (scenario, sets) in [
+        ("example1.toml", vec![]),
+        ("example2.toml", vec!["--set", "simulation.h=2e-4"]),
+    ] {
+        let args = (scenario, &sets);
+        let mut cmd = bin();
+        cmd.arg("check")
+            .arg(scenario_path(scenario))
+            .args(&sets)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped());
+        let mut child = cmd.spawn().expect("host-sim starts");
+        drop(child.stdout.take()); // the reader goes away at once, as `head` does when done
+        let out = child.wait_with_output().expect("host-sim ends");
+        let err = stderr(&out);
+        assert!(!err.contains("panicked"), "{args:?}: {err}");
+        assert_eq!(out.status.code(), Some(0), "{args:?}: {err}");
+    }
 }
