@@ -101,7 +101,7 @@ pub struct Summary {
 
 /// Units of the numeric keys of `summary.json`: `[y]`, `[u]`, `[x]` are the units of the plant's
 /// output, actuator commands and states (docs/SCENARIO.md §2).
-const UNITS: [(&str, &str); 27] = [
+const UNITS: [(&str, &str); 28] = [
     ("h", "s"),
     ("t_end", "s"),
     ("samples", "count"),
@@ -115,6 +115,7 @@ const UNITS: [(&str, &str); 27] = [
     ("max_error_after_predefined_time", "[y]"),
     ("max_abs_u", "[u]"),
     ("total_u_energy", "[u]^2 s"),
+    ("saturated_fraction", "-"),
     ("divergence.time", "s"),
     ("divergence.agent", "1-based index"),
     ("agents.agent", "1-based index"),
