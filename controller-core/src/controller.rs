@@ -181,7 +181,7 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         self.law(x, neighbours, leader)
     }
 
-    /// The law of SPEC §5–§6 on the links as given; the limits of [`crate::safety`] when on.
+    /// The law of LAW §5–§6 on the links as given; the limits of [`crate::safety`] when on.
     #[inline(always)]
     fn law(&mut self, x: &[f32; N], neighbours: &[Link], leader: Link) -> StepOutput<N, M> {
         let p = &self.params;
