@@ -112,14 +112,14 @@ pub fn run_with_link<L: LinkModel>(setup: &Setup, opts: &RunOptions, link: L) ->
     }
 }
 
-fn progress_bar(samples: u64, show: bool) -> ProgressBar {
+/// A progress bar of `len` steps drawn with `template` on stderr; hidden unless `show` and
+/// stderr is a terminal.
+pub(crate) fn progress_bar(len: u64, show: bool, template: &str) -> ProgressBar {
     if !show || !std::io::stderr().is_terminal() {
         return ProgressBar::hidden();
     }
-    let pb = ProgressBar::with_draw_target(Some(samples), ProgressDrawTarget::stderr());
-    if let Ok(style) =
-        ProgressStyle::with_template("{bar:40} {pos}/{len} samples  {elapsed} (eta {eta})")
-    {
+    let pb = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::stderr());
+    if let Ok(style) = ProgressStyle::with_template(template) {
         pb.set_style(style);
     }
     pb
@@ -148,7 +148,11 @@ fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
         }
         None => None,
     };
-    let pb = progress_bar(setup.samples, opts.progress);
+    let pb = progress_bar(
+        setup.samples,
+        opts.progress,
+        "{bar:40} {pos}/{len} samples  {elapsed} (eta {eta})",
+    );
     let mut worst = opts.worst.then(|| WorstPerSample(Vec::new()));
     let divergence = {
         let mut obs: Vec<&mut dyn Observer<N, M>> = vec![&mut metrics];

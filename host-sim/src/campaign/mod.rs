@@ -11,12 +11,11 @@ pub mod spec;
 
 use std::{
     collections::BTreeMap,
-    io::IsTerminal,
     path::{Path, PathBuf},
     sync::mpsc,
 };
 
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use indicatif::ProgressBar;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -293,15 +292,11 @@ fn count(header: &[String], rows: &BTreeMap<u64, String>, rep: &mut SweepReport)
 }
 
 fn progress_bar(len: u64, done: u64, show: bool) -> ProgressBar {
-    if !show || !std::io::stderr().is_terminal() {
-        return ProgressBar::hidden();
-    }
-    let pb = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::stderr());
-    if let Ok(style) =
-        ProgressStyle::with_template("{bar:40} {pos}/{len} runs  {per_sec}  {elapsed} (eta {eta})")
-    {
-        pb.set_style(style);
-    }
+    let pb = crate::run::progress_bar(
+        len,
+        show,
+        "{bar:40} {pos}/{len} runs  {per_sec}  {elapsed} (eta {eta})",
+    );
     pb.set_position(done);
     pb.reset_eta();
     pb
