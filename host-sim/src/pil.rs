@@ -6,11 +6,11 @@
 //! [`hil_mock::pil`] (SLCAN) with each node.
 //!
 //! Per sample `t_k` (as [`hil_mock::network::CanNetwork::step`] does for host-compiled nodes):
-//! the bus runs to `t_k`; each delivered frame goes to every other node that is not bus-off,
-//! preceded by the delivery time (`CLOCK`); then `SENSOR` (the state as `f32`) and `SYNC`
-//! (`t_k`) go to every node, which ticks and answers with its bus frame, its commands and
-//! reports; the host submits the nodes' frames and the leader's `y_d(t_k)` at `t_k`. All
-//! nodes work on a sample at the same time (one emulator per core).
+//! the bus runs to `t_k`; each delivered frame goes to every other node that is not bus-off and
+//! accepts it, with its delivery time; then the tick record (the state as `f32`, `t_k`) goes
+//! to every node, which ticks and answers with its bus frame and its report record; the host
+//! submits the nodes' frames and the leader's `y_d(t_k)` at `t_k`. All nodes work on a sample
+//! at the same time; each node's input of a sample is one `write`.
 //!
 //! An emulator that exits (a firmware panic ends QEMU through semihosting), sends something
 //! that is not the expected answer, or does not answer within [`ANSWER_TIMEOUT`] stops the run
@@ -33,7 +33,7 @@ use embedded_can::Frame;
 use hil_mock::{
     bus::{Bus, Nanos},
     mock::MockFrame,
-    pil::{self, io, PilFrame, Slcan, SLCAN_MAX_LINE},
+    pil::{self, io, PilFrame, Report, Slcan, Tick, RECORD_MAX_LINE, SLCAN_MAX_LINE},
     wire::{self, Source},
     NodeConfig,
 };
@@ -88,11 +88,19 @@ fn kill_all() {
     eprintln!("host-sim: interrupted; emulators stopped");
 }
 
-/// What an emulator printed: an SLCAN frame, or anything else (a panic message, `\a`).
+/// What an emulator printed: an SLCAN frame, a report record, or anything else (a panic
+/// message, `\a`).
 enum Output {
     Frame(PilFrame),
+    Report(Report),
     Text(String),
     Eof,
+}
+
+/// A well-formed line of an emulator.
+enum Answer {
+    Frame(PilFrame),
+    Report(Report),
 }
 
 /// One node's emulator.
@@ -104,8 +112,10 @@ struct Emulator {
     stderr: Arc<Mutex<String>>,
     /// Bytes for the next write.
     out: Vec<u8>,
-    /// Time of the last `SYNC` (the origin of timestamps) [µs].
+    /// Time of the last tick (the origin of timestamps) [µs].
     sync_us: u64,
+    /// Interval before the last tick [µs] (the node's, once it has one).
+    tick_dt_us: Option<u32>,
 }
 
 impl Emulator {
@@ -153,6 +163,7 @@ impl Emulator {
             stderr: err,
             out: Vec::with_capacity(1024),
             sync_us: 0,
+            tick_dt_us: None,
         })
     }
 
@@ -168,7 +179,7 @@ impl Emulator {
         }
     }
 
-    /// `frame` at time `t_us`: timestamped relative to the last `SYNC`, or after a `CLOCK`
+    /// `frame` at time `t_us`: timestamped relative to the last tick, or after a `CLOCK`
     /// frame when that does not fit 16 bits.
     fn queue_at(&mut self, frame: &PilFrame, t_us: u64) {
         let mut buf = [0u8; SLCAN_MAX_LINE];
@@ -182,6 +193,22 @@ impl Emulator {
         self.out.extend_from_slice(&buf[..n]);
     }
 
+    /// The tick of sample time `t_us` with the state `x`; the interval only when it changed.
+    fn queue_tick(&mut self, x: [f32; 2], t_us: u64) -> Result<()> {
+        let dt = u32::try_from(t_us.saturating_sub(self.sync_us))
+            .map_err(|_| self.failure("samples more than 2^32 µs apart"))?;
+        let tick = Tick {
+            x,
+            dt_us: (self.tick_dt_us != Some(dt)).then_some(dt),
+        };
+        let mut buf = [0u8; RECORD_MAX_LINE];
+        let n = pil::tick_encode(&tick, &mut buf);
+        self.out.extend_from_slice(&buf[..n]);
+        self.sync_us = t_us;
+        self.tick_dt_us = Some(dt);
+        Ok(())
+    }
+
     fn flush(&mut self) -> Result<()> {
         let r = self
             .stdin
@@ -191,10 +218,11 @@ impl Emulator {
         r.map_err(|e| self.failure(&format!("cannot write to its UART ({e})")))
     }
 
-    /// The next frame, or the error that names the agent.
-    fn next_frame(&mut self, waiting_for: &str) -> Result<PilFrame> {
+    /// The next frame or report, or the error that names the agent.
+    fn next_answer(&mut self, waiting_for: &str) -> Result<Answer> {
         let what = match self.rx.recv_timeout(ANSWER_TIMEOUT) {
-            Ok(Output::Frame(f)) => return Ok(f),
+            Ok(Output::Frame(f)) => return Ok(Answer::Frame(f)),
+            Ok(Output::Report(r)) => return Ok(Answer::Report(r)),
             Ok(Output::Text(t)) => format!("sent {t:?} while the host waited for {waiting_for}"),
             Ok(Output::Eof) | Err(RecvTimeoutError::Disconnected) => {
                 // Let the stderr reader finish.
@@ -207,6 +235,16 @@ impl Emulator {
             ),
         };
         Err(self.failure(&what))
+    }
+
+    /// The next frame, or the error that names the agent.
+    fn next_frame(&mut self, waiting_for: &str) -> Result<PilFrame> {
+        match self.next_answer(waiting_for)? {
+            Answer::Frame(f) => Ok(f),
+            Answer::Report(_) => Err(self.failure(&format!(
+                "sent a report while the host waited for {waiting_for}"
+            ))),
+        }
     }
 
     fn failure(&self, what: &str) -> Error {
@@ -264,6 +302,7 @@ fn read_output(mut stdout: impl Read, tx: &mpsc::Sender<Output>) {
             }
             let msg = match pil::slcan_decode(&line) {
                 Ok(Slcan::Frame(f) | Slcan::Timed(f, _)) => Output::Frame(f),
+                Ok(Slcan::Report(r)) => Output::Report(r),
                 _ => Output::Text(String::from_utf8_lossy(&line).into_owned()),
             };
             line.clear();
@@ -505,68 +544,48 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
             varpi: f32::NAN,
             status: StepStatus::default(),
         };
-        let pair = |f: &PilFrame| {
-            pil::unpack_u32x2(f.data()).map(|(a, b)| (f32::from_bits(a), f32::from_bits(b)))
-        };
         loop {
             let emu = &mut self.emus[j];
-            let f = emu.next_frame("the answer to SYNC")?;
-            let Some(id) = f.io_id() else {
-                let frame = MockFrame::new(f.id(), f.data())
-                    .ok_or_else(|| emu.failure("sent a frame the bus cannot carry"))?;
-                // Refusals (silent, bus-off) are counted by the bus.
-                let _ = self.bus.submit(j + 1, t_ns, frame);
-                continue;
-            };
-            let bad = || emu.failure(&format!("malformed report {f:?}"));
-            match id {
-                io::COMMAND => {
-                    let (a, b) = pair(&f).ok_or_else(bad)?;
-                    out.q[0] = a;
-                    out.q[1] = b;
-                }
-                io::REPORT_U => {
-                    let (a, b) = pair(&f).ok_or_else(bad)?;
-                    out.u[0] = a;
-                    out.u[1] = b;
-                }
-                io::REPORT_E => {
-                    let (a, b) = pair(&f).ok_or_else(bad)?;
-                    out.e[0] = a;
-                    out.e[1] = b;
-                }
-                io::REPORT_EST => {
-                    let (a, b) = pair(&f).ok_or_else(bad)?;
-                    out.estimates.mu = a;
-                    out.estimates.xi = b;
-                }
-                io::REPORT_STATUS => {
-                    let [l0, l1, l2, l3, fault, stale, missing, leader] = *f.data() else {
-                        return Err(bad());
+            let f = match emu.next_answer("the answer to a tick")? {
+                Answer::Report(r) => {
+                    // N = M = 2 (checked in `new`).
+                    for (dst, src) in [(&mut out.q[..], r.q), (&mut out.u[..], r.u)]
+                        .into_iter()
+                        .chain([(&mut out.e[..], r.e)])
+                    {
+                        dst.iter_mut().zip(src).for_each(|(d, s)| *d = s);
+                    }
+                    out.estimates = Estimates {
+                        mu: r.mu,
+                        xi: r.xi,
+                        lambda: r.lambda,
                     };
-                    out.estimates.lambda = f32::from_le_bytes([l0, l1, l2, l3]);
-                    out.status.fault = match fault {
+                    out.status.fault = match r.fault {
                         0 => None,
                         1 => Some(StepFault::InvalidState),
                         _ => Some(StepFault::NonFiniteResult),
                     };
                     out.status.links = LinkReport {
-                        stale_neighbours: stale,
-                        missing_neighbours: missing,
-                        leader_stale: leader & 1 != 0,
-                        leader_missing: leader & 2 != 0,
+                        stale_neighbours: r.stale,
+                        missing_neighbours: r.missing,
+                        leader_stale: r.leader & 1 != 0,
+                        leader_missing: r.leader & 2 != 0,
                         ..LinkReport::default()
                     };
-                    self.stale_samples += u64::from(stale);
-                }
-                io::REPORT_COST => {
-                    let (cost, res) = pil::unpack_u32x2(f.data()).ok_or_else(bad)?;
-                    self.costs[j].push(cost);
-                    self.resolution = res;
+                    self.stale_samples += u64::from(r.stale);
+                    self.costs[j].push(r.instructions);
+                    self.resolution = r.resolution;
                     return Ok(out);
                 }
-                _ => return Err(bad()),
+                Answer::Frame(f) => f,
+            };
+            if f.io_id().is_some() {
+                return Err(emu.failure(&format!("unexpected frame {f:?} in a tick's answer")));
             }
+            let frame = MockFrame::new(f.id(), f.data())
+                .ok_or_else(|| emu.failure("sent a frame the bus cannot carry"))?;
+            // Refusals (silent, bus-off) are counted by the bus.
+            let _ = self.bus.submit(j + 1, t_ns, frame);
         }
     }
 
@@ -611,11 +630,7 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
         }
         let t_us = t_ns / 1000;
         for (emu, xi) in self.emus.iter_mut().zip(x) {
-            let state = pil::pack_f32x2(xi[0] as f32, xi[1] as f32);
-            if let Some(f) = PilFrame::io(io::SYNC, &state) {
-                emu.queue_at(&f, t_us);
-            }
-            emu.sync_us = t_us;
+            emu.queue_tick([xi[0] as f32, xi[1] as f32], t_us)?;
             emu.flush()?;
         }
         for j in 0..self.emus.len() {
