@@ -15,7 +15,9 @@
 //! An emulator that exits (a firmware panic ends QEMU through semihosting), sends something
 //! that is not the expected answer, or does not answer within [`ANSWER_TIMEOUT`] stops the run
 //! with an error naming the agent. Every emulator is killed when the run ends, on an error
-//! and on Ctrl-C / SIGTERM (a handler kills the registered emulators, then exits with 130).
+//! and on Ctrl-C / SIGTERM (a handler kills the registered emulators, then exits with 130);
+//! and, as no handler sees a SIGKILL, each runs under `setpriv --pdeathsig KILL` (util-linux),
+//! so the kernel kills it when host-sim dies, however that happens.
 
 use std::{
     io::{BufReader, Read, Write},
@@ -59,6 +61,47 @@ pub const FIRMWARE_ENV: &str = "HOST_SIM_NODE_FW";
 /// Longest wait for one answer of a node (start-up or one sample); a healthy node answers a
 /// sample in well under a millisecond of host time.
 pub const ANSWER_TIMEOUT: Duration = Duration::from_secs(20);
+/// Environment variable replacing [`ANSWER_TIMEOUT`] (seconds; for tests of the timeout).
+pub const ANSWER_TIMEOUT_ENV: &str = "HOST_SIM_PIL_ANSWER_TIMEOUT";
+/// The launcher that makes the kernel kill an emulator when host-sim dies
+/// (`prctl(PR_SET_PDEATHSIG)`, kept across its `exec` of QEMU).
+pub const PDEATHSIG_LAUNCHER: &str = "setpriv";
+
+/// [`ANSWER_TIMEOUT`], or the one [`ANSWER_TIMEOUT_ENV`] sets.
+fn answer_timeout() -> Result<Duration> {
+    let Some(v) = std::env::var_os(ANSWER_TIMEOUT_ENV) else {
+        return Ok(ANSWER_TIMEOUT);
+    };
+    v.to_str()
+        .and_then(|s| s.trim().parse::<f64>().ok())
+        .and_then(|s| Duration::try_from_secs_f64(s).ok())
+        .filter(|d| !d.is_zero())
+        .ok_or_else(|| {
+            Error::invalid(
+                ANSWER_TIMEOUT_ENV,
+                format!("{v:?} is not a positive number of seconds"),
+            )
+        })
+}
+
+/// The command that starts QEMU: under [`PDEATHSIG_LAUNCHER`] when it is on `PATH` (it is part
+/// of util-linux, on every Debian or Ubuntu system), else QEMU alone with a warning.
+fn emulator_command() -> Command {
+    match find_in_path(PDEATHSIG_LAUNCHER) {
+        Some(launcher) => {
+            let mut c = Command::new(launcher);
+            c.args(["--pdeathsig", "KILL", QEMU]);
+            c
+        }
+        None => {
+            eprintln!(
+                "host-sim: warning: {PDEATHSIG_LAUNCHER} (util-linux) not found: a SIGKILL of \
+                 host-sim would leave the emulators running"
+            );
+            Command::new(QEMU)
+        }
+    }
+}
 
 /// The firmware built in the source tree: `node-fw/target/thumbv7em-none-eabihf/release/node-fw`.
 pub fn default_firmware() -> PathBuf {
@@ -112,6 +155,8 @@ struct Emulator {
     stderr: Arc<Mutex<String>>,
     /// Bytes for the next write.
     out: Vec<u8>,
+    /// Longest wait for an answer.
+    timeout: Duration,
     /// Time of the last tick (the origin of timestamps) [µs].
     sync_us: u64,
     /// Interval before the last tick [µs] (the node's, once it has one).
@@ -119,8 +164,8 @@ struct Emulator {
 }
 
 impl Emulator {
-    fn spawn(agent: usize, firmware: &Path) -> Result<Self> {
-        let mut child = Command::new(QEMU)
+    fn spawn(agent: usize, firmware: &Path, timeout: Duration) -> Result<Self> {
+        let mut child = emulator_command()
             .args(["-M", "mps2-an386", "-cpu", "cortex-m4", "-nographic"])
             .args(["-monitor", "none", "-serial", "stdio"])
             .args(["-semihosting-config", "enable=on,target=native"])
@@ -162,6 +207,7 @@ impl Emulator {
             rx,
             stderr: err,
             out: Vec::with_capacity(1024),
+            timeout,
             sync_us: 0,
             tick_dt_us: None,
         })
@@ -220,7 +266,7 @@ impl Emulator {
 
     /// The next frame or report, or the error that names the agent.
     fn next_answer(&mut self, waiting_for: &str) -> Result<Answer> {
-        let what = match self.rx.recv_timeout(ANSWER_TIMEOUT) {
+        let what = match self.rx.recv_timeout(self.timeout) {
             Ok(Output::Frame(f)) => return Ok(Answer::Frame(f)),
             Ok(Output::Report(r)) => return Ok(Answer::Report(r)),
             Ok(Output::Text(t)) => format!("sent {t:?} while the host waited for {waiting_for}"),
@@ -231,7 +277,7 @@ impl Emulator {
             }
             Err(RecvTimeoutError::Timeout) => format!(
                 "no answer within {} s while the host waited for {waiting_for}",
-                ANSWER_TIMEOUT.as_secs()
+                self.timeout.as_secs_f64()
             ),
         };
         Err(self.failure(&what))
@@ -384,6 +430,7 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
             ));
         }
         let firmware = std::env::var_os(FIRMWARE_ENV).map_or_else(default_firmware, PathBuf::from);
+        let timeout = answer_timeout()?;
         if !firmware.is_file() {
             return Err(Error::invalid(
                 "network.kind",
@@ -431,7 +478,7 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
             }
             pinned.push(ctrl.pinned);
             neighbours.push(heard.iter().map(|k| k + 1).collect());
-            let mut emu = Emulator::spawn(i + 1, &firmware)?;
+            let mut emu = Emulator::spawn(i + 1, &firmware, timeout)?;
             let words = pil::encode_config(&node, &ctrl);
             let words = words.as_slice().ok_or_else(|| {
                 Error::invalid("network.kind", "configuration too large for the PIL link")
