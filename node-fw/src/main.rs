@@ -210,10 +210,10 @@ fn configure(link: &mut Link) -> BoardNode {
 }
 
 /// Runs one sample and sends the bus frame and the report.
-fn sample(link: &Link, node: &mut BoardNode) {
-    let start = board::counter();
+fn sample(link: &Link, node: &mut BoardNode, counter: &mut Option<board::Counter>) {
+    let start = counter.as_mut().map_or(0, board::Counter::start);
     let tick = node.tick();
-    let end = board::counter();
+    let end = counter.as_mut().map_or(0, board::Counter::stop);
     if let Some(f) = node.can_mut().tx.take() {
         link.send(&f);
     }
@@ -245,9 +245,7 @@ fn sample(link: &Link, node: &mut BoardNode) {
 #[entry]
 fn main() -> ! {
     let painted = board::paint_stack();
-    if let Some(p) = cortex_m::Peripherals::take() {
-        board::start_counter(p.SYST);
-    }
+    let mut counter = cortex_m::Peripherals::take().map(|p| board::Counter::new(p.SYST));
     let mut link = Link {
         uart: Uart::init(),
         line: [0; SLCAN_MAX_LINE],
@@ -265,7 +263,7 @@ fn main() -> ! {
                 sync_us += u64::from(dt_us);
                 node.clock_mut().0 = sync_us;
                 node.sensor_mut().0 = t.x;
-                sample(&link, &mut node);
+                sample(&link, &mut node, &mut counter);
                 continue;
             }
             _ => continue,
