@@ -9,10 +9,86 @@ mod manipulator;
 pub use example1::Example1;
 pub use manipulator::Manipulator;
 
-use crate::{
-    error::{Error, Result},
-    scenario::PlantSpec,
-};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// `[plant]`: the model, its parameters and initial states.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PlantSpec {
+    /// `"example1"` or `"manipulator"`.
+    pub model: String,
+    /// One initial state per agent.
+    pub x0: Vec<Vec<f64>>,
+    /// Manipulator inertia `M`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub inertia: Option<f64>,
+    /// Manipulator mass `m`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mass: Option<f64>,
+    /// Manipulator `g`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gravity: Option<f64>,
+    /// Manipulator link length `l`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub length: Option<f64>,
+}
+
+impl Default for PlantSpec {
+    fn default() -> Self {
+        Self {
+            model: "example1".into(),
+            x0: vec![
+                vec![0.02, 0.8],
+                vec![0.01, 1.0],
+                vec![0.01, 0.09],
+                vec![0.0, 0.7],
+            ],
+            inertia: None,
+            mass: None,
+            gravity: None,
+            length: None,
+        }
+    }
+}
+
+impl PlantSpec {
+    /// Checks `x0`: one row of `n` finite entries within `bound` per agent.
+    pub fn check_x0(&self, agents: usize, n: usize, bound: f64) -> Result<()> {
+        let x0 = &self.x0;
+        if x0.len() != agents {
+            return Err(Error::invalid(
+                "plant.x0",
+                format!(
+                    "{} initial states but the graph has {agents} agents",
+                    x0.len()
+                ),
+            ));
+        }
+        for (i, row) in x0.iter().enumerate() {
+            let key = || format!("plant.x0[{}]", i + 1);
+            if row.len() != n {
+                return Err(Error::invalid(
+                    key(),
+                    format!("{} entries, the model has n = {n} states", row.len()),
+                ));
+            }
+            for v in row {
+                if !v.is_finite() {
+                    return Err(Error::invalid(key(), format!("must be finite (got {v})")));
+                }
+                if v.abs() > bound {
+                    return Err(Error::invalid(
+                        key(),
+                        format!("|{v:e}| is above simulation.divergence_bound = {bound:e}"),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
 
 /// One agent's dynamics `ẋ = f(t, x, a)` with `a` the actuator outputs `q^f(u_l)` (LAW §1).
 ///
