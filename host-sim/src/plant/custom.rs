@@ -293,6 +293,10 @@ fn token_end(text: &str, k: usize) -> usize {
 /// `text` as a [`Program`] over `names`, or why not (with the column).
 fn compile(text: &str, names: &BTreeMap<String, Op>) -> std::result::Result<Program, String> {
     let at = |offset: usize| format!("at column {}", column(text, offset));
+    // meval's tokenizer panics on input of white space only.
+    if text.trim().is_empty() {
+        return Err("empty expression".into());
+    }
     let expr: Expr = text.parse().map_err(|e| match e {
         meval::Error::ParseError(p) => match p {
             ParseError::UnexpectedToken(i) => format!("syntax error {}: unexpected input", at(i)),
@@ -365,11 +369,17 @@ fn compile(text: &str, names: &BTreeMap<String, Op>) -> std::result::Result<Prog
             }
             _ => return Err(format!("syntax error {}", at(0))),
         };
-        match op {
-            Op::Const(_) | Op::Slot(_) => depth += 1,
-            Op::Neg | Op::Call(_) | Op::PowI(_) => {}
-            _ => depth = depth.saturating_sub(1),
+        // Operands an op takes; meval's postfix form is well formed, checked again here so
+        // the evaluation stack can never underflow.
+        let needs = match op {
+            Op::Const(_) | Op::Slot(_) => 0,
+            Op::Neg | Op::Call(_) | Op::PowI(_) => 1,
+            _ => 2,
+        };
+        if depth < needs {
+            return Err(format!("syntax error {}: an operand is missing", at(0)));
         }
+        depth = depth - needs + 1;
         deepest = deepest.max(depth);
         match (ops.last(), op) {
             (Some(&Op::Const(k)), Op::Pow) if k.fract() == 0.0 && (1.0..=16.0).contains(&k) => {
@@ -416,6 +426,44 @@ mod tests {
         let expect = 1.1 - 2.0 * x[0].powf(2.0) + x[1].powf(3.0) + t.cos() - x[0].powf(2.0) + 512.0;
         assert!((dx[1] - expect).abs() < 1e-12, "{} vs {expect}", dx[1]);
         Ok(())
+    }
+
+    #[test]
+    fn malformed_input_is_an_error_never_a_panic() {
+        for text in [
+            "",
+            " ",
+            "(",
+            ")",
+            "()",
+            ",",
+            "x1,x2",
+            "1+",
+            "+",
+            "--x1",
+            "+x1",
+            "sin()",
+            "sin(1,2)",
+            "sin",
+            "x1^x2^",
+            "x1 x2",
+            "1e999",
+            "x1 % 0",
+            "((((((((x1))))))))",
+            "2(x1)",
+            "é",
+            "x1)(",
+            "max(x1, x2)",
+            "u3",
+            "t(1)",
+        ] {
+            if let Ok(p) = custom(&[text, "u"]) {
+                let _ = <Custom as Plant<2, 2>>::derivative(&p, &0.5, &[0.1, 0.2], &[0.3, 0.4]);
+            }
+        }
+        let deep = format!("{}x1{}", "(1+".repeat(40), ")".repeat(40));
+        let m = message(custom(&[&deep, "u"]));
+        assert!(m.contains("nested too deeply"), "{m}");
     }
 
     #[test]
