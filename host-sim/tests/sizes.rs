@@ -101,3 +101,29 @@ fn the_shipped_order_3_scenario_converges() {
         .expect("samples after 2Ts");
     assert!(err < 0.2, "max |y_i - y_d| after 2Ts = {err}");
 }
+
+#[test]
+fn compare_and_fault_matrix_take_other_sizes() {
+    let order3 = common::scenario_path("custom-order3.toml");
+    let out = common::tmp("sizes-compare");
+    let run = common::bin()
+        .arg("compare")
+        .arg(&order3)
+        .arg(common::scenario_path("example1.toml"))
+        .arg("--out")
+        .arg(&out)
+        .args(["--set", "simulation.t_end=0.2"])
+        .output()
+        .expect("host-sim");
+    common::assert_ok(&run);
+    assert!(out.join("compare.md").is_file() && out.join("compare.png").is_file());
+    // The fault matrix acts on the CAN bus, which carries n = m = 2 only: a clear error.
+    let m = common::bin()
+        .arg("fault-matrix")
+        .arg(&order3)
+        .args(["--set", "network.kind=can", "--out"])
+        .arg(common::tmp("sizes-matrix"))
+        .output()
+        .expect("host-sim");
+    common::assert_invalid(&m, "network.kind");
+}

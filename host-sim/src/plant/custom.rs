@@ -239,6 +239,12 @@ impl<const N: usize, const M: usize> Plant<N, M> for Custom {
 
     #[inline]
     fn derivative(&self, t: &f64, x: &[f64; N], a: &[f64; M]) -> [f64; N] {
+        const {
+            assert!(
+                N <= MAX_ORDER && M <= MAX_ORDER,
+                "custom plants have n, m <= 4"
+            )
+        };
         let mut v = [0.0; SLOTS];
         v[..N].copy_from_slice(x);
         v[N..N + M].copy_from_slice(a);
