@@ -1,19 +1,21 @@
 //! Agent-steps per second of the whole loop (controller step + RK4 plant + ideal link +
-//! metrics, no file output): Example 1 (4 agents, 10 s at h = 1 ms) and 1,000 agents on a
-//! seeded random connected graph.
+//! metrics, no file output): Example 1 (4 agents, 10 s at h = 1 ms), the same with the plant
+//! written as expressions (`[plant] model = "custom"`), and 1,000 agents on a seeded random
+//! connected graph; and the cost of one plant right-hand side, built-in and custom.
 
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use host_sim::{
     graph::Graph,
+    plant::{Example1, Plant, PlantModel},
     run::simulate,
     scenario::{self, Scenario, Setup},
 };
 
-fn example1() -> Setup {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/example1.toml");
-    scenario::load(path.as_ref(), &[]).expect("example1.toml")
+fn shipped(file: &str) -> Setup {
+    let path = format!("{}/../scenarios/{file}", env!("CARGO_MANIFEST_DIR"));
+    scenario::load(path.as_ref(), &[]).expect("shipped scenario")
 }
 
 fn random(n: usize, t_end: f64) -> Setup {
@@ -37,7 +39,11 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("agent_steps");
     g.sample_size(10);
     for (label, setup) in [
-        ("example1_4_agents_10s", example1()),
+        ("example1_4_agents_10s", shipped("example1.toml")),
+        (
+            "example1_custom_4_agents_10s",
+            shipped("example1-custom.toml"),
+        ),
         ("random_1000_agents_0.5s", random(1000, 0.5)),
     ] {
         let summary = simulate(&setup).expect("run");
@@ -54,5 +60,27 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+/// One evaluation of Example 1's `f(t, x, a)`: the built-in model and its expressions.
+fn rhs(c: &mut Criterion) {
+    let PlantModel::Custom(custom) = shipped("example1-custom.toml").plant else {
+        panic!("example1-custom.toml is a custom plant");
+    };
+    let mut g = c.benchmark_group("plant_rhs");
+    let (x, a) = ([0.02, 0.8], [0.3, -0.1]);
+    g.bench_function("example1_built_in", |b| {
+        b.iter(|| {
+            let t = Plant::<2, 2>::at(&Example1, black_box(1.5));
+            Plant::<2, 2>::derivative(&Example1, &t, black_box(&x), black_box(&a))
+        })
+    });
+    g.bench_function("example1_custom", |b| {
+        b.iter(|| {
+            let t = Plant::<2, 2>::at(&*custom, black_box(1.5));
+            Plant::<2, 2>::derivative(&*custom, &t, black_box(&x), black_box(&a))
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench, rhs);
 criterion_main!(benches);

@@ -1,10 +1,44 @@
 //! The communication graph of LAW §2: neighbour lists and pinning, checked against
 //! Assumption 2 (the leader is the root of a spanning tree).
 
-use crate::{
-    error::{Error, Result},
-    scenario::GraphSpec,
-};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// `[graph]`: who hears whom (LAW §2), as neighbour lists or an adjacency matrix.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct GraphSpec {
+    /// Agent `i` (1-based) hears these agents.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub neighbours: Option<Vec<Vec<i64>>>,
+    /// Alternative: `a_{i,k}` as a square 0/1 matrix.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub adjacency: Option<Vec<Vec<i64>>>,
+    /// Agents that hear the leader (`r_i = 1`).
+    pub pinned: Vec<i64>,
+}
+
+impl Default for GraphSpec {
+    fn default() -> Self {
+        Self {
+            neighbours: None,
+            adjacency: None,
+            pinned: vec![1],
+        }
+    }
+}
+
+impl GraphSpec {
+    /// LAW §8's graph (agent 2 hears 1, agent 3 hears 1, agent 4 hears 1 and 3) when the
+    /// scenario gives neither neighbour lists nor a matrix.
+    pub fn or_example(mut self) -> Self {
+        if self.neighbours.is_none() && self.adjacency.is_none() {
+            self.neighbours = Some(vec![vec![], vec![1], vec![1], vec![1, 3]]);
+        }
+        self
+    }
+}
 
 /// Largest in-degree supported: the controllers' neighbour capacity `K`.
 pub const MAX_NEIGHBOURS: usize = 16;

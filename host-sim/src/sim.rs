@@ -6,17 +6,39 @@
 //! [`LinkModel`] ([`Linked`]), or firmware nodes over a simulated bus
 //! ([`crate::network::CanAgents`]).
 
-use controller_core::{Controller, Gains, StepOutput};
+use controller_core::{Controller, ControllerConfig, Gains, StepOutput};
 use serde::Serialize;
 
 use crate::{
     error::{Error, Result},
     faults::FaultSchedule,
+    figures::{FirmwareSummary, NetworkSummary},
     graph::Graph,
+    leader::Leader,
     link::{Inbox, LinkModel},
     plant::{rk4, Plant, Stages},
-    scenario::{Leader, Setup},
 };
+
+/// What the loop needs from a validated scenario besides plant and agents.
+#[derive(Debug, Clone)]
+pub struct World {
+    /// The reference `y_d(t)`.
+    pub leader: Leader,
+    /// The actuator fault schedule (LAW §7).
+    pub faults: FaultSchedule,
+    /// Initial states, one per agent.
+    pub x0: Vec<Vec<f64>>,
+    /// Sample period `h` [s].
+    pub h: f64,
+    /// RK4 steps per sample.
+    pub substeps: u32,
+    /// `|x|` above which the run counts as diverged.
+    pub divergence_bound: f64,
+    /// Number of samples.
+    pub samples: u64,
+    /// Sensor-fault windows: (0-based agent, from, until) on which the agent reads NaN.
+    pub sensor: Vec<(usize, f64, f64)>,
+}
 
 /// Neighbour capacity `K` of every controller (in-degree limit, [`crate::graph::MAX_NEIGHBOURS`]).
 pub const K: usize = crate::graph::MAX_NEIGHBOURS;
@@ -67,11 +89,11 @@ pub trait Agents<const N: usize, const M: usize> {
     /// The gains in force (agent 1's; all agents share the design values).
     fn gains(&self) -> Gains;
     /// Network figures for `summary.json` (none for a link model).
-    fn network(&self) -> Option<crate::network::NetworkSummary> {
+    fn network(&self) -> Option<NetworkSummary> {
         None
     }
     /// Node-firmware figures for `summary.json` (processor in the loop only).
-    fn firmware(&self) -> Option<Vec<crate::pil::FirmwareSummary>> {
+    fn firmware(&self) -> Option<Vec<FirmwareSummary>> {
         None
     }
     /// Figures of the agents' own (e.g. the firmware's cost per step) into `dir`.
@@ -94,17 +116,16 @@ pub struct Linked<L, const N: usize, const M: usize> {
 }
 
 impl<L: LinkModel, const N: usize, const M: usize> Linked<L, N, M> {
-    /// One controller per agent of `setup`, over `link`.
-    pub fn new(setup: &Setup, link: L) -> Result<Self> {
-        let n_agents = setup.agents();
+    /// One controller per agent of `graph` (configurations in agent order), over `link`.
+    pub fn new(graph: &Graph, configs: &[ControllerConfig<N>], link: L) -> Result<Self> {
+        let n_agents = graph.len();
         let mut ctrls = Vec::with_capacity(n_agents);
-        for i in 0..n_agents {
-            let cfg = setup.controller_config::<N>(i)?;
-            let c = Controller::new(&cfg)
+        for (i, cfg) in configs.iter().enumerate() {
+            let c = Controller::new(cfg)
                 .map_err(|e| Error::invalid(format!("controller (agent {})", i + 1), e))?;
             ctrls.push(c);
         }
-        let graph = setup.graph.clone();
+        let graph = graph.clone();
         Ok(Self {
             inbox: Inbox::new(&graph),
             link,
@@ -164,18 +185,24 @@ pub struct Sim<P, A, const N: usize, const M: usize> {
 }
 
 impl<P: Plant<N, M>, L: LinkModel, const N: usize, const M: usize> Sim<P, Linked<L, N, M>, N, M> {
-    /// Builds the controllers (over `link`) and initial states of `setup`.
-    pub fn new(setup: &Setup, plant: P, link: L) -> Result<Self> {
-        Self::with_agents(setup, plant, Linked::new(setup, link)?)
+    /// Builds the controllers (over `link`) of `graph` and the plants of `world`.
+    pub fn new(
+        world: World,
+        graph: &Graph,
+        configs: &[ControllerConfig<N>],
+        plant: P,
+        link: L,
+    ) -> Result<Self> {
+        Self::with_agents(world, plant, Linked::new(graph, configs, link)?)
     }
 }
 
 impl<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize> Sim<P, A, N, M> {
-    /// Builds the initial states of `setup`; `agents` compute the commands.
-    pub fn with_agents(setup: &Setup, plant: P, agents: A) -> Result<Self> {
-        let n_agents = setup.agents();
+    /// Builds the plants of `world`; `agents` compute the commands.
+    pub fn with_agents(world: World, plant: P, agents: A) -> Result<Self> {
+        let n_agents = world.x0.len();
         let mut x = Vec::with_capacity(n_agents);
-        for (i, row) in setup.x0.iter().enumerate() {
+        for (i, row) in world.x0.iter().enumerate() {
             let a: [f64; N] = row.as_slice().try_into().map_err(|_| {
                 Error::invalid(
                     format!("plant.x0[{}]", i + 1),
@@ -184,29 +211,21 @@ impl<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize> Sim<P, A, 
             })?;
             x.push(a);
         }
-        let faulty = (0..n_agents).map(|i| setup.faults.any(i)).collect();
-        let sim = &setup.scenario.simulation;
+        let faulty = (0..n_agents).map(|i| world.faults.any(i)).collect();
         Ok(Self {
-            leader: setup.scenario.leader,
-            faults: setup.faults.clone(),
+            leader: world.leader,
+            faults: world.faults,
             faulty,
             plant,
             agents,
             x,
             q: vec![[0.0; M]; n_agents],
             out: Vec::with_capacity(n_agents),
-            h: sim.h,
-            substeps: sim.substeps,
-            bound: sim.divergence_bound,
-            samples: setup.samples,
-            sensor: if setup.scenario.faults.enabled {
-                let f = &setup.scenario.faults.sensor;
-                f.iter()
-                    .map(|f| ((f.agent - 1) as usize, f.from, f.until))
-                    .collect()
-            } else {
-                Vec::new()
-            },
+            h: world.h,
+            substeps: world.substeps,
+            bound: world.divergence_bound,
+            samples: world.samples,
+            sensor: world.sensor,
             seen: Vec::new(),
         })
     }

@@ -1,23 +1,186 @@
 //! Plants of LAW §1 (the physical world, `f64`), integrated by RK4 with `substeps` per sample
 //! and the actuator outputs under zero-order hold (faults may vary within a sample).
 //!
-//! To add a model: implement [`Plant`] in a new file and add a [`PlantModel`] variant.
+//! Three ways to a plant: the built-in models (`plant.model = "example1"`, `"manipulator"`);
+//! `plant.model = "custom"` with the dynamics as expressions in the scenario ([`Custom`]); or
+//! your own type implementing [`Plant`], run through the library by
+//! [`crate::run::run_plant`] (`host-sim/examples/pendulum.rs`). To make a Rust plant a
+//! scenario model, add a [`PlantModel`] variant.
 
+mod custom;
 mod example1;
 mod manipulator;
 
+pub use custom::{Custom, MAX_ORDER};
 pub use example1::Example1;
 pub use manipulator::Manipulator;
 
-use crate::{
-    error::{Error, Result},
-    scenario::PlantSpec,
-};
+use std::{collections::BTreeMap, sync::Arc};
 
-/// One agent's dynamics `ẋ = f(t, x, a)` with `a` the actuator outputs `q^f(u_l)` (LAW §1).
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// `[plant]`: the model, its parameters and initial states.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PlantSpec {
+    /// `"example1"`, `"manipulator"` or `"custom"`.
+    pub model: String,
+    /// One initial state per agent.
+    pub x0: Vec<Vec<f64>>,
+    /// Manipulator inertia `M`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub inertia: Option<f64>,
+    /// Manipulator mass `m`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mass: Option<f64>,
+    /// Manipulator `g`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gravity: Option<f64>,
+    /// Manipulator link length `l`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub length: Option<f64>,
+    /// Custom: states per agent `n`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub n: Option<i64>,
+    /// Custom: actuators per agent `m`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub m: Option<i64>,
+    /// Custom: `dx_j/dt` as expressions, `j = 1..n`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dynamics: Option<Vec<String>>,
+    /// Custom: named constants of the expressions (`[plant.params]`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub params: Option<BTreeMap<String, f64>>,
+}
+
+impl Default for PlantSpec {
+    fn default() -> Self {
+        Self {
+            model: "example1".into(),
+            x0: vec![
+                vec![0.02, 0.8],
+                vec![0.01, 1.0],
+                vec![0.01, 0.09],
+                vec![0.0, 0.7],
+            ],
+            inertia: None,
+            mass: None,
+            gravity: None,
+            length: None,
+            n: None,
+            m: None,
+            dynamics: None,
+            params: None,
+        }
+    }
+}
+
+impl PlantSpec {
+    /// Checks `x0`: one row of `n` finite entries within `bound` per agent.
+    pub fn check_x0(&self, agents: usize, n: usize, bound: f64) -> Result<()> {
+        let x0 = &self.x0;
+        if x0.len() != agents {
+            return Err(Error::invalid(
+                "plant.x0",
+                format!(
+                    "{} initial states but the graph has {agents} agents",
+                    x0.len()
+                ),
+            ));
+        }
+        for (i, row) in x0.iter().enumerate() {
+            let key = || format!("plant.x0[{}]", i + 1);
+            if row.len() != n {
+                return Err(Error::invalid(
+                    key(),
+                    format!("{} entries, the model has n = {n} states", row.len()),
+                ));
+            }
+            for v in row {
+                if !v.is_finite() {
+                    return Err(Error::invalid(key(), format!("must be finite (got {v})")));
+                }
+                if v.abs() > bound {
+                    return Err(Error::invalid(
+                        key(),
+                        format!("|{v:e}| is above simulation.divergence_bound = {bound:e}"),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Calls `$f::<N, M>(args…)` with the const sizes `N`, `M` equal to the runtime `($n, $m)`, both
+/// in `1..=MAX_ORDER`: the one table of sizes the crate instantiates (controller, loop, outputs).
+macro_rules! with_sizes {
+    ($n:expr, $m:expr, $f:ident($($arg:expr),* $(,)?)) => {
+        match ($n, $m) {
+            (1, 1) => $f::<1, 1>($($arg),*),
+            (1, 2) => $f::<1, 2>($($arg),*),
+            (1, 3) => $f::<1, 3>($($arg),*),
+            (1, 4) => $f::<1, 4>($($arg),*),
+            (2, 1) => $f::<2, 1>($($arg),*),
+            (2, 2) => $f::<2, 2>($($arg),*),
+            (2, 3) => $f::<2, 3>($($arg),*),
+            (2, 4) => $f::<2, 4>($($arg),*),
+            (3, 1) => $f::<3, 1>($($arg),*),
+            (3, 2) => $f::<3, 2>($($arg),*),
+            (3, 3) => $f::<3, 3>($($arg),*),
+            (3, 4) => $f::<3, 4>($($arg),*),
+            (4, 1) => $f::<4, 1>($($arg),*),
+            (4, 2) => $f::<4, 2>($($arg),*),
+            (4, 3) => $f::<4, 3>($($arg),*),
+            (4, 4) => $f::<4, 4>($($arg),*),
+            (n, m) => Err($crate::error::Error::invalid(
+                "plant.model",
+                format!("n = {n}, m = {m} is not supported (supported: 1..={} each)", $crate::plant::MAX_ORDER),
+            )),
+        }
+    };
+}
+pub(crate) use with_sizes;
+
+/// One agent's dynamics `ẋ = f(t, x, a)` with `a` the actuator outputs `q^f(u_l)` (LAW §1):
+/// `N` states (`x[0]` is the output `y` the agents agree on), `M` actuators.
 ///
-/// The time-only part of `f` (a disturbance such as `cos t`) is computed once per RK4 stage for
-/// all agents by [`Plant::at`]; [`Plant::derivative`] gets it back.
+/// The simulator integrates it with RK4 (`simulation.substeps` steps per sample), holding the
+/// controller's commands over the sample; `a` are the commands after the quantizer and the
+/// actuator faults. The time-only part of `f` (a disturbance such as `cos t`) is computed once
+/// per RK4 stage for all agents by [`Plant::at`]; [`Plant::derivative`] gets it back, so a
+/// plant without such a term uses `type Time = ()`.
+///
+/// Contract: `derivative` is a pure function of its arguments, cheap (it runs `4 · substeps`
+/// times per agent and sample) and does not panic; a non-finite result is not an error here,
+/// the run reports it as divergence (`summary.json` `divergence`).
+///
+/// A user's plant runs through [`crate::run::run_plant`] with a scenario checked by
+/// [`crate::scenario::validate_with_plant`] for its `N`, `M`:
+///
+/// ```
+/// use host_sim::{plant::Plant, run::{run_plant, RunOptions}, scenario};
+///
+/// /// `ẋ_1 = x_2`, `ẋ_2 = −x_1 + a_1 + a_2`: an undamped oscillator with two motors.
+/// struct Oscillator;
+///
+/// impl Plant<2, 2> for Oscillator {
+///     type Time = ();
+///     fn at(&self, _t: f64) {}
+///     fn derivative(&self, _t: &(), x: &[f64; 2], a: &[f64; 2]) -> [f64; 2] {
+///         [x[1], -x[0] + a[0] + a[1]]
+///     }
+/// }
+///
+/// let mut s = scenario::Scenario::default();
+/// s.simulation.t_end = 0.5;
+/// let setup = scenario::validate_with_plant(s, 2, 2)?;
+/// let summary = run_plant(&setup, Oscillator, &RunOptions::default())?.summary;
+/// assert!(!summary.diverged);
+/// # Ok::<(), host_sim::Error>(())
+/// ```
 pub trait Plant<const N: usize, const M: usize> {
     /// The terms of `f` that depend on `t` only.
     type Time: Copy;
@@ -63,16 +226,26 @@ pub fn rk4<const N: usize, const M: usize, P: Plant<N, M>>(
 }
 
 /// The models a scenario can name (`plant.model`).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum PlantModel {
     /// LAW §8 Example 1.
     Example1(Example1),
     /// LAW §8 Example 2: single-link manipulator.
     Manipulator(Manipulator),
+    /// Dynamics written in the scenario (shared by every run of a campaign).
+    Custom(Arc<Custom>),
+    /// A [`Plant`] given in Rust, of `n` states and `m` actuators: the scenario was checked by
+    /// [`crate::scenario::validate_with_plant`] and runs by [`crate::run::run_plant`].
+    Library {
+        /// State order.
+        n: usize,
+        /// Actuators.
+        m: usize,
+    },
 }
 
 impl PlantModel {
-    /// From `[plant]`; manipulator parameters are rejected for other models.
+    /// From `[plant]`; manipulator and custom keys are rejected for other models.
     pub fn from_spec(spec: &PlantSpec) -> Result<Self> {
         let params = [
             ("inertia", spec.inertia),
@@ -80,6 +253,20 @@ impl PlantModel {
             ("gravity", spec.gravity),
             ("length", spec.length),
         ];
+        let custom = [
+            ("n", spec.n.is_some()),
+            ("m", spec.m.is_some()),
+            ("dynamics", spec.dynamics.is_some()),
+            ("params", spec.params.is_some()),
+        ];
+        if spec.model != "custom" {
+            if let Some((k, _)) = custom.iter().find(|(_, set)| *set) {
+                return Err(Error::invalid(
+                    format!("plant.{k}"),
+                    "only for model = \"custom\"",
+                ));
+            }
+        }
         match spec.model.as_str() {
             "example1" => {
                 if let Some((k, _)) = params.iter().find(|(_, v)| v.is_some()) {
@@ -113,27 +300,62 @@ impl PlantModel {
                 }
                 Ok(Self::Manipulator(m))
             }
+            "custom" => {
+                if let Some((k, _)) = params.iter().find(|(_, v)| v.is_some()) {
+                    return Err(Error::invalid(
+                        format!("plant.{k}"),
+                        "only for model = \"manipulator\"",
+                    ));
+                }
+                let size = |key: &str, v: Option<i64>| {
+                    let v = v.ok_or_else(|| {
+                        Error::invalid(format!("plant.{key}"), "required for model = \"custom\"")
+                    })?;
+                    usize::try_from(v).map_err(|_| {
+                        Error::invalid(
+                            format!("plant.{key}"),
+                            format!("must lie in 1..={MAX_ORDER} (got {v})"),
+                        )
+                    })
+                };
+                let (n, m) = (size("n", spec.n)?, size("m", spec.m)?);
+                let dynamics = spec.dynamics.as_deref().ok_or_else(|| {
+                    Error::invalid("plant.dynamics", "required for model = \"custom\"")
+                })?;
+                let params = spec.params.clone().unwrap_or_default();
+                Ok(Self::Custom(Arc::new(Custom::new(n, m, dynamics, &params)?)))
+            }
             other => Err(Error::invalid(
                 "plant.model",
-                format!("unknown model \"{other}\" (expected \"example1\" or \"manipulator\")"),
+                format!(
+                    "unknown model \"{other}\" (expected \"example1\", \"manipulator\" or \"custom\")"
+                ),
             )),
         }
     }
 
     /// State order `n`.
     pub fn n(&self) -> usize {
-        2
+        match self {
+            Self::Custom(c) => c.n(),
+            Self::Library { n, .. } => *n,
+            _ => 2,
+        }
     }
 
     /// Actuators per agent `m`.
     pub fn m(&self) -> usize {
-        2
+        match self {
+            Self::Custom(c) => c.m(),
+            Self::Library { m, .. } => *m,
+            _ => 2,
+        }
     }
 
     /// Units of the output `y` and of the actuator commands `u` (for the figures).
     pub fn units(&self) -> (&'static str, &'static str) {
         match self {
-            Self::Example1(_) => ("–", "–"),
+            Self::Example1(_) | Self::Custom(_) | Self::Library { .. } => ("–", "–"),
             Self::Manipulator(_) => ("rad", "N·m"),
         }
     }
@@ -143,6 +365,8 @@ impl PlantModel {
         match self {
             Self::Example1(_) => "example1",
             Self::Manipulator(_) => "manipulator",
+            Self::Custom(_) => "custom",
+            Self::Library { .. } => "library",
         }
     }
 }
