@@ -232,23 +232,23 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         let u = [u_l; M];
         let mut quantizers = s.quantizers;
         let mut q = u;
-        if let Some(qz) = &p.quantizer {
+        if let (Some(qz), Some((first, rest)), Some((q_first, q_rest))) = (
+            &p.quantizer,
+            quantizers.split_first_mut(),
+            q.split_first_mut(),
+        ) {
             // Every actuator gets the same `u`, so actuators whose quantizer state equals the
             // first one's get its result (always the case: they start equal and are committed
             // together); the comparison keeps this exact for any state.
-            let mut first: Option<(QuantizerState, QuantizerState, f32)> = None;
-            for (ql, st) in q.iter_mut().zip(quantizers.iter_mut()) {
-                match first {
-                    Some((before, after, q0)) if *st == before => {
-                        *st = after;
-                        *ql = q0;
-                    }
-                    _ => {
-                        let before = *st;
-                        *ql = qz.quantize(st, *ql);
-                        first = first.or(Some((before, *st, *ql)));
-                    }
-                }
+            let before = *first;
+            *q_first = qz.quantize(first, u_l);
+            for (ql, st) in q_rest.iter_mut().zip(rest.iter_mut()) {
+                *ql = if *st == before {
+                    *st = *first;
+                    *q_first
+                } else {
+                    qz.quantize(st, u_l)
+                };
             }
         }
 

@@ -212,8 +212,14 @@ pub fn sign(x: f32) -> f32 {
 
 /// `x^k` for a non-negative integer `k`, by squaring (`O(log k)` products).
 #[inline]
-pub fn powi(mut x: f32, mut k: u32) -> f32 {
-    let mut acc = 1.0;
+pub fn powi(x: f32, k: u32) -> f32 {
+    mul_powi(1.0, x, k)
+}
+
+/// `acc · x^k` by squaring, the factors `x^(2^i)` multiplied into `acc` for rising `i`: how
+/// [`powi`] goes on after a caller has taken the low bits of `k` from a table of squarings.
+#[inline]
+pub fn mul_powi(mut acc: f32, mut x: f32, mut k: u32) -> f32 {
     while k > 0 {
         if k & 1 == 1 {
             acc *= x;
