@@ -52,7 +52,7 @@ mod tests {
 
     /// Relative tolerance of the backend's per-step power (micromath approximates).
     const REL: f32 = if cfg!(feature = "micromath") {
-        5e-3
+        1e-5
     } else {
         5e-6
     };
