@@ -7,7 +7,7 @@ use crate::{
     consensus::{Link, LinkMemory, LinkReport},
     differentiator::DifferentiatorState,
     math,
-    quantizer::QuantizerState,
+    quantizer::{HysteresisQuantizer, QuantizerState},
     safety::Recovery,
     ConfigError,
 };
@@ -247,7 +247,7 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
                     *st = *first;
                     *q_first
                 } else {
-                    qz.quantize(st, u_l)
+                    quantize_apart(qz, st, u_l)
                 };
             }
         }
@@ -308,6 +308,14 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
             },
         }
     }
+}
+
+/// An actuator whose quantizer state differs from the first one's (never, as the states are
+/// committed together): out of line, so that the common path inlines a single quantization.
+#[cold]
+#[inline(never)]
+fn quantize_apart(qz: &HysteresisQuantizer, st: &mut QuantizerState, u: f32) -> f32 {
+    qz.quantize(st, u)
 }
 
 /// The fault result: previous command held, nothing committed.

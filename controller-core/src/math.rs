@@ -200,10 +200,9 @@ pub fn abs(x: f32) -> f32 {
 /// `sign(x)` with `sign(0) = 0` (the paper's convention), NaN for NaN.
 #[inline]
 pub fn sign(x: f32) -> f32 {
-    if x > 0.0 {
-        1.0
-    } else if x < 0.0 {
-        -1.0
+    // One comparison: ±1 by the sign bit for x ≠ 0; ±0 stays, NaN gives NaN.
+    if abs(x) > 0.0 {
+        1.0f32.copysign(x)
     } else {
         x * 0.0
     }

@@ -179,8 +179,9 @@ impl HysteresisQuantizer {
     }
 
     /// Level `u_c = u_min ρ^(1−c)` for `c ≥ 1`: `u_min · (1/ρ)^(c−1)` with the power formed
-    /// exactly as [`math::powi`] forms it (the same bits), its low bits from the squarings.
-    #[inline]
+    /// exactly as [`math::powi`] forms it (the same bits), its low bits from the squarings. Out
+    /// of line: called on level changes only, it keeps the quantizer small enough to inline.
+    #[inline(never)]
     pub fn level(&self, c: u32) -> f32 {
         let k = c.saturating_sub(1);
         let mut acc = 1.0;
