@@ -68,14 +68,9 @@ impl<const N: usize> Backstepping<N> {
         x: &[f32; N],
         est: &Estimated<'_, N>,
     ) -> Signals<N> {
-        let mut s = Signals {
-            e: [0.0; N],
-            beta: [0.0; N],
-            alpha: [0.0; N],
-            phi_sq: [0.0; N],
-            tanh_n: 0.0,
-            u: 0.0,
-        };
+        // Four short arrays rather than one `Signals` cleared as a block and refilled.
+        let (mut es, mut betas, mut alphas, mut phis) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N]);
+        let (mut tanh_n, mut u) = (0.0, 0.0);
         let mut states: MtnAccumulator = self.mtn.accumulator();
         let (mut e_prev, mut alpha_prev) = (0.0, 0.0);
         for (j, &xj) in x.iter().enumerate() {
@@ -94,21 +89,28 @@ impl<const N: usize> Backstepping<N> {
                     - est.alpha_dot[j - 1];
             }
             if j + 1 == N {
-                s.tanh_n = math::tanh(e * self.inv_gamma);
-                beta += est.xi * s.tanh_n;
+                tanh_n = math::tanh(e * self.inv_gamma);
+                beta += est.xi * tanh_n;
                 // (28): u = −(1/(1−δ)) λ̂ β_n s_ϖ(e_n λ̂ β_n).
                 let lb = est.lambda * beta;
-                s.u = -self.command_gain * lb * smooth(e * lb, est.varpi);
+                u = -self.command_gain * lb * smooth(e * lb, est.varpi);
             } else {
                 // (15): α_j = −β_j s_ϖ(e_j β_j) / (L_j φ_low_j).
                 alpha_prev = -self.inv_l_phi_low[j] * beta * smooth(e * beta, est.varpi);
-                s.alpha[j] = alpha_prev;
+                alphas[j] = alpha_prev;
             }
-            s.e[j] = e;
-            s.beta[j] = beta;
-            s.phi_sq[j] = phi_sq;
+            es[j] = e;
+            betas[j] = beta;
+            phis[j] = phi_sq;
             e_prev = e;
         }
-        s
+        Signals {
+            e: es,
+            beta: betas,
+            alpha: alphas,
+            phi_sq: phis,
+            tanh_n,
+            u,
+        }
     }
 }

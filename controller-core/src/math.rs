@@ -1,10 +1,10 @@
 //! The one math shim: every transcendental call of the crate goes through here, so the rest of the
-//! code never sees whether `libm` (default, accurate) or `micromath` (faster approximations)
-//! is behind it. With both features on, `micromath` wins.
+//! code never sees which backend is behind it: `libm` (default, accurate) or `micromath` (fast
+//! approximations). With both features on, `micromath` wins.
 //!
 //! The per-step functions ([`pow_pos`], [`sqrt`], [`tanh`]) are organised for a Cortex-M4F,
 //! where the FPU has `vsqrt`/`vdiv` but no `exp`/`log` and `core` exposes no `f32::sqrt` in
-//! `no_std`: with `libm` they are this module's own kernels, accurate to a few ulp (see the
+//! `no_std`. With `libm` they are this module's own kernels, accurate to a few ulp (see the
 //! tests), built on one `ln` and one `exp` with short polynomials:
 //!
 //! * `x^y = 2^(y log₂ x)` instead of `libm::powf` (≈ 70 instead of ≈ 200 instructions; `powf`'s
@@ -13,18 +13,20 @@
 //!   (libm's `sqrtf` is an integer software routine);
 //! * `tanh x = 1 − 2/(e^(2x) + 1)`, an odd polynomial near 0.
 //!
-//! The configuration-time functions ([`powf`], [`exp`], [`ln`]) stay on `libm`.
+//! With `micromath` they are shorter approximations of the same shape ([`fast`]): `log₂` by a
+//! degree-6 polynomial without the division, `2^r` of degree 4, `√x` without the final
+//! correction, a shorter `tanh` polynomial: relative errors of a few 1e-6 (the tests give the
+//! figures), fewer instructions and one division less per power. The name is historical: the
+//! `micromath` crate's own functions were slower on a Cortex-M4F and up to 7 % off, so they are
+//! no longer used.
+//!
+//! The configuration-time functions ([`powf`], [`exp`], [`ln`]) are `libm`'s with `libm`, and
+//! the accurate kernels with `micromath` (no `libm` linked).
 
 #[cfg(not(any(feature = "libm", feature = "micromath")))]
 compile_error!(
     "controller-core needs a math backend: enable the `libm` (default) or `micromath` feature"
 );
-
-// The per-step functions call it as `F32Ext::f(x)`: in test builds (with `std`) `x.f()` picks
-// `std`'s inherent method, so their tests would not see `micromath` (the configuration-time
-// `powf`, `exp`, `ln` keep the method form, and so `std`'s accuracy, in tests).
-#[cfg(feature = "micromath")]
-use micromath::F32Ext;
 
 #[cfg(test)]
 std::thread_local! {
@@ -52,7 +54,7 @@ fn exact() -> bool {
 pub fn powf(x: f32, y: f32) -> f32 {
     #[cfg(feature = "micromath")]
     {
-        x.powf(y)
+        kernel::pow(x, y)
     }
     #[cfg(not(feature = "micromath"))]
     {
@@ -72,12 +74,7 @@ pub fn pow_pos(x: f32, y: f32) -> f32 {
     }
     #[cfg(feature = "micromath")]
     {
-        // micromath gives 0^0.5 = 7.7e-20: the edges the IEEE way, as the kernel does.
-        if is_positive_normal(x) {
-            F32Ext::powf(x, y)
-        } else {
-            pow_special(x, y)
-        }
+        fast::pow(x, y)
     }
     #[cfg(not(feature = "micromath"))]
     {
@@ -94,17 +91,30 @@ pub fn sqrt(x: f32) -> f32 {
     }
     #[cfg(feature = "micromath")]
     {
-        // micromath's bit-level estimate is wrong at the edges (√0 = 8.1e-20, √−0 = 2.8e19,
-        // √∞ = 1.8e19): those go the IEEE way.
-        if is_positive_normal(x) {
-            F32Ext::sqrt(x)
-        } else {
-            sqrt_special(x, F32Ext::sqrt)
-        }
+        fast::sqrt(x)
     }
     #[cfg(not(feature = "micromath"))]
     {
         kernel::sqrt(x)
+    }
+}
+
+/// `n / √d` for `d ≥ 0`: the division by a root of the smoothing function. With `micromath`
+/// `n · (1/√d)` from the Newton steps on `1/√d`, which approach from below: `|n / √d| ≤ 1`
+/// stays true for `|n| ≤ 1 ≤ d` (and no division).
+#[inline]
+pub fn div_sqrt(n: f32, d: f32) -> f32 {
+    #[cfg(test)]
+    if exact() {
+        return n / libm::sqrtf(d);
+    }
+    #[cfg(feature = "micromath")]
+    {
+        fast::div_sqrt(n, d)
+    }
+    #[cfg(not(feature = "micromath"))]
+    {
+        n / kernel::sqrt(d)
     }
 }
 
@@ -114,23 +124,18 @@ fn is_positive_normal(x: f32) -> bool {
     x.to_bits().wrapping_sub(0x0080_0000) < 0x7f80_0000 - 0x0080_0000
 }
 
-/// `x^y` of 0, subnormals, negatives, ∞ and NaN with micromath (whose own result there is
-/// not IEEE's: `0^0.5 = 7.7e-20`).
-#[cfg(feature = "micromath")]
-#[cold]
-fn pow_special(x: f32, y: f32) -> f32 {
-    if x > 0.0 && x < f32::INFINITY {
-        // Subnormal: 2^(24y) scaled back.
-        F32Ext::powf(x * 16_777_216.0, y) / F32Ext::powf(16_777_216.0, y)
-    } else if x >= 0.0 {
-        x // 0 and ∞ (y > 0)
+/// `√x` from the root of positive normal numbers, the other values the IEEE way.
+#[inline]
+fn sqrt_with(x: f32, normal: impl Fn(f32) -> f32) -> f32 {
+    if is_positive_normal(x) {
+        normal(x)
     } else {
-        f32::NAN
+        sqrt_special(x, normal)
     }
 }
 
 /// `√x` of 0, subnormals, negatives, ∞ and NaN, given the root of positive normal numbers
-/// (micromath's own estimate there gives `√0 = 8.1e-20`, `√−0 = 2.8e19`, `√∞ = 1.8e19`).
+/// (a bit-level estimate is wrong there: it gives `√0 ≈ 8e-20`, `√∞ ≈ 2e19`).
 #[cold]
 fn sqrt_special(x: f32, normal: impl Fn(f32) -> f32) -> f32 {
     if x > 0.0 && x < f32::INFINITY {
@@ -148,7 +153,7 @@ fn sqrt_special(x: f32, normal: impl Fn(f32) -> f32) -> f32 {
 pub fn exp(x: f32) -> f32 {
     #[cfg(feature = "micromath")]
     {
-        x.exp()
+        kernel::exp(x)
     }
     #[cfg(not(feature = "micromath"))]
     {
@@ -161,7 +166,7 @@ pub fn exp(x: f32) -> f32 {
 pub fn ln(x: f32) -> f32 {
     #[cfg(feature = "micromath")]
     {
-        x.ln()
+        kernel::log2(x) * core::f32::consts::LN_2
     }
     #[cfg(not(feature = "micromath"))]
     {
@@ -169,7 +174,7 @@ pub fn ln(x: f32) -> f32 {
     }
 }
 
-/// Hyperbolic tangent; `micromath` has none, so it is built from one `exp` there.
+/// Hyperbolic tangent.
 #[inline]
 pub fn tanh(x: f32) -> f32 {
     #[cfg(test)]
@@ -178,13 +183,7 @@ pub fn tanh(x: f32) -> f32 {
     }
     #[cfg(feature = "micromath")]
     {
-        let a = abs(x);
-        // Also NaN (micromath's `exp` gives tanh(NaN) = 1): sign(NaN) is NaN.
-        if a.is_nan() || a > 9.0 {
-            return sign(x);
-        }
-        let t = 1.0 - 2.0 / (exp(2.0 * a) + 1.0);
-        t.copysign(x)
+        fast::tanh(x)
     }
     #[cfg(not(feature = "micromath"))]
     {
@@ -201,10 +200,9 @@ pub fn abs(x: f32) -> f32 {
 /// `sign(x)` with `sign(0) = 0` (the paper's convention), NaN for NaN.
 #[inline]
 pub fn sign(x: f32) -> f32 {
-    if x > 0.0 {
-        1.0
-    } else if x < 0.0 {
-        -1.0
+    // One comparison: ±1 by the sign bit for x ≠ 0; ±0 stays, NaN gives NaN.
+    if abs(x) > 0.0 {
+        1.0f32.copysign(x)
     } else {
         x * 0.0
     }
@@ -212,8 +210,14 @@ pub fn sign(x: f32) -> f32 {
 
 /// `x^k` for a non-negative integer `k`, by squaring (`O(log k)` products).
 #[inline]
-pub fn powi(mut x: f32, mut k: u32) -> f32 {
-    let mut acc = 1.0;
+pub fn powi(x: f32, k: u32) -> f32 {
+    mul_powi(1.0, x, k)
+}
+
+/// `acc · x^k` by squaring, the factors `x^(2^i)` multiplied into `acc` for rising `i`: how
+/// [`powi`] goes on after a caller has taken the low bits of `k` from a table of squarings.
+#[inline]
+pub fn mul_powi(mut acc: f32, mut x: f32, mut k: u32) -> f32 {
     while k > 0 {
         if k & 1 == 1 {
             acc *= x;
@@ -224,8 +228,8 @@ pub fn powi(mut x: f32, mut k: u32) -> f32 {
     acc
 }
 
-/// The accurate per-step kernels of the `libm` build (no table, no integer software routine).
-#[cfg(any(test, not(feature = "micromath")))]
+/// The accurate kernels: per step with `libm`, at configuration with `micromath` (no table, no
+/// integer software routine).
 mod kernel {
     use core::f32::consts::LOG2_E;
 
@@ -242,7 +246,7 @@ mod kernel {
 
     /// `log₂` of 0, subnormals, negatives, ∞ and NaN.
     #[cold]
-    fn log2_special(x: f32) -> f32 {
+    pub(super) fn log2_special(x: f32) -> f32 {
         if x == 0.0 {
             f32::NEG_INFINITY
         } else if x > 0.0 && x < f32::INFINITY {
@@ -255,11 +259,17 @@ mod kernel {
         }
     }
 
+    /// `x = 2^e m` with `m ∈ [√½, √2)`, from the bits of a positive normal `x`.
     #[inline]
-    fn log2_normal(bits: i32, bias: i32) -> f32 {
+    pub(super) fn log2_split(bits: i32) -> (i32, f32) {
         // Exponent relative to √½ (0x3f3504f3), so that the mantissa lands in [√½, √2).
         let e = (bits - 0x3f35_04f3) >> 23;
-        let m = f32::from_bits((bits - (e << 23)) as u32);
+        (e, f32::from_bits((bits - (e << 23)) as u32))
+    }
+
+    #[inline]
+    fn log2_normal(bits: i32, bias: i32) -> f32 {
+        let (e, m) = log2_split(bits);
         let s = (m - 1.0) / (m + 1.0);
         let z = s * s;
         // 2 log₂e / (2k+1), k = 0..4.
@@ -282,7 +292,7 @@ mod kernel {
 
     /// `2^t` beyond `|t| < 126`: overflow, underflow into subnormals, NaN.
     #[cold]
-    fn exp2_special(t: f32) -> f32 {
+    pub(super) fn exp2_special(t: f32) -> f32 {
         if t >= 128.0 || t.is_nan() {
             t + f32::INFINITY // ∞, or NaN for NaN
         } else if t < -150.0 {
@@ -296,13 +306,19 @@ mod kernel {
         }
     }
 
-    /// `2^t` for `|t| < 126.5` (normal result).
+    /// `t = n + r`, `|r| ≤ ½` (rounding by the `1.5·2^23` trick): `(r, 2^n)` for `|t| < 126.5`.
     #[inline]
-    fn exp2_scaled(t: f32) -> f32 {
+    pub(super) fn exp2_split(t: f32) -> (f32, f32) {
         const ROUND: f32 = 12_582_912.0;
         let k = t + ROUND;
         let n = k.to_bits() as i32 - 0x4b40_0000;
-        let r = t - (k - ROUND);
+        (t - (k - ROUND), f32::from_bits(((n + 127) as u32) << 23))
+    }
+
+    /// `2^t` for `|t| < 126.5` (normal result).
+    #[inline]
+    fn exp2_scaled(t: f32) -> f32 {
+        let (r, scale) = exp2_split(t);
         let p = 1.0
             + r * (core::f32::consts::LN_2
                 + r * (0.240_226_5
@@ -310,7 +326,7 @@ mod kernel {
                         + r * (0.009_618_129
                             + r * (0.001_333_355_8
                                 + r * (0.000_154_035_3 + r * 0.000_015_252_734))))));
-        p * f32::from_bits(((n + 127) as u32) << 23)
+        p * scale
     }
 
     /// `x^y = 2^(y log₂ x)` for `x ≥ 0`.
@@ -327,27 +343,34 @@ mod kernel {
 
     /// `√x`: two Newton steps on `1/√x` from the bit-level estimate (relative error ≤ 5e-6),
     /// then one Newton correction of `x · (1/√x)`.
+    #[cfg(any(test, not(feature = "micromath")))]
     #[inline]
     pub fn sqrt(x: f32) -> f32 {
-        if super::is_positive_normal(x) {
-            sqrt_normal(x)
-        } else {
-            super::sqrt_special(x, sqrt_normal)
-        }
+        super::sqrt_with(x, sqrt_normal)
     }
 
+    #[cfg(any(test, not(feature = "micromath")))]
     #[inline]
     fn sqrt_normal(xs: f32) -> f32 {
-        let h = 0.5 * xs;
-        let mut y = f32::from_bits(0x5f37_5a86 - (xs.to_bits() >> 1));
-        y *= 1.5 - h * y * y;
-        y *= 1.5 - h * y * y;
+        let y = rsqrt_normal(xs);
         let s = xs * y;
         s + (xs - s * s) * (0.5 * y)
     }
 
+    /// `1/√x` of a positive normal `x`: two Newton steps from the bit-level estimate, relative
+    /// error ≤ 5e-6, from below.
+    #[inline]
+    pub(super) fn rsqrt_normal(x: f32) -> f32 {
+        let h = 0.5 * x;
+        let mut y = f32::from_bits(0x5f37_5a86 - (x.to_bits() >> 1));
+        y *= 1.5 - h * y * y;
+        y *= 1.5 - h * y * y;
+        y
+    }
+
     /// `tanh x`: odd Taylor polynomial to `x¹¹` for `|x| < 0.3`, `1 − 2/(e^(2|x|) + 1)` up to
     /// `|x| < 9`, then ±1 (exact in `f32`).
+    #[cfg(any(test, not(feature = "micromath")))]
     #[inline]
     pub fn tanh(x: f32) -> f32 {
         let a = super::abs(x);
@@ -360,6 +383,85 @@ mod kernel {
                         + z * (-17.0 / 315.0 + z * (62.0 / 2835.0 + z * (-1382.0 / 155_925.0)))))
         } else if a < 9.0 {
             1.0 - 2.0 / (exp(2.0 * a) + 1.0)
+        } else if a >= 9.0 {
+            1.0
+        } else {
+            return x; // NaN
+        };
+        t.copysign(x)
+    }
+}
+
+/// The fast approximations of the `micromath` build, the shapes of [`kernel`] with shorter
+/// polynomials (fitted minimax on the reduced ranges, `f32` coefficients); the edge values
+/// (0, subnormals, ∞, NaN, overflow) go to the kernels' exact paths.
+#[cfg(any(test, feature = "micromath"))]
+pub mod fast {
+    use super::kernel;
+    /// `log₂ x`, error ≤ 2.2e-6 · max(1, |log₂ x|): `x = 2^e m`, `m ∈ [√½, √2)`, a degree-6 polynomial in
+    /// `t = m − 1` (no division).
+    #[inline]
+    pub fn log2(x: f32) -> f32 {
+        if !super::is_positive_normal(x) {
+            return kernel::log2_special(x);
+        }
+        let (e, m) = kernel::log2_split(x.to_bits() as i32);
+        let t = m - 1.0;
+        let p = 1.442_713_5
+            + t * (-0.721_131_86
+                + t * (0.479_348 + t * (-0.367_49 + t * (0.322_154_9 + t * -0.206_591_81))));
+        e as f32 + t * p
+    }
+
+    /// `2^t`, relative error ≤ 2.7e-6: `t = n + r`, `|r| ≤ ½`, a degree-4 polynomial in `r`.
+    #[inline]
+    pub fn exp2(t: f32) -> f32 {
+        if super::abs(t) >= 126.0 {
+            return kernel::exp2_special(t);
+        }
+        let (r, scale) = kernel::exp2_split(t);
+        let p = 0.999_999_3
+            + r * (0.693_121_8 + r * (0.240_247_44 + r * (0.055_917_863 + r * 0.009_570_104)));
+        p * scale
+    }
+
+    /// `x^y = 2^(y log₂ x)` for `x ≥ 0`: relative error ≤ 6e-6 · max(1, y) for `x ∈ [1e-6, 1e6]`.
+    #[inline]
+    pub fn pow(x: f32, y: f32) -> f32 {
+        exp2(y * log2(x))
+    }
+
+    /// `√x`, relative error ≤ 5e-6: two Newton steps on `1/√x` from the bit-level estimate.
+    #[inline]
+    pub fn sqrt(x: f32) -> f32 {
+        super::sqrt_with(x, sqrt_normal)
+    }
+
+    #[inline]
+    fn sqrt_normal(x: f32) -> f32 {
+        x * kernel::rsqrt_normal(x)
+    }
+
+    /// `n / √d` as `n · (1/√d)`.
+    #[inline]
+    pub fn div_sqrt(n: f32, d: f32) -> f32 {
+        if super::is_positive_normal(d) {
+            n * kernel::rsqrt_normal(d)
+        } else {
+            n / sqrt(d)
+        }
+    }
+
+    /// `tanh x`, relative error ≤ 5e-6: odd Taylor polynomial to `x⁷` for `|x| < 0.3`,
+    /// `1 − 2/(2^(2|x| log₂e) + 1)` up to `|x| < 9`, then ±1.
+    #[inline]
+    pub fn tanh(x: f32) -> f32 {
+        let a = super::abs(x);
+        let t = if a < 0.3 {
+            let z = a * a;
+            a + a * z * (-1.0 / 3.0 + z * (2.0 / 15.0 + z * (-17.0 / 315.0)))
+        } else if a < 9.0 {
+            1.0 - 2.0 / (exp2(2.0 * core::f32::consts::LOG2_E * a) + 1.0)
         } else if a >= 9.0 {
             1.0
         } else {
@@ -477,6 +579,60 @@ mod tests {
         assert_eq!(kernel::tanh(50.0), 1.0);
         assert_eq!(kernel::tanh(-0.0).to_bits(), (-0.0f32).to_bits());
         assert!(kernel::tanh(f32::NAN).is_nan());
+    }
+
+    /// The `micromath` build's approximations: the error bounds their docs state, measured.
+    #[test]
+    fn fast_approximations_meet_their_stated_bounds() {
+        let rel = |got: f32, want: f64| ((f64::from(got) - want) / want).abs();
+        let (mut log2, mut exp2, mut pow, mut sqrt, mut tanh) = (0f64, 0f64, 0f64, 0f64, 0f64);
+        for x in sweep(1e-30, 1e30, 200_000) {
+            let want = f64::from(x).log2();
+            log2 = log2.max((f64::from(fast::log2(x)) - want).abs() / want.abs().max(1.0));
+            sqrt = sqrt.max(rel(fast::sqrt(x), f64::from(x).sqrt()));
+        }
+        for k in -1_250_000..=1_250_000 {
+            let t = k as f32 * 1e-4;
+            exp2 = exp2.max(rel(fast::exp2(t), f64::from(t).exp2()));
+        }
+        for y in [0.1f32, 0.6, 0.9, 1.1, 2.0] {
+            for x in sweep(1e-6, 1e6, 50_000) {
+                let err = rel(fast::pow(x, y), f64::from(x).powf(f64::from(y)));
+                pow = pow.max(err / f64::from(y).max(1.0));
+            }
+        }
+        for k in -100_000..=100_000 {
+            let x = k as f32 * 1e-4;
+            if x != 0.0 {
+                tanh = tanh.max(rel(fast::tanh(x), f64::from(x).tanh()));
+            }
+        }
+        println!(
+            "fast: log2 {log2:.2e} (· max(1, |log₂ x|)), exp2 {exp2:.2e}, sqrt {sqrt:.2e}, tanh {tanh:.2e}, pow {pow:.2e} (· max(1, y))"
+        );
+        assert!(log2 <= 2.2e-6, "log2: {log2:e} · max(1, |log₂ x|)");
+        assert!(exp2 <= 2.7e-6, "exp2: {exp2:e}");
+        assert!(sqrt <= 5e-6, "sqrt: {sqrt:e}");
+        assert!(tanh <= 5e-6, "tanh: {tanh:e}");
+        assert!(pow <= 6e-6, "pow: {pow:e} · max(1, y)");
+        // The smoothing function's `n/√(1 + n²)`, `|n| ≤ 1`, stays within [−1, 1].
+        for n in sweep(1e-30, 1.0, 100_000).chain([0.0, 1.0]) {
+            let d = 1.0 + n * n;
+            let got = fast::div_sqrt(n, d);
+            assert!(got.abs() <= 1.0, "{n}");
+            if n > 0.0 {
+                sqrt = sqrt.max(rel(got, f64::from(n) / f64::from(d).sqrt()));
+            }
+        }
+        assert!(sqrt <= 5e-6, "n/√d: {sqrt:e}");
+        assert_eq!(fast::sqrt(0.0), 0.0);
+        assert_eq!(fast::sqrt(f32::INFINITY), f32::INFINITY);
+        assert!(fast::sqrt(-1.0).is_nan() && fast::tanh(f32::NAN).is_nan());
+        assert_eq!(fast::pow(0.0, 0.5), 0.0);
+        assert_eq!(fast::pow(f32::INFINITY, 0.5), f32::INFINITY);
+        assert!(fast::pow(f32::NAN, 0.5).is_nan() && fast::pow(-1.0, 0.5).is_nan());
+        assert_eq!(fast::exp2(200.0), f32::INFINITY);
+        assert_eq!((fast::tanh(20.0), fast::tanh(-20.0)), (1.0, -1.0));
     }
 
     /// The per-step functions of the build under test (`libm` kernels or `micromath`) at the

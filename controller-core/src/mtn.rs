@@ -61,10 +61,10 @@ impl MtnRegressor {
     /// A streaming evaluator of `‖Φ‖²`: push the inputs one by one.
     #[inline]
     pub const fn accumulator(&self) -> MtnAccumulator {
-        let mut h = [0.0; MAX_MTN_ORDER + 1];
-        h[0] = 1.0;
         MtnAccumulator {
-            h,
+            h1: 0.0,
+            h2: 0.0,
+            higher: [0.0; MAX_MTN_ORDER - 2],
             order: self.order,
         }
     }
@@ -119,43 +119,58 @@ impl MtnRegressor {
     }
 }
 
-/// Running `h_k(z_1..z_j)`, `k = 0..=m`, of the squared inputs pushed so far.
+/// Running `h_k(z_1..z_j)`, `k = 1..=m`, of the squared inputs pushed so far: `h_1`, `h_2` as
+/// scalars (all the examples' order 2 needs), `h_3..h_m` in a short array.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MtnAccumulator {
-    h: [f32; MAX_MTN_ORDER + 1],
+    h1: f32,
+    h2: f32,
+    higher: [f32; MAX_MTN_ORDER - 2],
     order: u8,
 }
 
 impl MtnAccumulator {
-    /// Add one input `x`: `h_k ← h_k + x² h_{k−1}` for rising `k`.
-    ///
-    /// `k = 1, 2` (the examples use order 2) are written out: the same operations in the same
-    /// order as the plain loop, so the same bits, without the loop's bookkeeping on the hot path.
+    /// Add one input `x`: `h_k ← h_k + x² h_{k−1}` for rising `k` (`h_0 = 1`).
     #[inline]
     pub fn push(&mut self, x: f32) {
         let z = x * x;
-        // k = 1 (every order has it), k = 2, then the loop for k ≥ 3.
-        self.h[1] += z;
+        self.h1 += z;
         if self.order >= 2 {
-            self.h[2] += z * self.h[1];
+            self.h2 += z * self.h1;
             if self.order > 2 {
-                let mut prev = self.h[2];
-                for hk in self.h.iter_mut().take(self.order as usize + 1).skip(3) {
-                    *hk += z * prev;
-                    prev = *hk;
-                }
+                self.push_higher(z);
             }
         }
     }
 
-    /// `‖Φ‖² = Σ_{k=1..m} h_k` of the inputs pushed so far.
+    /// `h_3..h_m` of [`Self::push`]: out of line, so that the step's loops over the order-2
+    /// examples stay small enough to be unrolled.
+    #[inline(never)]
+    fn push_higher(&mut self, z: f32) {
+        let mut prev = self.h2;
+        for hk in self.higher.iter_mut().take(self.order as usize - 2) {
+            *hk += z * prev;
+            prev = *hk;
+        }
+    }
+
+    /// `‖Φ‖² = Σ_{k=1..m} h_k` of the inputs pushed so far (summed in rising `k`).
     #[inline]
     pub fn norm_sq(&self) -> f32 {
         match self.order {
-            1 => self.h[1],
-            2 => self.h[1] + self.h[2],
-            _ => self.h.iter().take(self.order as usize + 1).skip(1).sum(),
+            1 => self.h1,
+            2 => self.h1 + self.h2,
+            _ => self.norm_sq_higher(),
         }
+    }
+
+    /// [`Self::norm_sq`] for `m ≥ 3` (out of line, as [`Self::push_higher`]).
+    #[inline(never)]
+    fn norm_sq_higher(&self) -> f32 {
+        self.higher
+            .iter()
+            .take(self.order as usize - 2)
+            .fold(self.h1 + self.h2, |acc, &h| acc + h)
     }
 }
 

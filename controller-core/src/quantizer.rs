@@ -66,6 +66,8 @@ pub struct HysteresisQuantizer {
     max_index: u32,
     saturation: f32,
     direction: QuantizerDirection,
+    /// `(1/ρ)^(2^i)`, `i < SQUARINGS`, formed by repeated squaring as [`math::powi`] forms them.
+    squarings: [f32; SQUARINGS],
 }
 
 /// Per-actuator memory: the previous command and output, and the current level bracket.
@@ -83,12 +85,13 @@ pub struct QuantizerState {
 
 impl Default for QuantizerState {
     /// A placeholder for controllers without a quantizer; [`HysteresisQuantizer::state`] gives
-    /// the real initial state.
+    /// the real initial state (from this one the first quantization locates the level by the
+    /// closed form).
     fn default() -> Self {
         Self {
             prev_u: 0.0,
             prev_q: 0.0,
-            index: 1,
+            index: 0,
             lower: 0.0,
             upper: 0.0,
         }
@@ -97,6 +100,10 @@ impl Default for QuantizerState {
 
 /// Level changes walked one by one before the closed form is used instead.
 const MAX_WALK: usize = 4;
+
+/// Squarings of `1/ρ` kept by the quantizer: level powers below `2^SQUARINGS` (up to
+/// `u_min ρ^−255`, 3.1e9 for the paper's `ρ`, `u_min`) take one product per set bit.
+const SQUARINGS: usize = 8;
 
 impl HysteresisQuantizer {
     /// Checks `0 < ρ < 1`, `u_min > 0`.
@@ -117,6 +124,12 @@ impl HysteresisQuantizer {
         let inv_rho = 1.0 / cfg.rho;
         let inv_ln_inv_rho = positive(1.0 / math::ln(inv_rho), "rho")?;
         let ln_u_min = math::ln(cfg.u_min);
+        let mut squarings = [inv_rho; SQUARINGS];
+        let mut x = inv_rho;
+        for sq in &mut squarings {
+            *sq = x;
+            x *= x;
+        }
         let mut q = Self {
             u_min: cfg.u_min,
             inv_rho,
@@ -128,6 +141,7 @@ impl HysteresisQuantizer {
             max_index: u32::MAX,
             saturation: f32::MAX,
             direction: cfg.direction,
+            squarings,
         };
         // The first index whose level is no longer a finite f32 (the search never goes past
         // it), found by bisection on the levels as `level` computes them: `level(1) = u_min` is
@@ -164,10 +178,26 @@ impl HysteresisQuantizer {
         self.saturation
     }
 
-    /// Level `u_c = u_min ρ^(1−c)` for `c ≥ 1`.
-    #[inline]
+    /// Level `u_c = u_min ρ^(1−c)` for `c ≥ 1`: `u_min · (1/ρ)^(c−1)` with the power formed
+    /// exactly as [`math::powi`] forms it (the same bits), its low bits from the squarings. Out
+    /// of line: called on level changes only, it keeps the quantizer small enough to inline.
+    #[inline(never)]
     pub fn level(&self, c: u32) -> f32 {
-        self.u_min * math::powi(self.inv_rho, c.saturating_sub(1))
+        let k = c.saturating_sub(1);
+        let mut acc = 1.0;
+        let mut low = k & ((1 << SQUARINGS) - 1);
+        while low != 0 {
+            if let Some(p) = self.squarings.get(low.trailing_zeros() as usize) {
+                acc *= *p;
+            }
+            low &= low - 1;
+        }
+        let high = k >> SQUARINGS;
+        if high != 0 {
+            let top = self.squarings[SQUARINGS - 1];
+            acc = math::mul_powi(acc, top * top, high);
+        }
+        self.u_min * acc
     }
 
     /// The initial state: `u_{−1} = 0`, `q_{−1} = 0`.
@@ -307,13 +337,22 @@ impl HysteresisQuantizer {
         }
     }
 
+    /// Moves the bracket to `u_c < b ≤ u_{c+1}`: level by level, each step computing one new
+    /// level (the other bound is the previous one), up to [`MAX_WALK`] levels.
     #[inline]
     fn locate(&self, s: &mut QuantizerState, b: f32) {
+        if s.index == 0 {
+            return self.jump(s, b); // a default (placeholder) state: no bracket yet
+        }
         for _ in 0..MAX_WALK {
             if b > s.upper && s.index < self.max_index {
-                self.set_index(s, s.index + 1);
+                s.index += 1;
+                s.lower = s.upper;
+                s.upper = self.level(s.index.saturating_add(1));
             } else if b <= s.lower && s.index > 1 {
-                self.set_index(s, s.index - 1);
+                s.index -= 1;
+                s.upper = s.lower;
+                s.lower = self.level(s.index);
             } else {
                 return;
             }
@@ -394,6 +433,39 @@ mod tests {
             assert_eq!(fast, slow, "k {k} u {u}");
             pu = u;
             pq = slow;
+        }
+    }
+
+    #[test]
+    fn levels_from_the_squarings_equal_powi_bit_for_bit() {
+        for rho in [0.9f32, 0.5, 0.99, 0.999_9, 1.0 - 1e-7] {
+            let q = HysteresisQuantizer::new(&QuantizerConfig {
+                rho,
+                ..QuantizerConfig::default()
+            })
+            .unwrap();
+            let inv_rho = 1.0 / rho;
+            let cs = (1..2_000).chain([255, 256, 257, 4_097, 65_537, q.max_index, u32::MAX]);
+            for c in cs {
+                let want = q.u_min * math::powi(inv_rho, c.saturating_sub(1));
+                assert_eq!(q.level(c).to_bits(), want.to_bits(), "rho {rho} c {c}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_default_state_locates_by_the_closed_form() {
+        let q = q09();
+        for u in [0.5f32, -3.0, 0.0105, 1e20] {
+            let mut s = QuantizerState::default();
+            assert_eq!(
+                q.quantize(&mut s, u),
+                q.quantize_reference(0.0, 0.0, u),
+                "u = {u}"
+            );
+            let mut fresh = q.state();
+            q.quantize(&mut fresh, u);
+            assert_eq!(s, fresh, "u = {u}");
         }
     }
 

@@ -21,10 +21,10 @@ pub fn smooth(x: f32, varpi: f32) -> f32 {
             return 0.0;
         }
         let r = b / a;
-        math::sign(x) / math::sqrt(1.0 + r * r)
+        math::div_sqrt(math::sign(x), 1.0 + r * r)
     } else {
         let r = x / b;
-        r / math::sqrt(1.0 + r * r)
+        math::div_sqrt(r, 1.0 + r * r)
     }
 }
 
@@ -65,9 +65,9 @@ mod tests {
 
     #[test]
     fn matches_direct_formula_where_it_does_not_overflow() {
-        // micromath's `sqrt` is an approximation (a few 1e-2 relative).
+        // micromath's `1/√` is an approximation (5e-6 relative).
         let tol = if cfg!(feature = "micromath") {
-            5e-2
+            1e-5
         } else {
             1e-6
         };
@@ -79,8 +79,16 @@ mod tests {
 
     #[test]
     fn extreme_inputs_stay_in_range() {
-        assert_eq!(smooth(-f32::MAX, 1e-6), -1.0);
-        assert_eq!(smooth(f32::INFINITY, 0.1), 1.0);
+        // ±1 (micromath: within its 5e-6 of ±1, never beyond).
+        let one = |s: f32| {
+            if cfg!(feature = "micromath") {
+                (1.0 - 5e-6..=1.0).contains(&s)
+            } else {
+                s == 1.0
+            }
+        };
+        assert!(one(-smooth(-f32::MAX, 1e-6)));
+        assert!(one(smooth(f32::INFINITY, 0.1)));
         assert!(smooth(1e-30, 1e-6).abs() < 1e-20);
         assert_eq!(smooth(0.0, 0.1), 0.0);
     }

@@ -5,8 +5,9 @@
 //!   (min / median / max), peak stack and state size from its semihosting output and the
 //!   controller's flash from the ELF's symbol sizes; writes `target/bench/step.json` and prints
 //!   a table.
-//! * `bench-gate`: `bench-target`, then fails when a variant's median instruction count is more
-//!   than the budget's tolerance (10 %) above `bench-fw/budget.json`.
+//! * `bench-gate`: `bench-target`, then fails when a variant's median or maximum instructions,
+//!   stack, step flash or configuration flash are more than the budget's tolerance (10 %) above
+//!   `bench-fw/budget.json`, or a replayed step faulted (details: `gate.rs`).
 //!
 //! Nothing is installed: a missing `qemu-system-arm` or `thumbv7em-none-eabihf` target is
 //! reported with the command that installs it.
@@ -29,9 +30,9 @@ tasks:
       build bench-fw for each variant, run it on QEMU mps2-an386 (-icount shift=0), write
       target/bench/step.json and print a table
   bench-gate [--no-run] [--update-budget]
-      bench-target (unless --no-run), then fail if a variant's median instructions per step
-      exceed bench-fw/budget.json by more than its tolerance; --update-budget writes the
-      budget from the current step.json instead
+      bench-target (unless --no-run), then fail if a variant's instructions (median, max),
+      stack or flash exceed bench-fw/budget.json by more than its tolerance, or a step
+      faulted; --update-budget writes the budget from the current step.json instead
 ";
 
 fn main() -> ExitCode {
