@@ -16,6 +16,7 @@ pub mod campaign;
 pub mod compare;
 pub mod error;
 pub mod faults;
+pub mod generate;
 pub mod graph;
 pub mod link;
 pub mod matrix;

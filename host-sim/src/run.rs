@@ -13,7 +13,7 @@ use crate::{
     network::{CanAgents, NetworkKind},
     pil::PilAgents,
     plant::{Plant, PlantModel},
-    report::{self, csv::CsvObserver, plots::Recorder},
+    report::{self, csv::CsvObserver, plots::Recorder, spread::Spread},
     scenario::{self, Scenario, Setup},
     sim::{Agents, Linked, Observer, Sim},
 };
@@ -25,6 +25,8 @@ pub struct RunOptions {
     pub out: Option<PathBuf>,
     /// Every `decimate`-th sample goes to `trajectory.csv`.
     pub decimate: u64,
+    /// The agents (0-based, ascending) whose columns `trajectory.csv` gets (`None`: all).
+    pub agents: Option<Vec<usize>>,
     /// Draw the figures.
     pub plots: bool,
     /// Keep the plot series in the result (for `compare`).
@@ -125,12 +127,15 @@ pub(crate) fn progress_bar(len: u64, show: bool, template: &str) -> ProgressBar 
     pb
 }
 
-fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
+fn run_with<P: Plant<N, M> + Sync, A: Agents<N, M>, const N: usize, const M: usize>(
     setup: &Setup,
     plant: P,
     agents: A,
     opts: &RunOptions,
-) -> Result<RunResult> {
+) -> Result<RunResult>
+where
+    P::Time: Sync,
+{
     let mut sim = Sim::<_, _, N, M>::with_agents(setup, plant, agents)?;
     let mut metrics = Metrics::new(setup);
     let mut recorder = (opts.plots || opts.record)
@@ -138,9 +143,13 @@ fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
     let mut csv = match &opts.out {
         Some(dir) => {
             report::create_dir(dir)?;
-            Some(CsvObserver::create(
+            let columns = opts
+                .agents
+                .clone()
+                .unwrap_or_else(|| (0..setup.agents()).collect());
+            Some(CsvObserver::create_for(
                 &dir.join("trajectory.csv"),
-                setup.agents(),
+                columns,
                 N,
                 M,
                 opts.decimate.max(1),
@@ -154,6 +163,8 @@ fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
         "{bar:40} {pos}/{len} samples  {elapsed} (eta {eta})",
     );
     let mut worst = opts.worst.then(|| WorstPerSample(Vec::new()));
+    let mut spread =
+        (opts.plots && report::spread::wanted(setup.agents())).then(|| Spread::new(setup));
     let divergence = {
         let mut obs: Vec<&mut dyn Observer<N, M>> = vec![&mut metrics];
         if let Some(w) = worst.as_mut() {
@@ -161,6 +172,9 @@ fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
         }
         if let Some(r) = recorder.as_mut() {
             obs.push(r);
+        }
+        if let Some(s) = spread.as_mut() {
+            obs.push(s);
         }
         if let Some(c) = csv.as_mut() {
             obs.push(c);
@@ -182,6 +196,9 @@ fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
         if opts.plots {
             if let Some(r) = &recorder {
                 r.draw(dir, setup, summary.settling_time)?;
+            }
+            if let Some(s) = &spread {
+                s.draw(dir, setup)?;
             }
             sim.agents()
                 .draw(dir, setup.scenario.simulation.h, &setup.scenario.name)?;

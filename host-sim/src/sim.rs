@@ -7,11 +7,12 @@
 //! ([`crate::network::CanAgents`]).
 
 use controller_core::{Controller, Gains, StepOutput};
+use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::{
     error::{Error, Result},
-    faults::FaultSchedule,
+    faults::{ActuatorEffect, FaultSchedule},
     graph::Graph,
     link::{Inbox, LinkModel},
     plant::{rk4, Plant, Stages},
@@ -129,12 +130,21 @@ impl<L: LinkModel, const N: usize, const M: usize> Agents<N, M> for Linked<L, N,
         }
         self.link
             .exchange(k, t, &self.y, yd as f32, &self.graph, &mut self.inbox);
-        for (i, c) in self.ctrls.iter_mut().enumerate() {
-            let mut xs = [0.0f32; N];
-            for (d, s) in xs.iter_mut().zip(&x[i]) {
-                *d = *s as f32;
-            }
-            out.push(c.step(&xs, self.inbox.of(&self.graph, i), self.inbox.leader[i]));
+        let (graph, inbox) = (&self.graph, &self.inbox);
+        let step = |i: usize, c: &mut Controller<N, M, K>| {
+            let xs = x[i].map(|v| v as f32);
+            c.step(&xs, inbox.of(graph, i), inbox.leader[i])
+        };
+        if parallel(self.ctrls.len()) {
+            out.par_extend(
+                self.ctrls
+                    .par_iter_mut()
+                    .enumerate()
+                    .with_min_len(PAR_CHUNK)
+                    .map(|(i, c)| step(i, c)),
+            );
+        } else {
+            out.extend(self.ctrls.iter_mut().enumerate().map(|(i, c)| step(i, c)));
         }
         Ok(())
     }
@@ -148,7 +158,12 @@ impl<L: LinkModel, const N: usize, const M: usize> Agents<N, M> for Linked<L, N,
 pub struct Sim<P, A, const N: usize, const M: usize> {
     leader: Leader,
     faults: FaultSchedule,
-    faulty: Vec<bool>,
+    /// Per agent its fault class ([`FaultSchedule::classes`]; `None`: healthy).
+    class: Vec<Option<usize>>,
+    /// One agent of each fault class.
+    members: Vec<usize>,
+    /// Per substep and fault class the effects at the three RK4 stage times.
+    effects: Vec<[[ActuatorEffect; M]; 3]>,
     plant: P,
     agents: A,
     x: Vec<[f64; N]>,
@@ -163,14 +178,21 @@ pub struct Sim<P, A, const N: usize, const M: usize> {
     seen: Vec<[f64; N]>,
 }
 
-impl<P: Plant<N, M>, L: LinkModel, const N: usize, const M: usize> Sim<P, Linked<L, N, M>, N, M> {
+impl<P: Plant<N, M> + Sync, L: LinkModel, const N: usize, const M: usize>
+    Sim<P, Linked<L, N, M>, N, M>
+where
+    P::Time: Sync,
+{
     /// Builds the controllers (over `link`) and initial states of `setup`.
     pub fn new(setup: &Setup, plant: P, link: L) -> Result<Self> {
         Self::with_agents(setup, plant, Linked::new(setup, link)?)
     }
 }
 
-impl<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize> Sim<P, A, N, M> {
+impl<P: Plant<N, M> + Sync, A: Agents<N, M>, const N: usize, const M: usize> Sim<P, A, N, M>
+where
+    P::Time: Sync,
+{
     /// Builds the initial states of `setup`; `agents` compute the commands.
     pub fn with_agents(setup: &Setup, plant: P, agents: A) -> Result<Self> {
         let n_agents = setup.agents();
@@ -184,12 +206,14 @@ impl<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize> Sim<P, A, 
             })?;
             x.push(a);
         }
-        let faulty = (0..n_agents).map(|i| setup.faults.any(i)).collect();
+        let (class, members) = setup.faults.classes();
         let sim = &setup.scenario.simulation;
         Ok(Self {
             leader: setup.scenario.leader,
             faults: setup.faults.clone(),
-            faulty,
+            class,
+            members,
+            effects: Vec::new(),
             plant,
             agents,
             x,
@@ -296,27 +320,58 @@ impl<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize> Sim<P, A, 
     }
 
     /// Every plant over `[t, t + h)`: RK4 substeps, commands held, faults per stage time.
+    ///
+    /// The time terms and the fault effects of every stage are computed once (per fault class),
+    /// then each agent takes its substeps; agents are independent, so on a large group they are
+    /// integrated in parallel with the same result at any thread count.
     fn integrate(&mut self, t: f64) {
         let dt = self.h / f64::from(self.substeps);
+        let mut stages = Vec::with_capacity(self.substeps as usize);
+        self.effects.clear();
         for s in 0..self.substeps {
             let t0 = t + f64::from(s) * dt;
             let times = [t0, t0 + 0.5 * dt, t0 + dt];
-            let time = times.map(|tt| self.plant.at(tt));
-            for (i, x) in self.x.iter_mut().enumerate() {
-                let q = self.q[i];
-                let act = if self.faulty[i] {
-                    times.map(|tt| {
-                        let mut a = q;
-                        for (l, a) in a.iter_mut().enumerate() {
-                            *a = self.faults.apply(i, l, tt, *a);
-                        }
-                        a
-                    })
-                } else {
-                    [q; 3]
+            stages.push(times.map(|tt| self.plant.at(tt)));
+            for &r in &self.members {
+                self.effects
+                    .push(times.map(|tt| std::array::from_fn(|l| self.faults.effect(r, l, tt))));
+            }
+        }
+        let classes = self.members.len();
+        let (plant, effects) = (&self.plant, &self.effects);
+        let agent = |x: &mut [f64; N], q: &[f64; M], class: Option<usize>| {
+            for (s, time) in stages.iter().enumerate() {
+                let act = match class {
+                    Some(c) => {
+                        effects[s * classes + c].map(|e| std::array::from_fn(|l| e[l].on(q[l])))
+                    }
+                    None => [*q; 3],
                 };
-                rk4(&self.plant, x, dt, &Stages { time, act });
+                rk4(plant, x, dt, &Stages { time: *time, act });
+            }
+        };
+        if parallel(self.x.len()) {
+            self.x
+                .par_iter_mut()
+                .zip(&self.q)
+                .zip(&self.class)
+                .with_min_len(PAR_CHUNK)
+                .for_each(|((x, q), &c)| agent(x, q, c));
+        } else {
+            for ((x, q), &c) in self.x.iter_mut().zip(&self.q).zip(&self.class) {
+                agent(x, q, c);
             }
         }
     }
+}
+
+/// Smallest group stepped in parallel (below it a thread hand-off costs more than it saves).
+pub const PAR_MIN_AGENTS: usize = 256;
+
+/// Agents per parallel work item.
+const PAR_CHUNK: usize = 64;
+
+/// Whether a group of `agents` is stepped on several threads (rayon's pool has more than one).
+fn parallel(agents: usize) -> bool {
+    agents >= PAR_MIN_AGENTS && rayon::current_num_threads() > 1
 }

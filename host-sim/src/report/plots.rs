@@ -26,7 +26,7 @@ use crate::{
 /// Most agents drawn in one figure (the first ones).
 pub const MAX_PLOTTED_AGENTS: usize = 8;
 /// Points per series kept for plotting.
-const TARGET_POINTS: u64 = 4000;
+pub(crate) const TARGET_POINTS: u64 = 4000;
 /// Markers per series, staggered between the series of a panel so that they never coincide.
 const MARKERS_PER_SERIES: usize = 20;
 
@@ -1115,13 +1115,16 @@ fn draw_panel<DB: DrawingBackend>(
             }
         };
         let (marker, dash, color, width) = (s.marker, s.dash, s.color, s.width);
-        anno.label(s.label.as_str()).legend(move |at| Glyph {
-            at,
-            marker,
-            dash: Some(dash),
-            color,
-            width,
-        });
+        if !s.label.is_empty() {
+            // An unlabelled series (the second edge of a band) has no legend entry.
+            anno.label(s.label.as_str()).legend(move |at| Glyph {
+                at,
+                marker,
+                dash: Some(dash),
+                color,
+                width,
+            });
+        }
         let step = (shown.len() / MARKERS_PER_SERIES).max(1);
         let offset = k * step / n_series;
         if s.marker != Marker::None {
