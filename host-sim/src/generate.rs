@@ -8,10 +8,7 @@ use rand_chacha::{
     ChaCha8Rng,
 };
 
-use crate::{
-    error::{Error, Result},
-    graph::MAX_NEIGHBOURS,
-};
+use crate::error::{Error, Result};
 
 /// The graph families of `graph.generator`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -66,10 +63,12 @@ pub struct GraphRecipe {
     pub seed: u64,
     /// Agents that hear the leader (0-based, at least one).
     pub pinned: Vec<usize>,
+    /// Largest in-degree: the controllers' neighbour capacity `K` (`graph::MAX_NEIGHBOURS`).
+    pub capacity: usize,
 }
 
 /// The neighbour lists (0-based, agent `i` hears `lists[i]`) of `recipe`; every in-degree is
-/// at most [`MAX_NEIGHBOURS`], and the random family reaches every agent from a pinned one.
+/// at most `recipe.capacity`, and the random family reaches every agent from a pinned one.
 pub fn neighbours(recipe: &GraphRecipe) -> Result<Vec<Vec<usize>>> {
     let n = recipe.agents;
     if n == 0 {
@@ -90,19 +89,19 @@ pub fn neighbours(recipe: &GraphRecipe) -> Result<Vec<Vec<usize>>> {
         Family::Star => (0..n)
             .map(|i| if i == 0 { vec![] } else { vec![0] })
             .collect(),
-        Family::Knn => knn(n, recipe.k)?,
+        Family::Knn => knn(n, recipe.k, recipe.capacity)?,
         Family::Random => random(recipe)?,
     })
 }
 
-fn knn(n: usize, k: usize) -> Result<Vec<Vec<usize>>> {
-    if k == 0 || k > MAX_NEIGHBOURS || k >= n {
+fn knn(n: usize, k: usize, capacity: usize) -> Result<Vec<Vec<usize>>> {
+    if k == 0 || k > capacity || k >= n {
         return Err(Error::invalid(
             "graph.k",
             format!(
                 "must lie in 1..={} (at most the controllers' neighbour capacity \
-                 {MAX_NEIGHBOURS}, and fewer than the {n} agents) (got {k})",
-                MAX_NEIGHBOURS.min(n.saturating_sub(1))
+                 {capacity}, and fewer than the {n} agents) (got {k})",
+                capacity.min(n.saturating_sub(1))
             ),
         ));
     }
@@ -129,20 +128,20 @@ fn random(recipe: &GraphRecipe) -> Result<Vec<Vec<usize>>> {
             "the random generator roots its spanning tree at the pinned agents: pin at least one",
         ));
     }
+    let most = recipe.capacity.min(n - 1);
     let mut roots = recipe.pinned.clone();
     roots.sort_unstable();
     roots.dedup();
-    let capacity = n * MAX_NEIGHBOURS.min(n - 1);
+    let capacity = n * most;
     let tree = n - roots.len();
     if tree + recipe.extra_edges > capacity {
         return Err(Error::invalid(
             "graph.extra_edges",
             format!(
-                "{} links beyond the spanning tree do not fit: {n} agents hear at most {} agents \
-                 each (neighbour capacity {MAX_NEIGHBOURS}), {capacity} links in all, {tree} of \
-                 them in the tree",
-                recipe.extra_edges,
-                MAX_NEIGHBOURS.min(n - 1)
+                "{} links beyond the spanning tree do not fit: {n} agents hear at most {most} \
+                 agents each (neighbour capacity {}), {capacity} links in all, {tree} of them in \
+                 the tree",
+                recipe.extra_edges, recipe.capacity
             ),
         ));
     }
@@ -160,9 +159,7 @@ fn random(recipe: &GraphRecipe) -> Result<Vec<Vec<usize>>> {
     for (pos, &i) in order.iter().enumerate().skip(first) {
         lists[i].push(order[below(&mut rng, pos)]);
     }
-    let mut open: Vec<usize> = (0..n)
-        .filter(|&i| lists[i].len() < MAX_NEIGHBOURS.min(n - 1))
-        .collect();
+    let mut open: Vec<usize> = (0..n).filter(|&i| lists[i].len() < most).collect();
     let mut added = 0;
     while added < recipe.extra_edges {
         let slot = below(&mut rng, open.len());
@@ -173,7 +170,7 @@ fn random(recipe: &GraphRecipe) -> Result<Vec<Vec<usize>>> {
         }
         lists[i].push(k);
         added += 1;
-        if lists[i].len() == MAX_NEIGHBOURS.min(n - 1) {
+        if lists[i].len() == most {
             open.swap_remove(slot);
         }
     }
@@ -223,7 +220,6 @@ pub fn initial_states(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::graph::Graph;
 
     fn recipe(family: Family, agents: usize) -> GraphRecipe {
         GraphRecipe {
@@ -233,63 +229,8 @@ mod tests {
             extra_edges: if agents < 5 { 0 } else { agents },
             seed: 7,
             pinned: vec![0],
+            capacity: 16,
         }
-    }
-
-    fn pinned(n: usize, which: &[usize]) -> Vec<bool> {
-        (0..n).map(|i| which.contains(&i)).collect()
-    }
-
-    #[test]
-    fn every_family_gives_a_valid_graph_with_the_expected_degrees() -> Result<()> {
-        for family in [
-            Family::Line,
-            Family::Ring,
-            Family::Star,
-            Family::Knn,
-            Family::Random,
-        ] {
-            for n in [1, 2, 5, 50, 1000] {
-                if family == Family::Knn && n <= 4 {
-                    assert!(
-                        neighbours(&recipe(family, n)).is_err(),
-                        "knn k = 4, n = {n}"
-                    );
-                    continue;
-                }
-                let lists = neighbours(&recipe(family, n))?;
-                let degrees: Vec<usize> = lists.iter().map(Vec::len).collect();
-                let links: usize = degrees.iter().sum();
-                let want = match family {
-                    Family::Line | Family::Star => n - 1,
-                    Family::Ring => (0..n).map(|_| 2.min(n - 1)).sum(),
-                    Family::Knn => 4 * n,
-                    Family::Random => (n - 1) + if n < 5 { 0 } else { n },
-                };
-                assert_eq!(links, want, "{family:?}, n = {n}");
-                let g = Graph::new(lists, pinned(n, &[0]))?;
-                assert_eq!(g.len(), n);
-            }
-        }
-        Ok(())
-    }
-
-    #[test]
-    fn random_graphs_are_reproducible_and_rooted_at_every_pinned_set() -> Result<()> {
-        let mut r = recipe(Family::Random, 300);
-        r.extra_edges = 3000;
-        let a = neighbours(&r)?;
-        assert_eq!(a, neighbours(&r)?, "same seed, same graph");
-        r.seed = 8;
-        assert_ne!(a, neighbours(&r)?, "another seed, another graph");
-        assert!(a.iter().all(|row| row.len() <= MAX_NEIGHBOURS));
-        for seed in 0..20 {
-            r.seed = seed;
-            r.pinned = vec![17, 250];
-            let g = Graph::new(neighbours(&r)?, pinned(300, &[17, 250]));
-            assert!(g.is_ok(), "seed {seed}: {g:?}");
-        }
-        Ok(())
     }
 
     fn refusal(r: &GraphRecipe) -> String {
@@ -300,17 +241,65 @@ mod tests {
     }
 
     #[test]
+    fn every_family_has_the_expected_links() -> Result<()> {
+        for family in [
+            Family::Line,
+            Family::Ring,
+            Family::Star,
+            Family::Knn,
+            Family::Random,
+        ] {
+            for n in [1, 2, 5, 50, 1000] {
+                if family == Family::Knn && n <= 4 {
+                    assert!(refusal(&recipe(family, n)).contains("graph.k"));
+                    continue;
+                }
+                let lists = neighbours(&recipe(family, n))?;
+                let links: usize = lists.iter().map(Vec::len).sum();
+                let want = match family {
+                    Family::Line | Family::Star => n - 1,
+                    Family::Ring => n * 2.min(n - 1),
+                    Family::Knn => 4 * n,
+                    Family::Random => (n - 1) + if n < 5 { 0 } else { n },
+                };
+                assert_eq!(links, want, "{family:?}, n = {n}");
+                for (i, row) in lists.iter().enumerate() {
+                    assert!(row.len() <= 16 && !row.contains(&i), "{family:?}: {row:?}");
+                    let mut r = row.clone();
+                    r.sort_unstable();
+                    r.dedup();
+                    assert_eq!(r.len(), row.len(), "{family:?}: duplicate in {row:?}");
+                }
+            }
+        }
+        Ok(())
+    }
+
+    #[test]
+    fn random_graphs_are_reproducible() -> Result<()> {
+        let mut r = recipe(Family::Random, 300);
+        r.extra_edges = 3000;
+        let a = neighbours(&r)?;
+        assert_eq!(a, neighbours(&r)?, "same seed, same graph");
+        r.seed = 8;
+        assert_ne!(a, neighbours(&r)?, "another seed, another graph");
+        assert!(a.iter().all(|row| row.len() <= 16));
+        Ok(())
+    }
+
+    #[test]
     fn impossible_requests_name_their_key() {
         let mut r = recipe(Family::Random, 20);
         r.extra_edges = 20 * 16;
-        let e = refusal(&r);
-        assert!(e.contains("graph.extra_edges"), "{e}");
+        assert!(refusal(&r).contains("graph.extra_edges"));
         let mut r = recipe(Family::Knn, 100);
         r.k = 17;
         let e = refusal(&r);
         assert!(e.contains("graph.k") && e.contains("16"), "{e}");
-        let e = refusal(&recipe(Family::Line, 0));
-        assert!(e.contains("graph.agents"), "{e}");
+        assert!(refusal(&recipe(Family::Line, 0)).contains("graph.agents"));
+        let mut r = recipe(Family::Random, 10);
+        r.pinned.clear();
+        assert!(refusal(&r).contains("graph.pinned"));
     }
 
     #[test]

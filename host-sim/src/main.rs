@@ -274,8 +274,9 @@ fn main_inner(cli: Cli) -> Result<()> {
                     let k = default_decimate(&setup, columns);
                     if k > 1 {
                         eprintln!(
-                            "host-sim: note: {} agents: trajectory.csv gets every {k}th sample \
-                             (about {}); --decimate 1 writes every sample, --agents a subset",
+                            "host-sim: note: {} agents: trajectory.csv keeps one sample in {k} \
+                             (--decimate {k}, about {}); --decimate 1 keeps every sample, \
+                             --agents a subset of the columns",
                             setup.agents(),
                             human_bytes(estimated_size_of(&setup, k, columns)),
                         );

@@ -5,6 +5,8 @@ use std::{
     fs::File,
     io::{BufWriter, Write},
     path::{Path, PathBuf},
+    sync::mpsc::{sync_channel, Receiver, SyncSender},
+    thread::JoinHandle,
 };
 
 use crate::{
@@ -150,18 +152,44 @@ pub fn number<F: zmij::Float>(out: &mut Vec<u8>, buf: &mut zmij::Buffer, v: F) {
     }
 }
 
+/// Values handed to the writer thread at a time (bounds the memory in flight).
+const BLOCK_VALUES: usize = 16_384;
+
+/// Blocks queued for the writer thread at most.
+const QUEUE: usize = 4;
+
+/// The raw values of whole rows, in column order, `f64` and `f32` columns apart.
+#[derive(Debug, Default)]
+struct Block {
+    wide: Vec<f64>,
+    narrow: Vec<f32>,
+}
+
+/// Column layout: per row `t`, `yd`, then per agent `1 + n` wide (`y`, `x`) and `n + 2m + 3`
+/// narrow (`e`, `u`, `q`, estimates) values.
+#[derive(Debug, Clone, Copy)]
+struct Layout {
+    agents: usize,
+    wide: usize,
+    narrow: usize,
+}
+
 /// Streams rows to a temporary file; [`CsvObserver::finish`] renames it into place.
 ///
-/// Rows are formatted by hand into one buffer (a number never needs CSV quoting) with `zmij`:
-/// the same text as the `csv` crate with `ryu` wrote before ([`number`]), at half the cost.
+/// The loop only copies each kept row's values; a writer thread formats them (by hand, a
+/// number never needs CSV quoting, with `zmij`: the same text the `csv` crate wrote with `ryu`
+/// before, see [`number`]) and writes the file, so the text costs no time of the loop when a
+/// second core is free.
 pub struct CsvObserver {
-    out: BufWriter<File>,
-    line: Vec<u8>,
+    block: Block,
+    rows: usize,
+    rows_per_block: usize,
+    tx: Option<SyncSender<Block>>,
+    writer: Option<JoinHandle<std::io::Result<()>>>,
     decimate: u64,
     agents: Vec<usize>,
     tmp: TempFile,
     path: PathBuf,
-    fmt: zmij::Buffer,
 }
 
 impl CsvObserver {
@@ -191,55 +219,109 @@ impl CsvObserver {
         }
         let mut out = BufWriter::with_capacity(1 << 16, file);
         writeln!(out, "{}", header.join(",")).map_err(|e| Error::io(tmp.path(), e))?;
+        let layout = Layout {
+            agents: agents.len(),
+            wide: 1 + n,
+            narrow: n + 2 * m + 3,
+        };
+        let (tx, rx) = sync_channel(QUEUE);
+        let writer = std::thread::Builder::new()
+            .name("trajectory.csv".into())
+            .spawn(move || write_rows(out, &rx, layout))
+            .map_err(|e| Error::io(tmp.path(), e))?;
+        let per_row = 2 + layout.agents * (layout.wide + layout.narrow);
         Ok(Self {
-            out,
-            line: Vec::with_capacity(1 << 12),
+            block: Block::default(),
+            rows: 0,
+            rows_per_block: (BLOCK_VALUES / per_row).max(1),
+            tx: Some(tx),
+            writer: Some(writer),
             decimate: decimate.max(1),
             agents,
             tmp,
             path: path.to_path_buf(),
-            fmt: zmij::Buffer::new(),
         })
     }
 
-    /// Flushes and renames the file into place.
+    /// Hands the rows kept so far to the writer; its error if it stopped.
+    fn hand_over(&mut self) -> Result<()> {
+        self.rows = 0;
+        let block = std::mem::take(&mut self.block);
+        let sent = self.tx.as_ref().is_some_and(|tx| tx.send(block).is_ok());
+        if sent {
+            Ok(())
+        } else {
+            self.join()
+        }
+    }
+
+    /// Waits for the writer: the file is complete and flushed when it returns `Ok`.
+    fn join(&mut self) -> Result<()> {
+        self.tx = None;
+        match self.writer.take().map(JoinHandle::join) {
+            Some(Ok(Ok(()))) | None => Ok(()),
+            Some(Ok(Err(e))) => Err(Error::io(self.tmp.path(), e)),
+            Some(Err(_)) => Err(Error::Io(format!(
+                "{}: the writer thread stopped",
+                self.tmp.path().display()
+            ))),
+        }
+    }
+
+    /// Writes the last rows, flushes and renames the file into place.
     pub fn finish(mut self) -> Result<()> {
-        self.out
-            .flush()
-            .map_err(|e| Error::io(self.tmp.path(), e))?;
-        drop(self.out);
+        if self.rows > 0 {
+            self.hand_over()?;
+        }
+        self.join()?;
         self.tmp.persist(&self.path)
     }
+}
 
-    /// One field and its separator.
-    #[inline]
-    fn field<F: zmij::Float>(&mut self, v: F) {
-        number(&mut self.line, &mut self.fmt, v);
-        self.line.push(b',');
-    }
+/// One number and its separator.
+#[inline]
+fn field<F: zmij::Float>(line: &mut Vec<u8>, fmt: &mut zmij::Buffer, v: F) {
+    number(line, fmt, v);
+    line.push(b',');
+}
 
-    fn row<const N: usize, const M: usize>(&mut self, s: &SampleView<'_, N, M>) {
-        self.line.clear();
-        self.field(s.t);
-        self.field(s.yd);
-        for a in 0..self.agents.len() {
-            let i = self.agents[a];
-            let (x, o) = (&s.x[i], &s.out[i]);
-            self.field(x[0]);
-            for &v in x {
-                self.field(v);
+/// The writer thread: formats every row of every block and writes it.
+fn write_rows(
+    mut out: BufWriter<File>,
+    rx: &Receiver<Block>,
+    layout: Layout,
+) -> std::io::Result<()> {
+    let (mut fmt, mut line) = (zmij::Buffer::new(), Vec::with_capacity(1 << 12));
+    let wide_row = 2 + layout.agents * layout.wide;
+    let narrow_row = (layout.agents * layout.narrow).max(1);
+    for block in rx {
+        for (w, q) in block
+            .wide
+            .chunks_exact(wide_row)
+            .zip(block.narrow.chunks_exact(narrow_row))
+        {
+            line.clear();
+            for &v in &w[..2] {
+                field(&mut line, &mut fmt, v);
             }
-            for &v in o.e.iter().chain(&o.u).chain(&o.q) {
-                self.field(v);
+            for (wa, qa) in w[2..]
+                .chunks_exact(layout.wide)
+                .zip(q.chunks_exact(layout.narrow))
+            {
+                for &v in wa {
+                    field(&mut line, &mut fmt, v);
+                }
+                for &v in qa {
+                    field(&mut line, &mut fmt, v);
+                }
             }
-            self.field(o.estimates.mu);
-            self.field(o.estimates.xi);
-            self.field(o.estimates.lambda);
-        }
-        if let Some(last) = self.line.last_mut() {
-            *last = b'\n';
+            if let Some(last) = line.last_mut() {
+                *last = b'\n';
+            }
+            out.write_all(&line)?;
         }
     }
+    out.flush()
 }
 
 impl<const N: usize, const M: usize> Observer<N, M> for CsvObserver {
@@ -247,10 +329,23 @@ impl<const N: usize, const M: usize> Observer<N, M> for CsvObserver {
         if !s.k.is_multiple_of(self.decimate) {
             return Ok(());
         }
-        self.row(s);
-        self.out
-            .write_all(&self.line)
-            .map_err(|e| Error::io(self.tmp.path(), e))
+        let b = &mut self.block;
+        b.wide.extend([s.t, s.yd]);
+        for &i in &self.agents {
+            let (x, o) = (&s.x[i], &s.out[i]);
+            b.wide.push(x[0]);
+            b.wide.extend_from_slice(x);
+            b.narrow.extend_from_slice(&o.e);
+            b.narrow.extend_from_slice(&o.u);
+            b.narrow.extend_from_slice(&o.q);
+            let e = &o.estimates;
+            b.narrow.extend([e.mu, e.xi, e.lambda]);
+        }
+        self.rows += 1;
+        if self.rows == self.rows_per_block {
+            self.hand_over()?;
+        }
+        Ok(())
     }
 }
 

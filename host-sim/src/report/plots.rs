@@ -326,6 +326,8 @@ fn tick_step((lo, hi): (f64, f64), n: usize) -> f64 {
 pub struct Recorder {
     stride: u64,
     agents: usize,
+    /// All agents of the run (the figures say when they show only the first ones).
+    total: usize,
     m: usize,
     /// `t_k`.
     pub t: Vec<f64>,
@@ -366,6 +368,7 @@ impl Recorder {
         Self {
             stride: (samples / TARGET_POINTS).max(1),
             agents: a,
+            total: agents,
             m,
             y: vec![Vec::new(); a],
             u: vec![Vec::new(); a * m],
@@ -395,8 +398,16 @@ impl Recorder {
         let (y_unit, u_unit) = setup.plant.units();
         let vline = (two_ts, format!("2Tₛ = {}", secs(two_ts)));
 
+        let shown = if self.total > self.agents {
+            format!(
+                " (agents 1–{} of {}; spread: see spread.png)",
+                self.agents, self.total
+            )
+        } else {
+            String::new()
+        };
         let mut tracking = Panel {
-            title: format!("{name}: outputs yᵢ and leader y_d"),
+            title: format!("{name}: outputs yᵢ and leader y_d{shown}"),
             y_label: format!("output y [{y_unit}]"),
             vlines: vec![vline.clone()],
             ..Panel::default()
@@ -426,7 +437,7 @@ impl Recorder {
             })
             .collect();
         let full = Panel {
-            title: format!("{name}: tracking errors yᵢ − y_d"),
+            title: format!("{name}: tracking errors yᵢ − y_d{shown}"),
             y_label: format!("yᵢ − y_d [{y_unit}]"),
             series: errs,
             vlines: vec![vline.clone()],
