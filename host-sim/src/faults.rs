@@ -1,10 +1,222 @@
 //! Actuator faults `q^f = ϱ(t) q(u) + ū(t)` (LAW §7, the paper's eq. 3) on repeating windows,
 //! with the Assumption 4 check: never all actuators of an agent in total loss at once.
 
-use crate::{
-    error::{Error, Result},
-    scenario::{Agents, FaultKind, FaultRule},
-};
+use std::fmt;
+
+use serde::{de, Deserialize, Deserializer, Serialize, Serializer};
+
+use crate::error::{Error, Result};
+
+/// `[faults]`: actuator fault rules (LAW §7); the default is LAW §8's schedule.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FaultsSpec {
+    /// Off: every actuator healthy.
+    pub enabled: bool,
+    /// The rules (`[[faults.rule]]`).
+    #[serde(default = "default_rules")]
+    pub rule: Vec<FaultRule>,
+    /// Sensor faults (`[[faults.sensor]]`): an agent's controller reads a NaN state on
+    /// `[from, until)` (the plant is not affected).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub sensor: Vec<SensorFault>,
+    /// Run schedules with all `m` actuators of an agent in total loss at once (beyond
+    /// Assumption 4; for fault campaigns). Default false: such a schedule is rejected.
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub beyond_assumption4: bool,
+}
+
+impl Default for FaultsSpec {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            rule: default_rules(),
+            sensor: Vec::new(),
+            beyond_assumption4: false,
+        }
+    }
+}
+
+impl FaultsSpec {
+    /// The schedule of the rules for `agents` agents with `m` actuators (healthy when off)
+    /// and the sensor windows checked; Assumption 4 over `[0, t_end)` unless
+    /// `beyond_assumption4`.
+    pub fn schedule(&self, agents: usize, m: usize, t_end: f64) -> Result<FaultSchedule> {
+        let faults = if !self.enabled {
+            FaultSchedule::healthy(agents, m)
+        } else if self.beyond_assumption4 {
+            FaultSchedule::compile(&self.rule, agents, m)?
+        } else {
+            FaultSchedule::from_rules(&self.rule, agents, m, t_end)?
+        };
+        for (j, f) in self.sensor.iter().enumerate() {
+            let key = |k: &str| format!("faults.sensor[{}].{k}", j + 1);
+            if f.agent < 1 || f.agent as usize > agents {
+                return Err(Error::invalid(
+                    key("agent"),
+                    format!("agent {} out of range 1..={agents}", f.agent),
+                ));
+            }
+            if !(f.from.is_finite() && f.until.is_finite() && f.from < f.until) {
+                return Err(Error::invalid(
+                    key("until"),
+                    format!("need finite from < until (got {} .. {})", f.from, f.until),
+                ));
+            }
+        }
+        Ok(faults)
+    }
+
+    /// The sensor windows in force as (0-based agent, from, until); none when faults are off.
+    pub fn sensor_windows(&self) -> Vec<(usize, f64, f64)> {
+        if !self.enabled {
+            return Vec::new();
+        }
+        self.sensor
+            .iter()
+            .map(|f| ((f.agent - 1) as usize, f.from, f.until))
+            .collect()
+    }
+}
+
+/// One `[[faults.sensor]]` window: agent `agent` (1-based) reads NaN on `[from, until)`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SensorFault {
+    /// 1-based agent.
+    pub agent: i64,
+    /// Start [s].
+    pub from: f64,
+    /// End [s], exclusive.
+    pub until: f64,
+}
+
+fn default_rules() -> Vec<FaultRule> {
+    vec![
+        FaultRule {
+            kind: FaultKind::Partial,
+            gain: Some(0.5),
+            ..FaultRule::window(1)
+        },
+        FaultRule {
+            kind: FaultKind::Stuck,
+            bias: Some(0.0),
+            amplitude: Some(1.0),
+            omega: Some(1.0),
+            ..FaultRule::window(2)
+        },
+    ]
+}
+
+/// Which agents a rule applies to.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Agents {
+    /// Every agent.
+    All,
+    /// These agents (1-based).
+    List(Vec<i64>),
+}
+
+impl Serialize for Agents {
+    fn serialize<S: Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        match self {
+            Self::All => s.serialize_str("all"),
+            Self::List(v) => v.serialize(s),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for Agents {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
+        struct V;
+        impl<'de> de::Visitor<'de> for V {
+            type Value = Agents;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("\"all\" or a list of agent numbers")
+            }
+            fn visit_str<E: de::Error>(self, v: &str) -> std::result::Result<Agents, E> {
+                if v == "all" {
+                    Ok(Agents::All)
+                } else {
+                    Err(E::invalid_value(de::Unexpected::Str(v), &self))
+                }
+            }
+            fn visit_seq<A: de::SeqAccess<'de>>(
+                self,
+                mut seq: A,
+            ) -> std::result::Result<Agents, A::Error> {
+                let mut v = Vec::new();
+                while let Some(x) = seq.next_element::<i64>()? {
+                    v.push(x);
+                }
+                Ok(Agents::List(v))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// Fault kinds of LAW §7.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum FaultKind {
+    /// `gain · q(u)`, `0 ≤ gain < 1` (`gain = 0` is a total loss).
+    Partial,
+    /// `bias + amplitude sin(omega t)`, `q(u)` ignored: total loss.
+    Stuck,
+}
+
+/// One `[[faults.rule]]`: one actuator of some agents on repeating windows
+/// `[start + k period, start + k period + length)`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FaultRule {
+    /// `"all"` or a list of 1-based agents.
+    pub agents: Agents,
+    /// 1-based actuator `l`.
+    pub actuator: i64,
+    /// `partial` or `stuck`.
+    pub kind: FaultKind,
+    /// Partial: effectiveness `ϱ`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gain: Option<f64>,
+    /// Stuck: `bias`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bias: Option<f64>,
+    /// Stuck: sine amplitude.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub amplitude: Option<f64>,
+    /// Stuck: sine angular frequency [rad/s].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub omega: Option<f64>,
+    /// First window start [s].
+    #[serde(default)]
+    pub start: f64,
+    /// Repeat period [s]; absent: one window.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub period: Option<f64>,
+    /// Window length [s]; absent: until the end.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub length: Option<f64>,
+}
+
+impl FaultRule {
+    /// LAW §8's window `[2,4), [6,8), …` on `actuator`, for all agents, partial with no gain.
+    fn window(actuator: i64) -> Self {
+        Self {
+            agents: Agents::All,
+            actuator,
+            kind: FaultKind::Partial,
+            gain: None,
+            bias: None,
+            amplitude: None,
+            omega: None,
+            start: 2.0,
+            period: Some(4.0),
+            length: Some(2.0),
+        }
+    }
+}
 
 /// What an active rule does to its actuator.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -6,9 +6,11 @@
 //! outputs held between samples, exactly as firmware would run it; the plant is `f64`, the
 //! controller `f32`.
 //!
-//! Layers: [`scenario`] (TOML, `--set`, validation) → [`graph`], [`plant`], [`faults`],
-//! [`link`], [`network`] or [`pil`] → [`sim`] (the loop) → [`metrics`], [`report`] → [`run`]
-//! (commands) → [`campaign`] (many runs: grids, Monte Carlo, shards).
+//! Layers: [`scenario`] (TOML, `--set`, validation) → [`graph`], [`leader`], [`plant`],
+//! [`faults`], [`link`], [`network`] or [`pil`] → [`sim`] (the loop) → [`metrics`], [`report`]
+//! → [`run`] (commands) → [`campaign`] (many runs: grids, Monte Carlo, shards). Each block owns
+//! the serde type and checks of its scenario section; [`scenario`] assembles them and no block
+//! imports it (docs/ARCHITECTURE.md, "host-sim modules").
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
@@ -16,8 +18,10 @@ pub mod campaign;
 pub mod compare;
 pub mod error;
 pub mod faults;
+pub mod figures;
 pub mod generate;
 pub mod graph;
+pub mod leader;
 pub mod link;
 pub mod matrix;
 pub mod metrics;

@@ -20,9 +20,10 @@ use serde::Serialize;
 
 use crate::{
     error::Result,
+    faults::{Agents, FaultKind, FaultRule, SensorFault},
     network::{EventName, NetworkEvent, NetworkKind},
     run::{run, RunOptions},
-    scenario::{self, Agents, FaultKind, FaultRule, Scenario, SensorFault},
+    scenario::{self, Scenario},
 };
 
 /// One cell: a fault added to the scenario.

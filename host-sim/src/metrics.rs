@@ -8,7 +8,7 @@ use serde::Serialize;
 
 use crate::{
     error::Result,
-    network::NetworkSummary,
+    figures::{FirmwareSummary, NetworkSummary},
     scenario::Setup,
     sim::{Divergence, Observer, SampleView},
 };
@@ -96,7 +96,7 @@ pub struct Summary {
     pub units: BTreeMap<&'static str, &'static str>,
     /// Node-firmware figures per agent (`[network] kind = "pil"`); absent otherwise.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub firmware: Option<Vec<crate::pil::FirmwareSummary>>,
+    pub firmware: Option<Vec<FirmwareSummary>>,
 }
 
 /// Units of the numeric keys of `summary.json`: `[y]`, `[u]`, `[x]` are the units of the plant's
@@ -175,7 +175,7 @@ impl Summary {
     }
 
     /// Sets the node-firmware figures of a PIL run (and their units).
-    pub fn set_firmware(&mut self, firmware: Option<Vec<crate::pil::FirmwareSummary>>) {
+    pub fn set_firmware(&mut self, firmware: Option<Vec<FirmwareSummary>>) {
         if firmware.is_some() {
             self.units.extend(FIRMWARE_UNITS);
         }

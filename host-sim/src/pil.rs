@@ -37,10 +37,10 @@ use hil_mock::{
     wire::{self, Source},
     NodeConfig,
 };
-use serde::Serialize;
 
 use crate::{
     error::{Error, Result},
+    figures::FirmwareSummary,
     network::{bus_config, NetworkKind, NetworkSummary, MAX_CAN_AGENTS},
     report::{
         plots::{render, Panel, Series},
@@ -277,27 +277,6 @@ fn read_output(mut stdout: impl Read, tx: &mpsc::Sender<Output>) {
 
 /// Pause of the output reader after each read.
 const READ_PAUSE: Duration = Duration::from_micros(150);
-
-/// `summary.json` `firmware[]`: one agent's node firmware over the closed-loop run.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct FirmwareSummary {
-    /// 1-based agent.
-    pub agent: usize,
-    /// Ticks measured (= samples).
-    pub steps: usize,
-    /// Fewest instructions of one `Node::tick`.
-    pub instructions_min: u32,
-    /// Median over the run.
-    pub instructions_median: u32,
-    /// 99th percentile (nearest rank).
-    pub instructions_p99: u32,
-    /// Most instructions of one tick.
-    pub instructions_max: u32,
-    /// Resolution of the counts (instructions per SysTick count).
-    pub instructions_resolution: u32,
-    /// Stack high-water mark of the whole firmware (painted), bytes.
-    pub stack_bytes: u32,
-}
 
 fn nearest_rank(sorted: &[u32], p: f64) -> u32 {
     if sorted.is_empty() {

@@ -15,7 +15,7 @@ use crate::{
     plant::{Plant, PlantModel},
     report::{self, csv::CsvObserver, plots::Recorder, spread::Spread},
     scenario::{self, Scenario, Setup},
-    sim::{Agents, Linked, Observer, Sim},
+    sim::{Agents, Linked, Observer, Sim, World},
 };
 
 /// What a run writes and shows.
@@ -84,10 +84,10 @@ pub fn run(setup: &Setup, opts: &RunOptions) -> Result<RunResult> {
         NetworkKind::Ideal => run_with_link(setup, opts, IdealLink),
         NetworkKind::Can => match setup.plant {
             PlantModel::Example1(p) => {
-                run_with::<_, _, 2, 2>(setup, p, CanAgents::new(setup, trace)?, opts)
+                run_with::<_, _, 2, 2>(setup, p, can_agents(setup, trace)?, opts)
             }
             PlantModel::Manipulator(p) => {
-                run_with::<_, _, 2, 2>(setup, p, CanAgents::new(setup, trace)?, opts)
+                run_with::<_, _, 2, 2>(setup, p, can_agents(setup, trace)?, opts)
             }
         },
         NetworkKind::Pil => match setup.plant {
@@ -105,13 +105,47 @@ pub fn run(setup: &Setup, opts: &RunOptions) -> Result<RunResult> {
 /// model; `[network]` is not consulted); dispatches on the plant model (and so its `(n, m)`).
 pub fn run_with_link<L: LinkModel>(setup: &Setup, opts: &RunOptions, link: L) -> Result<RunResult> {
     match setup.plant {
-        PlantModel::Example1(p) => {
-            run_with::<_, _, 2, 2>(setup, p, Linked::new(setup, link)?, opts)
-        }
-        PlantModel::Manipulator(p) => {
-            run_with::<_, _, 2, 2>(setup, p, Linked::new(setup, link)?, opts)
-        }
+        PlantModel::Example1(p) => run_with::<_, _, 2, 2>(setup, p, linked(setup, link)?, opts),
+        PlantModel::Manipulator(p) => run_with::<_, _, 2, 2>(setup, p, linked(setup, link)?, opts),
     }
+}
+
+/// What the simulation loop needs of `setup`: leader, faults, initial states and timing.
+pub fn world(setup: &Setup) -> World {
+    let sim = &setup.scenario.simulation;
+    World {
+        leader: setup.scenario.leader,
+        faults: setup.faults.clone(),
+        x0: setup.x0.clone(),
+        h: sim.h,
+        substeps: sim.substeps,
+        divergence_bound: sim.divergence_bound,
+        samples: setup.samples,
+        sensor: setup.scenario.faults.sensor_windows(),
+    }
+}
+
+/// host-sim's controllers of `setup` over `link`.
+fn linked<L: LinkModel, const N: usize, const M: usize>(
+    setup: &Setup,
+    link: L,
+) -> Result<Linked<L, N, M>> {
+    Linked::new(&setup.graph, &setup.controller_configs::<N>()?, link)
+}
+
+/// `hil-mock` nodes of `setup` on the CAN bus of its `[network]`.
+fn can_agents<const N: usize, const M: usize>(
+    setup: &Setup,
+    trace: Option<&std::path::Path>,
+) -> Result<CanAgents<N, M>> {
+    let s = &setup.scenario;
+    CanAgents::new(
+        &s.network,
+        s.simulation.h,
+        &setup.graph,
+        &setup.controller_configs::<N>()?,
+        trace,
+    )
 }
 
 /// A progress bar of `len` steps drawn with `template` on stderr; hidden unless `show` and
@@ -136,7 +170,7 @@ fn run_with<P: Plant<N, M> + Sync, A: Agents<N, M>, const N: usize, const M: usi
 where
     P::Time: Sync,
 {
-    let mut sim = Sim::<_, _, N, M>::with_agents(setup, plant, agents)?;
+    let mut sim = Sim::<_, _, N, M>::with_agents(world(setup), plant, agents)?;
     let mut metrics = Metrics::new(setup);
     let mut recorder = (opts.plots || opts.record)
         .then(|| Recorder::new(setup.samples, setup.agents(), setup.m()));

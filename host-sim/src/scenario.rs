@@ -7,14 +7,15 @@ use controller_core::{
     BaselineConfig, ConfigError, Controller, ControllerConfig, GainSelection, QuantizerConfig,
     QuantizerDirection, SafetyConfig, SchemeConfig,
 };
-use serde::{de, Deserialize, Deserializer, Serialize, Serializer};
+use serde::{Deserialize, Serialize};
 
 use crate::{
     error::{Error, Result},
-    faults::FaultSchedule,
-    graph::{Graph, MAX_NEIGHBOURS},
-    network::NetworkSpec,
-    plant::PlantModel,
+    faults::{FaultSchedule, FaultsSpec},
+    graph::{Graph, GraphSpec, MAX_NEIGHBOURS},
+    leader::Leader,
+    network::spec::{self as network, NetworkSpec},
+    plant::{PlantModel, PlantSpec},
 };
 
 /// A whole scenario as written in TOML; every key is optional (docs/SCENARIO.md).
@@ -138,102 +139,6 @@ impl Default for Simulation {
             substeps: 4,
             settle_band: 0.05,
             divergence_bound: 1e6,
-        }
-    }
-}
-
-/// `[graph]`: who hears whom (LAW §2), as neighbour lists or an adjacency matrix.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct GraphSpec {
-    /// Agent `i` (1-based) hears these agents.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub neighbours: Option<Vec<Vec<i64>>>,
-    /// Alternative: `a_{i,k}` as a square 0/1 matrix.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub adjacency: Option<Vec<Vec<i64>>>,
-    /// Agents that hear the leader (`r_i = 1`).
-    pub pinned: Vec<i64>,
-}
-
-impl Default for GraphSpec {
-    fn default() -> Self {
-        Self {
-            neighbours: None,
-            adjacency: None,
-            pinned: vec![1],
-        }
-    }
-}
-
-/// `[leader]`: `y_d = amplitude sin(omega t + phase) + offset`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct Leader {
-    /// Amplitude.
-    pub amplitude: f64,
-    /// Angular frequency [rad/s].
-    pub omega: f64,
-    /// Phase [rad].
-    pub phase: f64,
-    /// Offset.
-    pub offset: f64,
-}
-
-impl Default for Leader {
-    fn default() -> Self {
-        Self {
-            amplitude: 0.6,
-            omega: 2.0,
-            phase: 0.0,
-            offset: 0.0,
-        }
-    }
-}
-
-impl Leader {
-    /// `y_d(t)`.
-    pub fn yd(&self, t: f64) -> f64 {
-        self.amplitude * (self.omega * t + self.phase).sin() + self.offset
-    }
-}
-
-/// `[plant]`: the model, its parameters and initial states.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct PlantSpec {
-    /// `"example1"` or `"manipulator"`.
-    pub model: String,
-    /// One initial state per agent.
-    pub x0: Vec<Vec<f64>>,
-    /// Manipulator inertia `M`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub inertia: Option<f64>,
-    /// Manipulator mass `m`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub mass: Option<f64>,
-    /// Manipulator `g`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub gravity: Option<f64>,
-    /// Manipulator link length `l`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub length: Option<f64>,
-}
-
-impl Default for PlantSpec {
-    fn default() -> Self {
-        Self {
-            model: "example1".into(),
-            x0: vec![
-                vec![0.02, 0.8],
-                vec![0.01, 1.0],
-                vec![0.01, 0.09],
-                vec![0.0, 0.7],
-            ],
-            inertia: None,
-            mass: None,
-            gravity: None,
-            length: None,
         }
     }
 }
@@ -390,175 +295,6 @@ impl Default for QuantizerSpec {
     }
 }
 
-/// `[faults]`: actuator fault rules (LAW §7); the default is LAW §8's schedule.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct FaultsSpec {
-    /// Off: every actuator healthy.
-    pub enabled: bool,
-    /// The rules (`[[faults.rule]]`).
-    #[serde(default = "default_rules")]
-    pub rule: Vec<FaultRule>,
-    /// Sensor faults (`[[faults.sensor]]`): an agent's controller reads a NaN state on
-    /// `[from, until)` (the plant is not affected).
-    #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub sensor: Vec<SensorFault>,
-    /// Run schedules with all `m` actuators of an agent in total loss at once (beyond
-    /// Assumption 4; for fault campaigns). Default false: such a schedule is rejected.
-    #[serde(skip_serializing_if = "std::ops::Not::not")]
-    pub beyond_assumption4: bool,
-}
-
-impl Default for FaultsSpec {
-    fn default() -> Self {
-        Self {
-            enabled: true,
-            rule: default_rules(),
-            sensor: Vec::new(),
-            beyond_assumption4: false,
-        }
-    }
-}
-
-/// One `[[faults.sensor]]` window: agent `agent` (1-based) reads NaN on `[from, until)`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SensorFault {
-    /// 1-based agent.
-    pub agent: i64,
-    /// Start [s].
-    pub from: f64,
-    /// End [s], exclusive.
-    pub until: f64,
-}
-
-fn default_rules() -> Vec<FaultRule> {
-    vec![
-        FaultRule {
-            kind: FaultKind::Partial,
-            gain: Some(0.5),
-            ..FaultRule::window(1)
-        },
-        FaultRule {
-            kind: FaultKind::Stuck,
-            bias: Some(0.0),
-            amplitude: Some(1.0),
-            omega: Some(1.0),
-            ..FaultRule::window(2)
-        },
-    ]
-}
-
-/// Which agents a rule applies to.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum Agents {
-    /// Every agent.
-    All,
-    /// These agents (1-based).
-    List(Vec<i64>),
-}
-
-impl Serialize for Agents {
-    fn serialize<S: Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
-        match self {
-            Self::All => s.serialize_str("all"),
-            Self::List(v) => v.serialize(s),
-        }
-    }
-}
-
-impl<'de> Deserialize<'de> for Agents {
-    fn deserialize<D: Deserializer<'de>>(d: D) -> std::result::Result<Self, D::Error> {
-        struct V;
-        impl<'de> de::Visitor<'de> for V {
-            type Value = Agents;
-            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("\"all\" or a list of agent numbers")
-            }
-            fn visit_str<E: de::Error>(self, v: &str) -> std::result::Result<Agents, E> {
-                if v == "all" {
-                    Ok(Agents::All)
-                } else {
-                    Err(E::invalid_value(de::Unexpected::Str(v), &self))
-                }
-            }
-            fn visit_seq<A: de::SeqAccess<'de>>(
-                self,
-                mut seq: A,
-            ) -> std::result::Result<Agents, A::Error> {
-                let mut v = Vec::new();
-                while let Some(x) = seq.next_element::<i64>()? {
-                    v.push(x);
-                }
-                Ok(Agents::List(v))
-            }
-        }
-        d.deserialize_any(V)
-    }
-}
-
-/// Fault kinds of LAW §7.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum FaultKind {
-    /// `gain · q(u)`, `0 ≤ gain < 1` (`gain = 0` is a total loss).
-    Partial,
-    /// `bias + amplitude sin(omega t)`, `q(u)` ignored: total loss.
-    Stuck,
-}
-
-/// One `[[faults.rule]]`: one actuator of some agents on repeating windows
-/// `[start + k period, start + k period + length)`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct FaultRule {
-    /// `"all"` or a list of 1-based agents.
-    pub agents: Agents,
-    /// 1-based actuator `l`.
-    pub actuator: i64,
-    /// `partial` or `stuck`.
-    pub kind: FaultKind,
-    /// Partial: effectiveness `ϱ`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub gain: Option<f64>,
-    /// Stuck: `bias`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub bias: Option<f64>,
-    /// Stuck: sine amplitude.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub amplitude: Option<f64>,
-    /// Stuck: sine angular frequency [rad/s].
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub omega: Option<f64>,
-    /// First window start [s].
-    #[serde(default)]
-    pub start: f64,
-    /// Repeat period [s]; absent: one window.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub period: Option<f64>,
-    /// Window length [s]; absent: until the end.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub length: Option<f64>,
-}
-
-impl FaultRule {
-    /// LAW §8's window `[2,4), [6,8), …` on `actuator`, for all agents, partial with no gain.
-    fn window(actuator: i64) -> Self {
-        Self {
-            agents: Agents::All,
-            actuator,
-            kind: FaultKind::Partial,
-            gain: None,
-            bias: None,
-            amplitude: None,
-            omega: None,
-            start: 2.0,
-            period: Some(4.0),
-            length: Some(2.0),
-        }
-    }
-}
-
 /// A scenario checked and resolved: everything the simulator needs.
 #[derive(Debug, Clone)]
 pub struct Setup {
@@ -595,6 +331,13 @@ impl Setup {
     /// The predefined settling time `2 T_s`.
     pub fn predefined_time(&self) -> f64 {
         2.0 * self.scenario.controller.ts
+    }
+
+    /// Every agent's controller configuration, in agent order.
+    pub fn controller_configs<const N: usize>(&self) -> Result<Vec<ControllerConfig<N>>> {
+        (0..self.agents())
+            .map(|i| self.controller_config::<N>(i))
+            .collect()
     }
 
     /// Validates every agent's controller configuration (as `Controller::new` will).
@@ -877,7 +620,7 @@ pub fn apply_set(table: &mut toml::Table, set: &str) -> Result<()> {
         }
     };
     if key.contains('[') {
-        return crate::campaign::spec::set_indexed(table, key, value);
+        return set_indexed(table, key, value);
     }
     let parts: Vec<&str> = key.split('.').collect();
     if parts.iter().any(|p| p.is_empty()) {
@@ -905,6 +648,145 @@ pub fn apply_set(table: &mut toml::Table, set: &str) -> Result<()> {
     Ok(())
 }
 
+/// One step of a key path: a table key, then 0-based array indices.
+#[derive(Debug, Clone, PartialEq)]
+struct Segment {
+    name: String,
+    index: Vec<usize>,
+}
+
+/// A scenario key: `controller.ts`, or with 1-based array entries `plant.x0[2][1]`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct KeyPath {
+    text: String,
+    segments: Vec<Segment>,
+}
+
+impl KeyPath {
+    /// Parses a key; `what` names it in messages (e.g. `axis[1].key`).
+    pub fn parse(text: &str, what: &str) -> Result<Self> {
+        let bad = |why: &str| Error::invalid(what, format!("`{text}`: {why}"));
+        let mut segments = Vec::new();
+        for part in text.split('.') {
+            let (name, mut rest) = match part.find('[') {
+                Some(i) => (&part[..i], &part[i..]),
+                None => (part, ""),
+            };
+            if name.is_empty() || !name.chars().all(|c| c.is_alphanumeric() || c == '_') {
+                return Err(bad("expected dotted names with optional [i] indices"));
+            }
+            let mut index = Vec::new();
+            while !rest.is_empty() {
+                let close = rest
+                    .find(']')
+                    .filter(|_| rest.starts_with('['))
+                    .ok_or_else(|| bad("unbalanced [ ]"))?;
+                let i: usize = rest[1..close]
+                    .parse()
+                    .ok()
+                    .filter(|&i| i >= 1)
+                    .ok_or_else(|| bad("indices are integers from 1"))?;
+                index.push(i - 1);
+                rest = &rest[close + 1..];
+            }
+            segments.push(Segment {
+                name: name.into(),
+                index,
+            });
+        }
+        Ok(Self {
+            text: text.into(),
+            segments,
+        })
+    }
+
+    /// The key as written.
+    pub fn as_str(&self) -> &str {
+        &self.text
+    }
+
+    fn indexed(&self) -> bool {
+        self.segments.iter().any(|s| !s.index.is_empty())
+    }
+
+    /// Sets the key in a scenario table, exactly as `--set key=value` does.
+    pub fn apply(&self, table: &mut toml::Table, value: &toml::Value) -> Result<()> {
+        if self.indexed() {
+            self.set_entry(table, &default_table()?, value)
+        } else {
+            apply_set(table, &format!("{}={value}", self.text))
+        }
+    }
+
+    /// Sets an array entry in place; an array the table leaves out is first copied from
+    /// `defaults`.
+    fn set_entry(
+        &self,
+        table: &mut toml::Table,
+        defaults: &toml::Table,
+        value: &toml::Value,
+    ) -> Result<()> {
+        let missing = || Error::invalid(&self.text, "no such entry in the scenario");
+        let mut cur = table;
+        let mut def = Some(defaults);
+        for (i, seg) in self.segments.iter().enumerate() {
+            let last = i + 1 == self.segments.len();
+            let dflt = def.and_then(|d| d.get(&seg.name));
+            if !cur.contains_key(&seg.name) {
+                let v = match dflt {
+                    Some(v) if !seg.index.is_empty() => v.clone(),
+                    _ if seg.index.is_empty() && !last => toml::Value::Table(toml::Table::new()),
+                    _ => return Err(missing()),
+                };
+                cur.insert(seg.name.clone(), v);
+            }
+            let mut slot = cur.get_mut(&seg.name).ok_or_else(missing)?;
+            let mut dslot = dflt;
+            for &k in &seg.index {
+                let len = slot.as_array().map(Vec::len);
+                slot = match slot {
+                    toml::Value::Array(a) => a.get_mut(k).ok_or_else(|| {
+                        Error::invalid(
+                            &self.text,
+                            format!(
+                                "index {} out of range ({} entries)",
+                                k + 1,
+                                len.unwrap_or(0)
+                            ),
+                        )
+                    })?,
+                    _ => return Err(Error::invalid(&self.text, "not an array")),
+                };
+                dslot = dslot.and_then(|d| d.as_array()).and_then(|a| a.get(k));
+            }
+            if last {
+                *slot = value.clone();
+                return Ok(());
+            }
+            cur = slot
+                .as_table_mut()
+                .ok_or_else(|| Error::invalid(&self.text, "not a table"))?;
+            def = dslot.and_then(toml::Value::as_table);
+        }
+        Ok(())
+    }
+}
+
+/// The default scenario as a table (the arrays an indexed key falls back to).
+fn default_table() -> Result<toml::Table> {
+    match toml::Value::try_from(Scenario::default()) {
+        Ok(toml::Value::Table(t)) => Ok(t),
+        _ => Err(Error::Invalid(
+            "the default scenario cannot be written as TOML".into(),
+        )),
+    }
+}
+
+/// `--set` of a key with 1-based array indices (`plant.x0[2][1]=0.5`).
+pub fn set_indexed(table: &mut toml::Table, key: &str, value: toml::Value) -> Result<()> {
+    KeyPath::parse(key, &format!("--set {key}"))?.set_entry(table, &default_table()?, &value)
+}
+
 fn positive(v: f64, key: &str) -> Result<()> {
     if !v.is_finite() || v <= 0.0 {
         return Err(Error::invalid(
@@ -922,16 +804,9 @@ fn finite(v: f64, key: &str) -> Result<()> {
     Ok(())
 }
 
-/// LAW §8's graph: agent 2 hears 1, agent 3 hears 1, agent 4 hears 1 and 3.
-fn example_neighbours() -> Vec<Vec<i64>> {
-    vec![vec![], vec![1], vec![1], vec![1, 3]]
-}
-
 /// Checks the scenario and resolves graph, plant, initial states and faults.
 pub fn validate(mut scenario: Scenario) -> Result<Setup> {
-    if scenario.graph.neighbours.is_none() && scenario.graph.adjacency.is_none() {
-        scenario.graph.neighbours = Some(example_neighbours());
-    }
+    scenario.graph = scenario.graph.or_example();
     let sim = &scenario.simulation;
     positive(sim.h, "simulation.h")?;
     positive(sim.t_end, "simulation.t_end")?;
@@ -975,29 +850,7 @@ pub fn validate(mut scenario: Scenario) -> Result<Setup> {
         ));
     }
     let samples = samples_f as u64;
-    let l = &scenario.leader;
-    for (k, v) in [
-        ("leader.amplitude", l.amplitude),
-        ("leader.omega", l.omega),
-        ("leader.phase", l.phase),
-        ("leader.offset", l.offset),
-    ] {
-        finite(v, k)?;
-    }
-    // y_d goes to the controllers as f32 and into the CSV: it must stay finite over the run.
-    let peak = l.amplitude.abs() + l.offset.abs();
-    if peak > f64::from(f32::MAX) {
-        return Err(Error::invalid(
-            "leader.amplitude",
-            format!("|amplitude| + |offset| = {peak:e} does not fit the controller's f32"),
-        ));
-    }
-    if !(l.omega.abs() * sim.t_end + l.phase.abs()).is_finite() {
-        return Err(Error::invalid(
-            "leader.omega",
-            "omega * t_end overflows (y_d would be NaN)",
-        ));
-    }
+    scenario.leader.check(sim.t_end)?;
     let c = &scenario.controller;
     positive(c.ts, "controller.ts")?;
     if !(c.zeta > 0.0 && c.zeta < 1.0) {
@@ -1110,61 +963,15 @@ pub fn validate(mut scenario: Scenario) -> Result<Setup> {
             finite(*x, &format!("controller.{k}[{}]", j + 1))?;
         }
     }
-    let x0 = &scenario.plant.x0;
-    if x0.len() != graph.len() {
-        return Err(Error::invalid(
-            "plant.x0",
-            format!(
-                "{} initial states but the graph has {} agents",
-                x0.len(),
-                graph.len()
-            ),
-        ));
+    let x0 = scenario
+        .plant
+        .initial_states(graph.len(), n, sim.divergence_bound)?;
+    network::validate(&scenario.network, graph.len(), sim.h, sim.t_end)?;
+    let faults = scenario.faults.schedule(graph.len(), m, sim.t_end)?;
+    if scenario.plant.x0_drawn() {
+        // Drawn from the box: the resolved scenario shows the box, not Example 1's rows.
+        scenario.plant.x0.clear();
     }
-    for (i, row) in x0.iter().enumerate() {
-        if row.len() != n {
-            return Err(Error::invalid(
-                format!("plant.x0[{}]", i + 1),
-                format!("{} entries, the model has n = {n} states", row.len()),
-            ));
-        }
-        for v in row {
-            finite(*v, &format!("plant.x0[{}]", i + 1))?;
-            if v.abs() > sim.divergence_bound {
-                return Err(Error::invalid(
-                    format!("plant.x0[{}]", i + 1),
-                    format!(
-                        "|{v:e}| is above simulation.divergence_bound = {:e}",
-                        sim.divergence_bound
-                    ),
-                ));
-            }
-        }
-    }
-    crate::network::validate(&scenario.network, graph.len(), sim.h, sim.t_end)?;
-    let faults = if !scenario.faults.enabled {
-        FaultSchedule::healthy(graph.len(), m)
-    } else if scenario.faults.beyond_assumption4 {
-        FaultSchedule::compile(&scenario.faults.rule, graph.len(), m)?
-    } else {
-        FaultSchedule::from_rules(&scenario.faults.rule, graph.len(), m, sim.t_end)?
-    };
-    for (j, f) in scenario.faults.sensor.iter().enumerate() {
-        let key = |k: &str| format!("faults.sensor[{}].{k}", j + 1);
-        if f.agent < 1 || f.agent as usize > graph.len() {
-            return Err(Error::invalid(
-                key("agent"),
-                format!("agent {} out of range 1..={}", f.agent, graph.len()),
-            ));
-        }
-        if !(f.from.is_finite() && f.until.is_finite() && f.from < f.until) {
-            return Err(Error::invalid(
-                key("until"),
-                format!("need finite from < until (got {} .. {})", f.from, f.until),
-            ));
-        }
-    }
-    let x0 = x0.clone();
     let setup = Setup {
         scenario,
         graph,
@@ -1226,6 +1033,33 @@ mod tests {
         assert_eq!(s.samples, 10_000);
         assert_eq!(s.predefined_time(), 4.0);
         assert_eq!(s.graph.neighbours(3), &[0, 2]);
+        Ok(())
+    }
+
+    fn table(s: &str) -> toml::Table {
+        s.parse().unwrap_or_default()
+    }
+
+    #[test]
+    fn indexed_keys_are_one_based_and_fill_from_defaults() -> Result<()> {
+        let defaults = table("[plant]\nx0 = [[1.0, 2.0], [3.0, 4.0]]");
+        let mut t = table("[plant]\nmodel = \"example1\"");
+        KeyPath::parse("plant.x0[2][1]", "k")?.set_entry(
+            &mut t,
+            &defaults,
+            &toml::Value::Float(9.0),
+        )?;
+        assert_eq!(t["plant"]["x0"][1][0].as_float(), Some(9.0));
+        assert_eq!(t["plant"]["x0"][0][1].as_float(), Some(2.0));
+        let out = KeyPath::parse("plant.x0[3][1]", "k")?.set_entry(
+            &mut t,
+            &defaults,
+            &toml::Value::Float(0.0),
+        );
+        assert!(out.is_err_and(|e| e.to_string().contains("index 3 out of range")));
+        assert!(KeyPath::parse("plant.x0[0]", "k").is_err());
+        assert!(KeyPath::parse("plant..x0", "k").is_err());
+        assert!(KeyPath::parse("plant.x0[1", "k").is_err());
         Ok(())
     }
 }

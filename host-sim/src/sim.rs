@@ -6,18 +6,40 @@
 //! [`LinkModel`] ([`Linked`]), or firmware nodes over a simulated bus
 //! ([`crate::network::CanAgents`]).
 
-use controller_core::{Controller, Gains, StepOutput};
+use controller_core::{Controller, ControllerConfig, Gains, StepOutput};
 use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::{
     error::{Error, Result},
     faults::{ActuatorEffect, FaultSchedule},
+    figures::{FirmwareSummary, NetworkSummary},
     graph::Graph,
+    leader::Leader,
     link::{Inbox, LinkModel},
     plant::{rk4, Plant, Stages},
-    scenario::{Leader, Setup},
 };
+
+/// What the loop needs from a validated scenario besides plant and agents.
+#[derive(Debug, Clone)]
+pub struct World {
+    /// The reference `y_d(t)`.
+    pub leader: Leader,
+    /// The actuator fault schedule (LAW §7).
+    pub faults: FaultSchedule,
+    /// Initial states, one per agent.
+    pub x0: Vec<Vec<f64>>,
+    /// Sample period `h` [s].
+    pub h: f64,
+    /// RK4 steps per sample.
+    pub substeps: u32,
+    /// `|x|` above which the run counts as diverged.
+    pub divergence_bound: f64,
+    /// Number of samples.
+    pub samples: u64,
+    /// Sensor-fault windows: (0-based agent, from, until) on which the agent reads NaN.
+    pub sensor: Vec<(usize, f64, f64)>,
+}
 
 /// Neighbour capacity `K` of every controller (in-degree limit, [`crate::graph::MAX_NEIGHBOURS`]).
 pub const K: usize = crate::graph::MAX_NEIGHBOURS;
@@ -68,11 +90,11 @@ pub trait Agents<const N: usize, const M: usize> {
     /// The gains in force (agent 1's; all agents share the design values).
     fn gains(&self) -> Gains;
     /// Network figures for `summary.json` (none for a link model).
-    fn network(&self) -> Option<crate::network::NetworkSummary> {
+    fn network(&self) -> Option<NetworkSummary> {
         None
     }
     /// Node-firmware figures for `summary.json` (processor in the loop only).
-    fn firmware(&self) -> Option<Vec<crate::pil::FirmwareSummary>> {
+    fn firmware(&self) -> Option<Vec<FirmwareSummary>> {
         None
     }
     /// Figures of the agents' own (e.g. the firmware's cost per step) into `dir`.
@@ -95,17 +117,16 @@ pub struct Linked<L, const N: usize, const M: usize> {
 }
 
 impl<L: LinkModel, const N: usize, const M: usize> Linked<L, N, M> {
-    /// One controller per agent of `setup`, over `link`.
-    pub fn new(setup: &Setup, link: L) -> Result<Self> {
-        let n_agents = setup.agents();
+    /// One controller per agent of `graph` (configurations in agent order), over `link`.
+    pub fn new(graph: &Graph, configs: &[ControllerConfig<N>], link: L) -> Result<Self> {
+        let n_agents = graph.len();
         let mut ctrls = Vec::with_capacity(n_agents);
-        for i in 0..n_agents {
-            let cfg = setup.controller_config::<N>(i)?;
-            let c = Controller::new(&cfg)
+        for (i, cfg) in configs.iter().enumerate() {
+            let c = Controller::new(cfg)
                 .map_err(|e| Error::invalid(format!("controller (agent {})", i + 1), e))?;
             ctrls.push(c);
         }
-        let graph = setup.graph.clone();
+        let graph = graph.clone();
         Ok(Self {
             inbox: Inbox::new(&graph),
             link,
@@ -183,9 +204,15 @@ impl<P: Plant<N, M> + Sync, L: LinkModel, const N: usize, const M: usize>
 where
     P::Time: Sync,
 {
-    /// Builds the controllers (over `link`) and initial states of `setup`.
-    pub fn new(setup: &Setup, plant: P, link: L) -> Result<Self> {
-        Self::with_agents(setup, plant, Linked::new(setup, link)?)
+    /// Builds the controllers (over `link`) of `graph` and the plants of `world`.
+    pub fn new(
+        world: World,
+        graph: &Graph,
+        configs: &[ControllerConfig<N>],
+        plant: P,
+        link: L,
+    ) -> Result<Self> {
+        Self::with_agents(world, plant, Linked::new(graph, configs, link)?)
     }
 }
 
@@ -193,11 +220,11 @@ impl<P: Plant<N, M> + Sync, A: Agents<N, M>, const N: usize, const M: usize> Sim
 where
     P::Time: Sync,
 {
-    /// Builds the initial states of `setup`; `agents` compute the commands.
-    pub fn with_agents(setup: &Setup, plant: P, agents: A) -> Result<Self> {
-        let n_agents = setup.agents();
+    /// Builds the plants of `world`; `agents` compute the commands.
+    pub fn with_agents(world: World, plant: P, agents: A) -> Result<Self> {
+        let n_agents = world.x0.len();
         let mut x = Vec::with_capacity(n_agents);
-        for (i, row) in setup.x0.iter().enumerate() {
+        for (i, row) in world.x0.iter().enumerate() {
             let a: [f64; N] = row.as_slice().try_into().map_err(|_| {
                 Error::invalid(
                     format!("plant.x0[{}]", i + 1),
@@ -206,11 +233,10 @@ where
             })?;
             x.push(a);
         }
-        let (class, members) = setup.faults.classes();
-        let sim = &setup.scenario.simulation;
+        let (class, members) = world.faults.classes();
         Ok(Self {
-            leader: setup.scenario.leader,
-            faults: setup.faults.clone(),
+            leader: world.leader,
+            faults: world.faults,
             class,
             members,
             effects: Vec::new(),
@@ -219,18 +245,11 @@ where
             x,
             q: vec![[0.0; M]; n_agents],
             out: Vec::with_capacity(n_agents),
-            h: sim.h,
-            substeps: sim.substeps,
-            bound: sim.divergence_bound,
-            samples: setup.samples,
-            sensor: if setup.scenario.faults.enabled {
-                let f = &setup.scenario.faults.sensor;
-                f.iter()
-                    .map(|f| ((f.agent - 1) as usize, f.from, f.until))
-                    .collect()
-            } else {
-                Vec::new()
-            },
+            h: world.h,
+            substeps: world.substeps,
+            bound: world.divergence_bound,
+            samples: world.samples,
+            sensor: world.sensor,
             seen: Vec::new(),
         })
     }

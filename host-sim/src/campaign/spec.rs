@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use crate::{
     campaign::sample::Sample,
     error::{Error, Result},
-    scenario::{self, Scenario, Setup},
+    scenario::{self, KeyPath, Scenario, Setup},
 };
 
 /// The campaign file as written (`docs/CAMPAIGNS.md`).
@@ -109,150 +109,11 @@ pub const PLOT_METRICS: [&str; 5] = [
     "total_u_energy",
 ];
 
-/// One step of a key path: a table key, then 0-based array indices.
-#[derive(Debug, Clone, PartialEq)]
-struct Segment {
-    name: String,
-    index: Vec<usize>,
-}
-
-/// A scenario key: `controller.ts`, or with 1-based array entries `plant.x0[2][1]`.
-#[derive(Debug, Clone, PartialEq)]
-pub struct KeyPath {
-    text: String,
-    segments: Vec<Segment>,
-}
-
-impl KeyPath {
-    /// Parses a key; `what` names it in messages (e.g. `axis[1].key`).
-    pub fn parse(text: &str, what: &str) -> Result<Self> {
-        let bad = |why: &str| Error::invalid(what, format!("`{text}`: {why}"));
-        let mut segments = Vec::new();
-        for part in text.split('.') {
-            let (name, mut rest) = match part.find('[') {
-                Some(i) => (&part[..i], &part[i..]),
-                None => (part, ""),
-            };
-            if name.is_empty() || !name.chars().all(|c| c.is_alphanumeric() || c == '_') {
-                return Err(bad("expected dotted names with optional [i] indices"));
-            }
-            let mut index = Vec::new();
-            while !rest.is_empty() {
-                let close = rest
-                    .find(']')
-                    .filter(|_| rest.starts_with('['))
-                    .ok_or_else(|| bad("unbalanced [ ]"))?;
-                let i: usize = rest[1..close]
-                    .parse()
-                    .ok()
-                    .filter(|&i| i >= 1)
-                    .ok_or_else(|| bad("indices are integers from 1"))?;
-                index.push(i - 1);
-                rest = &rest[close + 1..];
-            }
-            segments.push(Segment {
-                name: name.into(),
-                index,
-            });
-        }
-        Ok(Self {
-            text: text.into(),
-            segments,
-        })
-    }
-
-    /// The key as written.
-    pub fn as_str(&self) -> &str {
-        &self.text
-    }
-
-    fn indexed(&self) -> bool {
-        self.segments.iter().any(|s| !s.index.is_empty())
-    }
-
-    /// Sets the key in a scenario table, exactly as `--set key=value` does.
-    pub fn apply(&self, table: &mut toml::Table, value: &toml::Value) -> Result<()> {
-        if self.indexed() {
-            self.set_entry(table, &default_table()?, value)
-        } else {
-            scenario::apply_set(table, &format!("{}={}", self.text, inline(value)))
-        }
-    }
-
-    /// Sets an array entry in place; an array the table leaves out is first copied from
-    /// `defaults`.
-    fn set_entry(
-        &self,
-        table: &mut toml::Table,
-        defaults: &toml::Table,
-        value: &toml::Value,
-    ) -> Result<()> {
-        let missing = || Error::invalid(&self.text, "no such entry in the scenario");
-        let mut cur = table;
-        let mut def = Some(defaults);
-        for (i, seg) in self.segments.iter().enumerate() {
-            let last = i + 1 == self.segments.len();
-            let dflt = def.and_then(|d| d.get(&seg.name));
-            if !cur.contains_key(&seg.name) {
-                let v = match dflt {
-                    Some(v) if !seg.index.is_empty() => v.clone(),
-                    _ if seg.index.is_empty() && !last => toml::Value::Table(toml::Table::new()),
-                    _ => return Err(missing()),
-                };
-                cur.insert(seg.name.clone(), v);
-            }
-            let mut slot = cur.get_mut(&seg.name).ok_or_else(missing)?;
-            let mut dslot = dflt;
-            for &k in &seg.index {
-                let len = slot.as_array().map(Vec::len);
-                slot = match slot {
-                    toml::Value::Array(a) => a.get_mut(k).ok_or_else(|| {
-                        Error::invalid(
-                            &self.text,
-                            format!(
-                                "index {} out of range ({} entries)",
-                                k + 1,
-                                len.unwrap_or(0)
-                            ),
-                        )
-                    })?,
-                    _ => return Err(Error::invalid(&self.text, "not an array")),
-                };
-                dslot = dslot.and_then(|d| d.as_array()).and_then(|a| a.get(k));
-            }
-            if last {
-                *slot = value.clone();
-                return Ok(());
-            }
-            cur = slot
-                .as_table_mut()
-                .ok_or_else(|| Error::invalid(&self.text, "not a table"))?;
-            def = dslot.and_then(toml::Value::as_table);
-        }
-        Ok(())
-    }
-}
-
 /// The message of an error without its kind (for wrapping it in another key's message).
 fn inner(e: &Error) -> &str {
     match e {
         Error::Invalid(m) | Error::Io(m) => m,
     }
-}
-
-/// The default scenario as a table (the arrays an indexed key falls back to).
-fn default_table() -> Result<toml::Table> {
-    match toml::Value::try_from(Scenario::default()) {
-        Ok(toml::Value::Table(t)) => Ok(t),
-        _ => Err(Error::Invalid(
-            "the default scenario cannot be written as TOML".into(),
-        )),
-    }
-}
-
-/// `--set` of a key with 1-based array indices (`plant.x0[2][1]=0.5`).
-pub fn set_indexed(table: &mut toml::Table, key: &str, value: toml::Value) -> Result<()> {
-    KeyPath::parse(key, &format!("--set {key}"))?.set_entry(table, &default_table()?, &value)
 }
 
 /// A TOML value written inline (what follows `key=` in `--set`).
@@ -458,37 +319,5 @@ fn check_key(key: &KeyPath, table: &toml::Table, value: &toml::Value, what: &str
             Err(Error::invalid(what, format!("`{}`: {m}", key.as_str())))
         }
         _ => Ok(()),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn table(s: &str) -> toml::Table {
-        s.parse().unwrap_or_default()
-    }
-
-    #[test]
-    fn indexed_keys_are_one_based_and_fill_from_defaults() -> Result<()> {
-        let defaults = table("[plant]\nx0 = [[1.0, 2.0], [3.0, 4.0]]");
-        let mut t = table("[plant]\nmodel = \"example1\"");
-        KeyPath::parse("plant.x0[2][1]", "k")?.set_entry(
-            &mut t,
-            &defaults,
-            &toml::Value::Float(9.0),
-        )?;
-        assert_eq!(t["plant"]["x0"][1][0].as_float(), Some(9.0));
-        assert_eq!(t["plant"]["x0"][0][1].as_float(), Some(2.0));
-        let out = KeyPath::parse("plant.x0[3][1]", "k")?.set_entry(
-            &mut t,
-            &defaults,
-            &toml::Value::Float(0.0),
-        );
-        assert!(out.is_err_and(|e| e.to_string().contains("index 3 out of range")));
-        assert!(KeyPath::parse("plant.x0[0]", "k").is_err());
-        assert!(KeyPath::parse("plant..x0", "k").is_err());
-        assert!(KeyPath::parse("plant.x0[1", "k").is_err());
-        Ok(())
     }
 }

@@ -9,10 +9,153 @@ mod manipulator;
 pub use example1::Example1;
 pub use manipulator::Manipulator;
 
-use crate::{
-    error::{Error, Result},
-    scenario::PlantSpec,
-};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// `[plant]`: the model, its parameters and initial states.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PlantSpec {
+    /// `"example1"` or `"manipulator"`.
+    pub model: String,
+    /// One initial state per agent (left out when drawn from `x0_min`..`x0_max`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub x0: Vec<Vec<f64>>,
+    /// Lower corner of the box initial states are drawn from, instead of `x0`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub x0_min: Option<Vec<f64>>,
+    /// Upper corner of that box.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub x0_max: Option<Vec<f64>>,
+    /// Seed of the draw (default 1).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub x0_seed: Option<u64>,
+    /// Manipulator inertia `M`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub inertia: Option<f64>,
+    /// Manipulator mass `m`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mass: Option<f64>,
+    /// Manipulator `g`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gravity: Option<f64>,
+    /// Manipulator link length `l`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub length: Option<f64>,
+}
+
+impl Default for PlantSpec {
+    fn default() -> Self {
+        Self {
+            model: "example1".into(),
+            x0: vec![
+                vec![0.02, 0.8],
+                vec![0.01, 1.0],
+                vec![0.01, 0.09],
+                vec![0.0, 0.7],
+            ],
+            x0_min: None,
+            x0_max: None,
+            x0_seed: None,
+            inertia: None,
+            mass: None,
+            gravity: None,
+            length: None,
+        }
+    }
+}
+
+impl PlantSpec {
+    /// Whether the initial states are drawn in a box (`x0_min`, `x0_max`).
+    pub fn x0_drawn(&self) -> bool {
+        self.x0_min.is_some() || self.x0_max.is_some()
+    }
+
+    /// The initial states of `agents` agents: `x0` as written, or drawn uniformly in the box
+    /// `x0_min`..`x0_max` (then `x0` must be left out or be the default); checked as in
+    /// [`PlantSpec::check_x0`].
+    pub fn initial_states(&self, agents: usize, n: usize, bound: f64) -> Result<Vec<Vec<f64>>> {
+        let (lo, hi) = match (&self.x0_min, &self.x0_max) {
+            (None, None) => {
+                if self.x0_seed.is_some() {
+                    return Err(Error::invalid(
+                        "plant.x0_seed",
+                        "only with plant.x0_min and plant.x0_max",
+                    ));
+                }
+                self.check_x0(agents, n, bound)?;
+                return Ok(self.x0.clone());
+            }
+            (Some(_), None) => {
+                return Err(Error::invalid(
+                    "plant.x0_max",
+                    "missing: give both corners of the box, plant.x0_min and plant.x0_max",
+                ))
+            }
+            (None, Some(_)) => {
+                return Err(Error::invalid(
+                    "plant.x0_min",
+                    "missing: give both corners of the box, plant.x0_min and plant.x0_max",
+                ))
+            }
+            (Some(lo), Some(hi)) => (lo, hi),
+        };
+        if !self.x0.is_empty() && self.x0 != Self::default().x0 {
+            return Err(Error::invalid(
+                "plant.x0",
+                "give either plant.x0 or the box plant.x0_min / plant.x0_max, not both",
+            ));
+        }
+        if lo.len() != n {
+            return Err(Error::invalid(
+                "plant.x0_min",
+                format!("{} entries, the model has n = {n} states", lo.len()),
+            ));
+        }
+        let drawn = Self {
+            x0: crate::generate::initial_states(agents, lo, hi, self.x0_seed.unwrap_or(1))?,
+            ..Self::default()
+        };
+        drawn.check_x0(agents, n, bound)?;
+        Ok(drawn.x0)
+    }
+
+    /// Checks `x0`: one row of `n` finite entries within `bound` per agent.
+    pub fn check_x0(&self, agents: usize, n: usize, bound: f64) -> Result<()> {
+        let x0 = &self.x0;
+        if x0.len() != agents {
+            return Err(Error::invalid(
+                "plant.x0",
+                format!(
+                    "{} initial states but the graph has {agents} agents",
+                    x0.len()
+                ),
+            ));
+        }
+        for (i, row) in x0.iter().enumerate() {
+            let key = || format!("plant.x0[{}]", i + 1);
+            if row.len() != n {
+                return Err(Error::invalid(
+                    key(),
+                    format!("{} entries, the model has n = {n} states", row.len()),
+                ));
+            }
+            for v in row {
+                if !v.is_finite() {
+                    return Err(Error::invalid(key(), format!("must be finite (got {v})")));
+                }
+                if v.abs() > bound {
+                    return Err(Error::invalid(
+                        key(),
+                        format!("|{v:e}| is above simulation.divergence_bound = {bound:e}"),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
 
 /// One agent's dynamics `ẋ = f(t, x, a)` with `a` the actuator outputs `q^f(u_l)` (LAW §1).
 ///

@@ -1,24 +1,9 @@
-//! `[network]`: how the agents talk. `kind = "ideal"` (the default) is host-sim's
-//! [`crate::link::IdealLink`]; `kind = "can"` runs every agent as a `hil-mock` firmware
-//! [`hil_mock::Node`] (its own controller, freshness policy and Q7.16 frames) on mocked hardware
-//! over `hil-mock`'s CAN-like bus, via [`hil_mock::network::CanNetwork`]. The plant, faults,
-//! metrics and outputs are the simulator's, unchanged; `summary.json` gains a `network` object
-//! ([`NetworkSummary`]). The model and its figures: `docs/NETWORK.md`.
+//! The `[network]` section: its keys, their validation and the bus settings they give.
 
-use controller_core::{Gains, StepOutput};
-use hil_mock::{
-    bus::{BusConfig, BusEvent, BusStats, EventKind, Nanos},
-    network::{AgentSetup, CanNetwork},
-    NodeConfig,
-};
+use hil_mock::bus::{BusConfig, BusEvent, EventKind, Nanos};
 use serde::{Deserialize, Serialize};
 
-use crate::{
-    error::{Error, Result},
-    report::trace::{TraceWriter, INTERFACE},
-    scenario::Setup,
-    sim::{Agents, K},
-};
+use crate::error::{Error, Result};
 
 /// `network.kind`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -130,7 +115,7 @@ pub const MAX_BITRATE: i64 = 10_000_000;
 pub const MAX_CAN_AGENTS: usize = 255;
 
 /// Seconds to nanoseconds (validated, finite and small enough, input).
-fn ns(s: f64) -> Nanos {
+pub(crate) fn ns(s: f64) -> Nanos {
     (s * 1e9).round() as Nanos
 }
 
@@ -289,194 +274,5 @@ pub fn bus_config(spec: &NetworkSpec, h: f64) -> BusConfig {
                 until_ns: e.until.map_or(Nanos::MAX, ns),
             })
             .collect(),
-    }
-}
-
-/// `summary.json` `network` (runs with `kind = "can"`).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct NetworkSummary {
-    /// `"can"`.
-    pub kind: String,
-    /// Bit rate [bit/s].
-    pub bitrate: u32,
-    /// Time the bus carried frames or error frames, percent of the run.
-    pub bus_load_percent: f64,
-    /// Frames transmitted without error (delivered + lost).
-    pub frames_sent: u64,
-    /// Frames transmitted but reaching no receiver (`loss`).
-    pub frames_lost: u64,
-    /// Transmissions destroyed by a CRC error (`corruption`).
-    pub frames_corrupted: u64,
-    /// Frames replaced before they could be sent, or delivered more than `h` after submission.
-    pub deadline_misses: u64,
-    /// Times a node went bus-off.
-    pub bus_off_events: u64,
-    /// Largest age of the neighbour (and leader) data a controller used [s].
-    pub max_age_s: f64,
-    /// Mean age of the neighbour (and leader) data a controller used [s].
-    pub mean_age_s: f64,
-    /// Longest submission-to-delivery time [s].
-    pub max_latency_s: f64,
-    /// Frames rejected by the nodes' decoders (unknown id, wrong length, ...), summed.
-    pub malformed: u64,
-    /// Neighbour link-samples passed to a controller as `Stale`, summed over nodes.
-    pub stale_samples: u64,
-    /// Frames of silent nodes that never reached the bus.
-    pub suppressed: u64,
-    /// Frames of babbling nodes on the bus.
-    pub babble_frames: u64,
-}
-
-impl NetworkSummary {
-    /// The figures of a run over a bus with statistics `s`; `malformed` and `stale_samples`
-    /// are the nodes' counts, summed.
-    pub fn new(
-        kind: NetworkKind,
-        bitrate: u32,
-        s: &BusStats,
-        malformed: u64,
-        stale_samples: u64,
-    ) -> Self {
-        Self {
-            kind: kind.as_str().into(),
-            bitrate,
-            bus_load_percent: s.load_percent(),
-            frames_sent: s.frames_sent,
-            frames_lost: s.frames_lost,
-            frames_corrupted: s.frames_corrupted,
-            deadline_misses: s.deadline_misses,
-            bus_off_events: s.bus_off_events,
-            max_age_s: s.max_age_s(),
-            mean_age_s: s.mean_age_s(),
-            max_latency_s: s.max_latency_ns as f64 * 1e-9,
-            malformed,
-            stale_samples,
-            suppressed: s.suppressed,
-            babble_frames: s.babble_frames,
-        }
-    }
-}
-
-/// Every agent a `hil-mock` node over the simulated CAN bus (`kind = "can"`).
-pub struct CanAgents<const N: usize, const M: usize> {
-    net: CanNetwork<N, M, K>,
-    h_ns: Nanos,
-    bitrate: u32,
-    states: Vec<[f32; N]>,
-    trace: Option<TraceWriter>,
-}
-
-impl<const N: usize, const M: usize> CanAgents<N, M> {
-    /// One node per agent of the validated `setup`, with its controller configuration and
-    /// neighbours, on the bus of `[network]`; every frame on the bus goes to `trace` (candump
-    /// log) when given.
-    pub fn new(setup: &Setup, trace: Option<&std::path::Path>) -> Result<Self> {
-        let spec = &setup.scenario.network;
-        let h = setup.scenario.simulation.h;
-        let stale = spec.stale_timeout.unwrap_or(2.5 * h);
-        let stale_timeout_us = ((stale * 1e6).round() as u64).max(1);
-        let mut agents = Vec::with_capacity(setup.agents());
-        for i in 0..setup.agents() {
-            let agent = u8::try_from(i + 1).map_err(|_| {
-                Error::invalid(
-                    "network.kind",
-                    format!("\"can\" carries at most {MAX_CAN_AGENTS} agents"),
-                )
-            })?;
-            let mut neighbours = [0u8; K];
-            for (d, &k) in neighbours.iter_mut().zip(setup.graph.neighbours(i)) {
-                *d = u8::try_from(k + 1).unwrap_or(0);
-            }
-            agents.push(AgentSetup {
-                node: NodeConfig {
-                    agent,
-                    neighbours,
-                    stale_timeout_us,
-                },
-                controller: setup.controller_config::<N>(i)?,
-            });
-        }
-        let cfg = bus_config(spec, h);
-        let bitrate = cfg.bitrate;
-        let mut net = CanNetwork::new(cfg, &agents).map_err(|e| Error::invalid("network", e))?;
-        let trace = trace.map(TraceWriter::create).transpose()?;
-        if trace.is_some() {
-            net.bus_mut().record_wire();
-        }
-        Ok(Self {
-            net,
-            h_ns: ns(h),
-            bitrate,
-            states: vec![[0.0; N]; setup.agents()],
-            trace,
-        })
-    }
-
-    /// The network (nodes, bus, statistics).
-    pub fn network(&self) -> &CanNetwork<N, M, K> {
-        &self.net
-    }
-
-    /// The figures of `summary.json` `network`.
-    pub fn summary(&self) -> NetworkSummary {
-        let nodes = self.net.nodes();
-        NetworkSummary::new(
-            NetworkKind::Can,
-            self.bitrate,
-            &self.net.stats(),
-            nodes
-                .iter()
-                .map(|n| u64::from(n.stats().malformed.total()))
-                .sum(),
-            nodes
-                .iter()
-                .map(|n| u64::from(n.stats().stale_samples))
-                .sum(),
-        )
-    }
-}
-
-impl<const N: usize, const M: usize> Agents<N, M> for CanAgents<N, M> {
-    fn control(
-        &mut self,
-        k: u64,
-        _t: f64,
-        x: &[[f64; N]],
-        yd: f64,
-        out: &mut Vec<StepOutput<N, M>>,
-    ) -> Result<()> {
-        for (s, x) in self.states.iter_mut().zip(x) {
-            for (d, v) in s.iter_mut().zip(x) {
-                *d = *v as f32;
-            }
-        }
-        let t_ns = k.saturating_mul(self.h_ns);
-        let ticks = self.net.step(t_ns, &self.states, Some(yd as f32));
-        out.extend(ticks.iter().map(|t| t.output));
-        if let Some(w) = self.trace.as_mut() {
-            w.write(INTERFACE, &self.net.bus_mut().take_wire_log());
-        }
-        Ok(())
-    }
-
-    fn finish(&mut self) -> Result<()> {
-        self.trace.as_mut().map_or(Ok(()), TraceWriter::finish)
-    }
-
-    fn gains(&self) -> Gains {
-        // Validation rejects an empty graph, so node 1 exists.
-        match self.net.nodes().first() {
-            Some(n) => *n.controller().params().gains(),
-            None => Gains {
-                c1: f32::NAN,
-                c2: f32::NAN,
-                k1: f32::NAN,
-                k2: f32::NAN,
-            },
-        }
-    }
-
-    fn network(&self) -> Option<NetworkSummary> {
-        Some(self.summary())
     }
 }

@@ -1,0 +1,95 @@
+//! What agents report beyond the loop, for `summary.json`: the bus figures (`network`, runs
+//! over the CAN bus model or processor in the loop) and the node-firmware figures
+//! (`firmware[]`, processor in the loop). A leaf module, so the simulation loop can name them
+//! without importing the agents that produce them.
+
+use hil_mock::bus::BusStats;
+use serde::Serialize;
+
+use crate::network::spec::NetworkKind;
+
+/// `summary.json` `network` (runs with `kind = "can"`).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NetworkSummary {
+    /// `"can"`.
+    pub kind: String,
+    /// Bit rate [bit/s].
+    pub bitrate: u32,
+    /// Time the bus carried frames or error frames, percent of the run.
+    pub bus_load_percent: f64,
+    /// Frames transmitted without error (delivered + lost).
+    pub frames_sent: u64,
+    /// Frames transmitted but reaching no receiver (`loss`).
+    pub frames_lost: u64,
+    /// Transmissions destroyed by a CRC error (`corruption`).
+    pub frames_corrupted: u64,
+    /// Frames replaced before they could be sent, or delivered more than `h` after submission.
+    pub deadline_misses: u64,
+    /// Times a node went bus-off.
+    pub bus_off_events: u64,
+    /// Largest age of the neighbour (and leader) data a controller used [s].
+    pub max_age_s: f64,
+    /// Mean age of the neighbour (and leader) data a controller used [s].
+    pub mean_age_s: f64,
+    /// Longest submission-to-delivery time [s].
+    pub max_latency_s: f64,
+    /// Frames rejected by the nodes' decoders (unknown id, wrong length, ...), summed.
+    pub malformed: u64,
+    /// Neighbour link-samples passed to a controller as `Stale`, summed over nodes.
+    pub stale_samples: u64,
+    /// Frames of silent nodes that never reached the bus.
+    pub suppressed: u64,
+    /// Frames of babbling nodes on the bus.
+    pub babble_frames: u64,
+}
+
+impl NetworkSummary {
+    /// The figures of a run over a bus with statistics `s`; `malformed` and `stale_samples`
+    /// are the nodes' counts, summed.
+    pub fn new(
+        kind: NetworkKind,
+        bitrate: u32,
+        s: &BusStats,
+        malformed: u64,
+        stale_samples: u64,
+    ) -> Self {
+        Self {
+            kind: kind.as_str().into(),
+            bitrate,
+            bus_load_percent: s.load_percent(),
+            frames_sent: s.frames_sent,
+            frames_lost: s.frames_lost,
+            frames_corrupted: s.frames_corrupted,
+            deadline_misses: s.deadline_misses,
+            bus_off_events: s.bus_off_events,
+            max_age_s: s.max_age_s(),
+            mean_age_s: s.mean_age_s(),
+            max_latency_s: s.max_latency_ns as f64 * 1e-9,
+            malformed,
+            stale_samples,
+            suppressed: s.suppressed,
+            babble_frames: s.babble_frames,
+        }
+    }
+}
+
+/// `summary.json` `firmware[]`: one agent's node firmware over the closed-loop run.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FirmwareSummary {
+    /// 1-based agent.
+    pub agent: usize,
+    /// Ticks measured (= samples).
+    pub steps: usize,
+    /// Fewest instructions of one `Node::tick`.
+    pub instructions_min: u32,
+    /// Median over the run.
+    pub instructions_median: u32,
+    /// 99th percentile (nearest rank).
+    pub instructions_p99: u32,
+    /// Most instructions of one tick.
+    pub instructions_max: u32,
+    /// Resolution of the counts (instructions per SysTick count).
+    pub instructions_resolution: u32,
+    /// Stack high-water mark of the whole firmware (painted), bytes.
+    pub stack_bytes: u32,
+}
