@@ -278,11 +278,63 @@ impl CsvObserver {
     }
 }
 
-/// One number and its separator.
-#[inline]
-fn field<F: zmij::Float>(line: &mut Vec<u8>, fmt: &mut zmij::Buffer, v: F) {
-    number(line, fmt, v);
-    line.push(b',');
+/// Longest number text kept for reuse (`-1.2345678901234567e-308` has 24 characters).
+const TEXT: usize = 32;
+
+/// The writer's formatter with memory: a value equal bit for bit to the one above it in its
+/// column (a held quantizer level) or to the field before it (identical actuators) is copied,
+/// not formatted again.
+struct Texts {
+    fmt: zmij::Buffer,
+    /// Per column: the last value's bits, its text length (0: none) and text.
+    above: Vec<(u64, usize, [u8; TEXT])>,
+    col: usize,
+    /// The field before: its bits, whether it is an `f32`, where its text starts in the line.
+    before: (u64, bool, usize),
+}
+
+impl Texts {
+    fn new(columns: usize) -> Self {
+        Self {
+            fmt: zmij::Buffer::new(),
+            above: vec![(0, 0, [0; TEXT]); columns],
+            col: 0,
+            before: (0, false, usize::MAX),
+        }
+    }
+
+    /// Starts a row.
+    fn row(&mut self) {
+        self.col = 0;
+        self.before.2 = usize::MAX;
+    }
+
+    /// One number and its separator; `bits` and `narrow` tell values apart exactly.
+    #[inline]
+    fn field<F: zmij::Float>(&mut self, line: &mut Vec<u8>, v: F, bits: u64, narrow: bool) {
+        let start = line.len();
+        if self.col == self.above.len() {
+            self.above.push((0, 0, [0; TEXT]));
+        }
+        let (was, len, text) = &mut self.above[self.col];
+        if *len > 0 && *was == bits {
+            line.extend_from_slice(&text[..*len]);
+        } else {
+            let (b, n, from) = self.before;
+            if from != usize::MAX && b == bits && n == narrow {
+                line.extend_from_within(from..start - 1);
+            } else {
+                number(line, &mut self.fmt, v);
+            }
+            let new = &line[start..];
+            *was = bits;
+            *len = if new.len() <= TEXT { new.len() } else { 0 };
+            text[..*len].copy_from_slice(&new[..*len]);
+        }
+        self.before = (bits, narrow, start);
+        line.push(b',');
+        self.col += 1;
+    }
 }
 
 /// The writer thread: formats every row of every block and writes it.
@@ -291,9 +343,10 @@ fn write_rows(
     rx: &Receiver<Block>,
     layout: Layout,
 ) -> std::io::Result<()> {
-    let (mut fmt, mut line) = (zmij::Buffer::new(), Vec::with_capacity(1 << 12));
+    let mut line = Vec::with_capacity(1 << 12);
     let wide_row = 2 + layout.agents * layout.wide;
     let narrow_row = (layout.agents * layout.narrow).max(1);
+    let mut texts = Texts::new(wide_row + narrow_row);
     for block in rx {
         for (w, q) in block
             .wide
@@ -301,18 +354,19 @@ fn write_rows(
             .zip(block.narrow.chunks_exact(narrow_row))
         {
             line.clear();
+            texts.row();
             for &v in &w[..2] {
-                field(&mut line, &mut fmt, v);
+                texts.field(&mut line, v, v.to_bits(), false);
             }
             for (wa, qa) in w[2..]
                 .chunks_exact(layout.wide)
                 .zip(q.chunks_exact(layout.narrow))
             {
                 for &v in wa {
-                    field(&mut line, &mut fmt, v);
+                    texts.field(&mut line, v, v.to_bits(), false);
                 }
                 for &v in qa {
-                    field(&mut line, &mut fmt, v);
+                    texts.field(&mut line, v, u64::from(v.to_bits()), true);
                 }
             }
             if let Some(last) = line.last_mut() {
@@ -418,6 +472,43 @@ mod cleanup_tests {
         }
         for b in (0..u32::MAX).step_by(4099) {
             same_as_ryu(f32::from_bits(b));
+        }
+    }
+
+    /// Reused texts equal fresh ones: repeats above and before, signed zeros, NaN, and an
+    /// `f64` and an `f32` with the same bits.
+    #[test]
+    fn copied_texts_equal_formatted_ones() {
+        let rows: [[f64; 4]; 4] = [
+            [0.0, 0.0, 1.5, f64::NAN],
+            [-0.0, 0.0, 1.5, f64::NAN],
+            [f64::from_bits(0x3f80_0000), 1.0, 1.0, 2.0],
+            [f64::from_bits(0x3f80_0000), 1.0, 1.0, 1e300],
+        ];
+        let mut texts = Texts::new(0);
+        let (mut line, mut plain) = (Vec::new(), Vec::new());
+        let mut fmt = zmij::Buffer::new();
+        for r in rows {
+            line.clear();
+            plain.clear();
+            texts.row();
+            texts.field(&mut line, r[0], r[0].to_bits(), false);
+            let f = r[1] as f32;
+            texts.field(&mut line, f, u64::from(f.to_bits()), true);
+            texts.field(&mut line, r[2], r[2].to_bits(), false);
+            texts.field(&mut line, r[3], r[3].to_bits(), false);
+            for (i, v) in r.iter().enumerate() {
+                if i == 1 {
+                    number(&mut plain, &mut fmt, *v as f32);
+                } else {
+                    number(&mut plain, &mut fmt, *v);
+                }
+                plain.push(b',');
+            }
+            assert_eq!(
+                String::from_utf8_lossy(&line),
+                String::from_utf8_lossy(&plain)
+            );
         }
     }
 
