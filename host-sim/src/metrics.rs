@@ -1,7 +1,7 @@
 //! The metrics of LAW §11 with the definitions of docs/SCENARIO.md, accumulated sample by sample,
 //! and the `summary.json` they fill.
 
-use std::collections::{BTreeMap, HashSet};
+use std::collections::BTreeMap;
 
 use controller_core::Gains;
 use serde::Serialize;
@@ -190,7 +190,9 @@ struct Acc {
     max_abs_u: f64,
     u_energy: f64,
     changes: u64,
-    levels: HashSet<u32>,
+    /// Distinct `|q|` bits seen, sorted (a quantizer has some dozens of levels: a binary
+    /// search beats hashing).
+    levels: Vec<u32>,
     peak: f64,
     est: [f32; 3],
     faults: u64,
@@ -223,7 +225,7 @@ impl Metrics {
             max_abs_u: 0.0,
             u_energy: 0.0,
             changes: 0,
-            levels: HashSet::new(),
+            levels: Vec::new(),
             peak: 0.0,
             est: [0.0; 3],
             faults: 0,
@@ -327,7 +329,10 @@ impl<const N: usize, const M: usize> Observer<N, M> for Metrics {
                     a.changes += 1;
                     *p = q;
                     if self.levels && q != 0.0 {
-                        a.levels.insert(q.abs().to_bits());
+                        let bits = q.abs().to_bits();
+                        if let Err(at) = a.levels.binary_search(&bits) {
+                            a.levels.insert(at, bits);
+                        }
                     }
                 }
             }

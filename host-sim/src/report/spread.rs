@@ -39,17 +39,27 @@ pub struct Spread {
     scratch: Vec<f64>,
 }
 
-/// Min, the [`PERCENTILES`] and max of `v` (reordered; NaN sorts last).
+/// `window`'s min, the [`PERCENTILES`] of `v` and `window`'s max (`v` is reordered; NaN
+/// counts as largest). Order statistics by selection, not a full sort: this runs at every kept
+/// sample over every agent.
 fn quantiles(v: &mut [f64], window: [f64; 2]) -> [f64; 5] {
-    v.sort_unstable_by(f64::total_cmp);
-    let at = |p: f64| v[((v.len() - 1) as f64 * p).round() as usize];
-    [
-        window[0],
-        at(PERCENTILES[0]),
-        at(PERCENTILES[1]),
-        at(PERCENTILES[2]),
-        window[1],
-    ]
+    if v.is_empty() {
+        return [window[0], f64::NAN, f64::NAN, f64::NAN, window[1]];
+    }
+    let at = |p: f64| ((v.len() - 1) as f64 * p).round() as usize;
+    let (lo, mid, hi) = (at(PERCENTILES[0]), at(PERCENTILES[1]), at(PERCENTILES[2]));
+    let (below, &mut median, above) = v.select_nth_unstable_by(mid, f64::total_cmp);
+    let p_lo = if lo < mid {
+        *below.select_nth_unstable_by(lo, f64::total_cmp).1
+    } else {
+        median
+    };
+    let p_hi = if hi > mid {
+        *above.select_nth_unstable_by(hi - mid - 1, f64::total_cmp).1
+    } else {
+        median
+    };
+    [window[0], p_lo, median, p_hi, window[1]]
 }
 
 const EMPTY: [f64; 2] = [f64::INFINITY, f64::NEG_INFINITY];
@@ -178,6 +188,14 @@ mod tests {
         let mut v: Vec<f64> = (0..=100).rev().map(f64::from).collect();
         let q = quantiles(&mut v, [-1.0, 200.0]);
         assert_eq!(q, [-1.0, 10.0, 50.0, 90.0, 200.0]);
+        for n in [1, 2, 3, 7, 1000] {
+            let mut v: Vec<f64> = (0..n).map(|i| f64::from((i * 7919) % n)).collect();
+            let mut sorted = v.clone();
+            sorted.sort_unstable_by(f64::total_cmp);
+            let at = |p: f64| sorted[((n - 1) as f64 * p).round() as usize];
+            let q = quantiles(&mut v, [0.0, 0.0]);
+            assert_eq!(q[1..4], [at(0.1), at(0.5), at(0.9)], "n = {n}");
+        }
     }
 
     #[test]
