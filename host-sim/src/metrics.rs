@@ -193,6 +193,9 @@ struct Acc {
     /// Distinct `|q|` bits seen, sorted (a quantizer has some dozens of levels: a binary
     /// search beats hashing).
     levels: Vec<u32>,
+    /// The two levels last added or found in `levels` (a chattering quantizer alternates
+    /// between two): a change to one of them needs no search.
+    recent: [u32; 2],
     peak: f64,
     est: [f32; 3],
     faults: u64,
@@ -226,6 +229,8 @@ impl Metrics {
             u_energy: 0.0,
             changes: 0,
             levels: Vec::new(),
+            // `|q|` never has the sign bit: no level matches before one is seen.
+            recent: [u32::MAX; 2],
             peak: 0.0,
             est: [0.0; 3],
             faults: 0,
@@ -328,11 +333,12 @@ impl<const N: usize, const M: usize> Observer<N, M> for Metrics {
                 if q != *p {
                     a.changes += 1;
                     *p = q;
-                    if self.levels && q != 0.0 {
-                        let bits = q.abs().to_bits();
+                    let bits = q.abs().to_bits();
+                    if self.levels && q != 0.0 && !a.recent.contains(&bits) {
                         if let Err(at) = a.levels.binary_search(&bits) {
                             a.levels.insert(at, bits);
                         }
+                        a.recent = [bits, a.recent[0]];
                     }
                 }
             }
