@@ -17,7 +17,7 @@ use crate::{
     graph::Graph,
     leader::Leader,
     link::{Inbox, LinkModel},
-    plant::{rk4, Plant, Stages},
+    plant::{rk4, rk4_batch, Plant, Stages},
 };
 
 /// What the loop needs from a validated scenario besides plant and agents.
@@ -358,27 +358,43 @@ where
         }
         let classes = self.members.len();
         let (plant, effects) = (&self.plant, &self.effects);
-        let agent = |x: &mut [f64; N], q: &[f64; M], class: Option<usize>| {
-            for (s, time) in stages.iter().enumerate() {
-                let act = match class {
-                    Some(c) => {
-                        effects[s * classes + c].map(|e| std::array::from_fn(|l| e[l].on(q[l])))
+        let stage = |s: usize, q: &[f64; M], class: Option<usize>| Stages {
+            time: stages[s],
+            act: match class {
+                Some(c) => effects[s * classes + c].map(|e| std::array::from_fn(|l| e[l].on(q[l]))),
+                None => [*q; 3],
+            },
+        };
+        // Two agents at a time: their RK4 chains interleave (`rk4_batch`), same operations.
+        let group = |x: &mut [[f64; N]], q: &[[f64; M]], c: &[Option<usize>]| {
+            if let (Ok(pair), [qa, qb], [ca, cb]) = (<&mut [[f64; N]; 2]>::try_from(&mut *x), q, c)
+            {
+                for s in 0..stages.len() {
+                    rk4_batch(plant, pair, dt, &[stage(s, qa, *ca), stage(s, qb, *cb)]);
+                }
+            } else {
+                for ((x, q), c) in x.iter_mut().zip(q).zip(c) {
+                    for s in 0..stages.len() {
+                        rk4(plant, x, dt, &stage(s, q, *c));
                     }
-                    None => [*q; 3],
-                };
-                rk4(plant, x, dt, &Stages { time: *time, act });
+                }
             }
         };
         if parallel(self.x.len()) {
             self.x
-                .par_iter_mut()
-                .zip(&self.q)
-                .zip(&self.class)
-                .with_min_len(PAR_CHUNK)
-                .for_each(|((x, q), &c)| agent(x, q, c));
+                .par_chunks_mut(2)
+                .zip(self.q.par_chunks(2))
+                .zip(self.class.par_chunks(2))
+                .with_min_len(PAR_CHUNK / 2)
+                .for_each(|((x, q), c)| group(x, q, c));
         } else {
-            for ((x, q), &c) in self.x.iter_mut().zip(&self.q).zip(&self.class) {
-                agent(x, q, c);
+            for ((x, q), c) in self
+                .x
+                .chunks_mut(2)
+                .zip(self.q.chunks(2))
+                .zip(self.class.chunks(2))
+            {
+                group(x, q, c);
             }
         }
     }

@@ -187,6 +187,19 @@ pub fn rk4<const N: usize, const M: usize, P: Plant<N, M>>(
     dt: f64,
     st: &Stages<P::Time, M>,
 ) {
+    rk4_batch(plant, std::array::from_mut(x), dt, std::array::from_ref(st));
+}
+
+/// One classical RK4 step of length `dt` for each of `B` agents: per agent exactly the
+/// operations of [`rk4`], the agents' independent chains interleaved so that a core overlaps
+/// them (one agent's step is a chain of dependent operations).
+#[inline]
+pub fn rk4_batch<const N: usize, const M: usize, const B: usize, P: Plant<N, M>>(
+    plant: &P,
+    x: &mut [[f64; N]; B],
+    dt: f64,
+    st: &[Stages<P::Time, M>; B],
+) {
     let add = |x: &[f64; N], k: &[f64; N], s: f64| -> [f64; N] {
         let mut y = *x;
         for (y, k) in y.iter_mut().zip(k) {
@@ -194,14 +207,17 @@ pub fn rk4<const N: usize, const M: usize, P: Plant<N, M>>(
         }
         y
     };
-    let [t0, tm, t1] = &st.time;
-    let [a0, am, a1] = &st.act;
-    let k1 = plant.derivative(t0, x, a0);
-    let k2 = plant.derivative(tm, &add(x, &k1, 0.5 * dt), am);
-    let k3 = plant.derivative(tm, &add(x, &k2, 0.5 * dt), am);
-    let k4 = plant.derivative(t1, &add(x, &k3, dt), a1);
-    for j in 0..N {
-        x[j] += dt / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]);
+    let f = |b: usize, stage: usize, x: &[f64; N]| {
+        plant.derivative(&st[b].time[stage], x, &st[b].act[stage])
+    };
+    let k1: [[f64; N]; B] = std::array::from_fn(|b| f(b, 0, &x[b]));
+    let k2: [[f64; N]; B] = std::array::from_fn(|b| f(b, 1, &add(&x[b], &k1[b], 0.5 * dt)));
+    let k3: [[f64; N]; B] = std::array::from_fn(|b| f(b, 1, &add(&x[b], &k2[b], 0.5 * dt)));
+    let k4: [[f64; N]; B] = std::array::from_fn(|b| f(b, 2, &add(&x[b], &k3[b], dt)));
+    for (b, x) in x.iter_mut().enumerate() {
+        for j in 0..N {
+            x[j] += dt / 6.0 * (k1[b][j] + 2.0 * k2[b][j] + 2.0 * k3[b][j] + k4[b][j]);
+        }
     }
 }
 
