@@ -16,6 +16,14 @@ fn path(p: &Path) -> &str {
     p.to_str().expect("utf-8 path")
 }
 
+/// `run` of the swarm scenario into `dir` without figures, with `extra` options.
+fn swarm_run(dir: &Path, extra: &[&str]) -> Output {
+    let swarm = scenario_path("swarm-1000.toml");
+    let mut args = vec!["run", path(&swarm), "--out", path(dir), "-q", "--no-plots"];
+    args.extend(extra);
+    host_sim(&args)
+}
+
 fn read(p: &Path) -> Vec<u8> {
     std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
 }
@@ -164,18 +172,10 @@ fn one_or_two_threads_write_the_same_bytes() {
 fn agents_select_the_columns_and_large_groups_are_decimated_by_default() {
     let swarm = scenario_path("swarm-1000.toml");
     let d = tmp("large-columns");
-    let out = host_sim(&[
-        "run",
-        path(&swarm),
-        "--out",
-        path(&d),
-        "-q",
-        "--no-plots",
-        "--set",
-        "simulation.t_end=0.2",
-        "--agents",
-        "3,10-11",
-    ]);
+    let out = swarm_run(
+        &d,
+        &["--set", "simulation.t_end=0.2", "--agents", "3,10-11"],
+    );
     assert_ok(&out);
     let text = String::from_utf8_lossy(&read(&d.join("trajectory.csv"))).into_owned();
     let header = text.lines().next().unwrap_or_default();
@@ -190,16 +190,7 @@ fn agents_select_the_columns_and_large_groups_are_decimated_by_default() {
     let e1 = scenario::load(&scenario_path("example1.toml"), &[]).expect("example1");
     assert_eq!(default_decimate(&e1, 4), 1, "small groups: every sample");
     let d = tmp("large-default-decimate");
-    let out = host_sim(&[
-        "run",
-        path(&swarm),
-        "--out",
-        path(&d),
-        "-q",
-        "--no-plots",
-        "--set",
-        "simulation.t_end=0.65",
-    ]);
+    let out = swarm_run(&d, &["--set", "simulation.t_end=0.65"]);
     assert_ok(&out);
     let note = String::from_utf8_lossy(&out.stderr).into_owned();
     assert!(note.contains("one sample in 2 (--decimate 2"), "{note}");
