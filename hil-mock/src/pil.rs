@@ -21,25 +21,39 @@
 //!   are not put through the bus model (on a 1 Mbit/s bus they would not fit into a 1 ms
 //!   sample next to the five value frames).
 //!
+//! ## Two records of this link's own
+//!
+//! The per-sample exchange between node and host, which never goes on the bus, travels as two
+//! compact records instead of 29-bit SLCAN frames: one line each, a letter that no SLCAN
+//! dialect uses, the payload in base64 (RFC 4648 alphabet, no padding), `\r`. The emulated
+//! UART hands the node one byte per round trip through the emulator, so bytes into the node
+//! are the cost of a PIL run; the records carry in 13 and 66 bytes what took 31 and 162
+//! bytes as SLCAN frames. `docs/wire.dbc` describes their payloads under the ids [`io::SYNC`]
+//! and [`io::REPORT`] (cantools decodes the base64-decoded bytes with them).
+//!
+//! * [`record::TICK`] `k` (host → node, [`Tick`]): the state `x_i` of sample `t_k` (`f32` LE
+//!   each) and, only when it differs from the previous tick's, the interval `t_k − t_{k−1}` in
+//!   µs (`u32` LE); the node sets its clock, its sensor, and runs [`crate::Node::tick`].
+//! * [`record::REPORT`] `y` (node → host, [`Report`], 48 bytes): `q`, `u`, `e`, `μ̂`, `ξ̂`,
+//!   `λ̂`, status, and the instructions of the tick.
+//!
 //! ## One sample (host → node, then node → host)
 //!
 //! 1. each bus frame delivered to the node since the last sample and passing its acceptance
 //!    filter (the identifiers of the agents it hears, and the leader's if it is pinned — what
 //!    a CAN controller's filter, or SLCAN's `M`/`m` acceptance registers, would be set to),
-//!    with its delivery time as SLCAN timestamp ([`Slcan::Timed`], µs since the last `SYNC`):
+//!    with its delivery time as SLCAN timestamp ([`Slcan::Timed`], µs since the last tick):
 //!    the node takes it at that clock reading (the CAN receive interrupt of
 //!    [`crate::Node::poll_rx`]);
-//! 2. [`io::SYNC`] with the state `x_i` (`f32` little-endian) and `t_k` as timestamp: the
-//!    node sets its clock, its sensor, and runs [`crate::Node::tick`];
-//! 3. the node answers with its bus frame (if the tick queued one), [`io::COMMAND`] (`q`),
-//!    [`io::REPORT_U`], [`io::REPORT_E`], [`io::REPORT_EST`], [`io::REPORT_STATUS`] and, last,
-//!    [`io::REPORT_COST`] (instructions of the tick).
+//! 2. the tick record;
+//! 3. the node answers with its bus frame (if the tick queued one) and the report record.
 //!
 //! Start-up: the host sends the configuration as [`io::CONFIG`] frames (two 32-bit words each,
 //! [`encode_config`]) and [`io::CONFIG_END`] (word count); the node answers [`io::READY`] or
 //! [`io::REJECTED`]. At the end [`io::STATS_REQUEST`] is answered by [`io::STATS`] (painted
 //! stack high-water mark).
 
+use base64::{engine::general_purpose::STANDARD_NO_PAD, Engine as _};
 use controller_core::{
     BaselineConfig, ControllerConfig, GainSelection, QuantizerConfig, QuantizerDirection,
     SafetyConfig, SchemeConfig,
@@ -58,28 +72,16 @@ pub mod io {
     pub const READY: u32 = 0x0001_0012;
     /// node → host: configuration rejected; 1 byte, a [`super::ConfigReject`] code.
     pub const REJECTED: u32 = 0x0001_0013;
-    /// host → node: the state `x_{i,1}`, `x_{i,2}` (`f32` LE each) of sample `t_k`, and the
-    /// command to tick. `t_k` is the timestamp (µs since the previous `SYNC`, the first
-    /// counting from 0), or, without one, the clock a `CLOCK` frame just set. A bus frame's
-    /// timestamp is likewise its delivery time since the previous `SYNC`.
+    /// The DBC id of the [`super::Tick`] record's payload (`docs/wire.dbc` `Sync`); never a
+    /// frame on the link.
     pub const SYNC: u32 = 0x0001_0080;
     /// host → node: the clock (µs, low 32 bits, `u32` LE, extended to 64 bits by
-    /// [`super::extend_clock`]), when a time is 2¹⁶ µs or more after the previous `SYNC`.
+    /// [`super::extend_clock`]), when a bus frame's delivery is 2¹⁶ µs or more after the
+    /// previous tick (the frame then follows without timestamp).
     pub const CLOCK: u32 = 0x0001_0081;
-    /// node → host: the quantized commands `q_1`, `q_2` written to the actuators.
-    pub const COMMAND: u32 = 0x0001_0300;
-    /// node → host: `u_1`, `u_2` before quantization.
-    pub const REPORT_U: u32 = 0x0001_0301;
-    /// node → host: the errors `e_1`, `e_2`.
-    pub const REPORT_E: u32 = 0x0001_0302;
-    /// node → host: the estimates `μ̂`, `ξ̂`.
-    pub const REPORT_EST: u32 = 0x0001_0303;
-    /// node → host: `λ̂` (`f32`), fault code (0 none, 1 invalid state, 2 non-finite result),
-    /// stale, missing and dropped neighbours, leader flags (bit 0 stale, bit 1 missing).
-    pub const REPORT_STATUS: u32 = 0x0001_0304;
-    /// node → host, last frame of a sample: instructions of the tick (`u32` LE), the tick's
-    /// SysTick resolution (`u32` LE, instructions per count).
-    pub const REPORT_COST: u32 = 0x0001_0305;
+    /// The DBC id of the [`super::Report`] record's payload (`docs/wire.dbc` `Report`); never
+    /// a frame on the link.
+    pub const REPORT: u32 = 0x0001_0300;
     /// host → node: report the statistics.
     pub const STATS_REQUEST: u32 = 0x0001_0090;
     /// node → host: stack high-water mark (bytes, `u32` LE), malformed bus frames received
@@ -170,15 +172,156 @@ impl Frame for PilFrame {
 }
 
 /// Longest SLCAN line: `T` + 8 id digits + DLC + 16 data digits + 4 timestamp digits + `\r`.
+/// Also the longest line a node receives (a tick record has at most 18 bytes).
 pub const SLCAN_MAX_LINE: usize = 31;
 
-/// One SLCAN command.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+/// The letters of this link's own records (module docs, "Two records of this link's own").
+pub mod record {
+    /// host → node: [`super::Tick`].
+    pub const TICK: u8 = b'k';
+    /// node → host: [`super::Report`].
+    pub const REPORT: u8 = b'y';
+}
+
+/// Longest record line: letter, 64 base64 digits of the 48-byte report, `\r`.
+pub const RECORD_MAX_LINE: usize = 66;
+
+/// The `k` record: sample `t_k` for the node.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Tick {
+    /// The state `x_{i,1}`, `x_{i,2}` (the node's sensor).
+    pub x: [f32; 2],
+    /// `t_k − t_{k−1}` [µs]; `None`: the same as the previous tick's (0 before the first).
+    pub dt_us: Option<u32>,
+}
+
+/// The `y` record: what the node did in one tick.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Report {
+    /// Quantized commands written to the actuators.
+    pub q: [f32; 2],
+    /// Commands before quantization.
+    pub u: [f32; 2],
+    /// Errors `e_1`, `e_2`.
+    pub e: [f32; 2],
+    /// Estimates `μ̂`, `ξ̂`, `λ̂`.
+    pub mu: f32,
+    /// See `mu`.
+    pub xi: f32,
+    /// See `mu`.
+    pub lambda: f32,
+    /// Fault code: 0 none, 1 invalid state, 2 non-finite result.
+    pub fault: u8,
+    /// Stale neighbours.
+    pub stale: u8,
+    /// Missing neighbours.
+    pub missing: u8,
+    /// Leader flags: bit 0 stale, bit 1 missing.
+    pub leader: u8,
+    /// Instructions of the tick.
+    pub instructions: u32,
+    /// Instructions per count of the tick's counter.
+    pub resolution: u32,
+}
+
+/// Bytes of a [`Report`]'s payload.
+pub const REPORT_BYTES: usize = 48;
+
+impl Report {
+    /// The payload: the nine `f32` (`q`, `u`, `e`, `μ̂`, `ξ̂`, `λ̂`), the four status bytes,
+    /// `instructions`, `resolution`; little-endian.
+    pub fn to_bytes(&self) -> [u8; REPORT_BYTES] {
+        let mut b = [0u8; REPORT_BYTES];
+        let floats = [
+            self.q[0],
+            self.q[1],
+            self.u[0],
+            self.u[1],
+            self.e[0],
+            self.e[1],
+            self.mu,
+            self.xi,
+            self.lambda,
+        ];
+        for (chunk, v) in b.chunks_exact_mut(4).zip(floats) {
+            chunk.copy_from_slice(&v.to_le_bytes());
+        }
+        b[36..40].copy_from_slice(&[self.fault, self.stale, self.missing, self.leader]);
+        b[40..44].copy_from_slice(&self.instructions.to_le_bytes());
+        b[44..48].copy_from_slice(&self.resolution.to_le_bytes());
+        b
+    }
+
+    /// The report of a payload; `None` unless it has [`REPORT_BYTES`] bytes.
+    pub fn from_bytes(b: &[u8]) -> Option<Self> {
+        let b: &[u8; REPORT_BYTES] = b.try_into().ok()?;
+        let mut w = [0u32; 12];
+        for (word, chunk) in w.iter_mut().zip(b.chunks_exact(4)) {
+            *word = u32::from_le_bytes([chunk[0], chunk[1], chunk[2], chunk[3]]);
+        }
+        let f = |k: usize| f32::from_bits(w[k]);
+        Some(Self {
+            q: [f(0), f(1)],
+            u: [f(2), f(3)],
+            e: [f(4), f(5)],
+            mu: f(6),
+            xi: f(7),
+            lambda: f(8),
+            fault: b[36],
+            stale: b[37],
+            missing: b[38],
+            leader: b[39],
+            instructions: w[10],
+            resolution: w[11],
+        })
+    }
+}
+
+fn encode_record(letter: u8, payload: &[u8], out: &mut [u8; RECORD_MAX_LINE]) -> usize {
+    out[0] = letter;
+    let n = STANDARD_NO_PAD
+        .encode_slice(payload, &mut out[1..RECORD_MAX_LINE - 1])
+        .unwrap_or(0);
+    out[n + 1] = b'\r';
+    n + 2
+}
+
+/// The line of a tick record (ending in `\r`) in `out`; returns its length.
+///
+/// ```
+/// use hil_mock::pil::{slcan_decode, tick_encode, Slcan, Tick, RECORD_MAX_LINE};
+/// let t = Tick { x: [0.5, -1.0], dt_us: None };
+/// let mut buf = [0u8; RECORD_MAX_LINE];
+/// let n = tick_encode(&t, &mut buf);
+/// assert_eq!(&buf[..n], b"kAAAAPwAAgL8\r");
+/// assert_eq!(slcan_decode(&buf[..n - 1]), Ok(Slcan::Tick(t)));
+/// ```
+pub fn tick_encode(tick: &Tick, out: &mut [u8; RECORD_MAX_LINE]) -> usize {
+    let mut b = [0u8; 12];
+    b[..4].copy_from_slice(&tick.x[0].to_le_bytes());
+    b[4..8].copy_from_slice(&tick.x[1].to_le_bytes());
+    let len = match tick.dt_us {
+        Some(dt) => {
+            b[8..].copy_from_slice(&dt.to_le_bytes());
+            12
+        }
+        None => 8,
+    };
+    encode_record(record::TICK, &b[..len], out)
+}
+
+/// The line of a report record (ending in `\r`) in `out`; returns its length.
+pub fn report_encode(report: &Report, out: &mut [u8; RECORD_MAX_LINE]) -> usize {
+    encode_record(record::REPORT, &report.to_bytes(), out)
+}
+
+/// One SLCAN command, or one of this link's own records.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Slcan {
     /// `t`, `T`, `r`, `R`: a frame.
     Frame(PilFrame),
     /// A frame followed by SLCAN's 4-digit timestamp extension (`Z1` mode of Lawicel
-    /// adapters, there in ms); on this link: µs since the last `SYNC`, see [`io::SYNC`].
+    /// adapters, there in ms); on this link: µs since the last [`Tick`].
     Timed(PilFrame, u16),
     /// `O`: open the channel.
     Open,
@@ -186,6 +329,10 @@ pub enum Slcan {
     Close,
     /// `S0`..`S8`: the standard bit-rate codes (10 k .. 1 Mbit/s).
     Bitrate(u8),
+    /// `k`: this link's tick record.
+    Tick(Tick),
+    /// `y`: this link's report record.
+    Report(Report),
 }
 
 /// Why an SLCAN line was rejected.
@@ -263,10 +410,11 @@ fn encode_line(frame: &PilFrame, ts: Option<u16>, out: &mut [u8; SLCAN_MAX_LINE]
     n + 1
 }
 
-/// Parse one SLCAN line (without its `\r`). Never panics.
+/// Parse one SLCAN line or record (without its `\r`). Never panics.
 pub fn slcan_decode(line: &[u8]) -> Result<Slcan, SlcanError> {
     let (&cmd, rest) = line.split_first().ok_or(SlcanError::UnknownCommand)?;
     let digits = match cmd {
+        record::TICK | record::REPORT => return decode_record(cmd, rest),
         b't' | b'r' => 3,
         b'T' | b'R' => 8,
         b'O' if rest.is_empty() => return Ok(Slcan::Open),
@@ -323,6 +471,24 @@ pub fn slcan_decode(line: &[u8]) -> Result<Slcan, SlcanError> {
         None => Slcan::Frame(frame),
         Some(t) => Slcan::Timed(frame, t),
     })
+}
+
+fn decode_record(letter: u8, digits: &[u8]) -> Result<Slcan, SlcanError> {
+    let mut b = [0u8; 64];
+    let n = STANDARD_NO_PAD
+        .decode_slice(digits, &mut b)
+        .map_err(|_| SlcanError::Malformed)?;
+    let u32_at = |k: usize| u32::from_le_bytes([b[k], b[k + 1], b[k + 2], b[k + 3]]);
+    match (letter, n) {
+        (record::TICK, 8 | 12) => Ok(Slcan::Tick(Tick {
+            x: [f32::from_bits(u32_at(0)), f32::from_bits(u32_at(4))],
+            dt_us: (n == 12).then(|| u32_at(8)),
+        })),
+        (record::REPORT, _) => Report::from_bytes(&b[..n])
+            .map(Slcan::Report)
+            .ok_or(SlcanError::Malformed),
+        _ => Err(SlcanError::Malformed),
+    }
 }
 
 /// Two `f32` as the 8 data bytes of a process-I/O frame (little-endian).
@@ -713,6 +879,13 @@ mod tests {
             b"T2000000000",
             b"r1011AA",
             b"S9",
+            b"k",
+            b"kAAAA",
+            b"kAAAAPwAAgL8A",
+            b"kAAAAPwAAgL8AAAAAAA",
+            b"kAAAAP!AAgL8",
+            b"y",
+            b"yAAAAPwAAgL8",
         ] {
             assert!(slcan_decode(line).is_err(), "{line:?}");
         }
@@ -727,6 +900,47 @@ mod tests {
         assert_eq!(n, SLCAN_MAX_LINE);
         assert_eq!(&buf[n - 5..n], b"BEEF\r");
         assert_eq!(slcan_decode(&buf[..n - 1]), Ok(Slcan::Timed(f, 0xBEEF)));
+        assert!(slcan_decode(&buf[..n - 2]).is_err());
+    }
+
+    #[test]
+    fn records_round_trip_and_reject_garbage() {
+        let mut buf = [0u8; RECORD_MAX_LINE];
+        for tick in [
+            Tick {
+                x: [f32::MIN_POSITIVE, -0.0],
+                dt_us: Some(u32::MAX),
+            },
+            Tick {
+                x: [f32::NAN, 1e30],
+                dt_us: None,
+            },
+        ] {
+            let n = tick_encode(&tick, &mut buf);
+            assert!(n <= 18);
+            let Ok(Slcan::Tick(back)) = slcan_decode(&buf[..n - 1]) else {
+                panic!("{:?}", &buf[..n]);
+            };
+            assert_eq!(back.x.map(f32::to_bits), tick.x.map(f32::to_bits));
+            assert_eq!(back.dt_us, tick.dt_us);
+        }
+        let report = Report {
+            q: [1.0, -2.0],
+            u: [3.5, f32::INFINITY],
+            e: [1e-9, -1e9],
+            mu: 0.25,
+            xi: 7.0,
+            lambda: 1.5,
+            fault: 2,
+            stale: 3,
+            missing: 4,
+            leader: 3,
+            instructions: 1_600,
+            resolution: 40,
+        };
+        let n = report_encode(&report, &mut buf);
+        assert_eq!(n, RECORD_MAX_LINE);
+        assert_eq!(slcan_decode(&buf[..n - 1]), Ok(Slcan::Report(report)));
         assert!(slcan_decode(&buf[..n - 2]).is_err());
     }
 }

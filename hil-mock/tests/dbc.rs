@@ -18,51 +18,35 @@ const IO_MESSAGES: &[(&str, u32, &str, &[Signal])] = &[
         "Sync",
         io::SYNC,
         "Host",
-        &[("x1", 0, 32, 'f'), ("x2", 32, 32, 'f')],
+        &[
+            ("x1", 0, 32, 'f'),
+            ("x2", 32, 32, 'f'),
+            ("dt_us", 64, 32, 'u'),
+        ],
     ),
     ("Clock", io::CLOCK, "Host", &[("t_us", 0, 32, 'u')]),
     (
-        "Command",
-        io::COMMAND,
-        "Node",
-        &[("q1", 0, 32, 'f'), ("q2", 32, 32, 'f')],
-    ),
-    (
-        "ReportU",
-        io::REPORT_U,
-        "Node",
-        &[("u1", 0, 32, 'f'), ("u2", 32, 32, 'f')],
-    ),
-    (
-        "ReportE",
-        io::REPORT_E,
-        "Node",
-        &[("e1", 0, 32, 'f'), ("e2", 32, 32, 'f')],
-    ),
-    (
-        "ReportEst",
-        io::REPORT_EST,
-        "Node",
-        &[("mu", 0, 32, 'f'), ("xi", 32, 32, 'f')],
-    ),
-    (
-        "ReportStatus",
-        io::REPORT_STATUS,
+        "Report",
+        io::REPORT,
         "Node",
         &[
-            ("lambda", 0, 32, 'f'),
-            ("fault", 32, 8, 'u'),
-            ("stale", 40, 8, 'u'),
-            ("missing", 48, 8, 'u'),
-            ("leader_stale", 56, 1, 'u'),
-            ("leader_missing", 57, 1, 'u'),
+            ("q1", 0, 32, 'f'),
+            ("q2", 32, 32, 'f'),
+            ("u1", 64, 32, 'f'),
+            ("u2", 96, 32, 'f'),
+            ("e1", 128, 32, 'f'),
+            ("e2", 160, 32, 'f'),
+            ("mu", 192, 32, 'f'),
+            ("xi", 224, 32, 'f'),
+            ("lambda", 256, 32, 'f'),
+            ("fault", 288, 8, 'u'),
+            ("stale", 296, 8, 'u'),
+            ("missing", 304, 8, 'u'),
+            ("leader_stale", 312, 1, 'u'),
+            ("leader_missing", 313, 1, 'u'),
+            ("instructions", 320, 32, 'u'),
+            ("resolution", 352, 32, 'u'),
         ],
-    ),
-    (
-        "ReportCost",
-        io::REPORT_COST,
-        "Node",
-        &[("instructions", 0, 32, 'u'), ("resolution", 32, 32, 'u')],
     ),
     (
         "Stats",
@@ -131,8 +115,12 @@ fn expected() -> String {
         "CM_ SG_ {LEADER_ID} no_value \"the sender had no finite value\";\n"
     ));
     s.push_str(&format!(
-        "CM_ BO_ {} \"PIL link only (docs/NETWORK.md 9): state of sample t_k; t_k is the SLCAN timestamp\";\n",
+        "CM_ BO_ {} \"PIL link only (docs/NETWORK.md 9): payload of the k (tick) record, base64 on the link, not a CAN frame; dt_us only when the interval changed (8 bytes otherwise)\";\n",
         io::SYNC | EXTENDED
+    ));
+    s.push_str(&format!(
+        "CM_ BO_ {} \"PIL link only (docs/NETWORK.md 9): payload of the y (report) record, base64 on the link, not a CAN frame\";\n",
+        io::REPORT | EXTENDED
     ));
     for (_, id, _, signals) in IO_MESSAGES {
         for (sig, _, _, kind) in *signals {

@@ -1,22 +1,25 @@
 //! Agent-steps per second of the whole loop (controller step + RK4 plant + ideal link + faults +
-//! metrics, no file output), on one thread: Example 1 (4 agents, 10 s at h = 1 ms), and
-//! Example 1's plant, controller and faults on seeded random graphs of 100, 1,000 and 10,000
-//! agents (spanning tree from agent 1 plus two random links per agent, initial states drawn in
-//! Example 1's box), each run about 400,000 agent-steps. Criterion's throughput is agent-steps per
-//! second; its inverse is the cost per agent-step (docs/SCALING.md).
+//! metrics, no file output), on one thread: Example 1 (4 agents, 10 s at h = 1 ms), the same with
+//! the plant written as expressions (`[plant] model = "custom"`), and Example 1's plant,
+//! controller and faults on seeded random graphs of 100, 1,000 and 10,000 agents (spanning tree
+//! from agent 1 plus two random links per agent, initial states drawn in Example 1's box), each
+//! run about 400,000 agent-steps. Criterion's throughput is agent-steps per second; its inverse
+//! is the cost per agent-step (docs/SCALING.md). Also the cost of one plant right-hand side,
+//! built-in and custom.
 
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use host_sim::{
     generate::{self, Family, GraphRecipe},
+    plant::{Example1, Plant, PlantModel},
     run::simulate,
     scenario::{self, Setup},
 };
 
-fn example1() -> Setup {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../scenarios/example1.toml");
-    scenario::load(path.as_ref(), &[]).expect("example1.toml")
+fn shipped(file: &str) -> Setup {
+    let path = format!("{}/../scenarios/{file}", env!("CARGO_MANIFEST_DIR"));
+    scenario::load(path.as_ref(), &[]).expect("shipped scenario")
 }
 
 /// Example 1 with `n` agents on a random graph, `t_end` long.
@@ -31,7 +34,7 @@ fn random(n: usize, t_end: f64) -> Setup {
         capacity: host_sim::graph::MAX_NEIGHBOURS,
     })
     .expect("random graph");
-    let mut s = example1().scenario;
+    let mut s = shipped("example1.toml").scenario;
     s.name = format!("random-{n}");
     s.simulation.t_end = t_end;
     s.graph.neighbours = Some(
@@ -53,7 +56,11 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("agent_steps");
     g.sample_size(10);
     for (label, setup) in [
-        ("example1_4_agents_10s", example1()),
+        ("example1_4_agents_10s", shipped("example1.toml")),
+        (
+            "example1_custom_4_agents_10s",
+            shipped("example1-custom.toml"),
+        ),
         ("random_100_agents_4s", random(100, 4.0)),
         ("random_1000_agents_0.4s", random(1000, 0.4)),
         ("random_10000_agents_0.04s", random(10_000, 0.04)),
@@ -72,5 +79,27 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+/// One evaluation of Example 1's `f(t, x, a)`: the built-in model and its expressions.
+fn rhs(c: &mut Criterion) {
+    let PlantModel::Custom(custom) = shipped("example1-custom.toml").plant else {
+        panic!("example1-custom.toml is a custom plant");
+    };
+    let mut g = c.benchmark_group("plant_rhs");
+    let (x, a) = ([0.02, 0.8], [0.3, -0.1]);
+    g.bench_function("example1_built_in", |b| {
+        b.iter(|| {
+            let t = Plant::<2, 2>::at(&Example1, black_box(1.5));
+            Plant::<2, 2>::derivative(&Example1, &t, black_box(&x), black_box(&a))
+        })
+    });
+    g.bench_function("example1_custom", |b| {
+        b.iter(|| {
+            let t = Plant::<2, 2>::at(&*custom, black_box(1.5));
+            Plant::<2, 2>::derivative(&*custom, &t, black_box(&x), black_box(&a))
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench, rhs);
 criterion_main!(benches);

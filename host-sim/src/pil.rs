@@ -6,16 +6,19 @@
 //! [`hil_mock::pil`] (SLCAN) with each node.
 //!
 //! Per sample `t_k` (as [`hil_mock::network::CanNetwork::step`] does for host-compiled nodes):
-//! the bus runs to `t_k`; each delivered frame goes to every other node that is not bus-off,
-//! preceded by the delivery time (`CLOCK`); then `SENSOR` (the state as `f32`) and `SYNC`
-//! (`t_k`) go to every node, which ticks and answers with its bus frame, its commands and
-//! reports; the host submits the nodes' frames and the leader's `y_d(t_k)` at `t_k`. All
-//! nodes work on a sample at the same time (one emulator per core).
+//! the bus runs to `t_k`; each delivered frame goes to every other node that is not bus-off and
+//! accepts it, with its delivery time; then the tick record (the state as `f32`, `t_k`) goes
+//! to every node, which ticks and answers with its bus frame and its report record; the host
+//! submits the nodes' frames and the leader's `y_d(t_k)` at `t_k`. All nodes work on a sample
+//! at the same time; each node's input of a sample is one `write`.
 //!
 //! An emulator that exits (a firmware panic ends QEMU through semihosting), sends something
 //! that is not the expected answer, or does not answer within [`ANSWER_TIMEOUT`] stops the run
 //! with an error naming the agent. Every emulator is killed when the run ends, on an error
-//! and on Ctrl-C / SIGTERM (a handler kills the registered emulators, then exits with 130).
+//! and on Ctrl-C / SIGTERM (a handler kills the registered emulators, then exits with 130);
+//! and, as no handler sees a SIGKILL, each runs under `setpriv --pdeathsig KILL` (util-linux),
+//! so the kernel kills it when host-sim dies, however that happens. Each emulator is pinned
+//! to one CPU (`taskset`), see [`Launch`].
 
 use std::{
     io::{BufReader, Read, Write},
@@ -33,7 +36,7 @@ use embedded_can::Frame;
 use hil_mock::{
     bus::{Bus, Nanos},
     mock::MockFrame,
-    pil::{self, io, PilFrame, Slcan, SLCAN_MAX_LINE},
+    pil::{self, io, PilFrame, Report, Slcan, Tick, RECORD_MAX_LINE, SLCAN_MAX_LINE},
     wire::{self, Source},
     NodeConfig,
 };
@@ -59,6 +62,105 @@ pub const FIRMWARE_ENV: &str = "HOST_SIM_NODE_FW";
 /// Longest wait for one answer of a node (start-up or one sample); a healthy node answers a
 /// sample in well under a millisecond of host time.
 pub const ANSWER_TIMEOUT: Duration = Duration::from_secs(20);
+/// Environment variable replacing [`ANSWER_TIMEOUT`] (seconds; for tests of the timeout).
+pub const ANSWER_TIMEOUT_ENV: &str = "HOST_SIM_PIL_ANSWER_TIMEOUT";
+/// The launcher that makes the kernel kill an emulator when host-sim dies
+/// (`prctl(PR_SET_PDEATHSIG)`, kept across its `exec` of QEMU).
+pub const PDEATHSIG_LAUNCHER: &str = "setpriv";
+/// The launcher that pins an emulator to one CPU.
+pub const PIN_LAUNCHER: &str = "taskset";
+
+/// [`ANSWER_TIMEOUT`], or the one [`ANSWER_TIMEOUT_ENV`] sets.
+fn answer_timeout() -> Result<Duration> {
+    let Some(v) = std::env::var_os(ANSWER_TIMEOUT_ENV) else {
+        return Ok(ANSWER_TIMEOUT);
+    };
+    v.to_str()
+        .and_then(|s| s.trim().parse::<f64>().ok())
+        .and_then(|s| Duration::try_from_secs_f64(s).ok())
+        .filter(|d| !d.is_zero())
+        .ok_or_else(|| {
+            Error::invalid(
+                ANSWER_TIMEOUT_ENV,
+                format!("{v:?} is not a positive number of seconds"),
+            )
+        })
+}
+
+/// How every emulator is started: the launchers before `qemu-system-arm` (both from util-linux,
+/// on every Debian or Ubuntu system; each is left out, with a warning for the first, when it is
+/// not on `PATH`).
+struct Launch {
+    /// `setpriv --pdeathsig KILL`: the kernel kills the emulator when host-sim dies, also by
+    /// SIGKILL, which no handler sees.
+    pdeathsig: Option<PathBuf>,
+    /// `taskset -c <cpu>`; one CPU per emulator, in turn over the CPUs host-sim may use. Both
+    /// of QEMU's busy threads (main loop, virtual CPU) then share a core: every byte into a
+    /// node is a hand-over between them, and on one core it costs about a quarter less CPU
+    /// time than between two.
+    pin: Option<PathBuf>,
+    cpus: Vec<usize>,
+}
+
+impl Launch {
+    fn new() -> Self {
+        let pdeathsig = find_in_path(PDEATHSIG_LAUNCHER);
+        if pdeathsig.is_none() {
+            eprintln!(
+                "host-sim: warning: {PDEATHSIG_LAUNCHER} (util-linux) not found: a SIGKILL of \
+                 host-sim would leave the emulators running"
+            );
+        }
+        Self {
+            pdeathsig,
+            pin: find_in_path(PIN_LAUNCHER),
+            cpus: allowed_cpus(),
+        }
+    }
+
+    /// The command that starts agent `agent`'s (1-based) emulator.
+    fn command(&self, agent: usize) -> Command {
+        let mut argv: Vec<std::ffi::OsString> = Vec::new();
+        if let Some(p) = &self.pdeathsig {
+            argv.extend([p.as_os_str().into(), "--pdeathsig".into(), "KILL".into()]);
+        }
+        let cpu = self
+            .cpus
+            .get((agent + self.cpus.len() - 1) % self.cpus.len().max(1));
+        if let (Some(p), Some(cpu)) = (&self.pin, cpu) {
+            argv.extend([p.as_os_str().into(), "-c".into(), cpu.to_string().into()]);
+        }
+        argv.push(QEMU.into());
+        let mut c = Command::new(&argv[0]);
+        c.args(&argv[1..]);
+        c
+    }
+}
+
+/// The CPUs this process may run on (`Cpus_allowed_list` of `/proc/self/status`, e.g.
+/// `0-3,8`); empty when unknown.
+fn allowed_cpus() -> Vec<usize> {
+    let Ok(status) = std::fs::read_to_string("/proc/self/status") else {
+        return Vec::new();
+    };
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("Cpus_allowed_list:"))
+        .map_or_else(Vec::new, cpu_list)
+}
+
+/// The CPUs of a Linux CPU list (`0-3,8`), ascending; empty if it is malformed.
+fn cpu_list(list: &str) -> Vec<usize> {
+    let mut cpus = Vec::new();
+    for part in list.trim().split(',') {
+        let (a, b) = part.split_once('-').unwrap_or((part, part));
+        match (a.trim().parse::<usize>(), b.trim().parse::<usize>()) {
+            (Ok(a), Ok(b)) if a <= b => cpus.extend(a..=b),
+            _ => return Vec::new(),
+        }
+    }
+    cpus
+}
 
 /// The firmware built in the source tree: `node-fw/target/thumbv7em-none-eabihf/release/node-fw`.
 pub fn default_firmware() -> PathBuf {
@@ -88,11 +190,19 @@ fn kill_all() {
     eprintln!("host-sim: interrupted; emulators stopped");
 }
 
-/// What an emulator printed: an SLCAN frame, or anything else (a panic message, `\a`).
+/// What an emulator printed: an SLCAN frame, a report record, or anything else (a panic
+/// message, `\a`).
 enum Output {
     Frame(PilFrame),
+    Report(Report),
     Text(String),
     Eof,
+}
+
+/// A well-formed line of an emulator.
+enum Answer {
+    Frame(PilFrame),
+    Report(Report),
 }
 
 /// One node's emulator.
@@ -104,13 +214,18 @@ struct Emulator {
     stderr: Arc<Mutex<String>>,
     /// Bytes for the next write.
     out: Vec<u8>,
-    /// Time of the last `SYNC` (the origin of timestamps) [µs].
+    /// Longest wait for an answer.
+    timeout: Duration,
+    /// Time of the last tick (the origin of timestamps) [µs].
     sync_us: u64,
+    /// Interval before the last tick [µs] (the node's, once it has one).
+    tick_dt_us: Option<u32>,
 }
 
 impl Emulator {
-    fn spawn(agent: usize, firmware: &Path) -> Result<Self> {
-        let mut child = Command::new(QEMU)
+    fn spawn(agent: usize, firmware: &Path, timeout: Duration, launch: &Launch) -> Result<Self> {
+        let mut child = launch
+            .command(agent)
             .args(["-M", "mps2-an386", "-cpu", "cortex-m4", "-nographic"])
             .args(["-monitor", "none", "-serial", "stdio"])
             .args(["-semihosting-config", "enable=on,target=native"])
@@ -152,7 +267,9 @@ impl Emulator {
             rx,
             stderr: err,
             out: Vec::with_capacity(1024),
+            timeout,
             sync_us: 0,
+            tick_dt_us: None,
         })
     }
 
@@ -168,7 +285,7 @@ impl Emulator {
         }
     }
 
-    /// `frame` at time `t_us`: timestamped relative to the last `SYNC`, or after a `CLOCK`
+    /// `frame` at time `t_us`: timestamped relative to the last tick, or after a `CLOCK`
     /// frame when that does not fit 16 bits.
     fn queue_at(&mut self, frame: &PilFrame, t_us: u64) {
         let mut buf = [0u8; SLCAN_MAX_LINE];
@@ -182,6 +299,22 @@ impl Emulator {
         self.out.extend_from_slice(&buf[..n]);
     }
 
+    /// The tick of sample time `t_us` with the state `x`; the interval only when it changed.
+    fn queue_tick(&mut self, x: [f32; 2], t_us: u64) -> Result<()> {
+        let dt = u32::try_from(t_us.saturating_sub(self.sync_us))
+            .map_err(|_| self.failure("samples more than 2^32 µs apart"))?;
+        let tick = Tick {
+            x,
+            dt_us: (self.tick_dt_us != Some(dt)).then_some(dt),
+        };
+        let mut buf = [0u8; RECORD_MAX_LINE];
+        let n = pil::tick_encode(&tick, &mut buf);
+        self.out.extend_from_slice(&buf[..n]);
+        self.sync_us = t_us;
+        self.tick_dt_us = Some(dt);
+        Ok(())
+    }
+
     fn flush(&mut self) -> Result<()> {
         let r = self
             .stdin
@@ -191,10 +324,11 @@ impl Emulator {
         r.map_err(|e| self.failure(&format!("cannot write to its UART ({e})")))
     }
 
-    /// The next frame, or the error that names the agent.
-    fn next_frame(&mut self, waiting_for: &str) -> Result<PilFrame> {
-        let what = match self.rx.recv_timeout(ANSWER_TIMEOUT) {
-            Ok(Output::Frame(f)) => return Ok(f),
+    /// The next frame or report, or the error that names the agent.
+    fn next_answer(&mut self, waiting_for: &str) -> Result<Answer> {
+        let what = match self.rx.recv_timeout(self.timeout) {
+            Ok(Output::Frame(f)) => return Ok(Answer::Frame(f)),
+            Ok(Output::Report(r)) => return Ok(Answer::Report(r)),
             Ok(Output::Text(t)) => format!("sent {t:?} while the host waited for {waiting_for}"),
             Ok(Output::Eof) | Err(RecvTimeoutError::Disconnected) => {
                 // Let the stderr reader finish.
@@ -203,10 +337,20 @@ impl Emulator {
             }
             Err(RecvTimeoutError::Timeout) => format!(
                 "no answer within {} s while the host waited for {waiting_for}",
-                ANSWER_TIMEOUT.as_secs()
+                self.timeout.as_secs_f64()
             ),
         };
         Err(self.failure(&what))
+    }
+
+    /// The next frame, or the error that names the agent.
+    fn next_frame(&mut self, waiting_for: &str) -> Result<PilFrame> {
+        match self.next_answer(waiting_for)? {
+            Answer::Frame(f) => Ok(f),
+            Answer::Report(_) => Err(self.failure(&format!(
+                "sent a report while the host waited for {waiting_for}"
+            ))),
+        }
     }
 
     fn failure(&self, what: &str) -> Error {
@@ -264,6 +408,7 @@ fn read_output(mut stdout: impl Read, tx: &mpsc::Sender<Output>) {
             }
             let msg = match pil::slcan_decode(&line) {
                 Ok(Slcan::Frame(f) | Slcan::Timed(f, _)) => Output::Frame(f),
+                Ok(Slcan::Report(r)) => Output::Report(r),
                 _ => Output::Text(String::from_utf8_lossy(&line).into_owned()),
             };
             line.clear();
@@ -324,6 +469,8 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
             ));
         }
         let firmware = std::env::var_os(FIRMWARE_ENV).map_or_else(default_firmware, PathBuf::from);
+        let timeout = answer_timeout()?;
+        let launch = Launch::new();
         if !firmware.is_file() {
             return Err(Error::invalid(
                 "network.kind",
@@ -371,7 +518,7 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
             }
             pinned.push(ctrl.pinned);
             neighbours.push(heard.iter().map(|k| k + 1).collect());
-            let mut emu = Emulator::spawn(i + 1, &firmware)?;
+            let mut emu = Emulator::spawn(i + 1, &firmware, timeout, &launch)?;
             let words = pil::encode_config(&node, &ctrl);
             let words = words.as_slice().ok_or_else(|| {
                 Error::invalid("network.kind", "configuration too large for the PIL link")
@@ -484,68 +631,48 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
             varpi: f32::NAN,
             status: StepStatus::default(),
         };
-        let pair = |f: &PilFrame| {
-            pil::unpack_u32x2(f.data()).map(|(a, b)| (f32::from_bits(a), f32::from_bits(b)))
-        };
         loop {
             let emu = &mut self.emus[j];
-            let f = emu.next_frame("the answer to SYNC")?;
-            let Some(id) = f.io_id() else {
-                let frame = MockFrame::new(f.id(), f.data())
-                    .ok_or_else(|| emu.failure("sent a frame the bus cannot carry"))?;
-                // Refusals (silent, bus-off) are counted by the bus.
-                let _ = self.bus.submit(j + 1, t_ns, frame);
-                continue;
-            };
-            let bad = || emu.failure(&format!("malformed report {f:?}"));
-            match id {
-                io::COMMAND => {
-                    let (a, b) = pair(&f).ok_or_else(bad)?;
-                    out.q[0] = a;
-                    out.q[1] = b;
-                }
-                io::REPORT_U => {
-                    let (a, b) = pair(&f).ok_or_else(bad)?;
-                    out.u[0] = a;
-                    out.u[1] = b;
-                }
-                io::REPORT_E => {
-                    let (a, b) = pair(&f).ok_or_else(bad)?;
-                    out.e[0] = a;
-                    out.e[1] = b;
-                }
-                io::REPORT_EST => {
-                    let (a, b) = pair(&f).ok_or_else(bad)?;
-                    out.estimates.mu = a;
-                    out.estimates.xi = b;
-                }
-                io::REPORT_STATUS => {
-                    let [l0, l1, l2, l3, fault, stale, missing, leader] = *f.data() else {
-                        return Err(bad());
+            let f = match emu.next_answer("the answer to a tick")? {
+                Answer::Report(r) => {
+                    // N = M = 2 (checked in `new`).
+                    for (dst, src) in [(&mut out.q[..], r.q), (&mut out.u[..], r.u)]
+                        .into_iter()
+                        .chain([(&mut out.e[..], r.e)])
+                    {
+                        dst.iter_mut().zip(src).for_each(|(d, s)| *d = s);
+                    }
+                    out.estimates = Estimates {
+                        mu: r.mu,
+                        xi: r.xi,
+                        lambda: r.lambda,
                     };
-                    out.estimates.lambda = f32::from_le_bytes([l0, l1, l2, l3]);
-                    out.status.fault = match fault {
+                    out.status.fault = match r.fault {
                         0 => None,
                         1 => Some(StepFault::InvalidState),
                         _ => Some(StepFault::NonFiniteResult),
                     };
                     out.status.links = LinkReport {
-                        stale_neighbours: stale,
-                        missing_neighbours: missing,
-                        leader_stale: leader & 1 != 0,
-                        leader_missing: leader & 2 != 0,
+                        stale_neighbours: r.stale,
+                        missing_neighbours: r.missing,
+                        leader_stale: r.leader & 1 != 0,
+                        leader_missing: r.leader & 2 != 0,
                         ..LinkReport::default()
                     };
-                    self.stale_samples += u64::from(stale);
-                }
-                io::REPORT_COST => {
-                    let (cost, res) = pil::unpack_u32x2(f.data()).ok_or_else(bad)?;
-                    self.costs[j].push(cost);
-                    self.resolution = res;
+                    self.stale_samples += u64::from(r.stale);
+                    self.costs[j].push(r.instructions);
+                    self.resolution = r.resolution;
                     return Ok(out);
                 }
-                _ => return Err(bad()),
+                Answer::Frame(f) => f,
+            };
+            if f.io_id().is_some() {
+                return Err(emu.failure(&format!("unexpected frame {f:?} in a tick's answer")));
             }
+            let frame = MockFrame::new(f.id(), f.data())
+                .ok_or_else(|| emu.failure("sent a frame the bus cannot carry"))?;
+            // Refusals (silent, bus-off) are counted by the bus.
+            let _ = self.bus.submit(j + 1, t_ns, frame);
         }
     }
 
@@ -590,11 +717,7 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
         }
         let t_us = t_ns / 1000;
         for (emu, xi) in self.emus.iter_mut().zip(x) {
-            let state = pil::pack_f32x2(xi[0] as f32, xi[1] as f32);
-            if let Some(f) = PilFrame::io(io::SYNC, &state) {
-                emu.queue_at(&f, t_us);
-            }
-            emu.sync_us = t_us;
+            emu.queue_tick([xi[0] as f32, xi[1] as f32], t_us)?;
             emu.flush()?;
         }
         for j in 0..self.emus.len() {
@@ -681,5 +804,20 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
         }
         self.emus.clear();
         self.trace.as_mut().map_or(Ok(()), TraceWriter::finish)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::cpu_list;
+
+    #[test]
+    fn cpu_lists_parse() {
+        assert_eq!(cpu_list("0-1\n"), vec![0, 1]);
+        assert_eq!(cpu_list(" 0-2,8,10-11"), vec![0, 1, 2, 8, 10, 11]);
+        assert_eq!(cpu_list("3"), vec![3]);
+        for bad in ["", "2-1", "a", "0-"] {
+            assert!(cpu_list(bad).is_empty(), "{bad:?}");
+        }
     }
 }

@@ -12,7 +12,7 @@ use crate::{
     metrics::{Metrics, Summary},
     network::{CanAgents, NetworkKind},
     pil::PilAgents,
-    plant::{Plant, PlantModel},
+    plant::{with_sizes, Custom, Plant, PlantModel},
     report::{self, csv::CsvObserver, plots::Recorder, spread::Spread},
     scenario::{self, Scenario, Setup},
     sim::{Agents, Linked, Observer, Sim, World},
@@ -82,21 +82,29 @@ pub fn run(setup: &Setup, opts: &RunOptions) -> Result<RunResult> {
             "needs a bus: network.kind = \"can\" or \"pil\"",
         )),
         NetworkKind::Ideal => run_with_link(setup, opts, IdealLink),
-        NetworkKind::Can => match setup.plant {
+        NetworkKind::Can => match &setup.plant {
             PlantModel::Example1(p) => {
-                run_with::<_, _, 2, 2>(setup, p, can_agents(setup, trace)?, opts)
+                run_with::<_, _, 2, 2>(setup, *p, can_agents(setup, trace)?, opts)
             }
             PlantModel::Manipulator(p) => {
-                run_with::<_, _, 2, 2>(setup, p, can_agents(setup, trace)?, opts)
+                run_with::<_, _, 2, 2>(setup, *p, can_agents(setup, trace)?, opts)
             }
+            PlantModel::Custom(p) => {
+                run_with::<_, _, 2, 2>(setup, (**p).clone(), can_agents(setup, trace)?, opts)
+            }
+            PlantModel::Library { .. } => Err(library()),
         },
-        NetworkKind::Pil => match setup.plant {
+        NetworkKind::Pil => match &setup.plant {
             PlantModel::Example1(p) => {
-                run_with::<_, _, 2, 2>(setup, p, PilAgents::new(setup, trace)?, opts)
+                run_with::<_, _, 2, 2>(setup, *p, PilAgents::new(setup, trace)?, opts)
             }
             PlantModel::Manipulator(p) => {
-                run_with::<_, _, 2, 2>(setup, p, PilAgents::new(setup, trace)?, opts)
+                run_with::<_, _, 2, 2>(setup, *p, PilAgents::new(setup, trace)?, opts)
             }
+            PlantModel::Custom(p) => {
+                run_with::<_, _, 2, 2>(setup, (**p).clone(), PilAgents::new(setup, trace)?, opts)
+            }
+            PlantModel::Library { .. } => Err(library()),
         },
     }
 }
@@ -104,10 +112,61 @@ pub fn run(setup: &Setup, opts: &RunOptions) -> Result<RunResult> {
 /// Runs `setup` with the outputs of `opts`, host-sim's controllers over `link` (e.g. a bus
 /// model; `[network]` is not consulted); dispatches on the plant model (and so its `(n, m)`).
 pub fn run_with_link<L: LinkModel>(setup: &Setup, opts: &RunOptions, link: L) -> Result<RunResult> {
-    match setup.plant {
-        PlantModel::Example1(p) => run_with::<_, _, 2, 2>(setup, p, linked(setup, link)?, opts),
-        PlantModel::Manipulator(p) => run_with::<_, _, 2, 2>(setup, p, linked(setup, link)?, opts),
+    match &setup.plant {
+        PlantModel::Example1(p) => run_with::<_, _, 2, 2>(setup, *p, linked(setup, link)?, opts),
+        PlantModel::Manipulator(p) => run_with::<_, _, 2, 2>(setup, *p, linked(setup, link)?, opts),
+        PlantModel::Custom(p) => {
+            with_sizes!(p.n(), p.m(), run_custom(setup, opts, (**p).clone(), link))
+        }
+        PlantModel::Library { .. } => Err(library()),
     }
+}
+
+fn library() -> Error {
+    Error::invalid(
+        "plant.model",
+        "a plant given in Rust runs through host_sim::run::run_plant",
+    )
+}
+
+/// Runs `setup` (from [`crate::scenario::validate_with_plant`] with `N`, `M`) with a plant
+/// given in Rust, host-sim's controllers over the ideal link, the outputs of `opts`. The plant
+/// is shared by the threads that integrate a large group (`Sync`).
+pub fn run_plant<P: Plant<N, M> + Sync, const N: usize, const M: usize>(
+    setup: &Setup,
+    plant: P,
+    opts: &RunOptions,
+) -> Result<RunResult>
+where
+    P::Time: Sync,
+{
+    if (setup.n(), setup.m()) != (N, M) {
+        return Err(Error::invalid(
+            "plant.model",
+            format!(
+                "the scenario was checked for n = {}, m = {}, the plant has n = {N}, m = {M}",
+                setup.n(),
+                setup.m()
+            ),
+        ));
+    }
+    if setup.scenario.network.kind != NetworkKind::Ideal {
+        return Err(Error::invalid(
+            "network.kind",
+            "a plant given in Rust runs over the ideal link",
+        ));
+    }
+    run_with::<_, _, N, M>(setup, plant, linked(setup, IdealLink)?, opts)
+}
+
+/// A custom plant of `N` states and `M` actuators under host-sim's controllers over `link`.
+fn run_custom<const N: usize, const M: usize>(
+    setup: &Setup,
+    opts: &RunOptions,
+    plant: Custom,
+    link: impl LinkModel,
+) -> Result<RunResult> {
+    run_with::<_, _, N, M>(setup, plant, linked(setup, link)?, opts)
 }
 
 /// What the simulation loop needs of `setup`: leader, faults, initial states and timing.

@@ -15,7 +15,7 @@ use crate::{
     graph::{Graph, GraphSpec, MAX_NEIGHBOURS},
     leader::Leader,
     network::spec::{self as network, NetworkSpec},
-    plant::{PlantModel, PlantSpec},
+    plant::{with_sizes, PlantModel, PlantSpec},
 };
 
 /// A whole scenario as written in TOML; every key is optional (docs/SCENARIO.md).
@@ -342,30 +342,7 @@ impl Setup {
 
     /// Validates every agent's controller configuration (as `Controller::new` will).
     pub fn check_controllers(&self) -> Result<()> {
-        match (self.n(), self.m()) {
-            (2, 2) => self.check_controllers_of::<2, 2>(),
-            (n, m) => Err(Error::invalid(
-                "plant.model",
-                format!("n = {n}, m = {m} is not supported (supported: n = 2, m = 2)"),
-            )),
-        }
-    }
-
-    fn check_controllers_of<const N: usize, const M: usize>(&self) -> Result<()> {
-        for i in 0..self.agents() {
-            let cfg = self.controller_config::<N>(i)?;
-            Controller::<N, M, MAX_NEIGHBOURS>::new(&cfg).map_err(|e| {
-                let auto_gains = self.scenario.controller.c1.is_none();
-                let key = config_error_key(&e, i, auto_gains);
-                let why = if key == "controller.ts" && auto_gains {
-                    " (the gains c1, c2 of LAW §3 computed from ts, zeta, p, eta, tau)"
-                } else {
-                    ""
-                };
-                Error::invalid(key, format!("{e}{why} (agent {})", i + 1))
-            })?;
-        }
-        Ok(())
+        with_sizes!(self.n(), self.m(), check_controllers_of(self))
     }
 
     /// The controller configuration of agent `i` (0-based), for state order `N`.
@@ -464,6 +441,24 @@ impl Setup {
             safety: self.scenario.safety.config(),
         })
     }
+}
+
+/// [`Setup::check_controllers`] for state order `N` and `M` actuators.
+fn check_controllers_of<const N: usize, const M: usize>(setup: &Setup) -> Result<()> {
+    for i in 0..setup.agents() {
+        let cfg = setup.controller_config::<N>(i)?;
+        Controller::<N, M, MAX_NEIGHBOURS>::new(&cfg).map_err(|e| {
+            let auto_gains = setup.scenario.controller.c1.is_none();
+            let key = config_error_key(&e, i, auto_gains);
+            let why = if key == "controller.ts" && auto_gains {
+                " (the gains c1, c2 of LAW §3 computed from ts, zeta, p, eta, tau)"
+            } else {
+                ""
+            };
+            Error::invalid(key, format!("{e}{why} (agent {})", i + 1))
+        })?;
+    }
+    Ok(())
 }
 
 /// The scenario key behind a controller-core [`ConfigError`] of agent `i` (0-based): the
@@ -805,7 +800,17 @@ fn finite(v: f64, key: &str) -> Result<()> {
 }
 
 /// Checks the scenario and resolves graph, plant, initial states and faults.
-pub fn validate(mut scenario: Scenario) -> Result<Setup> {
+pub fn validate(scenario: Scenario) -> Result<Setup> {
+    validate_plant(scenario, None)
+}
+
+/// [`validate`] for a plant given in Rust of `n` states and `m` actuators (run it with
+/// [`crate::run::run_plant`]); of `[plant]` only `x0` is read.
+pub fn validate_with_plant(scenario: Scenario, n: usize, m: usize) -> Result<Setup> {
+    validate_plant(scenario, Some(PlantModel::Library { n, m }))
+}
+
+fn validate_plant(mut scenario: Scenario, plant: Option<PlantModel>) -> Result<Setup> {
     scenario.graph = scenario.graph.or_example();
     let sim = &scenario.simulation;
     positive(sim.h, "simulation.h")?;
@@ -942,7 +947,10 @@ pub fn validate(mut scenario: Scenario) -> Result<Setup> {
     }
 
     let graph = Graph::from_spec(&scenario.graph)?;
-    let plant = PlantModel::from_spec(&scenario.plant)?;
+    let plant = match plant {
+        Some(p) => p,
+        None => PlantModel::from_spec(&scenario.plant)?,
+    };
     let (n, m) = (plant.n(), plant.m());
     for (k, v) in [
         ("a_check", &c.a_check),
@@ -967,6 +975,15 @@ pub fn validate(mut scenario: Scenario) -> Result<Setup> {
         .plant
         .initial_states(graph.len(), n, sim.divergence_bound)?;
     network::validate(&scenario.network, graph.len(), sim.h, sim.t_end)?;
+    if scenario.network.kind != network::NetworkKind::Ideal && (n, m) != (2, 2) {
+        return Err(Error::invalid(
+            "network.kind",
+            format!(
+                "\"{}\" runs the node firmware, built for n = 2, m = 2 (this plant: n = {n}, m = {m})",
+                scenario.network.kind.as_str()
+            ),
+        ));
+    }
     let faults = scenario.faults.schedule(graph.len(), m, sim.t_end)?;
     if scenario.plant.x0_drawn() {
         // Drawn from the box: the resolved scenario shows the box, not Example 1's rows.

@@ -174,6 +174,21 @@ fn missing_qemu_is_exit_2_with_the_install_command() {
     assert!(err.contains("apt-get install -y qemu-system-arm"), "{err}");
 }
 
+/// The whole PIL Example 1 into `dir` with one environment variable set.
+fn run_example1_with_env(
+    dir: &std::path::Path,
+    key: &str,
+    value: impl AsRef<std::ffi::OsStr>,
+) -> std::process::Output {
+    bin()
+        .env(key, value)
+        .args(["run", "--quiet", "--no-plots", "--out"])
+        .arg(dir)
+        .arg(scenario_path("example1-pil.toml"))
+        .output()
+        .expect("run host-sim")
+}
+
 /// A firmware that does not start (here: not an ELF) stops the run with a message naming the
 /// agent, and leaves no emulator behind.
 #[test]
@@ -184,13 +199,7 @@ fn a_dead_emulator_stops_the_run_naming_the_agent() {
     let dir = tmp("pil-dead");
     let bogus = dir.join("not-an-elf");
     std::fs::write(&bogus, b"not firmware").expect("write");
-    let out = bin()
-        .env("HOST_SIM_NODE_FW", &bogus)
-        .args(["run", "--quiet", "--no-plots", "--out"])
-        .arg(&dir)
-        .arg(scenario_path("example1-pil.toml"))
-        .output()
-        .expect("run host-sim");
+    let out = run_example1_with_env(&dir, "HOST_SIM_NODE_FW", &bogus);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
     assert!(err.contains("PIL agent 1:"), "{err}");
@@ -219,15 +228,12 @@ fn alive(pid: u32) -> bool {
     })
 }
 
-/// SIGINT to host-sim alone (not its process group) in the middle of a run: it exits and
-/// no emulator outlives it.
-#[test]
-fn ctrl_c_leaves_no_emulator_behind() {
-    if !pil_available() {
-        return;
-    }
-    let dir = tmp("pil-sigint");
+/// Starts `host-sim run example1-pil.toml` (with `env`) and waits until its four emulators
+/// run; returns host-sim and their process ids.
+fn start_pil_run(name: &str, env: &[(&str, &str)]) -> (std::process::Child, Vec<u32>) {
+    let dir = tmp(name);
     let child = bin()
+        .envs(env.iter().copied())
         .args(["run", "--quiet", "--no-plots", "--out"])
         .arg(&dir)
         .arg(scenario_path("example1-pil.toml"))
@@ -237,7 +243,7 @@ fn ctrl_c_leaves_no_emulator_behind() {
         .expect("spawn host-sim");
     let pid = child.id();
     let start = Instant::now();
-    let emulators = loop {
+    let mut emulators = loop {
         let c = children(pid);
         if c.len() >= 4 {
             break c;
@@ -248,13 +254,40 @@ fn ctrl_c_leaves_no_emulator_behind() {
         );
         std::thread::sleep(Duration::from_millis(50));
     };
+    emulators.sort_unstable();
     // Let the run get going.
     std::thread::sleep(Duration::from_millis(1500));
+    (child, emulators)
+}
+
+/// Waits up to 10 s for every emulator to be gone.
+fn assert_all_gone(emulators: &[u32], after: &str) {
+    let start = Instant::now();
+    while emulators.iter().any(|&e| alive(e)) && start.elapsed() < Duration::from_secs(10) {
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    for &e in emulators {
+        assert!(!alive(e), "emulator {e} outlived host-sim ({after})");
+    }
+}
+
+fn signal(pid: u32, sig: &str) {
     let status = Command::new("kill")
-        .args(["-INT", &pid.to_string()])
+        .args([sig, &pid.to_string()])
         .status()
         .expect("kill");
     assert!(status.success());
+}
+
+/// SIGINT to host-sim alone (not its process group) in the middle of a run: it exits and
+/// no emulator outlives it.
+#[test]
+fn ctrl_c_leaves_no_emulator_behind() {
+    if !pil_available() {
+        return;
+    }
+    let (child, emulators) = start_pil_run("pil-sigint", &[]);
+    signal(child.id(), "-INT");
     let out = child.wait_with_output().expect("wait");
     assert_eq!(
         out.status.code(),
@@ -262,9 +295,48 @@ fn ctrl_c_leaves_no_emulator_behind() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    for e in emulators {
-        assert!(!alive(e), "emulator {e} outlived host-sim");
+    assert_all_gone(&emulators, "SIGINT");
+}
+
+/// SIGKILL to host-sim, which no handler sees: the kernel kills the emulators (their parent-
+/// death signal).
+#[test]
+fn sigkill_leaves_no_emulator_behind() {
+    if !pil_available() {
+        return;
     }
+    let (mut child, emulators) = start_pil_run("pil-sigkill", &[]);
+    child.kill().expect("SIGKILL host-sim");
+    let _ = child.wait();
+    assert_all_gone(&emulators, "SIGKILL");
+}
+
+/// A node that stops answering (its emulator frozen with SIGSTOP) stops the run after the
+/// answer timeout with a message naming it, and no emulator, the frozen one included, is
+/// left. A timeout that is not a positive number of seconds is refused up front.
+#[test]
+fn a_silent_node_stops_the_run_naming_the_agent() {
+    if !pil_available() {
+        return;
+    }
+    let bad = run_example1_with_env(&tmp("pil-bad-timeout"), "HOST_SIM_PIL_ANSWER_TIMEOUT", "-1");
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert_eq!(bad.status.code(), Some(2), "{err}");
+    assert!(err.contains("HOST_SIM_PIL_ANSWER_TIMEOUT"), "{err}");
+
+    let (child, emulators) = start_pil_run("pil-timeout", &[("HOST_SIM_PIL_ANSWER_TIMEOUT", "3")]);
+    // Spawned in agent order: the last one is agent 4's.
+    signal(emulators[3], "-STOP");
+    let start = Instant::now();
+    let out = child.wait_with_output().expect("wait");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("PIL agent 4: no answer within 3 s while the host waited for"),
+        "{err}"
+    );
+    assert!(start.elapsed() >= Duration::from_secs(3), "{err}");
+    assert_all_gone(&emulators, "answer timeout");
 }
 
 /// Real CAN tooling can attach to a node: python-can's `slcan` interface (as used with

@@ -95,20 +95,37 @@ impl Uart {
     }
 }
 
-/// Starts SysTick as a free-running 24-bit down-counter of the core clock.
-pub fn start_counter(mut syst: SYST) {
-    syst.set_clock_source(SystClkSource::Core);
-    syst.set_reload(0x00FF_FFFF);
-    syst.clear_current();
-    syst.enable_counter();
+/// SysTick as the instruction counter of one tick: it runs only between [`Counter::start`] and
+/// [`Counter::stop`]. Stopped, it leaves QEMU no timer to move virtual time to while the core
+/// sleeps in `wfi` (`-icount` then has nothing to account per wake-up), and each count starts
+/// at the same instruction, so the counts do not depend on how long the node waited before.
+pub struct Counter(SYST);
+
+impl Counter {
+    /// Takes SysTick, clocked by the core, stopped.
+    pub fn new(mut syst: SYST) -> Self {
+        syst.disable_counter();
+        syst.set_clock_source(SystClkSource::Core);
+        syst.set_reload(0x00FF_FFFF);
+        Self(syst)
+    }
+
+    /// Restarts the counter from its reload value; returns the first reading.
+    pub fn start(&mut self) -> u32 {
+        self.0.clear_current();
+        self.0.enable_counter();
+        SYST::get_current()
+    }
+
+    /// Stops the counter; returns the last reading.
+    pub fn stop(&mut self) -> u32 {
+        let now = SYST::get_current();
+        self.0.disable_counter();
+        now
+    }
 }
 
-/// The SysTick counter now.
-pub fn counter() -> u32 {
-    SYST::get_current()
-}
-
-/// Instructions between two [`counter`] readings (the counter counts down and wraps at 2²⁴).
+/// Instructions between two [`Counter`] readings (the counter counts down and wraps at 2²⁴).
 pub fn instructions(start: u32, end: u32) -> u32 {
     (start.wrapping_sub(end) & 0x00FF_FFFF) * INSN_PER_TICK
 }

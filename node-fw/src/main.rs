@@ -9,8 +9,8 @@
 //! number, its neighbours and the controller configuration arrive at start-up.
 //!
 //! Measured per tick: the instructions of `Node::tick` (SysTick, 40-instruction resolution;
-//! the UART traffic before and after is not counted: the tick only fills the mailbox and the
-//! actuator register), reported in `REPORT_COST`; the stack high-water mark of the whole
+//! the UART traffic before and after and the wait for the host are not counted: the tick only
+//! fills the mailbox and the actuator register), reported in the report record; the stack high-water mark of the whole
 //! firmware (painted at start-up), reported on request in `STATS`.
 #![no_std]
 #![no_main]
@@ -25,7 +25,10 @@ use cortex_m_rt::entry;
 use embedded_can::Frame as _;
 use hil_mock::{
     node::{Actuator, Clock, Node, Sensor},
-    pil::{self, io, ConfigReject, PilFrame, Slcan, MAX_CONFIG_WORDS, SLCAN_MAX_LINE},
+    pil::{
+        self, io, ConfigReject, PilFrame, Report, Slcan, MAX_CONFIG_WORDS, RECORD_MAX_LINE,
+        SLCAN_MAX_LINE,
+    },
 };
 use panic_semihosting as _;
 
@@ -59,7 +62,7 @@ impl embedded_can::nb::Can for UartCan {
     }
 }
 
-/// Network time [µs], set by the host's `CLOCK` and `SYNC` frames.
+/// Network time [µs], set by the host's `CLOCK` frames, timestamps and ticks.
 #[derive(Default)]
 struct NetClock(u64);
 
@@ -69,7 +72,7 @@ impl Clock for NetClock {
     }
 }
 
-/// The latest `SENSOR` frame.
+/// The state of the latest tick record.
 #[derive(Default)]
 struct PlantSensor([f32; N]);
 
@@ -80,7 +83,7 @@ impl Sensor<N> for PlantSensor {
     }
 }
 
-/// The actuator register: the commands of the last tick, sent as `COMMAND` after it.
+/// The actuator register: the commands of the last tick, sent in the report after it.
 #[derive(Default)]
 struct HeldCommand([f32; M]);
 
@@ -123,8 +126,11 @@ impl Link {
                 continue;
             }
             match pil::slcan_decode(&self.line[..n]) {
-                Ok(cmd @ (Slcan::Frame(_) | Slcan::Timed(..))) if !overflow => return cmd,
-                Ok(Slcan::Frame(_) | Slcan::Timed(..)) | Err(_) => self.uart.write_all(b"\x07"),
+                Ok(cmd @ (Slcan::Frame(_) | Slcan::Timed(..) | Slcan::Tick(_))) if !overflow => {
+                    return cmd
+                }
+                Ok(Slcan::Frame(_) | Slcan::Timed(..) | Slcan::Tick(_) | Slcan::Report(_))
+                | Err(_) => self.uart.write_all(b"\x07"),
                 Ok(other) => {
                     self.uart.write_all(b"\r");
                     return other;
@@ -203,70 +209,63 @@ fn configure(link: &mut Link) -> BoardNode {
     }
 }
 
-/// Runs one sample and sends the bus frame, the commands and the reports.
-fn sample(link: &Link, node: &mut BoardNode) {
-    let start = board::counter();
+/// Runs one sample and sends the bus frame and the report.
+fn sample(link: &Link, node: &mut BoardNode, counter: &mut Option<board::Counter>) {
+    let start = counter.as_mut().map_or(0, board::Counter::start);
     let tick = node.tick();
-    let end = board::counter();
+    let end = counter.as_mut().map_or(0, board::Counter::stop);
     if let Some(f) = node.can_mut().tx.take() {
         link.send(&f);
     }
     let o = &tick.output;
-    let q = node.actuator().0;
-    link.send_io(io::COMMAND, &pil::pack_f32x2(q[0], q[1]));
-    link.send_io(io::REPORT_U, &pil::pack_f32x2(o.u[0], o.u[1]));
-    link.send_io(io::REPORT_E, &pil::pack_f32x2(o.e[0], o.e[1]));
-    link.send_io(
-        io::REPORT_EST,
-        &pil::pack_f32x2(o.estimates.mu, o.estimates.xi),
-    );
-    let fault = match o.status.fault {
-        None => 0,
-        Some(StepFault::InvalidState) => 1,
-        Some(StepFault::NonFiniteResult) => 2,
-    };
     let l = &o.status.links;
-    let lambda = o.estimates.lambda.to_le_bytes();
-    link.send_io(
-        io::REPORT_STATUS,
-        &[
-            lambda[0],
-            lambda[1],
-            lambda[2],
-            lambda[3],
-            fault,
-            l.stale_neighbours,
-            l.missing_neighbours,
-            u8::from(l.leader_stale) | (u8::from(l.leader_missing) << 1),
-        ],
-    );
-    let cost = board::instructions(start, end).to_le_bytes();
-    let res = board::INSN_PER_TICK.to_le_bytes();
-    link.send_io(
-        io::REPORT_COST,
-        &[
-            cost[0], cost[1], cost[2], cost[3], res[0], res[1], res[2], res[3],
-        ],
-    );
+    let report = Report {
+        q: node.actuator().0,
+        u: o.u,
+        e: o.e,
+        mu: o.estimates.mu,
+        xi: o.estimates.xi,
+        lambda: o.estimates.lambda,
+        fault: match o.status.fault {
+            None => 0,
+            Some(StepFault::InvalidState) => 1,
+            Some(StepFault::NonFiniteResult) => 2,
+        },
+        stale: l.stale_neighbours,
+        missing: l.missing_neighbours,
+        leader: u8::from(l.leader_stale) | (u8::from(l.leader_missing) << 1),
+        instructions: board::instructions(start, end),
+        resolution: board::INSN_PER_TICK,
+    };
+    let mut buf = [0u8; RECORD_MAX_LINE];
+    let n = pil::report_encode(&report, &mut buf);
+    link.uart.write_all(&buf[..n]);
 }
 
 #[entry]
 fn main() -> ! {
     let painted = board::paint_stack();
-    if let Some(p) = cortex_m::Peripherals::take() {
-        board::start_counter(p.SYST);
-    }
+    let mut counter = cortex_m::Peripherals::take().map(|p| board::Counter::new(p.SYST));
     let mut link = Link {
         uart: Uart::init(),
         line: [0; SLCAN_MAX_LINE],
     };
     let mut node = configure(&mut link);
-    // Time of the last SYNC, the origin of timestamps [µs].
+    // Time of the last tick, the origin of timestamps [µs], and the interval before it.
     let mut sync_us = 0u64;
+    let mut dt_us = 0u32;
     loop {
         let (f, ts) = match link.next() {
             Slcan::Frame(f) => (f, None),
             Slcan::Timed(f, t) => (f, Some(t)),
+            Slcan::Tick(t) => {
+                dt_us = t.dt_us.unwrap_or(dt_us);
+                sync_us += u64::from(dt_us);
+                node.clock_mut().0 = sync_us;
+                node.sensor_mut().0 = t.x;
+                sample(&link, &mut node, &mut counter);
+                continue;
+            }
             _ => continue,
         };
         if let Some(t) = ts {
@@ -279,14 +278,6 @@ fn main() -> ! {
                     node.poll_rx();
                 }
             }
-            (Some(io::SYNC), _) => match pil::unpack_u32x2(f.data()) {
-                Some((a, b)) => {
-                    node.sensor_mut().0 = [f32::from_bits(a), f32::from_bits(b)];
-                    sync_us = node.clock_mut().0;
-                    sample(&link, &mut node);
-                }
-                None => link.uart.write_all(b"\x07"),
-            },
             (Some(io::CLOCK), Some(t)) => {
                 let c = &mut node.clock_mut().0;
                 *c = pil::extend_clock(*c, t);

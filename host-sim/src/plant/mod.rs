@@ -1,13 +1,21 @@
 //! Plants of LAW §1 (the physical world, `f64`), integrated by RK4 with `substeps` per sample
 //! and the actuator outputs under zero-order hold (faults may vary within a sample).
 //!
-//! To add a model: implement [`Plant`] in a new file and add a [`PlantModel`] variant.
+//! Three ways to a plant: the built-in models (`plant.model = "example1"`, `"manipulator"`);
+//! `plant.model = "custom"` with the dynamics as expressions in the scenario ([`Custom`]); or
+//! your own type implementing [`Plant`], run through the library by
+//! [`crate::run::run_plant`] (`host-sim/examples/pendulum.rs`). To make a Rust plant a
+//! scenario model, add a [`PlantModel`] variant.
 
+mod custom;
 mod example1;
 mod manipulator;
 
+pub use custom::{Custom, MAX_ORDER};
 pub use example1::Example1;
 pub use manipulator::Manipulator;
+
+use std::{collections::BTreeMap, sync::Arc};
 
 use serde::{Deserialize, Serialize};
 
@@ -17,7 +25,7 @@ use crate::error::{Error, Result};
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct PlantSpec {
-    /// `"example1"` or `"manipulator"`.
+    /// `"example1"`, `"manipulator"` or `"custom"`.
     pub model: String,
     /// One initial state per agent (left out when drawn from `x0_min`..`x0_max`).
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -43,6 +51,18 @@ pub struct PlantSpec {
     /// Manipulator link length `l`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub length: Option<f64>,
+    /// Custom: states per agent `n`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub n: Option<i64>,
+    /// Custom: actuators per agent `m`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub m: Option<i64>,
+    /// Custom: `dx_j/dt` as expressions, `j = 1..n`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub dynamics: Option<Vec<String>>,
+    /// Custom: named constants of the expressions (`[plant.params]`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub params: Option<BTreeMap<String, f64>>,
 }
 
 impl Default for PlantSpec {
@@ -62,6 +82,10 @@ impl Default for PlantSpec {
             mass: None,
             gravity: None,
             length: None,
+            n: None,
+            m: None,
+            dynamics: None,
+            params: None,
         }
     }
 }
@@ -157,10 +181,73 @@ impl PlantSpec {
     }
 }
 
-/// One agent's dynamics `ẋ = f(t, x, a)` with `a` the actuator outputs `q^f(u_l)` (LAW §1).
+/// Calls `$f::<N, M>(args…)` with the const sizes `N`, `M` equal to the runtime `($n, $m)`, both
+/// in `1..=MAX_ORDER`: the one table of sizes the crate instantiates (controller, loop, outputs).
+macro_rules! with_sizes {
+    ($n:expr, $m:expr, $f:ident($($arg:expr),* $(,)?)) => {
+        match ($n, $m) {
+            (1, 1) => $f::<1, 1>($($arg),*),
+            (1, 2) => $f::<1, 2>($($arg),*),
+            (1, 3) => $f::<1, 3>($($arg),*),
+            (1, 4) => $f::<1, 4>($($arg),*),
+            (2, 1) => $f::<2, 1>($($arg),*),
+            (2, 2) => $f::<2, 2>($($arg),*),
+            (2, 3) => $f::<2, 3>($($arg),*),
+            (2, 4) => $f::<2, 4>($($arg),*),
+            (3, 1) => $f::<3, 1>($($arg),*),
+            (3, 2) => $f::<3, 2>($($arg),*),
+            (3, 3) => $f::<3, 3>($($arg),*),
+            (3, 4) => $f::<3, 4>($($arg),*),
+            (4, 1) => $f::<4, 1>($($arg),*),
+            (4, 2) => $f::<4, 2>($($arg),*),
+            (4, 3) => $f::<4, 3>($($arg),*),
+            (4, 4) => $f::<4, 4>($($arg),*),
+            (n, m) => Err($crate::error::Error::invalid(
+                "plant.model",
+                format!("n = {n}, m = {m} is not supported (supported: 1..={} each)", $crate::plant::MAX_ORDER),
+            )),
+        }
+    };
+}
+pub(crate) use with_sizes;
+
+/// One agent's dynamics `ẋ = f(t, x, a)` with `a` the actuator outputs `q^f(u_l)` (LAW §1):
+/// `N` states (`x[0]` is the output `y` the agents agree on), `M` actuators.
 ///
-/// The time-only part of `f` (a disturbance such as `cos t`) is computed once per RK4 stage for
-/// all agents by [`Plant::at`]; [`Plant::derivative`] gets it back.
+/// The simulator integrates it with RK4 (`simulation.substeps` steps per sample), holding the
+/// controller's commands over the sample; `a` are the commands after the quantizer and the
+/// actuator faults. The time-only part of `f` (a disturbance such as `cos t`) is computed once
+/// per RK4 stage for all agents by [`Plant::at`]; [`Plant::derivative`] gets it back, so a
+/// plant without such a term uses `type Time = ()`.
+///
+/// Contract: `derivative` is a pure function of its arguments, cheap (it runs `4 · substeps`
+/// times per agent and sample) and does not panic; a non-finite result is not an error here,
+/// the run reports it as divergence (`summary.json` `divergence`).
+///
+/// A user's plant runs through [`crate::run::run_plant`] with a scenario checked by
+/// [`crate::scenario::validate_with_plant`] for its `N`, `M`:
+///
+/// ```
+/// use host_sim::{plant::Plant, run::{run_plant, RunOptions}, scenario};
+///
+/// /// `ẋ_1 = x_2`, `ẋ_2 = −x_1 + a_1 + a_2`: an undamped oscillator with two motors.
+/// struct Oscillator;
+///
+/// impl Plant<2, 2> for Oscillator {
+///     type Time = ();
+///     fn at(&self, _t: f64) {}
+///     fn derivative(&self, _t: &(), x: &[f64; 2], a: &[f64; 2]) -> [f64; 2] {
+///         [x[1], -x[0] + a[0] + a[1]]
+///     }
+/// }
+///
+/// let mut s = scenario::Scenario::default();
+/// s.simulation.t_end = 0.5;
+/// let setup = scenario::validate_with_plant(s, 2, 2)?;
+/// let summary = run_plant(&setup, Oscillator, &RunOptions::default())?.summary;
+/// assert!(!summary.diverged);
+/// # Ok::<(), host_sim::Error>(())
+/// ```
 pub trait Plant<const N: usize, const M: usize> {
     /// The terms of `f` that depend on `t` only.
     type Time: Copy;
@@ -222,16 +309,26 @@ pub fn rk4_batch<const N: usize, const M: usize, const B: usize, P: Plant<N, M>>
 }
 
 /// The models a scenario can name (`plant.model`).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub enum PlantModel {
     /// LAW §8 Example 1.
     Example1(Example1),
     /// LAW §8 Example 2: single-link manipulator.
     Manipulator(Manipulator),
+    /// Dynamics written in the scenario (shared by every run of a campaign).
+    Custom(Arc<Custom>),
+    /// A [`Plant`] given in Rust, of `n` states and `m` actuators: the scenario was checked by
+    /// [`crate::scenario::validate_with_plant`] and runs by [`crate::run::run_plant`].
+    Library {
+        /// State order.
+        n: usize,
+        /// Actuators.
+        m: usize,
+    },
 }
 
 impl PlantModel {
-    /// From `[plant]`; manipulator parameters are rejected for other models.
+    /// From `[plant]`; manipulator and custom keys are rejected for other models.
     pub fn from_spec(spec: &PlantSpec) -> Result<Self> {
         let params = [
             ("inertia", spec.inertia),
@@ -239,6 +336,20 @@ impl PlantModel {
             ("gravity", spec.gravity),
             ("length", spec.length),
         ];
+        let custom = [
+            ("n", spec.n.is_some()),
+            ("m", spec.m.is_some()),
+            ("dynamics", spec.dynamics.is_some()),
+            ("params", spec.params.is_some()),
+        ];
+        if spec.model != "custom" {
+            if let Some((k, _)) = custom.iter().find(|(_, set)| *set) {
+                return Err(Error::invalid(
+                    format!("plant.{k}"),
+                    "only for model = \"custom\"",
+                ));
+            }
+        }
         match spec.model.as_str() {
             "example1" => {
                 if let Some((k, _)) = params.iter().find(|(_, v)| v.is_some()) {
@@ -272,27 +383,62 @@ impl PlantModel {
                 }
                 Ok(Self::Manipulator(m))
             }
+            "custom" => {
+                if let Some((k, _)) = params.iter().find(|(_, v)| v.is_some()) {
+                    return Err(Error::invalid(
+                        format!("plant.{k}"),
+                        "only for model = \"manipulator\"",
+                    ));
+                }
+                let size = |key: &str, v: Option<i64>| {
+                    let v = v.ok_or_else(|| {
+                        Error::invalid(format!("plant.{key}"), "required for model = \"custom\"")
+                    })?;
+                    usize::try_from(v).map_err(|_| {
+                        Error::invalid(
+                            format!("plant.{key}"),
+                            format!("must lie in 1..={MAX_ORDER} (got {v})"),
+                        )
+                    })
+                };
+                let (n, m) = (size("n", spec.n)?, size("m", spec.m)?);
+                let dynamics = spec.dynamics.as_deref().ok_or_else(|| {
+                    Error::invalid("plant.dynamics", "required for model = \"custom\"")
+                })?;
+                let params = spec.params.clone().unwrap_or_default();
+                Ok(Self::Custom(Arc::new(Custom::new(n, m, dynamics, &params)?)))
+            }
             other => Err(Error::invalid(
                 "plant.model",
-                format!("unknown model \"{other}\" (expected \"example1\" or \"manipulator\")"),
+                format!(
+                    "unknown model \"{other}\" (expected \"example1\", \"manipulator\" or \"custom\")"
+                ),
             )),
         }
     }
 
     /// State order `n`.
     pub fn n(&self) -> usize {
-        2
+        match self {
+            Self::Custom(c) => c.n(),
+            Self::Library { n, .. } => *n,
+            _ => 2,
+        }
     }
 
     /// Actuators per agent `m`.
     pub fn m(&self) -> usize {
-        2
+        match self {
+            Self::Custom(c) => c.m(),
+            Self::Library { m, .. } => *m,
+            _ => 2,
+        }
     }
 
     /// Units of the output `y` and of the actuator commands `u` (for the figures).
     pub fn units(&self) -> (&'static str, &'static str) {
         match self {
-            Self::Example1(_) => ("–", "–"),
+            Self::Example1(_) | Self::Custom(_) | Self::Library { .. } => ("–", "–"),
             Self::Manipulator(_) => ("rad", "N·m"),
         }
     }
@@ -302,6 +448,8 @@ impl PlantModel {
         match self {
             Self::Example1(_) => "example1",
             Self::Manipulator(_) => "manipulator",
+            Self::Custom(_) => "custom",
+            Self::Library { .. } => "library",
         }
     }
 }
