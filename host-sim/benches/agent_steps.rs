@@ -1,16 +1,20 @@
-//! Agent-steps per second of the whole loop (controller step + RK4 plant + ideal link +
-//! metrics, no file output): Example 1 (4 agents, 10 s at h = 1 ms), the same with the plant
-//! written as expressions (`[plant] model = "custom"`), and 1,000 agents on a seeded random
-//! connected graph; and the cost of one plant right-hand side, built-in and custom.
+//! Agent-steps per second of the whole loop (controller step + RK4 plant + ideal link + faults +
+//! metrics, no file output), on one thread: Example 1 (4 agents, 10 s at h = 1 ms), the same with
+//! the plant written as expressions (`[plant] model = "custom"`), and Example 1's plant,
+//! controller and faults on seeded random graphs of 100, 1,000 and 10,000 agents (spanning tree
+//! from agent 1 plus two random links per agent, initial states drawn in Example 1's box), each
+//! run about 400,000 agent-steps. Criterion's throughput is agent-steps per second; its inverse
+//! is the cost per agent-step (docs/SCALING.md). Also the cost of one plant right-hand side,
+//! built-in and custom.
 
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use host_sim::{
-    graph::Graph,
+    generate::{self, Family, GraphRecipe},
     plant::{Example1, Plant, PlantModel},
     run::simulate,
-    scenario::{self, Scenario, Setup},
+    scenario::{self, Setup},
 };
 
 fn shipped(file: &str) -> Setup {
@@ -18,24 +22,37 @@ fn shipped(file: &str) -> Setup {
     scenario::load(path.as_ref(), &[]).expect("shipped scenario")
 }
 
+/// Example 1 with `n` agents on a random graph, `t_end` long.
 fn random(n: usize, t_end: f64) -> Setup {
-    let g = Graph::random_connected(n, 2, 0x5eed).expect("connected");
-    let mut s = Scenario {
-        name: format!("random-{n}"),
-        ..Scenario::default()
-    };
+    let lists = generate::neighbours(&GraphRecipe {
+        family: Family::Random,
+        agents: n,
+        k: 0,
+        extra_edges: 2 * n,
+        seed: 0x5eed,
+        pinned: vec![0],
+        capacity: host_sim::graph::MAX_NEIGHBOURS,
+    })
+    .expect("random graph");
+    let mut s = shipped("example1.toml").scenario;
+    s.name = format!("random-{n}");
     s.simulation.t_end = t_end;
     s.graph.neighbours = Some(
-        (0..n)
-            .map(|i| g.neighbours(i).iter().map(|&k| k as i64 + 1).collect())
+        lists
+            .iter()
+            .map(|row| row.iter().map(|&k| k as i64 + 1).collect())
             .collect(),
     );
-    s.graph.pinned = vec![1];
-    s.plant.x0 = vec![vec![0.01, 0.5]; n];
+    s.plant.x0 = generate::initial_states(n, &[0.0, 0.09], &[0.02, 1.0], 1).expect("x0");
     scenario::validate(s).expect("valid random scenario")
 }
 
 fn bench(c: &mut Criterion) {
+    // One core: the figures are per agent-step on one thread (parallel stepping is measured
+    // by the swarm run of docs/SCALING.md).
+    let _ = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build_global();
     let mut g = c.benchmark_group("agent_steps");
     g.sample_size(10);
     for (label, setup) in [
@@ -44,7 +61,9 @@ fn bench(c: &mut Criterion) {
             "example1_custom_4_agents_10s",
             shipped("example1-custom.toml"),
         ),
-        ("random_1000_agents_0.5s", random(1000, 0.5)),
+        ("random_100_agents_4s", random(100, 4.0)),
+        ("random_1000_agents_0.4s", random(1000, 0.4)),
+        ("random_10000_agents_0.04s", random(10_000, 0.04)),
     ] {
         let summary = simulate(&setup).expect("run");
         assert!(

@@ -485,6 +485,12 @@ impl FaultSchedule {
     /// `q^f` of actuator `l` of agent `i` at time `t` for the quantized command `q`.
     #[inline]
     pub fn apply(&self, i: usize, l: usize, t: f64, q: f64) -> f64 {
+        self.effect(i, l, t).on(q)
+    }
+
+    /// What the faults of actuator `l` of agent `i` do at time `t` (eq. 3's `ϱ(t)`, `ū(t)`).
+    #[inline]
+    pub fn effect(&self, i: usize, l: usize, t: f64) -> ActuatorEffect {
         let mut gain = 1.0;
         let mut stuck = None;
         for c in &self.rules[i * self.m + l] {
@@ -499,7 +505,49 @@ impl FaultSchedule {
                 }
             }
         }
-        stuck.unwrap_or(gain * q)
+        ActuatorEffect { gain, stuck }
+    }
+
+    /// Fault classes: agents with the same rules on every actuator share one, so a stage's
+    /// effects are computed once per class. Per agent its class (`None`: healthy), and per class
+    /// one agent of it.
+    pub fn classes(&self) -> (Vec<Option<usize>>, Vec<usize>) {
+        let agents = self.rules.len() / self.m.max(1);
+        let rules = |i: usize| &self.rules[i * self.m..(i + 1) * self.m];
+        let mut of = Vec::with_capacity(agents);
+        let mut members: Vec<usize> = Vec::new();
+        for i in 0..agents {
+            if !self.any(i) {
+                of.push(None);
+                continue;
+            }
+            let c = match members.iter().position(|&r| rules(r) == rules(i)) {
+                Some(c) => c,
+                None => {
+                    members.push(i);
+                    members.len() - 1
+                }
+            };
+            of.push(Some(c));
+        }
+        (of, members)
+    }
+}
+
+/// The faults' effect on one actuator at one instant: `q^f = ū` when stuck, else `ϱ q`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ActuatorEffect {
+    /// `ϱ(t)`: the product of the active partial-loss gains.
+    pub gain: f64,
+    /// `ū(t)` of an active stuck rule (the last one listed).
+    pub stuck: Option<f64>,
+}
+
+impl ActuatorEffect {
+    /// `q^f` for the quantized command `q`.
+    #[inline]
+    pub fn on(self, q: f64) -> f64 {
+        self.stuck.unwrap_or(self.gain * q)
     }
 }
 

@@ -3,7 +3,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
+use crate::{
+    error::{Error, Result},
+    generate::{self, Family, GraphRecipe},
+};
 
 /// `[graph]`: who hears whom (LAW §2), as neighbour lists or an adjacency matrix.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -17,6 +20,21 @@ pub struct GraphSpec {
     pub adjacency: Option<Vec<Vec<i64>>>,
     /// Agents that hear the leader (`r_i = 1`).
     pub pinned: Vec<i64>,
+    /// Instead of lists: a generated graph, `"line"`, `"ring"`, `"star"`, `"knn"`, `"random"`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub generator: Option<String>,
+    /// Generated graphs: number of agents.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub agents: Option<i64>,
+    /// `knn`: neighbours per agent (default 2).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub k: Option<i64>,
+    /// `random`: links beyond the spanning tree, in total (default: one per agent).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub extra_edges: Option<i64>,
+    /// `random`: seed of the draw (default 1).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
 }
 
 impl Default for GraphSpec {
@@ -25,6 +43,11 @@ impl Default for GraphSpec {
             neighbours: None,
             adjacency: None,
             pinned: vec![1],
+            generator: None,
+            agents: None,
+            k: None,
+            extra_edges: None,
+            seed: None,
         }
     }
 }
@@ -33,7 +56,7 @@ impl GraphSpec {
     /// LAW §8's graph (agent 2 hears 1, agent 3 hears 1, agent 4 hears 1 and 3) when the
     /// scenario gives neither neighbour lists nor a matrix.
     pub fn or_example(mut self) -> Self {
-        if self.neighbours.is_none() && self.adjacency.is_none() {
+        if self.neighbours.is_none() && self.adjacency.is_none() && self.generator.is_none() {
             self.neighbours = Some(vec![vec![], vec![1], vec![1], vec![1, 3]]);
         }
         self
@@ -42,6 +65,24 @@ impl GraphSpec {
 
 /// Largest in-degree supported: the controllers' neighbour capacity `K`.
 pub const MAX_NEIGHBOURS: usize = 16;
+
+/// Most agents of a generated graph.
+pub const MAX_GENERATED: i64 = 1_000_000;
+
+/// `graph.pinned` (1-based) as one flag per agent of `n`.
+fn pinned_flags(list: &[i64], n: usize) -> Result<Vec<bool>> {
+    let mut pinned = vec![false; n];
+    for &p in list {
+        if p < 1 || p as usize > n {
+            return Err(Error::invalid(
+                "graph.pinned",
+                format!("agent {p} out of range 1..={n} (agents are 1-based)"),
+            ));
+        }
+        pinned[(p - 1) as usize] = true;
+    }
+    Ok(pinned)
+}
 
 /// A validated directed graph: agent `i` hears `neighbours(i)` (0-based), `pinned(i)` hears
 /// the leader.
@@ -128,6 +169,22 @@ impl Graph {
 
     /// From the scenario's `[graph]` (1-based agent numbers, lists or matrix).
     pub fn from_spec(spec: &GraphSpec) -> Result<Self> {
+        if spec.generator.is_some() {
+            return Self::generated(spec);
+        }
+        for (key, given) in [
+            ("agents", spec.agents.is_some()),
+            ("k", spec.k.is_some()),
+            ("extra_edges", spec.extra_edges.is_some()),
+            ("seed", spec.seed.is_some()),
+        ] {
+            if given {
+                return Err(Error::invalid(
+                    format!("graph.{key}"),
+                    "only with graph.generator (a generated graph)",
+                ));
+            }
+        }
         let lists: Vec<Vec<usize>> = match (&spec.neighbours, &spec.adjacency) {
             (Some(_), Some(_)) => {
                 return Err(Error::invalid(
@@ -198,16 +255,71 @@ impl Graph {
         if n == 0 {
             return Err(Error::invalid("graph.neighbours", "no agents"));
         }
-        let mut pinned = vec![false; n];
-        for &p in &spec.pinned {
-            if p < 1 || p as usize > n {
+        let pinned = pinned_flags(&spec.pinned, n)?;
+        Self::new(lists, pinned)
+    }
+
+    /// A `[graph]` with `generator`: the family's lists for `agents` agents, then the checks of
+    /// [`Graph::new`].
+    fn generated(spec: &GraphSpec) -> Result<Self> {
+        let family = Family::parse(spec.generator.as_deref().unwrap_or_default())?;
+        if spec.neighbours.is_some() || spec.adjacency.is_some() {
+            return Err(Error::invalid(
+                "graph.generator",
+                "give either graph.generator or written lists (graph.neighbours, \
+                 graph.adjacency), not both",
+            ));
+        }
+        let Some(agents) = spec.agents else {
+            return Err(Error::invalid(
+                "graph.agents",
+                "required with graph.generator (the number of agents)",
+            ));
+        };
+        if !(1..=MAX_GENERATED).contains(&agents) {
+            return Err(Error::invalid(
+                "graph.agents",
+                format!("must lie in 1..={MAX_GENERATED} (got {agents})"),
+            ));
+        }
+        let only = |key: &str, given: bool, family_name: &str, wanted: Family| -> Result<()> {
+            if given && family != wanted {
                 return Err(Error::invalid(
-                    "graph.pinned",
-                    format!("agent {p} out of range 1..={n} (agents are 1-based)"),
+                    format!("graph.{key}"),
+                    format!("only for generator = \"{family_name}\""),
                 ));
             }
-            pinned[(p - 1) as usize] = true;
-        }
+            Ok(())
+        };
+        only("k", spec.k.is_some(), "knn", Family::Knn)?;
+        only(
+            "extra_edges",
+            spec.extra_edges.is_some(),
+            "random",
+            Family::Random,
+        )?;
+        only("seed", spec.seed.is_some(), "random", Family::Random)?;
+        let n = agents as usize;
+        let count = |key: &str, v: Option<i64>, default: usize| -> Result<usize> {
+            match v {
+                None => Ok(default),
+                Some(v) if v >= 0 => Ok(v as usize),
+                Some(v) => Err(Error::invalid(
+                    format!("graph.{key}"),
+                    format!("must be >= 0 (got {v})"),
+                )),
+            }
+        };
+        let pinned = pinned_flags(&spec.pinned, n)?;
+        let lists = generate::neighbours(&GraphRecipe {
+            family,
+            agents: n,
+            k: count("k", spec.k, 2)?,
+            extra_edges: count("extra_edges", spec.extra_edges, n)?,
+            seed: spec.seed.unwrap_or(1),
+            pinned: (0..n).filter(|&i| pinned[i]).collect(),
+            capacity: MAX_NEIGHBOURS,
+        })?;
         Self::new(lists, pinned)
     }
 

@@ -19,6 +19,7 @@ pub mod compare;
 pub mod error;
 pub mod faults;
 pub mod figures;
+pub mod generate;
 pub mod graph;
 pub mod leader;
 pub mod link;

@@ -11,7 +11,11 @@ use host_sim::{
     compare::compare,
     error::{Error, Result},
     matrix,
-    report::{self, csv::check_size, fmt_time},
+    report::{
+        self,
+        csv::{check_size_of, default_decimate, estimated_size_of, human_bytes, parse_agents},
+        fmt_time,
+    },
     run::{run, stable_h, RunOptions},
     scenario::{self, Setup},
 };
@@ -75,14 +79,18 @@ enum Cmd {
         out: PathBuf,
         #[command(flatten)]
         overrides: Overrides,
-        /// Write every k-th sample to trajectory.csv.
-        #[arg(
-            long,
-            default_value_t = 1,
-            value_name = "K",
-            allow_negative_numbers = true
-        )]
-        decimate: u64,
+        /// Write every k-th sample to trajectory.csv [default: 1; above 8 agents, the smallest
+        /// K that keeps the file within 100 MB].
+        #[arg(long, value_name = "K", allow_negative_numbers = true)]
+        decimate: Option<u64>,
+        /// Columns of these agents only in trajectory.csv: 1-based numbers and ranges, e.g.
+        /// 1,5,10-20 [default: all].
+        #[arg(long, value_name = "LIST")]
+        agents: Option<String>,
+        /// Worker threads for stepping a large group (256 agents or more) [default: one per
+        /// core, or RAYON_NUM_THREADS]; the results are the same at any count.
+        #[arg(long, value_name = "N", allow_negative_numbers = true)]
+        threads: Option<usize>,
         /// Skip the figures.
         #[arg(long)]
         no_plots: bool,
@@ -220,6 +228,17 @@ fn load(path: &Path, o: &Overrides) -> Result<Setup> {
     Ok(setup)
 }
 
+/// `--threads N`: rayon's global pool with `N` workers (set before anything runs in it).
+fn set_threads(n: usize) -> Result<()> {
+    if n == 0 {
+        return Err(Error::invalid("--threads", "must be >= 1"));
+    }
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(n)
+        .build_global()
+        .map_err(|e| Error::invalid("--threads", e.to_string()))
+}
+
 fn fmt_opt(v: Option<f64>) -> String {
     v.map_or_else(|| "none".into(), |v| format!("{v:.4}"))
 }
@@ -231,21 +250,47 @@ fn main_inner(cli: Cli) -> Result<()> {
             out,
             overrides,
             decimate,
+            agents,
+            threads,
             no_plots,
             quiet,
             force,
             trace,
         } => {
-            if decimate == 0 {
+            if decimate == Some(0) {
                 return Err(Error::invalid("--decimate", "must be >= 1"));
             }
+            if let Some(n) = threads {
+                set_threads(n)?;
+            }
             let setup = load(&scenario, &overrides)?;
+            let agents = agents
+                .map(|list| parse_agents(&list, setup.agents()))
+                .transpose()?;
+            let columns = agents.as_ref().map_or(setup.agents(), Vec::len);
+            let decimate = match decimate {
+                Some(k) => k,
+                None => {
+                    let k = default_decimate(&setup, columns);
+                    if k > 1 {
+                        eprintln!(
+                            "host-sim: note: {} agents: trajectory.csv keeps one sample in {k} \
+                             (--decimate {k}, about {}); --decimate 1 keeps every sample, \
+                             --agents a subset of the columns",
+                            setup.agents(),
+                            human_bytes(estimated_size_of(&setup, k, columns)),
+                        );
+                    }
+                    k
+                }
+            };
             if !force {
-                check_size(&setup, decimate)?;
+                check_size_of(&setup, decimate, columns)?;
             }
             let opts = RunOptions {
                 out: Some(out.clone()),
                 decimate,
+                agents,
                 plots: !no_plots,
                 record: false,
                 progress: !quiet,

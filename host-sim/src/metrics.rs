@@ -1,7 +1,7 @@
 //! The metrics of LAW §11 with the definitions of docs/SCENARIO.md, accumulated sample by sample,
 //! and the `summary.json` they fill.
 
-use std::collections::{BTreeMap, HashSet};
+use std::collections::BTreeMap;
 
 use controller_core::Gains;
 use serde::Serialize;
@@ -190,7 +190,12 @@ struct Acc {
     max_abs_u: f64,
     u_energy: f64,
     changes: u64,
-    levels: HashSet<u32>,
+    /// Distinct `|q|` bits seen, sorted (a quantizer has some dozens of levels: a binary
+    /// search beats hashing).
+    levels: Vec<u32>,
+    /// The two levels last added or found in `levels` (a chattering quantizer alternates
+    /// between two): a change to one of them needs no search.
+    recent: [u32; 2],
     peak: f64,
     est: [f32; 3],
     faults: u64,
@@ -223,7 +228,9 @@ impl Metrics {
             max_abs_u: 0.0,
             u_energy: 0.0,
             changes: 0,
-            levels: HashSet::new(),
+            levels: Vec::new(),
+            // `|q|` never has the sign bit: no level matches before one is seen.
+            recent: [u32::MAX; 2],
             peak: 0.0,
             est: [0.0; 3],
             faults: 0,
@@ -326,8 +333,12 @@ impl<const N: usize, const M: usize> Observer<N, M> for Metrics {
                 if q != *p {
                     a.changes += 1;
                     *p = q;
-                    if self.levels && q != 0.0 {
-                        a.levels.insert(q.abs().to_bits());
+                    let bits = q.abs().to_bits();
+                    if self.levels && q != 0.0 && !a.recent.contains(&bits) {
+                        if let Err(at) = a.levels.binary_search(&bits) {
+                            a.levels.insert(at, bits);
+                        }
+                        a.recent = [bits, a.recent[0]];
                     }
                 }
             }

@@ -13,7 +13,7 @@ use crate::{
     network::{CanAgents, NetworkKind},
     pil::PilAgents,
     plant::{with_sizes, Custom, Plant, PlantModel},
-    report::{self, csv::CsvObserver, plots::Recorder},
+    report::{self, csv::CsvObserver, plots::Recorder, spread::Spread},
     scenario::{self, Scenario, Setup},
     sim::{Agents, Linked, Observer, Sim, World},
 };
@@ -25,6 +25,8 @@ pub struct RunOptions {
     pub out: Option<PathBuf>,
     /// Every `decimate`-th sample goes to `trajectory.csv`.
     pub decimate: u64,
+    /// The agents (0-based, ascending) whose columns `trajectory.csv` gets (`None`: all).
+    pub agents: Option<Vec<usize>>,
     /// Draw the figures.
     pub plots: bool,
     /// Keep the plot series in the result (for `compare`).
@@ -128,12 +130,16 @@ fn library() -> Error {
 }
 
 /// Runs `setup` (from [`crate::scenario::validate_with_plant`] with `N`, `M`) with a plant
-/// given in Rust, host-sim's controllers over the ideal link, the outputs of `opts`.
-pub fn run_plant<P: Plant<N, M>, const N: usize, const M: usize>(
+/// given in Rust, host-sim's controllers over the ideal link, the outputs of `opts`. The plant
+/// is shared by the threads that integrate a large group (`Sync`).
+pub fn run_plant<P: Plant<N, M> + Sync, const N: usize, const M: usize>(
     setup: &Setup,
     plant: P,
     opts: &RunOptions,
-) -> Result<RunResult> {
+) -> Result<RunResult>
+where
+    P::Time: Sync,
+{
     if (setup.n(), setup.m()) != (N, M) {
         return Err(Error::invalid(
             "plant.model",
@@ -214,12 +220,15 @@ pub(crate) fn progress_bar(len: u64, show: bool, template: &str) -> ProgressBar 
     pb
 }
 
-fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
+fn run_with<P: Plant<N, M> + Sync, A: Agents<N, M>, const N: usize, const M: usize>(
     setup: &Setup,
     plant: P,
     agents: A,
     opts: &RunOptions,
-) -> Result<RunResult> {
+) -> Result<RunResult>
+where
+    P::Time: Sync,
+{
     let mut sim = Sim::<_, _, N, M>::with_agents(world(setup), plant, agents)?;
     let mut metrics = Metrics::new(setup);
     let mut recorder = (opts.plots || opts.record)
@@ -227,9 +236,13 @@ fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
     let mut csv = match &opts.out {
         Some(dir) => {
             report::create_dir(dir)?;
-            Some(CsvObserver::create(
+            let columns = opts
+                .agents
+                .clone()
+                .unwrap_or_else(|| (0..setup.agents()).collect());
+            Some(CsvObserver::create_for(
                 &dir.join("trajectory.csv"),
-                setup.agents(),
+                columns,
                 N,
                 M,
                 opts.decimate.max(1),
@@ -243,6 +256,8 @@ fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
         "{bar:40} {pos}/{len} samples  {elapsed} (eta {eta})",
     );
     let mut worst = opts.worst.then(|| WorstPerSample(Vec::new()));
+    let mut spread =
+        (opts.plots && report::spread::wanted(setup.agents())).then(|| Spread::new(setup));
     let divergence = {
         let mut obs: Vec<&mut dyn Observer<N, M>> = vec![&mut metrics];
         if let Some(w) = worst.as_mut() {
@@ -250,6 +265,9 @@ fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
         }
         if let Some(r) = recorder.as_mut() {
             obs.push(r);
+        }
+        if let Some(s) = spread.as_mut() {
+            obs.push(s);
         }
         if let Some(c) = csv.as_mut() {
             obs.push(c);
@@ -271,6 +289,9 @@ fn run_with<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize>(
         if opts.plots {
             if let Some(r) = &recorder {
                 r.draw(dir, setup, summary.settling_time)?;
+            }
+            if let Some(s) = &spread {
+                s.draw(dir, setup)?;
             }
             sim.agents()
                 .draw(dir, setup.scenario.simulation.h, &setup.scenario.name)?;

@@ -971,9 +971,9 @@ fn validate_plant(mut scenario: Scenario, plant: Option<PlantModel>) -> Result<S
             finite(*x, &format!("controller.{k}[{}]", j + 1))?;
         }
     }
-    scenario
+    let x0 = scenario
         .plant
-        .check_x0(graph.len(), n, sim.divergence_bound)?;
+        .initial_states(graph.len(), n, sim.divergence_bound)?;
     network::validate(&scenario.network, graph.len(), sim.h, sim.t_end)?;
     if scenario.network.kind != network::NetworkKind::Ideal && (n, m) != (2, 2) {
         return Err(Error::invalid(
@@ -985,7 +985,10 @@ fn validate_plant(mut scenario: Scenario, plant: Option<PlantModel>) -> Result<S
         ));
     }
     let faults = scenario.faults.schedule(graph.len(), m, sim.t_end)?;
-    let x0 = scenario.plant.x0.clone();
+    if scenario.plant.x0_drawn() {
+        // Drawn from the box: the resolved scenario shows the box, not Example 1's rows.
+        scenario.plant.x0.clear();
+    }
     let setup = Setup {
         scenario,
         graph,

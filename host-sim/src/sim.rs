@@ -7,16 +7,17 @@
 //! ([`crate::network::CanAgents`]).
 
 use controller_core::{Controller, ControllerConfig, Gains, StepOutput};
+use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::{
     error::{Error, Result},
-    faults::FaultSchedule,
+    faults::{ActuatorEffect, FaultSchedule},
     figures::{FirmwareSummary, NetworkSummary},
     graph::Graph,
     leader::Leader,
     link::{Inbox, LinkModel},
-    plant::{rk4, Plant, Stages},
+    plant::{rk4, rk4_batch, Plant, Stages},
 };
 
 /// What the loop needs from a validated scenario besides plant and agents.
@@ -150,12 +151,21 @@ impl<L: LinkModel, const N: usize, const M: usize> Agents<N, M> for Linked<L, N,
         }
         self.link
             .exchange(k, t, &self.y, yd as f32, &self.graph, &mut self.inbox);
-        for (i, c) in self.ctrls.iter_mut().enumerate() {
-            let mut xs = [0.0f32; N];
-            for (d, s) in xs.iter_mut().zip(&x[i]) {
-                *d = *s as f32;
-            }
-            out.push(c.step(&xs, self.inbox.of(&self.graph, i), self.inbox.leader[i]));
+        let (graph, inbox) = (&self.graph, &self.inbox);
+        let step = |i: usize, c: &mut Controller<N, M, K>| {
+            let xs = x[i].map(|v| v as f32);
+            c.step(&xs, inbox.of(graph, i), inbox.leader[i])
+        };
+        if parallel(self.ctrls.len()) {
+            out.par_extend(
+                self.ctrls
+                    .par_iter_mut()
+                    .enumerate()
+                    .with_min_len(PAR_CHUNK)
+                    .map(|(i, c)| step(i, c)),
+            );
+        } else {
+            out.extend(self.ctrls.iter_mut().enumerate().map(|(i, c)| step(i, c)));
         }
         Ok(())
     }
@@ -169,7 +179,12 @@ impl<L: LinkModel, const N: usize, const M: usize> Agents<N, M> for Linked<L, N,
 pub struct Sim<P, A, const N: usize, const M: usize> {
     leader: Leader,
     faults: FaultSchedule,
-    faulty: Vec<bool>,
+    /// Per agent its fault class ([`FaultSchedule::classes`]; `None`: healthy).
+    class: Vec<Option<usize>>,
+    /// One agent of each fault class.
+    members: Vec<usize>,
+    /// Per substep and fault class the effects at the three RK4 stage times.
+    effects: Vec<[[ActuatorEffect; M]; 3]>,
     plant: P,
     agents: A,
     x: Vec<[f64; N]>,
@@ -184,7 +199,11 @@ pub struct Sim<P, A, const N: usize, const M: usize> {
     seen: Vec<[f64; N]>,
 }
 
-impl<P: Plant<N, M>, L: LinkModel, const N: usize, const M: usize> Sim<P, Linked<L, N, M>, N, M> {
+impl<P: Plant<N, M> + Sync, L: LinkModel, const N: usize, const M: usize>
+    Sim<P, Linked<L, N, M>, N, M>
+where
+    P::Time: Sync,
+{
     /// Builds the controllers (over `link`) of `graph` and the plants of `world`.
     pub fn new(
         world: World,
@@ -197,7 +216,10 @@ impl<P: Plant<N, M>, L: LinkModel, const N: usize, const M: usize> Sim<P, Linked
     }
 }
 
-impl<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize> Sim<P, A, N, M> {
+impl<P: Plant<N, M> + Sync, A: Agents<N, M>, const N: usize, const M: usize> Sim<P, A, N, M>
+where
+    P::Time: Sync,
+{
     /// Builds the plants of `world`; `agents` compute the commands.
     pub fn with_agents(world: World, plant: P, agents: A) -> Result<Self> {
         let n_agents = world.x0.len();
@@ -211,11 +233,13 @@ impl<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize> Sim<P, A, 
             })?;
             x.push(a);
         }
-        let faulty = (0..n_agents).map(|i| world.faults.any(i)).collect();
+        let (class, members) = world.faults.classes();
         Ok(Self {
             leader: world.leader,
             faults: world.faults,
-            faulty,
+            class,
+            members,
+            effects: Vec::new(),
             plant,
             agents,
             x,
@@ -315,27 +339,74 @@ impl<P: Plant<N, M>, A: Agents<N, M>, const N: usize, const M: usize> Sim<P, A, 
     }
 
     /// Every plant over `[t, t + h)`: RK4 substeps, commands held, faults per stage time.
+    ///
+    /// The time terms and the fault effects of every stage are computed once (per fault class),
+    /// then each agent takes its substeps; agents are independent, so on a large group they are
+    /// integrated in parallel with the same result at any thread count.
     fn integrate(&mut self, t: f64) {
         let dt = self.h / f64::from(self.substeps);
+        let mut stages = Vec::with_capacity(self.substeps as usize);
+        self.effects.clear();
         for s in 0..self.substeps {
             let t0 = t + f64::from(s) * dt;
             let times = [t0, t0 + 0.5 * dt, t0 + dt];
-            let time = times.map(|tt| self.plant.at(tt));
-            for (i, x) in self.x.iter_mut().enumerate() {
-                let q = self.q[i];
-                let act = if self.faulty[i] {
-                    times.map(|tt| {
-                        let mut a = q;
-                        for (l, a) in a.iter_mut().enumerate() {
-                            *a = self.faults.apply(i, l, tt, *a);
-                        }
-                        a
-                    })
-                } else {
-                    [q; 3]
-                };
-                rk4(&self.plant, x, dt, &Stages { time, act });
+            stages.push(times.map(|tt| self.plant.at(tt)));
+            for &r in &self.members {
+                self.effects
+                    .push(times.map(|tt| std::array::from_fn(|l| self.faults.effect(r, l, tt))));
+            }
+        }
+        let classes = self.members.len();
+        let (plant, effects) = (&self.plant, &self.effects);
+        let stage = |s: usize, q: &[f64; M], class: Option<usize>| Stages {
+            time: stages[s],
+            act: match class {
+                Some(c) => effects[s * classes + c].map(|e| std::array::from_fn(|l| e[l].on(q[l]))),
+                None => [*q; 3],
+            },
+        };
+        // Two agents at a time: their RK4 chains interleave (`rk4_batch`), same operations.
+        let group = |x: &mut [[f64; N]], q: &[[f64; M]], c: &[Option<usize>]| {
+            if let (Ok(pair), [qa, qb], [ca, cb]) = (<&mut [[f64; N]; 2]>::try_from(&mut *x), q, c)
+            {
+                for s in 0..stages.len() {
+                    rk4_batch(plant, pair, dt, &[stage(s, qa, *ca), stage(s, qb, *cb)]);
+                }
+            } else {
+                for ((x, q), c) in x.iter_mut().zip(q).zip(c) {
+                    for s in 0..stages.len() {
+                        rk4(plant, x, dt, &stage(s, q, *c));
+                    }
+                }
+            }
+        };
+        if parallel(self.x.len()) {
+            self.x
+                .par_chunks_mut(2)
+                .zip(self.q.par_chunks(2))
+                .zip(self.class.par_chunks(2))
+                .with_min_len(PAR_CHUNK / 2)
+                .for_each(|((x, q), c)| group(x, q, c));
+        } else {
+            for ((x, q), c) in self
+                .x
+                .chunks_mut(2)
+                .zip(self.q.chunks(2))
+                .zip(self.class.chunks(2))
+            {
+                group(x, q, c);
             }
         }
     }
+}
+
+/// Smallest group stepped in parallel (below it a thread hand-off costs more than it saves).
+pub const PAR_MIN_AGENTS: usize = 256;
+
+/// Agents per parallel work item.
+const PAR_CHUNK: usize = 64;
+
+/// Whether a group of `agents` is stepped on several threads (rayon's pool has more than one).
+fn parallel(agents: usize) -> bool {
+    agents >= PAR_MIN_AGENTS && rayon::current_num_threads() > 1
 }

@@ -222,6 +222,7 @@ fn run_row(plan: &Plan, out: &Path, r: u64) -> Result<String> {
     let outcome: Result<Summary> = plan.setup(&p).and_then(|setup| {
         if plan.file.output.runs.contains(&r) {
             let opts = RunOptions {
+                agents: None,
                 out: Some(out.join("runs").join(r.to_string())),
                 decimate: plan.file.output.decimate,
                 plots: true,

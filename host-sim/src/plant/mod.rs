@@ -27,8 +27,18 @@ use crate::error::{Error, Result};
 pub struct PlantSpec {
     /// `"example1"`, `"manipulator"` or `"custom"`.
     pub model: String,
-    /// One initial state per agent.
+    /// One initial state per agent (left out when drawn from `x0_min`..`x0_max`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
     pub x0: Vec<Vec<f64>>,
+    /// Lower corner of the box initial states are drawn from, instead of `x0`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub x0_min: Option<Vec<f64>>,
+    /// Upper corner of that box.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub x0_max: Option<Vec<f64>>,
+    /// Seed of the draw (default 1).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub x0_seed: Option<u64>,
     /// Manipulator inertia `M`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub inertia: Option<f64>,
@@ -65,6 +75,9 @@ impl Default for PlantSpec {
                 vec![0.01, 0.09],
                 vec![0.0, 0.7],
             ],
+            x0_min: None,
+            x0_max: None,
+            x0_seed: None,
             inertia: None,
             mass: None,
             gravity: None,
@@ -78,6 +91,60 @@ impl Default for PlantSpec {
 }
 
 impl PlantSpec {
+    /// Whether the initial states are drawn in a box (`x0_min`, `x0_max`).
+    pub fn x0_drawn(&self) -> bool {
+        self.x0_min.is_some() || self.x0_max.is_some()
+    }
+
+    /// The initial states of `agents` agents: `x0` as written, or drawn uniformly in the box
+    /// `x0_min`..`x0_max` (then `x0` must be left out or be the default); checked as in
+    /// [`PlantSpec::check_x0`].
+    pub fn initial_states(&self, agents: usize, n: usize, bound: f64) -> Result<Vec<Vec<f64>>> {
+        let (lo, hi) = match (&self.x0_min, &self.x0_max) {
+            (None, None) => {
+                if self.x0_seed.is_some() {
+                    return Err(Error::invalid(
+                        "plant.x0_seed",
+                        "only with plant.x0_min and plant.x0_max",
+                    ));
+                }
+                self.check_x0(agents, n, bound)?;
+                return Ok(self.x0.clone());
+            }
+            (Some(_), None) => {
+                return Err(Error::invalid(
+                    "plant.x0_max",
+                    "missing: give both corners of the box, plant.x0_min and plant.x0_max",
+                ))
+            }
+            (None, Some(_)) => {
+                return Err(Error::invalid(
+                    "plant.x0_min",
+                    "missing: give both corners of the box, plant.x0_min and plant.x0_max",
+                ))
+            }
+            (Some(lo), Some(hi)) => (lo, hi),
+        };
+        if !self.x0.is_empty() && self.x0 != Self::default().x0 {
+            return Err(Error::invalid(
+                "plant.x0",
+                "give either plant.x0 or the box plant.x0_min / plant.x0_max, not both",
+            ));
+        }
+        if lo.len() != n {
+            return Err(Error::invalid(
+                "plant.x0_min",
+                format!("{} entries, the model has n = {n} states", lo.len()),
+            ));
+        }
+        let drawn = Self {
+            x0: crate::generate::initial_states(agents, lo, hi, self.x0_seed.unwrap_or(1))?,
+            ..Self::default()
+        };
+        drawn.check_x0(agents, n, bound)?;
+        Ok(drawn.x0)
+    }
+
     /// Checks `x0`: one row of `n` finite entries within `bound` per agent.
     pub fn check_x0(&self, agents: usize, n: usize, bound: f64) -> Result<()> {
         let x0 = &self.x0;
@@ -207,6 +274,19 @@ pub fn rk4<const N: usize, const M: usize, P: Plant<N, M>>(
     dt: f64,
     st: &Stages<P::Time, M>,
 ) {
+    rk4_batch(plant, std::array::from_mut(x), dt, std::array::from_ref(st));
+}
+
+/// One classical RK4 step of length `dt` for each of `B` agents: per agent exactly the
+/// operations of [`rk4`], the agents' independent chains interleaved so that a core overlaps
+/// them (one agent's step is a chain of dependent operations).
+#[inline]
+pub fn rk4_batch<const N: usize, const M: usize, const B: usize, P: Plant<N, M>>(
+    plant: &P,
+    x: &mut [[f64; N]; B],
+    dt: f64,
+    st: &[Stages<P::Time, M>; B],
+) {
     let add = |x: &[f64; N], k: &[f64; N], s: f64| -> [f64; N] {
         let mut y = *x;
         for (y, k) in y.iter_mut().zip(k) {
@@ -214,14 +294,17 @@ pub fn rk4<const N: usize, const M: usize, P: Plant<N, M>>(
         }
         y
     };
-    let [t0, tm, t1] = &st.time;
-    let [a0, am, a1] = &st.act;
-    let k1 = plant.derivative(t0, x, a0);
-    let k2 = plant.derivative(tm, &add(x, &k1, 0.5 * dt), am);
-    let k3 = plant.derivative(tm, &add(x, &k2, 0.5 * dt), am);
-    let k4 = plant.derivative(t1, &add(x, &k3, dt), a1);
-    for j in 0..N {
-        x[j] += dt / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j]);
+    let f = |b: usize, stage: usize, x: &[f64; N]| {
+        plant.derivative(&st[b].time[stage], x, &st[b].act[stage])
+    };
+    let k1: [[f64; N]; B] = std::array::from_fn(|b| f(b, 0, &x[b]));
+    let k2: [[f64; N]; B] = std::array::from_fn(|b| f(b, 1, &add(&x[b], &k1[b], 0.5 * dt)));
+    let k3: [[f64; N]; B] = std::array::from_fn(|b| f(b, 1, &add(&x[b], &k2[b], 0.5 * dt)));
+    let k4: [[f64; N]; B] = std::array::from_fn(|b| f(b, 2, &add(&x[b], &k3[b], dt)));
+    for (b, x) in x.iter_mut().enumerate() {
+        for j in 0..N {
+            x[j] += dt / 6.0 * (k1[b][j] + 2.0 * k2[b][j] + 2.0 * k3[b][j] + k4[b][j]);
+        }
     }
 }
 

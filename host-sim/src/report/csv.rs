@@ -3,13 +3,15 @@
 
 use std::{
     fs::File,
-    io::BufWriter,
+    io::{BufWriter, Write},
     path::{Path, PathBuf},
+    sync::mpsc::{sync_channel, Receiver, SyncSender},
+    thread::JoinHandle,
 };
 
 use crate::{
     error::{Error, Result},
-    report::{temp_path, TempFile},
+    report::{plots::MAX_PLOTTED_AGENTS, temp_path, TempFile},
     scenario::Setup,
     sim::{Observer, SampleView},
 };
@@ -27,24 +29,51 @@ pub fn row_bytes(agents: usize, n: usize, m: usize) -> u64 {
 
 /// Estimated size of `trajectory.csv` for `setup` with every `decimate`-th sample [bytes].
 pub fn estimated_size(setup: &Setup, decimate: u64) -> u64 {
+    estimated_size_of(setup, decimate, setup.agents())
+}
+
+/// As [`estimated_size`] with the columns of `columns` agents (`--agents`).
+pub fn estimated_size_of(setup: &Setup, decimate: u64, columns: usize) -> u64 {
     let rows = setup.samples.div_ceil(decimate.max(1));
-    rows.saturating_mul(row_bytes(setup.agents(), setup.n(), setup.m()))
+    rows.saturating_mul(row_bytes(columns, setup.n(), setup.m()))
 }
 
 /// The smallest `--decimate` whose estimated `trajectory.csv` is within `limit`.
 pub fn decimate_to_fit(setup: &Setup, limit: u64) -> u64 {
-    let rows = (limit / row_bytes(setup.agents(), setup.n(), setup.m())).max(1);
+    decimate_to_fit_of(setup, limit, setup.agents())
+}
+
+fn decimate_to_fit_of(setup: &Setup, limit: u64, columns: usize) -> u64 {
+    let rows = (limit / row_bytes(columns, setup.n(), setup.m())).max(1);
     setup.samples.div_ceil(rows).max(1)
+}
+
+/// Size a large group's `trajectory.csv` is kept within when `--decimate` is not given [bytes].
+pub const DEFAULT_LARGE_GROUP_SIZE: u64 = 100_000_000;
+
+/// `--decimate` when not given: 1, or for more than [`MAX_PLOTTED_AGENTS`] agents the smallest
+/// decimation that keeps `trajectory.csv` (with `columns` agents' columns) within
+/// [`DEFAULT_LARGE_GROUP_SIZE`].
+pub fn default_decimate(setup: &Setup, columns: usize) -> u64 {
+    if setup.agents() <= MAX_PLOTTED_AGENTS {
+        return 1;
+    }
+    decimate_to_fit_of(setup, DEFAULT_LARGE_GROUP_SIZE, columns)
 }
 
 /// `Err` (an invalid `--decimate`, naming the one that fits) when `trajectory.csv` would exceed
 /// [`SIZE_LIMIT`].
 pub fn check_size(setup: &Setup, decimate: u64) -> Result<()> {
-    let size = estimated_size(setup, decimate);
+    check_size_of(setup, decimate, setup.agents())
+}
+
+/// As [`check_size`] with the columns of `columns` agents (`--agents`).
+pub fn check_size_of(setup: &Setup, decimate: u64, columns: usize) -> Result<()> {
+    let size = estimated_size_of(setup, decimate, columns);
     if size <= SIZE_LIMIT {
         return Ok(());
     }
-    let fit = decimate_to_fit(setup, SIZE_LIMIT);
+    let fit = decimate_to_fit_of(setup, SIZE_LIMIT, columns);
     Err(Error::invalid(
         "--decimate",
         format!(
@@ -53,7 +82,7 @@ pub fn check_size(setup: &Setup, decimate: u64) -> Result<()> {
             human_bytes(size),
             setup.samples,
             human_bytes(SIZE_LIMIT),
-            human_bytes(estimated_size(setup, fit)),
+            human_bytes(estimated_size_of(setup, fit, columns)),
         ),
     ))
 }
@@ -74,24 +103,113 @@ pub fn human_bytes(b: u64) -> String {
     }
 }
 
+/// `--agents 1,5,10-20`: the 1-based agents (single numbers and inclusive ranges) whose columns
+/// `trajectory.csv` gets, as sorted, distinct 0-based indices.
+pub fn parse_agents(spec: &str, agents: usize) -> Result<Vec<usize>> {
+    let bad = |why: String| Error::invalid("--agents", why);
+    let number = |s: &str| -> Result<usize> {
+        let k: usize = s
+            .trim()
+            .parse()
+            .map_err(|_| bad(format!("`{}` is not an agent number", s.trim())))?;
+        if k < 1 || k > agents {
+            return Err(bad(format!(
+                "agent {k} out of range 1..={agents} (agents are 1-based)"
+            )));
+        }
+        Ok(k - 1)
+    };
+    let mut out = Vec::new();
+    for part in spec.split(',') {
+        match part.split_once('-') {
+            Some((a, b)) => {
+                let (a, b) = (number(a)?, number(b)?);
+                if a > b {
+                    return Err(bad(format!("range {}-{} runs backwards", a + 1, b + 1)));
+                }
+                out.extend(a..=b);
+            }
+            None => out.push(number(part)?),
+        }
+    }
+    out.sort_unstable();
+    out.dedup();
+    Ok(out)
+}
+
+/// Appends the shortest text that reads back to `v`, exactly as `ryu` writes it (`1e16`,
+/// `3.0399042e-10`, `0.0`, `NaN`, `inf`): `zmij` writes the same digits and a `+` in a positive
+/// exponent, which is dropped.
+#[inline]
+pub fn number<F: zmij::Float>(out: &mut Vec<u8>, buf: &mut zmij::Buffer, v: F) {
+    let s = buf.format(v).as_bytes();
+    match s.iter().position(|&b| b == b'+') {
+        Some(p) => {
+            out.extend_from_slice(&s[..p]);
+            out.extend_from_slice(&s[p + 1..]);
+        }
+        None => out.extend_from_slice(s),
+    }
+}
+
+/// Values handed to the writer thread at a time (bounds the memory in flight).
+const BLOCK_VALUES: usize = 16_384;
+
+/// Blocks queued for the writer thread at most.
+const QUEUE: usize = 4;
+
+/// The raw values of whole rows, in column order, `f64` and `f32` columns apart.
+#[derive(Debug, Default)]
+struct Block {
+    wide: Vec<f64>,
+    narrow: Vec<f32>,
+}
+
+/// Column layout: per row `t`, `yd`, then per agent `1 + n` wide (`y`, `x`) and `n + 2m + 3`
+/// narrow (`e`, `u`, `q`, estimates) values.
+#[derive(Debug, Clone, Copy)]
+struct Layout {
+    agents: usize,
+    wide: usize,
+    narrow: usize,
+}
+
 /// Streams rows to a temporary file; [`CsvObserver::finish`] renames it into place.
+///
+/// The loop only copies each kept row's values; a writer thread formats them (by hand, a
+/// number never needs CSV quoting, with `zmij`: the same text the `csv` crate wrote with `ryu`
+/// before, see [`number`]) and writes the file, so the text costs no time of the loop when a
+/// second core is free.
 pub struct CsvObserver {
-    wtr: csv::Writer<BufWriter<File>>,
+    block: Block,
+    rows: usize,
+    rows_per_block: usize,
+    tx: Option<SyncSender<Block>>,
+    writer: Option<JoinHandle<std::io::Result<()>>>,
     decimate: u64,
+    agents: Vec<usize>,
     tmp: TempFile,
     path: PathBuf,
-    fmt: ryu::Buffer,
 }
 
 impl CsvObserver {
-    /// Opens `path` (via a temporary name) and writes the header.
+    /// Opens `path` (via a temporary name) and writes the header: every agent's columns.
     pub fn create(path: &Path, agents: usize, n: usize, m: usize, decimate: u64) -> Result<Self> {
+        Self::create_for(path, (0..agents).collect(), n, m, decimate)
+    }
+
+    /// As [`CsvObserver::create`] with the columns of `agents` only (0-based, ascending).
+    pub fn create_for(
+        path: &Path,
+        agents: Vec<usize>,
+        n: usize,
+        m: usize,
+        decimate: u64,
+    ) -> Result<Self> {
         let tmp = TempFile::new(temp_path(path));
         let file = File::create(tmp.path()).map_err(|e| Error::io(tmp.path(), e))?;
-        let mut wtr =
-            csv::WriterBuilder::new().from_writer(BufWriter::with_capacity(1 << 16, file));
         let mut header = vec!["t".to_string(), "yd".to_string()];
-        for i in 1..=agents {
+        for i in agents.iter().map(|i| i + 1) {
             header.push(format!("y{i}"));
             header.extend((1..=n).map(|j| format!("x{i}_{j}")));
             header.extend((1..=n).map(|j| format!("e{i}_{j}")));
@@ -99,54 +217,165 @@ impl CsvObserver {
             header.extend((1..=m).map(|l| format!("q{i}_{l}")));
             header.extend([format!("mu{i}"), format!("xi{i}"), format!("lambda{i}")]);
         }
-        wtr.write_record(&header)
+        let mut out = BufWriter::with_capacity(1 << 16, file);
+        writeln!(out, "{}", header.join(",")).map_err(|e| Error::io(tmp.path(), e))?;
+        let layout = Layout {
+            agents: agents.len(),
+            wide: 1 + n,
+            narrow: n + 2 * m + 3,
+        };
+        let (tx, rx) = sync_channel(QUEUE);
+        let writer = std::thread::Builder::new()
+            .name("trajectory.csv".into())
+            .spawn(move || write_rows(out, &rx, layout))
             .map_err(|e| Error::io(tmp.path(), e))?;
+        let per_row = 2 + layout.agents * (layout.wide + layout.narrow);
         Ok(Self {
-            wtr,
+            block: Block::default(),
+            rows: 0,
+            rows_per_block: (BLOCK_VALUES / per_row).max(1),
+            tx: Some(tx),
+            writer: Some(writer),
             decimate: decimate.max(1),
+            agents,
             tmp,
             path: path.to_path_buf(),
-            fmt: ryu::Buffer::new(),
         })
     }
 
-    /// Flushes and renames the file into place.
+    /// Hands the rows kept so far to the writer; its error if it stopped.
+    fn hand_over(&mut self) -> Result<()> {
+        self.rows = 0;
+        let block = std::mem::take(&mut self.block);
+        let sent = self.tx.as_ref().is_some_and(|tx| tx.send(block).is_ok());
+        if sent {
+            Ok(())
+        } else {
+            self.join()
+        }
+    }
+
+    /// Waits for the writer: the file is complete and flushed when it returns `Ok`.
+    fn join(&mut self) -> Result<()> {
+        self.tx = None;
+        match self.writer.take().map(JoinHandle::join) {
+            Some(Ok(Ok(()))) | None => Ok(()),
+            Some(Ok(Err(e))) => Err(Error::io(self.tmp.path(), e)),
+            Some(Err(_)) => Err(Error::Io(format!(
+                "{}: the writer thread stopped",
+                self.tmp.path().display()
+            ))),
+        }
+    }
+
+    /// Writes the last rows, flushes and renames the file into place.
     pub fn finish(mut self) -> Result<()> {
-        self.wtr
-            .flush()
-            .map_err(|e| Error::io(self.tmp.path(), e))?;
-        drop(self.wtr);
+        if self.rows > 0 {
+            self.hand_over()?;
+        }
+        self.join()?;
         self.tmp.persist(&self.path)
     }
+}
 
-    fn f64(&mut self, v: f64) -> csv::Result<()> {
-        self.wtr.write_field(self.fmt.format(v))
-    }
+/// Longest number text kept for reuse (`-1.2345678901234567e-308` has 24 characters).
+const TEXT: usize = 32;
 
-    fn f32(&mut self, v: f32) -> csv::Result<()> {
-        self.wtr.write_field(self.fmt.format(v))
-    }
+/// The writer's formatter with memory: a value equal bit for bit to the one above it in its
+/// column (a held quantizer level) or to the field before it (identical actuators) is copied,
+/// not formatted again.
+struct Texts {
+    fmt: zmij::Buffer,
+    /// Per column: the last value's bits, its text length (0: none) and text.
+    above: Vec<(u64, usize, [u8; TEXT])>,
+    col: usize,
+    /// The field before: its bits, whether it is an `f32`, where its text starts in the line.
+    before: (u64, bool, usize),
+}
 
-    fn row<const N: usize, const M: usize>(&mut self, s: &SampleView<'_, N, M>) -> csv::Result<()> {
-        self.f64(s.t)?;
-        self.f64(s.yd)?;
-        for (x, o) in s.x.iter().zip(s.out) {
-            self.f64(x[0])?;
-            for &v in x {
-                self.f64(v)?;
-            }
-            for &v in &o.e {
-                self.f32(v)?;
-            }
-            for &v in o.u.iter().chain(&o.q) {
-                self.f32(v)?;
-            }
-            self.f32(o.estimates.mu)?;
-            self.f32(o.estimates.xi)?;
-            self.f32(o.estimates.lambda)?;
+impl Texts {
+    fn new(columns: usize) -> Self {
+        Self {
+            fmt: zmij::Buffer::new(),
+            above: vec![(0, 0, [0; TEXT]); columns],
+            col: 0,
+            before: (0, false, usize::MAX),
         }
-        self.wtr.write_record(None::<&[u8]>)
     }
+
+    /// Starts a row.
+    fn row(&mut self) {
+        self.col = 0;
+        self.before.2 = usize::MAX;
+    }
+
+    /// One number and its separator; `bits` and `narrow` tell values apart exactly.
+    #[inline]
+    fn field<F: zmij::Float>(&mut self, line: &mut Vec<u8>, v: F, bits: u64, narrow: bool) {
+        let start = line.len();
+        if self.col == self.above.len() {
+            self.above.push((0, 0, [0; TEXT]));
+        }
+        let (was, len, text) = &mut self.above[self.col];
+        if *len > 0 && *was == bits {
+            line.extend_from_slice(&text[..*len]);
+        } else {
+            let (b, n, from) = self.before;
+            if from != usize::MAX && b == bits && n == narrow {
+                line.extend_from_within(from..start - 1);
+            } else {
+                number(line, &mut self.fmt, v);
+            }
+            let new = &line[start..];
+            *was = bits;
+            *len = if new.len() <= TEXT { new.len() } else { 0 };
+            text[..*len].copy_from_slice(&new[..*len]);
+        }
+        self.before = (bits, narrow, start);
+        line.push(b',');
+        self.col += 1;
+    }
+}
+
+/// The writer thread: formats every row of every block and writes it.
+fn write_rows(
+    mut out: BufWriter<File>,
+    rx: &Receiver<Block>,
+    layout: Layout,
+) -> std::io::Result<()> {
+    let mut line = Vec::with_capacity(1 << 12);
+    let wide_row = 2 + layout.agents * layout.wide;
+    let narrow_row = (layout.agents * layout.narrow).max(1);
+    let mut texts = Texts::new(wide_row + narrow_row);
+    for block in rx {
+        for (w, q) in block
+            .wide
+            .chunks_exact(wide_row)
+            .zip(block.narrow.chunks_exact(narrow_row))
+        {
+            line.clear();
+            texts.row();
+            for &v in &w[..2] {
+                texts.field(&mut line, v, v.to_bits(), false);
+            }
+            for (wa, qa) in w[2..]
+                .chunks_exact(layout.wide)
+                .zip(q.chunks_exact(layout.narrow))
+            {
+                for &v in wa {
+                    texts.field(&mut line, v, v.to_bits(), false);
+                }
+                for &v in qa {
+                    texts.field(&mut line, v, u64::from(v.to_bits()), true);
+                }
+            }
+            if let Some(last) = line.last_mut() {
+                *last = b'\n';
+            }
+            out.write_all(&line)?;
+        }
+    }
+    out.flush()
 }
 
 impl<const N: usize, const M: usize> Observer<N, M> for CsvObserver {
@@ -154,13 +383,134 @@ impl<const N: usize, const M: usize> Observer<N, M> for CsvObserver {
         if !s.k.is_multiple_of(self.decimate) {
             return Ok(());
         }
-        self.row(s).map_err(|e| Error::io(self.tmp.path(), e))
+        let b = &mut self.block;
+        b.wide.extend([s.t, s.yd]);
+        for &i in &self.agents {
+            let (x, o) = (&s.x[i], &s.out[i]);
+            b.wide.push(x[0]);
+            b.wide.extend_from_slice(x);
+            b.narrow.extend_from_slice(&o.e);
+            b.narrow.extend_from_slice(&o.u);
+            b.narrow.extend_from_slice(&o.q);
+            let e = &o.estimates;
+            b.narrow.extend([e.mu, e.xi, e.lambda]);
+        }
+        self.rows += 1;
+        if self.rows == self.rows_per_block {
+            self.hand_over()?;
+        }
+        Ok(())
     }
 }
 
 #[cfg(test)]
 mod cleanup_tests {
     use super::*;
+
+    fn same_as_ryu<F: zmij::Float + ryu::Float + Copy + std::fmt::Debug>(v: F) {
+        let mut out = Vec::new();
+        number(&mut out, &mut zmij::Buffer::new(), v);
+        assert_eq!(out, ryu::Buffer::new().format(v).as_bytes(), "{v:?}");
+    }
+
+    /// `number` against `ryu` (what trajectory.csv was written with) on special values, both
+    /// notations and their boundaries, and a seeded sweep over bit patterns.
+    #[test]
+    fn numbers_read_as_ryu_writes_them() {
+        for v in [
+            0.0,
+            -0.0,
+            1.0,
+            -2.5,
+            1e15,
+            1e16,
+            1e-5,
+            1e-6,
+            1e300,
+            5e-324,
+            f64::MAX,
+        ] {
+            same_as_ryu(v);
+        }
+        for v in [
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            0.1 + 0.2,
+            123456789.0,
+        ] {
+            same_as_ryu(v);
+        }
+        let mut bits = 0x9E37_79B9_7F4A_7C15_u64;
+        for _ in 0..200_000 {
+            bits ^= bits << 13;
+            bits ^= bits >> 7;
+            bits ^= bits << 17;
+            same_as_ryu(f64::from_bits(bits));
+        }
+        for v in [
+            0.0,
+            -0.0,
+            1.0,
+            1e7,
+            1e15,
+            1e16,
+            3.0399042e-10,
+            3.5456342e-6,
+            f32::MAX,
+        ] {
+            same_as_ryu(v);
+        }
+        for v in [
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            1e-45,
+            16777216.0,
+        ] {
+            same_as_ryu(v);
+        }
+        for b in (0..u32::MAX).step_by(4099) {
+            same_as_ryu(f32::from_bits(b));
+        }
+    }
+
+    /// Reused texts equal fresh ones: repeats above and before, signed zeros, NaN, and an
+    /// `f64` and an `f32` with the same bits.
+    #[test]
+    fn copied_texts_equal_formatted_ones() {
+        let rows: [[f64; 4]; 4] = [
+            [0.0, 0.0, 1.5, f64::NAN],
+            [-0.0, 0.0, 1.5, f64::NAN],
+            [f64::from_bits(0x3f80_0000), 1.0, 1.0, 2.0],
+            [f64::from_bits(0x3f80_0000), 1.0, 1.0, 1e300],
+        ];
+        let mut texts = Texts::new(0);
+        let (mut line, mut plain) = (Vec::new(), Vec::new());
+        let mut fmt = zmij::Buffer::new();
+        for r in rows {
+            line.clear();
+            plain.clear();
+            texts.row();
+            texts.field(&mut line, r[0], r[0].to_bits(), false);
+            let f = r[1] as f32;
+            texts.field(&mut line, f, u64::from(f.to_bits()), true);
+            texts.field(&mut line, r[2], r[2].to_bits(), false);
+            texts.field(&mut line, r[3], r[3].to_bits(), false);
+            for (i, v) in r.iter().enumerate() {
+                if i == 1 {
+                    number(&mut plain, &mut fmt, *v as f32);
+                } else {
+                    number(&mut plain, &mut fmt, *v);
+                }
+                plain.push(b',');
+            }
+            assert_eq!(
+                String::from_utf8_lossy(&line),
+                String::from_utf8_lossy(&plain)
+            );
+        }
+    }
 
     #[test]
     fn an_unfinished_csv_leaves_no_file_behind() -> Result<()> {

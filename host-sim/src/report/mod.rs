@@ -3,6 +3,7 @@
 
 pub mod csv;
 pub mod plots;
+pub mod spread;
 pub mod trace;
 
 use std::{

@@ -26,7 +26,7 @@ use crate::{
 /// Most agents drawn in one figure (the first ones).
 pub const MAX_PLOTTED_AGENTS: usize = 8;
 /// Points per series kept for plotting.
-const TARGET_POINTS: u64 = 4000;
+pub(crate) const TARGET_POINTS: u64 = 4000;
 /// Markers per series, staggered between the series of a panel so that they never coincide.
 const MARKERS_PER_SERIES: usize = 20;
 
@@ -326,6 +326,8 @@ fn tick_step((lo, hi): (f64, f64), n: usize) -> f64 {
 pub struct Recorder {
     stride: u64,
     agents: usize,
+    /// All agents of the run (the figures say when they show only the first ones).
+    total: usize,
     m: usize,
     /// `t_k`.
     pub t: Vec<f64>,
@@ -366,6 +368,7 @@ impl Recorder {
         Self {
             stride: (samples / TARGET_POINTS).max(1),
             agents: a,
+            total: agents,
             m,
             y: vec![Vec::new(); a],
             u: vec![Vec::new(); a * m],
@@ -395,8 +398,16 @@ impl Recorder {
         let (y_unit, u_unit) = setup.plant.units();
         let vline = (two_ts, format!("2Tₛ = {}", secs(two_ts)));
 
+        let shown = if self.total > self.agents {
+            format!(
+                " (agents 1–{} of {}; spread: see spread.png)",
+                self.agents, self.total
+            )
+        } else {
+            String::new()
+        };
         let mut tracking = Panel {
-            title: format!("{name}: outputs yᵢ and leader y_d"),
+            title: format!("{name}: outputs yᵢ and leader y_d{shown}"),
             y_label: format!("output y [{y_unit}]"),
             vlines: vec![vline.clone()],
             ..Panel::default()
@@ -426,7 +437,7 @@ impl Recorder {
             })
             .collect();
         let full = Panel {
-            title: format!("{name}: tracking errors yᵢ − y_d"),
+            title: format!("{name}: tracking errors yᵢ − y_d{shown}"),
             y_label: format!("yᵢ − y_d [{y_unit}]"),
             series: errs,
             vlines: vec![vline.clone()],
@@ -1115,13 +1126,16 @@ fn draw_panel<DB: DrawingBackend>(
             }
         };
         let (marker, dash, color, width) = (s.marker, s.dash, s.color, s.width);
-        anno.label(s.label.as_str()).legend(move |at| Glyph {
-            at,
-            marker,
-            dash: Some(dash),
-            color,
-            width,
-        });
+        if !s.label.is_empty() {
+            // An unlabelled series (the second edge of a band) has no legend entry.
+            anno.label(s.label.as_str()).legend(move |at| Glyph {
+                at,
+                marker,
+                dash: Some(dash),
+                color,
+                width,
+            });
+        }
         let step = (shown.len() / MARKERS_PER_SERIES).max(1);
         let offset = k * step / n_series;
         if s.marker != Marker::None {
