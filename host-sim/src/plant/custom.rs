@@ -392,6 +392,19 @@ fn compile(text: &str, names: &BTreeMap<String, Op>) -> std::result::Result<Prog
                 ops.pop();
                 ops.push(Op::PowI(k as i32));
             }
+            (Some(&Op::PowI(k)), Op::Mul) => {
+                // `c*x^k` as `c*x*x*…*x`, left to right: the order of a hand-written `f`.
+                if let Some(&base @ Op::Slot(_)) = ops.iter().rev().nth(1) {
+                    ops.pop();
+                    ops.push(Op::Mul);
+                    for _ in 1..k {
+                        ops.push(base);
+                        ops.push(Op::Mul);
+                    }
+                } else {
+                    ops.push(op);
+                }
+            }
             _ => ops.push(op),
         }
     }
@@ -428,7 +441,7 @@ mod tests {
         ])?;
         let (x, a, t) = ([0.3, -1.2], [0.4, 0.7], 1.1f64);
         let dx = <Custom as Plant<2, 2>>::derivative(&p, &t, &x, &a);
-        assert_eq!(dx[0], x[1] + 0.8 * x[0].powf(3.0) - 0.5);
+        assert_eq!(dx[0], x[1] + 0.8 * x[0] * x[0] * x[0] - 0.5);
         let expect = 1.1 - 2.0 * x[0].powf(2.0) + x[1].powf(3.0) + t.cos() - x[0].powf(2.0) + 512.0;
         assert!((dx[1] - expect).abs() < 1e-12, "{} vs {expect}", dx[1]);
         Ok(())
