@@ -347,16 +347,7 @@ fn python_can_slcan_talks_to_the_node() {
     if !pil_available() {
         return;
     }
-    let have = Command::new("python3")
-        .args(["-c", "import can, serial"])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !have {
-        assert!(
-            std::env::var_os("REQUIRE_CANTOOLS").is_none(),
-            "REQUIRE_CANTOOLS is set but python-can / pyserial are missing"
-        );
-        eprintln!("SKIPPED: python3 with python-can and pyserial not found (pip install python-can pyserial)");
+    if !common::python_has("can, serial", "pip install python-can pyserial") {
         return;
     }
     let py = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/slcan_node.py");

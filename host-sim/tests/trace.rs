@@ -7,22 +7,7 @@ mod common;
 
 use std::{path::PathBuf, process::Command};
 
-use common::{assert_invalid, bin, scenario_path, tmp};
-
-fn cantools_available() -> bool {
-    let ok = Command::new("python3")
-        .args(["-c", "import can, cantools"])
-        .output()
-        .is_ok_and(|o| o.status.success());
-    if !ok {
-        assert!(
-            std::env::var_os("REQUIRE_CANTOOLS").is_none(),
-            "REQUIRE_CANTOOLS is set but `python3 -c 'import can, cantools'` fails"
-        );
-        eprintln!("SKIPPED: python3 with cantools and python-can not found (pip install cantools python-can)");
-    }
-    ok
-}
+use common::{assert_invalid, bin, python_has, scenario_path, tmp};
 
 #[test]
 fn can_trace_decodes_to_the_trajectory() {
@@ -47,7 +32,7 @@ fn can_trace_decodes_to_the_trajectory() {
     assert_eq!(lines.len(), 299 * 5);
     assert_eq!(lines[0], "(0.000092) can0 100#00000000");
     assert!(lines[1].starts_with("(0.000187) can0 101#"), "{}", lines[1]);
-    if !cantools_available() {
+    if !python_has("can, cantools", "pip install cantools python-can") {
         return;
     }
     let dbc = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../docs/wire.dbc");

@@ -48,3 +48,21 @@ pub fn assert_ok(out: &Output) {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+/// Whether `python3` imports every module of `modules` (the interoperability checks). Missing
+/// modules skip the calling test with a message naming `pip_install`, unless `REQUIRE_CANTOOLS`
+/// is set (CI installs them), which fails it.
+pub fn python_has(modules: &str, pip_install: &str) -> bool {
+    let ok = Command::new("python3")
+        .args(["-c", &format!("import {modules}")])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !ok {
+        assert!(
+            std::env::var_os("REQUIRE_CANTOOLS").is_none(),
+            "REQUIRE_CANTOOLS is set but `python3 -c 'import {modules}'` fails"
+        );
+        eprintln!("SKIPPED: python3 cannot import {modules} ({pip_install})");
+    }
+    ok
+}
