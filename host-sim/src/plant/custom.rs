@@ -1,17 +1,15 @@
 //! `[plant] model = "custom"`: dynamics written as expressions in the scenario file.
 //!
-//! Each expression is parsed once by `meval` (precedence, number syntax, positions of syntax
-//! errors) and its postfix form compiled into a [`Program`] whose variables are slots of a fixed
-//! array and whose `[plant.params]` are constants; the RK4 stages then evaluate the programs
-//! with a small fixed stack, without name look-ups or allocation.
+//! Each expression is parsed once by the grammar in [`parse`] (precedence, number syntax,
+//! positions of syntax errors) and its postfix form compiled into a [`Program`] whose variables
+//! are slots of a fixed array and whose `[plant.params]` are constants; the RK4 stages then
+//! evaluate the programs with a small fixed stack, without name look-ups or allocation.
+
+mod parse;
 
 use std::collections::BTreeMap;
 
-use meval::{
-    tokenizer::{Operation, Token},
-    Expr, ParseError, RPNError,
-};
-
+use self::parse::{Binary, Token};
 use super::Plant;
 use crate::error::{Error, Result};
 
@@ -70,12 +68,7 @@ const CONSTANTS: [(&str, f64); 2] = [("pi", std::f64::consts::PI), ("e", std::f6
 enum Op {
     Const(f64),
     Slot(usize),
-    Add,
-    Sub,
-    Mul,
-    Div,
-    Rem,
-    Pow,
+    Bin(Binary),
     Neg,
     /// `^` with a small whole exponent: repeated multiplication, as a hand-written `f` has it.
     PowI(i32),
@@ -114,16 +107,16 @@ impl Program {
                     stack[sp - 1] = r;
                 }
                 Op::Call(f) => stack[sp - 1] = f.apply(stack[sp - 1]),
-                bin => {
+                Op::Bin(bin) => {
                     sp -= 1;
                     let (l, r) = (stack[sp - 1], stack[sp]);
                     stack[sp - 1] = match bin {
-                        Op::Add => l + r,
-                        Op::Sub => l - r,
-                        Op::Mul => l * r,
-                        Op::Div => l / r,
-                        Op::Rem => l % r,
-                        _ => l.powf(r),
+                        Binary::Add => l + r,
+                        Binary::Sub => l - r,
+                        Binary::Mul => l * r,
+                        Binary::Div => l / r,
+                        Binary::Rem => l % r,
+                        Binary::Pow => l.powf(r),
                     };
                 }
             }
@@ -258,129 +251,57 @@ impl<const N: usize, const M: usize> Plant<N, M> for Custom {
     }
 }
 
-/// 1-based column of byte `offset` in `text`.
+/// 1-based column (in characters) of byte `offset` in `text`.
 fn column(text: &str, offset: usize) -> usize {
-    text[..offset.min(text.len())].chars().count() + 1
-}
-
-/// Byte offset of the first whole-word occurrence of `name` in `text`.
-fn find_name(text: &str, name: &str) -> usize {
-    let word = |c: char| c.is_alphanumeric() || c == '_';
-    text.match_indices(name)
-        .find(|&(i, _)| {
-            let before = text[..i].chars().next_back();
-            let after = text[i + name.len()..].chars().next();
-            !before.is_some_and(word) && !after.is_some_and(word)
-        })
-        .map_or(0, |(i, _)| i)
-}
-
-/// Byte offset of the first unmatched `(` (`open`) or `)` in `text`.
-fn unmatched_paren(text: &str, open: bool) -> usize {
-    let mut stack = Vec::new();
-    for (i, c) in text.char_indices() {
-        match c {
-            '(' => stack.push(i),
-            ')' if stack.pop().is_none() && !open => return i,
-            _ => {}
-        }
-    }
-    stack.first().copied().unwrap_or(text.len())
-}
-
-/// Byte offset just past the `k`-th token (0-based) of `text`.
-fn token_end(text: &str, k: usize) -> usize {
-    text.char_indices()
-        .map(|(i, c)| i + c.len_utf8())
-        .find(|&end| meval::tokenizer::tokenize(&text[..end]).is_ok_and(|t| t.len() > k))
-        .unwrap_or(text.len())
+    text.char_indices().take_while(|&(i, _)| i < offset).count() + 1
 }
 
 /// `text` as a [`Program`] over `names`, or why not (with the column).
 fn compile(text: &str, names: &BTreeMap<String, Op>) -> std::result::Result<Program, String> {
     let at = |offset: usize| format!("at column {}", column(text, offset));
-    // meval's tokenizer panics on input of white space only.
     if text.trim().is_empty() {
         return Err("empty expression".into());
     }
-    let expr: Expr = text.parse().map_err(|e| match e {
-        meval::Error::ParseError(p) => match p {
-            ParseError::UnexpectedToken(i) => format!("syntax error {}: unexpected input", at(i)),
-            ParseError::MissingRParen(_) => format!(
-                "syntax error {}: this parenthesis is never closed",
-                at(unmatched_paren(text, true))
-            ),
-            ParseError::MissingArgument => format!(
-                "syntax error {}: the expression ends where an operand is expected",
-                at(text.trim_end().len())
-            ),
-        },
-        meval::Error::RPNError(r) => match r {
-            RPNError::MismatchedLParen(_) => format!(
-                "syntax error {}: this parenthesis is never closed",
-                at(unmatched_paren(text, true))
-            ),
-            RPNError::MismatchedRParen(_) => format!(
-                "syntax error {}: this parenthesis closes nothing",
-                at(unmatched_paren(text, false))
-            ),
-            RPNError::UnexpectedComma(k) | RPNError::NotEnoughOperands(k) => format!(
-                "syntax error {}: an operand is missing",
-                at(token_end(text, k).saturating_sub(1))
-            ),
-            RPNError::TooManyOperands => format!("syntax error {}: too many operands", at(0)),
-        },
-        other => format!("{other}"),
-    })?;
-    let mut ops = Vec::with_capacity(expr.len());
+    let tokens =
+        parse::postfix(text).map_err(|e| format!("syntax error {}: {}", at(e.offset), e.why))?;
+    let mut ops = Vec::with_capacity(tokens.len());
     let mut depth = 0usize;
     let mut deepest = 0usize;
-    for token in expr.iter() {
+    for token in tokens {
         let op = match token {
-            Token::Number(v) => Op::Const(*v),
-            Token::Var(name) => *names.get(name).ok_or_else(|| {
-                format!(
-                    "unknown variable `{name}` {} (known: x1..xn, u1..um, u, t, pi, e and [plant.params])",
-                    at(find_name(text, name))
-                )
-            })?,
-            Token::Binary(o) => match o {
-                Operation::Plus => Op::Add,
-                Operation::Minus => Op::Sub,
-                Operation::Times => Op::Mul,
-                Operation::Div => Op::Div,
-                Operation::Rem => Op::Rem,
-                Operation::Pow => Op::Pow,
-            },
-            Token::Unary(Operation::Minus) => Op::Neg,
-            Token::Unary(_) => continue,
-            Token::Func(name, args) => {
+            Token::Number(v) => Op::Const(v),
+            Token::Name(span) => {
+                let name = text.get(span.clone()).unwrap_or_default();
+                *names.get(name).ok_or_else(|| {
+                    format!(
+                        "unknown variable `{name}` {} (known: x1..xn, u1..um, u, t, pi, e and [plant.params])",
+                        at(span.start)
+                    )
+                })?
+            }
+            Token::Binary(b) => Op::Bin(b),
+            Token::Neg => Op::Neg,
+            Token::Call(span) => {
+                let name = text.get(span.clone()).unwrap_or_default();
                 let f = FUNCTIONS
                     .iter()
-                    .find(|(f, _)| f == name)
+                    .find(|(f, _)| *f == name)
                     .map(|(_, f)| *f)
                     .ok_or_else(|| {
                         format!(
                             "unknown function `{name}` {} (known: sin cos tan exp ln sqrt abs tanh)",
-                            at(find_name(text, name))
+                            at(span.start)
                         )
                     })?;
-                if *args != Some(1) {
-                    return Err(format!(
-                        "`{name}` {} takes one argument",
-                        at(find_name(text, name))
-                    ));
-                }
                 Op::Call(f)
             }
-            _ => return Err(format!("syntax error {}", at(0))),
         };
-        // Operands an op takes; meval's postfix form is well formed, checked again here so
+        // Operands an op takes; the parser's postfix form is well formed, checked again here so
         // the evaluation stack can never underflow.
         let needs = match op {
             Op::Const(_) | Op::Slot(_) => 0,
             Op::Neg | Op::Call(_) | Op::PowI(_) => 1,
-            _ => 2,
+            Op::Bin(_) => 2,
         };
         if depth < needs {
             return Err(format!("syntax error {}: an operand is missing", at(0)));
@@ -388,18 +309,20 @@ fn compile(text: &str, names: &BTreeMap<String, Op>) -> std::result::Result<Prog
         depth = depth - needs + 1;
         deepest = deepest.max(depth);
         match (ops.last(), op) {
-            (Some(&Op::Const(k)), Op::Pow) if k.fract() == 0.0 && (1.0..=16.0).contains(&k) => {
+            (Some(&Op::Const(k)), Op::Bin(Binary::Pow))
+                if k.fract() == 0.0 && (1.0..=16.0).contains(&k) =>
+            {
                 ops.pop();
                 ops.push(Op::PowI(k as i32));
             }
-            (Some(&Op::PowI(k)), Op::Mul) => {
+            (Some(&Op::PowI(k)), Op::Bin(Binary::Mul)) => {
                 // `c*x^k` as `c*x*x*…*x`, left to right: the order of a hand-written `f`.
                 if let Some(&base @ Op::Slot(_)) = ops.iter().rev().nth(1) {
                     ops.pop();
-                    ops.push(Op::Mul);
+                    ops.push(op);
                     for _ in 1..k {
                         ops.push(base);
-                        ops.push(Op::Mul);
+                        ops.push(op);
                     }
                 } else {
                     ops.push(op);
@@ -483,6 +406,72 @@ mod tests {
         let deep = format!("{}x1{}", "(1+".repeat(40), ")".repeat(40));
         let m = message(custom(&[&deep, "u"]));
         assert!(m.contains("nested too deeply"), "{m}");
+    }
+
+    /// Random strings of expression pieces and stray characters compile or give an error naming
+    /// the key (with a column inside the text), and whatever compiles evaluates: never a panic.
+    /// The seed is fresh each run and printed; `CUSTOM_EXPR_SEED=<seed>` replays a run.
+    #[test]
+    fn random_strings_never_panic() {
+        use rand_chacha::{
+            rand_core::{Rng, SeedableRng},
+            ChaCha8Rng,
+        };
+        const PIECES: [&str; 36] = [
+            "x1", "x2", "u", "u1", "u3", "t", "k", "pi", "e", "sin", "ln", "y1", "(", ")", "(",
+            ")", "+", "-", "*", "/", "%", "^", " ", ".", "e", "E", "0", "1", "2", "9", ",", "é",
+            "_", "\t", "1.5e-3", "2^",
+        ];
+        let seed = std::env::var("CUSTOM_EXPR_SEED")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or_else(|| {
+                std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map_or(0, |d| d.as_nanos() as u64)
+            });
+        eprintln!("random expressions: seed {seed} (replay: CUSTOM_EXPR_SEED={seed} cargo test -p host-sim --lib random_strings)");
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut pick = |n: usize| (rng.next_u64() % n as u64) as usize;
+        let (mut compiled, mut rejected) = (0, 0);
+        for case in 0..20_000 {
+            let text: String = (0..pick(24)).map(|_| PIECES[pick(PIECES.len())]).collect();
+            let run = std::panic::catch_unwind(|| match custom(&[&text, "u"]) {
+                Ok(p) => {
+                    let _ = <Custom as Plant<2, 2>>::derivative(&p, &0.5, &[0.1, 0.2], &[0.3, 0.4]);
+                    None
+                }
+                Err(e) => Some(e.to_string()),
+            });
+            let Ok(error) = run else {
+                panic!("seed {seed}, case {case}: {text:?} panicked");
+            };
+            let Some(m) = error else {
+                compiled += 1;
+                continue;
+            };
+            rejected += 1;
+            assert!(
+                m.contains("plant.dynamics[1]"),
+                "seed {seed}: {text:?}: {m}"
+            );
+            if let Some(col) = m.split("at column ").nth(1) {
+                let col: usize = col
+                    .split(|c: char| !c.is_ascii_digit())
+                    .next()
+                    .and_then(|c| c.parse().ok())
+                    .unwrap_or(0);
+                assert!(
+                    (1..=text.chars().count() + 1).contains(&col),
+                    "seed {seed}: {text:?}: column outside the text: {m}"
+                );
+            }
+        }
+        eprintln!("random expressions: {compiled} compiled, {rejected} rejected");
+        assert!(
+            compiled > 100 && rejected > 100,
+            "{compiled} compiled, {rejected} rejected"
+        );
     }
 
     #[test]
