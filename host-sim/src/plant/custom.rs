@@ -370,6 +370,40 @@ mod tests {
         Ok(())
     }
 
+    /// Example 1's expressions compile to the built-in model's operations in its order:
+    /// `0.8*x1^3` as `((0.8·x1)·x1)·x1`, `2*x1^2` as `(2·x1)·x1`, `x2^3` as `x2·x2·x2`.
+    #[test]
+    fn example1_compiles_to_the_hand_written_order() -> Result<()> {
+        use Binary::{Add, Mul, Sub};
+        let p = custom(&["x2 + 0.8*x1^3", "u - 2*x1^2 + x2^3 + cos(t)"])?;
+        let (x1, x2, u, t) = (Op::Slot(0), Op::Slot(1), Op::Slot(4), Op::Slot(5));
+        let (add, mul, sub) = (Op::Bin(Add), Op::Bin(Mul), Op::Bin(Sub));
+        let c = Op::Const;
+        assert_eq!(
+            p.dynamics[0].ops,
+            [x2, c(0.8), x1, mul, x1, mul, x1, mul, add]
+        );
+        assert_eq!(
+            p.dynamics[1].ops,
+            [
+                u,
+                c(2.0),
+                x1,
+                mul,
+                x1,
+                mul,
+                sub,
+                x2,
+                Op::PowI(3),
+                add,
+                t,
+                Op::Call(Func::Cos),
+                add
+            ]
+        );
+        Ok(())
+    }
+
     #[test]
     fn malformed_input_is_an_error_never_a_panic() {
         for text in [
