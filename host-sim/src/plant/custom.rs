@@ -344,6 +344,11 @@ fn compile(text: &str, names: &BTreeMap<String, Op>) -> std::result::Result<Prog
 
 #[cfg(test)]
 mod tests {
+    use rand_chacha::{
+        rand_core::{Rng, SeedableRng},
+        ChaCha8Rng,
+    };
+
     use super::*;
 
     fn custom(dynamics: &[&str]) -> Result<Custom> {
@@ -442,20 +447,9 @@ mod tests {
         assert!(m.contains("nested too deeply"), "{m}");
     }
 
-    /// Random strings of expression pieces and stray characters compile or give an error naming
-    /// the key (with a column inside the text), and whatever compiles evaluates: never a panic.
-    /// The seed is fresh each run and printed; `CUSTOM_EXPR_SEED=<seed>` replays a run.
-    #[test]
-    fn random_strings_never_panic() {
-        use rand_chacha::{
-            rand_core::{Rng, SeedableRng},
-            ChaCha8Rng,
-        };
-        const PIECES: [&str; 36] = [
-            "x1", "x2", "u", "u1", "u3", "t", "k", "pi", "e", "sin", "ln", "y1", "(", ")", "(",
-            ")", "+", "-", "*", "/", "%", "^", " ", ".", "e", "E", "0", "1", "2", "9", ",", "é",
-            "_", "\t", "1.5e-3", "2^",
-        ];
+    /// A generator seeded from `CUSTOM_EXPR_SEED` or, without it, afresh; the seed is printed
+    /// with the command that replays `test`.
+    fn seeded(test: &str) -> (u64, ChaCha8Rng) {
         let seed = std::env::var("CUSTOM_EXPR_SEED")
             .ok()
             .and_then(|s| s.parse().ok())
@@ -464,8 +458,155 @@ mod tests {
                     .duration_since(std::time::UNIX_EPOCH)
                     .map_or(0, |d| d.as_nanos() as u64)
             });
-        eprintln!("random expressions: seed {seed} (replay: CUSTOM_EXPR_SEED={seed} cargo test -p host-sim --lib random_strings)");
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        eprintln!("{test}: seed {seed} (replay: CUSTOM_EXPR_SEED={seed} cargo test -p host-sim --lib {test})");
+        (seed, ChaCha8Rng::seed_from_u64(seed))
+    }
+
+    /// A formula of the random test, with the value of each name at the test's point.
+    #[derive(Debug)]
+    enum Formula {
+        Num(f64),
+        Name(&'static str, f64),
+        Neg(Box<Formula>),
+        Bin(char, Box<Formula>, Box<Formula>),
+        Call(Func, Box<Formula>),
+    }
+
+    impl Formula {
+        /// A random formula at most `depth` levels deep; no literal is a whole number, so no
+        /// `x^k` becomes a product and the program does the formula's operations in its order.
+        fn random(rng: &mut ChaCha8Rng, depth: u32) -> Self {
+            const NUMBERS: [f64; 6] = [0.5, 1.5, 2.25, 0.0015, 3.75e-7, 12.125];
+            let names = [
+                ("x1", 0.1),
+                ("x2", 0.2),
+                ("u1", 0.3),
+                ("u2", 0.4),
+                ("u", 0.7),
+                ("t", 0.5),
+                ("k", 0.5),
+                ("pi", std::f64::consts::PI),
+                ("e", std::f64::consts::E),
+            ];
+            let mut pick = |n: usize| (rng.next_u64() % n as u64) as usize;
+            let leaf = depth == 0 || pick(4) == 0;
+            match (leaf, pick(8)) {
+                (true, 0..=2) => Self::Num(NUMBERS[pick(NUMBERS.len())]),
+                (true, _) => {
+                    let (name, v) = names[pick(names.len())];
+                    Self::Name(name, v)
+                }
+                (false, 0) => Self::Neg(Box::new(Self::random(rng, depth - 1))),
+                (false, 1) => {
+                    let f = FUNCTIONS[pick(FUNCTIONS.len())].1;
+                    Self::Call(f, Box::new(Self::random(rng, depth - 1)))
+                }
+                (false, _) => {
+                    let op = ['+', '-', '*', '/', '%', '^'][pick(6)];
+                    let l = Box::new(Self::random(rng, depth - 1));
+                    Self::Bin(op, l, Box::new(Self::random(rng, depth - 1)))
+                }
+            }
+        }
+
+        /// Binding strength in the grammar: sum 1, product 2, sign 3, power 4, operand 5.
+        fn strength(&self) -> u8 {
+            match self {
+                Self::Num(_) | Self::Name(..) | Self::Call(..) => 5,
+                Self::Neg(_) => 3,
+                Self::Bin('^', ..) => 4,
+                Self::Bin('+' | '-', ..) => 1,
+                Self::Bin(..) => 2,
+            }
+        }
+
+        /// The formula with the fewest parentheses the grammar needs for it.
+        fn text(&self) -> String {
+            let wrap = |f: &Self, parens: bool| {
+                if parens {
+                    format!("({})", f.text())
+                } else {
+                    f.text()
+                }
+            };
+            match self {
+                Self::Num(v) if *v < 0.01 => format!("{v:e}"),
+                Self::Num(v) => format!("{v}"),
+                Self::Name(name, _) => name.to_string(),
+                Self::Neg(a) => format!("-{}", wrap(a, a.strength() < 3)),
+                Self::Call(f, a) => {
+                    let name = FUNCTIONS
+                        .iter()
+                        .find(|(_, g)| g == f)
+                        .map_or("", |(n, _)| n);
+                    format!("{name}({})", a.text())
+                }
+                Self::Bin('^', l, r) => {
+                    format!(
+                        "{}^{}",
+                        wrap(l, l.strength() < 5),
+                        wrap(r, r.strength() < 3)
+                    )
+                }
+                Self::Bin(op, l, r) => {
+                    let s = self.strength();
+                    let (l, r) = (wrap(l, l.strength() < s), wrap(r, r.strength() <= s));
+                    format!("{l} {op} {r}")
+                }
+            }
+        }
+
+        fn value(&self) -> f64 {
+            match self {
+                Self::Num(v) | Self::Name(_, v) => *v,
+                Self::Neg(a) => -a.value(),
+                Self::Call(f, a) => f.apply(a.value()),
+                Self::Bin(op, l, r) => {
+                    let (l, r) = (l.value(), r.value());
+                    match op {
+                        '+' => l + r,
+                        '-' => l - r,
+                        '*' => l * r,
+                        '/' => l / r,
+                        '%' => l % r,
+                        _ => l.powf(r),
+                    }
+                }
+            }
+        }
+    }
+
+    /// Random formulas written with the fewest parentheses compile and evaluate to the bit as
+    /// the formula: precedence, associativity and number syntax as documented.
+    #[test]
+    fn random_formulas_evaluate_as_written() -> Result<()> {
+        let (seed, mut rng) = seeded("random_formulas_evaluate_as_written");
+        for case in 0..5_000 {
+            let f = Formula::random(&mut rng, 6);
+            let text = f.text();
+            let p = custom(&[&text, "u"])
+                .map_err(|e| Error::invalid("seed", format!("{seed}, case {case}: {e}")))?;
+            let got = <Custom as Plant<2, 2>>::derivative(&p, &0.5, &[0.1, 0.2], &[0.3, 0.4])[0];
+            let want = f.value();
+            assert!(
+                got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
+                "seed {seed}, case {case}: {text} gave {got}, the formula {want}"
+            );
+        }
+        Ok(())
+    }
+
+    /// Random strings of expression pieces and stray characters compile or give an error naming
+    /// the key (with a column inside the text), and whatever compiles evaluates: never a panic.
+    /// The seed is fresh each run and printed; `CUSTOM_EXPR_SEED=<seed>` replays a run.
+    #[test]
+    fn random_strings_never_panic() {
+        const PIECES: [&str; 36] = [
+            "x1", "x2", "u", "u1", "u3", "t", "k", "pi", "e", "sin", "ln", "y1", "(", ")", "(",
+            ")", "+", "-", "*", "/", "%", "^", " ", ".", "e", "E", "0", "1", "2", "9", ",", "é",
+            "_", "\t", "1.5e-3", "2^",
+        ];
+        let (seed, mut rng) = seeded("random_strings_never_panic");
         let mut pick = |n: usize| (rng.next_u64() % n as u64) as usize;
         let (mut compiled, mut rejected) = (0, 0);
         for case in 0..20_000 {
