@@ -197,6 +197,9 @@ struct Acc {
     /// magnitude (a sign change, the other actuator) or a neighbouring level, found without a
     /// search.
     at: usize,
+    /// `levels[at]` (0 before the first level, which no level equals), kept here to spare
+    /// the common case a memory access.
+    cur: u32,
     peak: f64,
     est: [f32; 3],
     faults: u64,
@@ -207,6 +210,10 @@ impl Acc {
     /// Adds the level of bits `bits` to `levels` if it is new.
     #[inline]
     fn see_level(&mut self, bits: u32) {
+        if bits == self.cur {
+            return;
+        }
+        self.cur = bits;
         let near = self.at.saturating_sub(1)..(self.at + 2).min(self.levels.len());
         if let Some(k) = self.levels[near.clone()].iter().position(|&l| l == bits) {
             self.at = near.start + k;

@@ -275,6 +275,11 @@ where
 
     /// The first agent whose state is non-finite or above the bound.
     fn diverged_agent(&self) -> Option<usize> {
+        // Within a finite bound every state is finite: one pass without early exits first.
+        let within = |ok: bool, v: &f64| ok & (v.abs() <= self.bound);
+        if self.bound.is_finite() && self.x.iter().flatten().fold(true, within) {
+            return None;
+        }
         self.x
             .iter()
             .position(|x| x.iter().any(|v| !v.is_finite() || v.abs() > self.bound))
@@ -451,7 +456,7 @@ impl<T: Copy, const M: usize> StageInputs<T, M> {
     }
 
     /// Substep `s`'s actuator outputs of group `g` at its start, midpoint and end.
-    #[inline]
+    #[inline(always)]
     fn act<const N: usize>(&self, s: usize, g: &Group<N, M>) -> [Lanes<M, BATCH>; 3] {
         let [t0, t1, t2] = self.at[s];
         let effect = |i: usize, c: usize, l: usize| self.effects[i * self.classes + c][l];
