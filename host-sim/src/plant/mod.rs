@@ -217,11 +217,12 @@ pub(crate) use with_sizes;
 /// The simulator integrates it with RK4 (`simulation.substeps` steps per sample), holding the
 /// controller's commands over the sample; `a` are the commands after the quantizer and the
 /// actuator faults. The time-only part of `f` (a disturbance such as `cos t`) is computed once
-/// per RK4 stage for all agents by [`Plant::at`]; [`Plant::derivative`] gets it back, so a
-/// plant without such a term uses `type Time = ()`.
+/// per distinct RK4 stage time for all agents by [`Plant::at`]; [`Plant::derivative`] gets it
+/// back, so a plant without such a term uses `type Time = ()`.
 ///
-/// Contract: `derivative` is a pure function of its arguments, cheap (it runs `4 · substeps`
-/// times per agent and sample) and does not panic; a non-finite result is not an error here,
+/// Contract: `at` and `derivative` are pure functions of their arguments (a stage time equal to
+/// the previous one reuses its `at`), `derivative` is cheap (it runs `4 · substeps` times per
+/// agent and sample) and neither panics; a non-finite result is not an error here,
 /// the run reports it as divergence (`summary.json` `divergence`).
 ///
 /// A user's plant runs through [`crate::run::run_plant`] with a scenario checked by
