@@ -144,7 +144,9 @@ impl Consensus {
     }
 
     /// `e_{i,1} = Σ_k a_{i,k}(y_i − y_k) + r_i(y_i − y_d)` (10); pushes `X_{i,1} = [y_i, y_k…]`
-    /// into `phi` for `‖Φ_1‖²`.
+    /// into `phi` for `‖Φ_1‖²`. Each neighbour value the law reads passes first through
+    /// `through(k, link)`: the identity, or the safety layer's re-entry of slot `k`.
+    #[allow(clippy::too_many_arguments)]
     pub fn consensus_error<const K: usize>(
         &self,
         memory: &mut LinkMemory<K>,
@@ -153,13 +155,16 @@ impl Consensus {
         leader: Link,
         phi: &mut MtnAccumulator,
         report: &mut LinkReport,
+        mut through: impl FnMut(usize, Link) -> Link,
     ) -> f32 {
         report.count_mismatch = neighbours.len() != self.neighbours as usize;
         phi.push(y);
         let mut e = 0.0;
         let slots = memory.neighbours.iter_mut().take(self.neighbours as usize);
         for (k, held) in slots.enumerate() {
-            let link = neighbours.get(k).copied().unwrap_or(Link::Missing);
+            let link = neighbours
+                .get(k)
+                .map_or(Link::Missing, |&link| through(k, link));
             let yk = match held.resolve(link) {
                 Resolved::Value(v) => Some(v),
                 Resolved::Stale(v) => {
@@ -222,7 +227,7 @@ mod tests {
     ) -> (f32, LinkReport) {
         let mut acc = MtnRegressor::new(1).unwrap().accumulator();
         let mut r = LinkReport::default();
-        let e = c.consensus_error(mem, y, n, l, &mut acc, &mut r);
+        let e = c.consensus_error(mem, y, n, l, &mut acc, &mut r, |_, link| link);
         (e, r)
     }
 

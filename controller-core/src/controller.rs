@@ -8,7 +8,7 @@ use crate::{
     differentiator::DifferentiatorState,
     math,
     quantizer::{HysteresisQuantizer, QuantizerState},
-    safety::Recovery,
+    safety::{reenter_link, Recovery},
     ConfigError,
 };
 
@@ -162,28 +162,33 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
     /// paper's law: none of that code runs.
     pub fn step(&mut self, x: &[f32; N], neighbours: &[Link], leader: Link) -> StepOutput<N, M> {
         // With safety on: differentiators restart after a held step and returning links
-        // re-enter at the recovery rate (out of line; with safety off, one branch). More
-        // values than slots (a wiring error, counted by the law) go through as given.
-        let reentered: [Link; K];
-        let (neighbours, leader) = match &self.params.safety {
+        // re-enter at the recovery rate, each value as the law reads it (no copy of the
+        // links). More values than slots (a wiring error, counted by the law) go through as
+        // given.
+        let (leader, reenter) = match &self.params.safety {
             Some(safety) if neighbours.len() <= K => {
                 let s = &mut self.state;
                 if s.recovery.after_hold {
                     s.differentiators = [DifferentiatorState::default(); N];
                     s.recovery.after_hold = false;
                 }
-                let (links, leader) = s.recovery.reenter_links(safety, neighbours, leader);
-                reentered = links;
-                (&reentered[..neighbours.len()], leader)
+                (reenter_link(safety, &mut s.recovery.leader, leader), true)
             }
-            _ => (neighbours, leader),
+            _ => (leader, false),
         };
-        self.law(x, neighbours, leader)
+        self.law(x, neighbours, leader, reenter)
     }
 
-    /// The law of LAW §5–§6 on the links as given; the limits of [`crate::safety`] when on.
+    /// The law of LAW §5–§6 on the links as given (neighbour values re-entered when
+    /// `reenter`); the limits of [`crate::safety`] when on.
     #[inline(always)]
-    fn law(&mut self, x: &[f32; N], neighbours: &[Link], leader: Link) -> StepOutput<N, M> {
+    fn law(
+        &mut self,
+        x: &[f32; N],
+        neighbours: &[Link],
+        leader: Link,
+        reenter: bool,
+    ) -> StepOutput<N, M> {
         let p = &self.params;
         let s = &mut self.state;
         let t = s.k as f32 * p.h;
@@ -194,6 +199,12 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         // 1. e_1 from the latest neighbour / leader values, then β_j, α_j, e_{j+1}.
         let mut links = LinkReport::default();
         let mut phi1 = p.backstepping.mtn.accumulator();
+        let reentry = if reenter { p.safety.as_ref() } else { None };
+        let slots = &mut s.recovery.neighbours;
+        let through = |k: usize, link| match (reentry, slots.get_mut(k)) {
+            (Some(safety), Some(slot)) => reenter_link(safety, slot, link),
+            _ => link,
+        };
         let e1 = p.consensus.consensus_error(
             &mut s.links,
             x[0],
@@ -201,6 +212,7 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
             leader,
             &mut phi1,
             &mut links,
+            through,
         );
         if x.iter().any(|v| !v.is_finite()) {
             return held(s, varpi, StepFault::InvalidState, links);
@@ -224,33 +236,11 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
             },
         );
 
-        // 2. u_l (limited with safety on), then q_l = Q_l(u_l).
+        // 2. u_l (limited with safety on); its quantization follows the check below.
         let (u_l, limited) = match &p.safety {
             None => (sig.u, false),
             Some(safety) => safety.limit(sig.u, s.u[0]),
         };
-        let u = [u_l; M];
-        let mut quantizers = s.quantizers;
-        let mut q = u;
-        if let (Some(qz), Some((first, rest)), Some((q_first, q_rest))) = (
-            &p.quantizer,
-            quantizers.split_first_mut(),
-            q.split_first_mut(),
-        ) {
-            // Every actuator gets the same `u`, so actuators whose quantizer state equals the
-            // first one's get its result (always the case: they start equal and are committed
-            // together); the comparison keeps this exact for any state.
-            let before = *first;
-            *q_first = qz.quantize(first, u_l);
-            for (ql, st) in q_rest.iter_mut().zip(rest.iter_mut()) {
-                *ql = if *st == before {
-                    *st = *first;
-                    *q_first
-                } else {
-                    quantize_apart(qz, st, u_l)
-                };
-            }
-        }
 
         // 3. Adaptive laws (forward Euler, clamped at 0).
         let e_n = sig.e[N - 1];
@@ -278,7 +268,8 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
 
         // All finite: `0·v` is ±0 for a finite `v` and NaN for ±∞ or NaN, so one comparison
         // of the sum replaces a test per value. The law's `u` before any limit: a limit must
-        // not hide an overflow.
+        // not hide an overflow. The quantizers need no check (a finite `u` gives a finite `q`),
+        // so they run after it, on the committed state.
         let mut probe =
             0.0 * sig.u + 0.0 * estimates.mu + 0.0 * estimates.xi + 0.0 * estimates.lambda;
         for d in &differentiators {
@@ -288,9 +279,31 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         if !finite {
             return held(s, varpi, StepFault::NonFiniteResult, links);
         }
-        s.quantizers = quantizers;
         s.estimates = estimates;
         s.differentiators = differentiators;
+
+        // 2, continued: q_l = Q_l(u_l).
+        let u = [u_l; M];
+        let mut q = u;
+        if let (Some(qz), Some((first, rest)), Some((q_first, q_rest))) = (
+            &p.quantizer,
+            s.quantizers.split_first_mut(),
+            q.split_first_mut(),
+        ) {
+            // Every actuator gets the same `u`, so actuators whose quantizer state equals the
+            // first one's get its result (always the case: they start equal and are committed
+            // together); the comparison keeps this exact for any state.
+            let before = *first;
+            *q_first = qz.quantize(first, u_l);
+            for (ql, st) in q_rest.iter_mut().zip(rest.iter_mut()) {
+                *ql = if *st == before {
+                    *st = *first;
+                    *q_first
+                } else {
+                    quantize_apart(qz, st, u_l)
+                };
+            }
+        }
         s.u = u;
         s.q = q;
         StepOutput {

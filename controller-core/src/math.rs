@@ -2,23 +2,36 @@
 //! code never sees which backend is behind it: `libm` (default, accurate) or `micromath` (fast
 //! approximations). With both features on, `micromath` wins.
 //!
-//! The per-step functions ([`pow_pos`], [`sqrt`], [`tanh`]) are organised for a Cortex-M4F,
-//! where the FPU has `vsqrt`/`vdiv` but no `exp`/`log` and `core` exposes no `f32::sqrt` in
-//! `no_std`. With `libm` they are this module's own kernels, accurate to a few ulp (see the
-//! tests), built on one `ln` and one `exp` with short polynomials:
+//! The per-step functions ([`pow_pos`], [`sqrt`], [`div_sqrt`], [`tanh`]) are organised for a
+//! Cortex-M4F, where the FPU has `vsqrt`/`vdiv` (14 cycles each) but no `exp`/`log` and `core`
+//! exposes no `f32::sqrt` in `no_std`. With `libm` they are this module's own kernels, accurate
+//! to a few ulp (see the tests), built on one `log₂` and one `2^x` with short minimax polynomials
+//! (fitted for relative error on the reduced ranges, coefficients rounded to `f32`, errors then
+//! measured against `f64`):
 //!
-//! * `x^y = 2^(y log₂ x)` instead of `libm::powf` (≈ 70 instead of ≈ 200 instructions; `powf`'s
-//!   extra-precise logarithm buys nothing for the small exponents `ζ`, `κ` of the law);
+//! * `x^y = 2^(y log₂ x)` instead of `libm::powf` (≈ 50 instead of ≈ 200 instructions; `powf`'s
+//!   extra-precise logarithm buys nothing for the small exponents `ζ`, `κ` of the law): `log₂` by
+//!   one division and a degree-2 polynomial in `s²`, `2^r` of degree 5; within 2.8 ulp for the
+//!   law's powers, `(2 + |y ln x|)` ulp in general;
 //! * `√x` by two Newton steps on `1/√x` from the bit-level estimate and one correction
 //!   (libm's `sqrtf` is an integer software routine);
-//! * `tanh x = 1 − 2/(e^(2x) + 1)`, an odd polynomial near 0.
+//! * the smoothing function's `n/√d` as `n · (1/√d)` with a third Newton step: no division,
+//!   1.6 ulp, and `|n/√d| ≤ 1` for `|n| ≤ 1 ≤ d` (`1/√1 = 1` exactly);
+//! * `tanh x = 1 − 2/(e^(2x) + 1)`, below 0.3 an odd polynomial of degree 2 in `x²`.
+//!
+//! Issue 14 (minimax instead of Taylor, the third Newton step instead of a root and a division,
+//! a one-comparison range test in `2^x`, a two-move [`sign`]) brought the `libm-n2m2` step from
+//! 1,163 to 1,092 instructions (`cargo xtask bench-target`) and from 11.9 to 9.9 divisions; the
+//! examples' figures moved within rounding (`docs/REPRODUCTION.md`).
 //!
 //! With `micromath` they are shorter approximations of the same shape ([`fast`]): `log₂` by a
 //! degree-6 polynomial without the division, `2^r` of degree 4, `√x` without the final
 //! correction, a shorter `tanh` polynomial: relative errors of a few 1e-6 (the tests give the
-//! figures), fewer instructions and one division less per power. The name is historical: the
-//! `micromath` crate's own functions were slower on a Cortex-M4F and up to 7 % off, so they are
-//! no longer used.
+//! figures) and one division less per power, but no longer fewer instructions per step than the
+//! default kernels (1,099 against 1,092: its degree-6 `log₂` is longer than the default's
+//! division and degree 2, and on a Cortex-M4F costs about the same cycles). The name is
+//! historical: the `micromath` crate's own functions were slower on a Cortex-M4F and up to 7 %
+//! off, so they are no longer used.
 //!
 //! The configuration-time functions ([`powf`], [`exp`], [`ln`]) are `libm`'s with `libm`, and
 //! the accurate kernels with `micromath` (no `libm` linked).
@@ -99,9 +112,10 @@ pub fn sqrt(x: f32) -> f32 {
     }
 }
 
-/// `n / √d` for `d ≥ 0`: the division by a root of the smoothing function. With `micromath`
-/// `n · (1/√d)` from the Newton steps on `1/√d`, which approach from below: `|n / √d| ≤ 1`
-/// stays true for `|n| ≤ 1 ≤ d` (and no division).
+/// `n / √d` for `d ≥ 0`: the division by a root of the smoothing function, as `n · (1/√d)`
+/// without a division (for positive normal `d`): `|n / √d| ≤ 1` stays true for `|n| ≤ 1 ≤ d`.
+/// With `libm` three Newton steps on `1/√d` (1.6 ulp, `1/√1 = 1`); with `micromath` two, which
+/// approach from below (5e-6).
 #[inline]
 pub fn div_sqrt(n: f32, d: f32) -> f32 {
     #[cfg(test)]
@@ -114,7 +128,7 @@ pub fn div_sqrt(n: f32, d: f32) -> f32 {
     }
     #[cfg(not(feature = "micromath"))]
     {
-        n / kernel::sqrt(d)
+        kernel::div_sqrt(n, d)
     }
 }
 
@@ -200,11 +214,14 @@ pub fn abs(x: f32) -> f32 {
 /// `sign(x)` with `sign(0) = 0` (the paper's convention), NaN for NaN.
 #[inline]
 pub fn sign(x: f32) -> f32 {
-    // One comparison: ±1 by the sign bit for x ≠ 0; ±0 stays, NaN gives NaN.
-    if abs(x) > 0.0 {
-        1.0f32.copysign(x)
+    // Two predicated moves after one comparison; ±0 and NaN are returned as they are (the bits
+    // of the former `x · 0`).
+    if x > 0.0 {
+        1.0
+    } else if x < 0.0 {
+        -1.0
     } else {
-        x * 0.0
+        x
     }
 }
 
@@ -229,13 +246,14 @@ pub fn mul_powi(mut acc: f32, mut x: f32, mut k: u32) -> f32 {
 }
 
 /// The accurate kernels: per step with `libm`, at configuration with `micromath` (no table, no
-/// integer software routine).
+/// integer software routine). Polynomials are minimax fits (relative error, `f32` coefficients)
+/// on the reduced ranges; the error figures are those of the tests.
 mod kernel {
-    use core::f32::consts::LOG2_E;
-
     /// `log₂ x`: `x = 2^e m`, `m ∈ [√½, √2)` (split branch-free on the bits),
-    /// `log₂ m = 2 log₂e · atanh(s)`, `s = (m−1)/(m+1)`, `|s| ≤ 0.172`, series to `s⁹`
-    /// (truncation < 3e-9 relative).
+    /// `log₂ m = s P(s²)`, `s = (m−1)/(m+1)`, `|s| ≤ 0.172`, `P` of degree 2 fitted to
+    /// `2 log₂e · atanh(s)/s` (1.2e-7 relative). The division is cheaper than the division-free
+    /// form: `log₂(1+t)/t` needs degree 8 in `t = m − 1` for the same error (six more
+    /// load–multiply–add pairs, ≈ 20 cycles on a Cortex-M4F against the 14 of `vdiv`).
     #[inline]
     pub fn log2(x: f32) -> f32 {
         if !super::is_positive_normal(x) {
@@ -272,27 +290,34 @@ mod kernel {
         let (e, m) = log2_split(bits);
         let s = (m - 1.0) / (m + 1.0);
         let z = s * s;
-        // 2 log₂e / (2k+1), k = 0..4.
-        let poly = 2.0 * LOG2_E
-            + z * (0.961_796_7 + z * (0.577_078_04 + z * (0.412_198_6 + z * 0.320_598_9)));
+        let poly = 2.885_390_5 + z * (0.961_588_3 + z * 0.595_780_7);
         (e - bias) as f32 + s * poly
     }
 
-    /// `2^t`: `t = n + r`, `|r| ≤ ½` (rounding by the `1.5·2^23` trick), Taylor of `e^(r ln 2)`
-    /// to `r⁷` (truncation < 6e-9 relative), scaled by `2^n` through the exponent bits (also
-    /// into the subnormal range).
+    /// `2^t`: `t = n + r`, `|r| ≤ ½` (rounding by the `1.5·2^23` trick), a degree-5 minimax
+    /// polynomial for `2^r` (9.2e-8 relative), scaled by `2^n` through the exponent bits. The
+    /// range test is one integer comparison on the bits of `t` (`|t| < 64`, also false for
+    /// NaN); the rest, also subnormal results, goes to [`exp2_special`].
     #[inline]
     pub fn exp2(t: f32) -> f32 {
-        if super::abs(t) < 126.0 {
-            exp2_scaled(t)
+        exp2_with(t, exp2_poly)
+    }
+
+    /// `2^t` from `2^r ≈ poly(r)`, `|r| ≤ ½`, for `|t| < 64`; [`exp2_special`] beyond.
+    #[inline]
+    pub(super) fn exp2_with(t: f32, poly: impl Fn(f32) -> f32) -> f32 {
+        // |t| < 64 on the bits shifted past the sign: 0x4280_0000 << 1 is an immediate.
+        if t.to_bits() << 1 < 0x4280_0000 << 1 {
+            let (r, n) = exp2_split(t);
+            poly(r) * f32::from_bits(((n + 127) as u32) << 23)
         } else {
             exp2_special(t)
         }
     }
 
-    /// `2^t` beyond `|t| < 126`: overflow, underflow into subnormals, NaN.
+    /// `2^t` beyond `|t| < 64`: large results, overflow, underflow into subnormals, NaN.
     #[cold]
-    pub(super) fn exp2_special(t: f32) -> f32 {
+    fn exp2_special(t: f32) -> f32 {
         if t >= 128.0 || t.is_nan() {
             t + f32::INFINITY // ∞, or NaN for NaN
         } else if t < -150.0 {
@@ -306,27 +331,31 @@ mod kernel {
         }
     }
 
-    /// `t = n + r`, `|r| ≤ ½` (rounding by the `1.5·2^23` trick): `(r, 2^n)` for `|t| < 126.5`.
+    /// `t = n + r`, `|r| ≤ ½`: `(r, n)` for `|t| < 126.5`.
     #[inline]
-    pub(super) fn exp2_split(t: f32) -> (f32, f32) {
+    fn exp2_split(t: f32) -> (f32, i32) {
         const ROUND: f32 = 12_582_912.0;
         let k = t + ROUND;
-        let n = k.to_bits() as i32 - 0x4b40_0000;
-        (t - (k - ROUND), f32::from_bits(((n + 127) as u32) << 23))
+        (t - (k - ROUND), k.to_bits() as i32 - 0x4b40_0000)
     }
 
     /// `2^t` for `|t| < 126.5` (normal result).
     #[inline]
     fn exp2_scaled(t: f32) -> f32 {
-        let (r, scale) = exp2_split(t);
-        let p = 1.0
-            + r * (core::f32::consts::LN_2
-                + r * (0.240_226_5
-                    + r * (0.055_504_11
-                        + r * (0.009_618_129
-                            + r * (0.001_333_355_8
-                                + r * (0.000_154_035_3 + r * 0.000_015_252_734))))));
-        p * scale
+        let (r, n) = exp2_split(t);
+        exp2_poly(r) * f32::from_bits(((n + 127) as u32) << 23)
+    }
+
+    /// `2^r`, `|r| ≤ ½`: degree-5 minimax, `poly(0) = 1` exactly.
+    #[inline]
+    fn exp2_poly(r: f32) -> f32 {
+        // The fit's linear coefficient, 3 ulp below `ln 2` (written as bits: its decimal
+        // spelling reads as `ln 2` to clippy).
+        const C1: f32 = f32::from_bits(0x3f31_7215);
+        1.0 + r
+            * (C1
+                + r * (0.240_222_42
+                    + r * (0.055_507_336 + r * (0.009_671_513 + r * 0.001_326_472_7))))
     }
 
     /// `x^y = 2^(y log₂ x)` for `x ≥ 0`.
@@ -338,7 +367,7 @@ mod kernel {
     /// `e^y = 2^(y log₂e)`.
     #[inline]
     pub fn exp(y: f32) -> f32 {
-        exp2(y * LOG2_E)
+        exp2(y * core::f32::consts::LOG2_E)
     }
 
     /// `√x`: two Newton steps on `1/√x` from the bit-level estimate (relative error ≤ 5e-6),
@@ -357,6 +386,21 @@ mod kernel {
         s + (xs - s * s) * (0.5 * y)
     }
 
+    /// `n / √d` as `n · (1/√d)`, `1/√d` by a third Newton step after [`rsqrt_normal`]
+    /// (within 1.6 ulp, no division); `1/√1 = 1` exactly and `1/√d ≤ 1` for `d ≥ 1` (tested
+    /// for every `f32` in `[1, 4)`), so `|n / √d| ≤ 1` holds for `|n| ≤ 1 ≤ d`.
+    #[cfg(any(test, not(feature = "micromath")))]
+    #[inline]
+    pub fn div_sqrt(n: f32, d: f32) -> f32 {
+        if super::is_positive_normal(d) {
+            let y = rsqrt_normal(d);
+            // y + y (1 − d y²)/2: the small correction carries the rounding, not y itself.
+            n * (y + y * (0.5 - (0.5 * d) * (y * y)))
+        } else {
+            n / sqrt(d)
+        }
+    }
+
     /// `1/√x` of a positive normal `x`: two Newton steps from the bit-level estimate, relative
     /// error ≤ 5e-6, from below.
     #[inline]
@@ -368,19 +412,15 @@ mod kernel {
         y
     }
 
-    /// `tanh x`: odd Taylor polynomial to `x¹¹` for `|x| < 0.3`, `1 − 2/(e^(2|x|) + 1)` up to
-    /// `|x| < 9`, then ±1 (exact in `f32`).
+    /// `tanh x`: `x + x³ Q(x²)` for `|x| < 0.3`, `Q` of degree 2 (minimax, 1.2e-8 relative),
+    /// `1 − 2/(e^(2|x|) + 1)` up to `|x| < 9`, then ±1 (exact in `f32`).
     #[cfg(any(test, not(feature = "micromath")))]
     #[inline]
     pub fn tanh(x: f32) -> f32 {
         let a = super::abs(x);
         let t = if a < 0.3 {
             let z = a * a;
-            a + a
-                * z
-                * (-1.0 / 3.0
-                    + z * (2.0 / 15.0
-                        + z * (-17.0 / 315.0 + z * (62.0 / 2835.0 + z * (-1382.0 / 155_925.0)))))
+            a + a * z * (-0.333_330_6 + z * (0.133_148_33 + z * -0.050_366_238))
         } else if a < 9.0 {
             1.0 - 2.0 / (exp(2.0 * a) + 1.0)
         } else if a >= 9.0 {
@@ -416,13 +456,10 @@ pub mod fast {
     /// `2^t`, relative error ≤ 2.7e-6: `t = n + r`, `|r| ≤ ½`, a degree-4 polynomial in `r`.
     #[inline]
     pub fn exp2(t: f32) -> f32 {
-        if super::abs(t) >= 126.0 {
-            return kernel::exp2_special(t);
-        }
-        let (r, scale) = kernel::exp2_split(t);
-        let p = 0.999_999_3
-            + r * (0.693_121_8 + r * (0.240_247_44 + r * (0.055_917_863 + r * 0.009_570_104)));
-        p * scale
+        kernel::exp2_with(t, |r| {
+            0.999_999_3
+                + r * (0.693_121_8 + r * (0.240_247_44 + r * (0.055_917_863 + r * 0.009_570_104)))
+        })
     }
 
     /// `x^y = 2^(y log₂ x)` for `x ≥ 0`: relative error ≤ 6e-6 · max(1, y) for `x ∈ [1e-6, 1e6]`.
@@ -483,6 +520,11 @@ mod tests {
         ((got as f64 - want) / want).abs() / f64::from(f32::EPSILON)
     }
 
+    /// Every `f32` in `[lo, hi)` (positive bounds).
+    fn every_f32(lo: f32, hi: f32) -> impl Iterator<Item = f32> {
+        (lo.to_bits()..hi.to_bits()).map(f32::from_bits)
+    }
+
     /// Log-spaced sweep over `[lo, hi]`.
     fn sweep(lo: f64, hi: f64, n: usize) -> impl Iterator<Item = f32> {
         (0..=n).map(move |k| (lo.ln() + (hi / lo).ln() * k as f64 / n as f64).exp() as f32)
@@ -510,6 +552,10 @@ mod tests {
             let t = k as f32 * 1e-4;
             worst.1 = worst.1.max(ulps(kernel::exp2(t), f64::from(t).exp2()));
         }
+        println!(
+            "log2 {:.3} eps, exp2 {:.3} ulp, pow {:.3} per (2 + |y ln x|)",
+            worst.0, worst.1, worst.2
+        );
         assert!(worst.0 < 2.0, "log2: {} eps", worst.0);
         assert!(worst.1 < 2.0, "exp2: {} ulp", worst.1);
         // x^y = 2^(y log₂ x): the error grows with |y ln x| (rounding of the product).
@@ -532,37 +578,71 @@ mod tests {
     fn kernel_pow_small_exponent_is_near_libm() {
         // The law's powers: |e|^ζ with ζ = 0.1, 0.6 where errors and estimates live
         // (|ζ ln x| ≤ 2.8): within 4 ulp of the exact value.
+        let mut worst = 0.0f64;
         for zeta in [0.1f32, 0.6] {
             for x in sweep(1e-2, 1e2, 100_000) {
                 let want = f64::from(x).powf(f64::from(zeta));
                 let got = kernel::pow(x, zeta);
+                worst = worst.max(ulps(got, want));
                 assert!(ulps(got, want) < 4.0, "{x}^{zeta}: {got} vs {want}");
             }
         }
         for x in sweep(1e-6, 1e6, 100_000) {
             let want = f64::from(x).powf(0.1);
             let got = kernel::pow(x, 0.1);
+            worst = worst.max(ulps(got, want));
             assert!(ulps(got, want) < 4.0, "{x}^0.1: {got} vs {want}");
         }
+        println!("pow, the law's ranges: {worst:.3} ulp");
     }
 
     #[test]
     fn kernel_sqrt_is_accurate() {
         let mut worst = 0.0f64;
         // Every f32 in [1, 4) (covers every exponent parity), then a wide log sweep.
-        let mut b = 1.0f32.to_bits();
-        while b < 4.0f32.to_bits() {
-            let x = f32::from_bits(b);
+        for x in every_f32(1.0, 4.0) {
             worst = worst.max(ulps(kernel::sqrt(x), f64::from(x).sqrt()));
-            b += 1;
         }
         for x in sweep(1e-45, 3.4e38, 200_000) {
             worst = worst.max(ulps(kernel::sqrt(x), f64::from(x).sqrt()));
         }
+        println!("sqrt: {worst:.3} ulp");
         assert!(worst <= 1.0, "sqrt: {worst} ulp");
         assert_eq!(kernel::sqrt(0.0), 0.0);
         assert_eq!(kernel::sqrt(f32::INFINITY), f32::INFINITY);
         assert!(kernel::sqrt(-1.0).is_nan() && kernel::sqrt(f32::NAN).is_nan());
+    }
+
+    #[test]
+    fn kernel_div_sqrt_is_accurate_and_keeps_smooth_in_range() {
+        // Every f32 in [1, 4) (every exponent parity; [1, 2] holds the smoothing function's
+        // `1 + r²`, `|r| ≤ 1`): `1/√d ≤ 1`, and exactly 1 at 1.
+        let mut worst = 0.0f64;
+        for d in every_f32(1.0, 4.0) {
+            let got = kernel::div_sqrt(1.0, d);
+            assert!(got <= 1.0, "1/√{d} = {got}");
+            worst = worst.max(ulps(got, 1.0 / f64::from(d).sqrt()));
+        }
+        assert_eq!(kernel::div_sqrt(1.0, 1.0), 1.0);
+        assert_eq!(kernel::div_sqrt(-1.0, 1.0), -1.0);
+        for d in sweep(1e-45, 3.4e38, 200_000) {
+            worst = worst.max(ulps(kernel::div_sqrt(1.0, d), 1.0 / f64::from(d).sqrt()));
+        }
+        // The smoothing function's `r/√(1 + r²)`.
+        for n in sweep(1e-30, 1.0, 100_000) {
+            let d = 1.0 + n * n;
+            let got = kernel::div_sqrt(n, d);
+            assert!(got <= 1.0, "{n}");
+            worst = worst.max(ulps(got, f64::from(n) / f64::from(d).sqrt()));
+        }
+        println!("n/√d: {worst:.3} ulp");
+        assert!(worst < 1.6, "n/√d: {worst} ulp");
+        assert_eq!(kernel::div_sqrt(1.0, 0.0), f32::INFINITY);
+        assert_eq!(kernel::div_sqrt(1.0, f32::INFINITY), 0.0);
+        assert!(kernel::div_sqrt(0.0, 0.0).is_nan() && kernel::div_sqrt(1.0, -1.0).is_nan());
+        assert!(
+            kernel::div_sqrt(1.0, f32::NAN).is_nan() && kernel::div_sqrt(f32::NAN, 2.0).is_nan()
+        );
     }
 
     #[test]
@@ -575,6 +655,7 @@ mod tests {
         for x in sweep(1e-30, 1e-2, 10_000) {
             worst = worst.max(ulps(kernel::tanh(x), f64::from(x).tanh()));
         }
+        println!("tanh: {worst:.3} ulp");
         assert!(worst < 4.0, "tanh: {worst} ulp");
         assert_eq!(kernel::tanh(50.0), 1.0);
         assert_eq!(kernel::tanh(-0.0).to_bits(), (-0.0f32).to_bits());
@@ -658,6 +739,8 @@ mod tests {
         assert_eq!(sign(-0.5), -1.0);
         assert_eq!(sign(0.0), 0.0);
         assert_eq!(sign(-0.0), 0.0);
+        assert_eq!(sign(-0.0).to_bits(), (-0.0f32).to_bits());
+        assert_eq!(sign(f32::NEG_INFINITY), -1.0);
         assert!(sign(f32::NAN).is_nan());
     }
 

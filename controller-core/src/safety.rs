@@ -110,32 +110,10 @@ pub struct Recovery<const K: usize> {
     pub(crate) after_hold: bool,
 }
 
-impl<const K: usize> Recovery<K> {
-    /// The links as the law sees them with safety on: each value passed through the re-entry
-    /// of its slot, same kinds (a stale value stays `Stale`, a missing one `Missing`), so the
-    /// consensus policy and its counts are unchanged. At most `K` neighbour entries.
-    #[inline(never)]
-    pub(crate) fn reenter_links(
-        &mut self,
-        safety: &Safety,
-        neighbours: &[Link],
-        leader: Link,
-    ) -> ([Link; K], Link) {
-        let mut out = [Link::Missing; K];
-        for ((o, l), mem) in out
-            .iter_mut()
-            .zip(neighbours)
-            .zip(self.neighbours.iter_mut())
-        {
-            *o = reenter_link(safety, mem, *l);
-        }
-        (out, reenter_link(safety, &mut self.leader, leader))
-    }
-}
-
 /// One link through [`Safety::reenter`], keeping its kind; invalid and missing values go
 /// through unchanged (the consensus policy replaces them by the last value used).
-fn reenter_link(safety: &Safety, mem: &mut Reentry, link: Link) -> Link {
+#[inline(never)]
+pub(crate) fn reenter_link(safety: &Safety, mem: &mut Reentry, link: Link) -> Link {
     let (v, fresh) = match link {
         Link::Fresh(v) if v.is_finite() => (v, true),
         Link::Stale(v) if v.is_finite() => (v, false),

@@ -1,17 +1,15 @@
 //! `[plant] model = "custom"`: dynamics written as expressions in the scenario file.
 //!
-//! Each expression is parsed once by `meval` (precedence, number syntax, positions of syntax
-//! errors) and its postfix form compiled into a [`Program`] whose variables are slots of a fixed
-//! array and whose `[plant.params]` are constants; the RK4 stages then evaluate the programs
-//! with a small fixed stack, without name look-ups or allocation.
+//! Each expression is parsed once by the grammar in [`parse`] (precedence, number syntax,
+//! positions of syntax errors) and its postfix form compiled into a [`Program`] whose variables
+//! are slots of a fixed array and whose `[plant.params]` are constants; the RK4 stages then
+//! evaluate the programs with a small fixed stack, without name look-ups or allocation.
+
+mod parse;
 
 use std::collections::BTreeMap;
 
-use meval::{
-    tokenizer::{Operation, Token},
-    Expr, ParseError, RPNError,
-};
-
+use self::parse::{Binary, Token};
 use super::{Lanes, Plant};
 use crate::error::{Error, Result};
 
@@ -70,12 +68,7 @@ const CONSTANTS: [(&str, f64); 2] = [("pi", std::f64::consts::PI), ("e", std::f6
 enum Op {
     Const(f64),
     Slot(usize),
-    Add,
-    Sub,
-    Mul,
-    Div,
-    Rem,
-    Pow,
+    Bin(Binary),
     Neg,
     /// `^` with a small whole exponent: repeated multiplication, as a hand-written `f` has it.
     PowI(i32),
@@ -114,16 +107,16 @@ impl Program {
                     stack[sp - 1] = r;
                 }
                 Op::Call(f) => stack[sp - 1] = f.apply(stack[sp - 1]),
-                bin => {
+                Op::Bin(bin) => {
                     sp -= 1;
                     let (l, r) = (stack[sp - 1], stack[sp]);
                     stack[sp - 1] = match bin {
-                        Op::Add => l + r,
-                        Op::Sub => l - r,
-                        Op::Mul => l * r,
-                        Op::Div => l / r,
-                        Op::Rem => l % r,
-                        _ => l.powf(r),
+                        Binary::Add => l + r,
+                        Binary::Sub => l - r,
+                        Binary::Mul => l * r,
+                        Binary::Div => l / r,
+                        Binary::Rem => l % r,
+                        Binary::Pow => l.powf(r),
                     };
                 }
             }
@@ -158,17 +151,17 @@ impl Program {
                     });
                 }
                 Op::Call(f) => stack[sp - 1] = stack[sp - 1].map(|x| f.apply(x)),
-                bin => {
+                Op::Bin(bin) => {
                     sp -= 1;
                     let (l, r) = (stack[sp - 1], stack[sp]);
                     let each = |g: fn(f64, f64) -> f64| std::array::from_fn(|b| g(l[b], r[b]));
                     stack[sp - 1] = match bin {
-                        Op::Add => each(|l, r| l + r),
-                        Op::Sub => each(|l, r| l - r),
-                        Op::Mul => each(|l, r| l * r),
-                        Op::Div => each(|l, r| l / r),
-                        Op::Rem => each(|l, r| l % r),
-                        _ => each(f64::powf),
+                        Binary::Add => each(|l, r| l + r),
+                        Binary::Sub => each(|l, r| l - r),
+                        Binary::Mul => each(|l, r| l * r),
+                        Binary::Div => each(|l, r| l / r),
+                        Binary::Rem => each(|l, r| l % r),
+                        Binary::Pow => each(f64::powf),
                     };
                 }
             }
@@ -323,129 +316,57 @@ impl<const N: usize, const M: usize> Plant<N, M> for Custom {
     }
 }
 
-/// 1-based column of byte `offset` in `text`.
+/// 1-based column (in characters) of byte `offset` in `text`.
 fn column(text: &str, offset: usize) -> usize {
-    text[..offset.min(text.len())].chars().count() + 1
-}
-
-/// Byte offset of the first whole-word occurrence of `name` in `text`.
-fn find_name(text: &str, name: &str) -> usize {
-    let word = |c: char| c.is_alphanumeric() || c == '_';
-    text.match_indices(name)
-        .find(|&(i, _)| {
-            let before = text[..i].chars().next_back();
-            let after = text[i + name.len()..].chars().next();
-            !before.is_some_and(word) && !after.is_some_and(word)
-        })
-        .map_or(0, |(i, _)| i)
-}
-
-/// Byte offset of the first unmatched `(` (`open`) or `)` in `text`.
-fn unmatched_paren(text: &str, open: bool) -> usize {
-    let mut stack = Vec::new();
-    for (i, c) in text.char_indices() {
-        match c {
-            '(' => stack.push(i),
-            ')' if stack.pop().is_none() && !open => return i,
-            _ => {}
-        }
-    }
-    stack.first().copied().unwrap_or(text.len())
-}
-
-/// Byte offset just past the `k`-th token (0-based) of `text`.
-fn token_end(text: &str, k: usize) -> usize {
-    text.char_indices()
-        .map(|(i, c)| i + c.len_utf8())
-        .find(|&end| meval::tokenizer::tokenize(&text[..end]).is_ok_and(|t| t.len() > k))
-        .unwrap_or(text.len())
+    text.char_indices().take_while(|&(i, _)| i < offset).count() + 1
 }
 
 /// `text` as a [`Program`] over `names`, or why not (with the column).
 fn compile(text: &str, names: &BTreeMap<String, Op>) -> std::result::Result<Program, String> {
     let at = |offset: usize| format!("at column {}", column(text, offset));
-    // meval's tokenizer panics on input of white space only.
     if text.trim().is_empty() {
         return Err("empty expression".into());
     }
-    let expr: Expr = text.parse().map_err(|e| match e {
-        meval::Error::ParseError(p) => match p {
-            ParseError::UnexpectedToken(i) => format!("syntax error {}: unexpected input", at(i)),
-            ParseError::MissingRParen(_) => format!(
-                "syntax error {}: this parenthesis is never closed",
-                at(unmatched_paren(text, true))
-            ),
-            ParseError::MissingArgument => format!(
-                "syntax error {}: the expression ends where an operand is expected",
-                at(text.trim_end().len())
-            ),
-        },
-        meval::Error::RPNError(r) => match r {
-            RPNError::MismatchedLParen(_) => format!(
-                "syntax error {}: this parenthesis is never closed",
-                at(unmatched_paren(text, true))
-            ),
-            RPNError::MismatchedRParen(_) => format!(
-                "syntax error {}: this parenthesis closes nothing",
-                at(unmatched_paren(text, false))
-            ),
-            RPNError::UnexpectedComma(k) | RPNError::NotEnoughOperands(k) => format!(
-                "syntax error {}: an operand is missing",
-                at(token_end(text, k).saturating_sub(1))
-            ),
-            RPNError::TooManyOperands => format!("syntax error {}: too many operands", at(0)),
-        },
-        other => format!("{other}"),
-    })?;
-    let mut ops = Vec::with_capacity(expr.len());
+    let tokens =
+        parse::postfix(text).map_err(|e| format!("syntax error {}: {}", at(e.offset), e.why))?;
+    let mut ops = Vec::with_capacity(tokens.len());
     let mut depth = 0usize;
     let mut deepest = 0usize;
-    for token in expr.iter() {
+    for token in tokens {
         let op = match token {
-            Token::Number(v) => Op::Const(*v),
-            Token::Var(name) => *names.get(name).ok_or_else(|| {
-                format!(
-                    "unknown variable `{name}` {} (known: x1..xn, u1..um, u, t, pi, e and [plant.params])",
-                    at(find_name(text, name))
-                )
-            })?,
-            Token::Binary(o) => match o {
-                Operation::Plus => Op::Add,
-                Operation::Minus => Op::Sub,
-                Operation::Times => Op::Mul,
-                Operation::Div => Op::Div,
-                Operation::Rem => Op::Rem,
-                Operation::Pow => Op::Pow,
-            },
-            Token::Unary(Operation::Minus) => Op::Neg,
-            Token::Unary(_) => continue,
-            Token::Func(name, args) => {
+            Token::Number(v) => Op::Const(v),
+            Token::Name(span) => {
+                let name = text.get(span.clone()).unwrap_or_default();
+                *names.get(name).ok_or_else(|| {
+                    format!(
+                        "unknown variable `{name}` {} (known: x1..xn, u1..um, u, t, pi, e and [plant.params])",
+                        at(span.start)
+                    )
+                })?
+            }
+            Token::Binary(b) => Op::Bin(b),
+            Token::Neg => Op::Neg,
+            Token::Call(span) => {
+                let name = text.get(span.clone()).unwrap_or_default();
                 let f = FUNCTIONS
                     .iter()
-                    .find(|(f, _)| f == name)
+                    .find(|(f, _)| *f == name)
                     .map(|(_, f)| *f)
                     .ok_or_else(|| {
                         format!(
                             "unknown function `{name}` {} (known: sin cos tan exp ln sqrt abs tanh)",
-                            at(find_name(text, name))
+                            at(span.start)
                         )
                     })?;
-                if *args != Some(1) {
-                    return Err(format!(
-                        "`{name}` {} takes one argument",
-                        at(find_name(text, name))
-                    ));
-                }
                 Op::Call(f)
             }
-            _ => return Err(format!("syntax error {}", at(0))),
         };
-        // Operands an op takes; meval's postfix form is well formed, checked again here so
+        // Operands an op takes; the parser's postfix form is well formed, checked again here so
         // the evaluation stack can never underflow.
         let needs = match op {
             Op::Const(_) | Op::Slot(_) => 0,
             Op::Neg | Op::Call(_) | Op::PowI(_) => 1,
-            _ => 2,
+            Op::Bin(_) => 2,
         };
         if depth < needs {
             return Err(format!("syntax error {}: an operand is missing", at(0)));
@@ -453,18 +374,20 @@ fn compile(text: &str, names: &BTreeMap<String, Op>) -> std::result::Result<Prog
         depth = depth - needs + 1;
         deepest = deepest.max(depth);
         match (ops.last(), op) {
-            (Some(&Op::Const(k)), Op::Pow) if k.fract() == 0.0 && (1.0..=16.0).contains(&k) => {
+            (Some(&Op::Const(k)), Op::Bin(Binary::Pow))
+                if k.fract() == 0.0 && (1.0..=16.0).contains(&k) =>
+            {
                 ops.pop();
                 ops.push(Op::PowI(k as i32));
             }
-            (Some(&Op::PowI(k)), Op::Mul) => {
+            (Some(&Op::PowI(k)), Op::Bin(Binary::Mul)) => {
                 // `c*x^k` as `c*x*x*…*x`, left to right: the order of a hand-written `f`.
                 if let Some(&base @ Op::Slot(_)) = ops.iter().rev().nth(1) {
                     ops.pop();
-                    ops.push(Op::Mul);
+                    ops.push(op);
                     for _ in 1..k {
                         ops.push(base);
-                        ops.push(Op::Mul);
+                        ops.push(op);
                     }
                 } else {
                     ops.push(op);
@@ -486,6 +409,11 @@ fn compile(text: &str, names: &BTreeMap<String, Op>) -> std::result::Result<Prog
 
 #[cfg(test)]
 mod tests {
+    use rand_chacha::{
+        rand_core::{Rng, SeedableRng},
+        ChaCha8Rng,
+    };
+
     use super::*;
 
     fn custom(dynamics: &[&str]) -> Result<Custom> {
@@ -546,6 +474,40 @@ mod tests {
         Ok(())
     }
 
+    /// Example 1's expressions compile to the built-in model's operations in its order:
+    /// `0.8*x1^3` as `((0.8·x1)·x1)·x1`, `2*x1^2` as `(2·x1)·x1`, `x2^3` as `x2·x2·x2`.
+    #[test]
+    fn example1_compiles_to_the_hand_written_order() -> Result<()> {
+        use Binary::{Add, Mul, Sub};
+        let p = custom(&["x2 + 0.8*x1^3", "u - 2*x1^2 + x2^3 + cos(t)"])?;
+        let (x1, x2, u, t) = (Op::Slot(0), Op::Slot(1), Op::Slot(4), Op::Slot(5));
+        let (add, mul, sub) = (Op::Bin(Add), Op::Bin(Mul), Op::Bin(Sub));
+        let c = Op::Const;
+        assert_eq!(
+            p.dynamics[0].ops,
+            [x2, c(0.8), x1, mul, x1, mul, x1, mul, add]
+        );
+        assert_eq!(
+            p.dynamics[1].ops,
+            [
+                u,
+                c(2.0),
+                x1,
+                mul,
+                x1,
+                mul,
+                sub,
+                x2,
+                Op::PowI(3),
+                add,
+                t,
+                Op::Call(Func::Cos),
+                add
+            ]
+        );
+        Ok(())
+    }
+
     #[test]
     fn malformed_input_is_an_error_never_a_panic() {
         for text in [
@@ -582,6 +544,209 @@ mod tests {
         let deep = format!("{}x1{}", "(1+".repeat(40), ")".repeat(40));
         let m = message(custom(&[&deep, "u"]));
         assert!(m.contains("nested too deeply"), "{m}");
+    }
+
+    /// A generator seeded from `CUSTOM_EXPR_SEED` (fixed in `.cargo/config.toml`, so `cargo test`
+    /// runs the same cases everywhere; CI adds a run with a fresh one) or, without it, afresh;
+    /// the seed is printed with the command that replays `test`.
+    fn seeded(test: &str) -> (u64, ChaCha8Rng) {
+        let seed = std::env::var("CUSTOM_EXPR_SEED")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or_else(|| {
+                std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map_or(0, |d| d.as_nanos() as u64)
+            });
+        eprintln!("{test}: seed {seed} (replay: CUSTOM_EXPR_SEED={seed} cargo test -p host-sim --lib {test})");
+        (seed, ChaCha8Rng::seed_from_u64(seed))
+    }
+
+    /// A formula of the random test, with the value of each name at the test's point.
+    #[derive(Debug)]
+    enum Formula {
+        Num(f64),
+        Name(&'static str, f64),
+        Neg(Box<Formula>),
+        Bin(char, Box<Formula>, Box<Formula>),
+        Call(Func, Box<Formula>),
+    }
+
+    impl Formula {
+        /// A random formula at most `depth` levels deep; no literal is a whole number, so no
+        /// `x^k` becomes a product and the program does the formula's operations in its order.
+        fn random(rng: &mut ChaCha8Rng, depth: u32) -> Self {
+            const NUMBERS: [f64; 6] = [0.5, 1.5, 2.25, 0.0015, 3.75e-7, 12.125];
+            let names = [
+                ("x1", 0.1),
+                ("x2", 0.2),
+                ("u1", 0.3),
+                ("u2", 0.4),
+                ("u", 0.7),
+                ("t", 0.5),
+                ("k", 0.5),
+                ("pi", std::f64::consts::PI),
+                ("e", std::f64::consts::E),
+            ];
+            let mut pick = |n: usize| (rng.next_u64() % n as u64) as usize;
+            let leaf = depth == 0 || pick(4) == 0;
+            match (leaf, pick(8)) {
+                (true, 0..=2) => Self::Num(NUMBERS[pick(NUMBERS.len())]),
+                (true, _) => {
+                    let (name, v) = names[pick(names.len())];
+                    Self::Name(name, v)
+                }
+                (false, 0) => Self::Neg(Box::new(Self::random(rng, depth - 1))),
+                (false, 1) => {
+                    let f = FUNCTIONS[pick(FUNCTIONS.len())].1;
+                    Self::Call(f, Box::new(Self::random(rng, depth - 1)))
+                }
+                (false, _) => {
+                    let op = ['+', '-', '*', '/', '%', '^'][pick(6)];
+                    let l = Box::new(Self::random(rng, depth - 1));
+                    Self::Bin(op, l, Box::new(Self::random(rng, depth - 1)))
+                }
+            }
+        }
+
+        /// Binding strength in the grammar: sum 1, product 2, sign 3, power 4, operand 5.
+        fn strength(&self) -> u8 {
+            match self {
+                Self::Num(_) | Self::Name(..) | Self::Call(..) => 5,
+                Self::Neg(_) => 3,
+                Self::Bin('^', ..) => 4,
+                Self::Bin('+' | '-', ..) => 1,
+                Self::Bin(..) => 2,
+            }
+        }
+
+        /// The formula with the fewest parentheses the grammar needs for it.
+        fn text(&self) -> String {
+            let wrap = |f: &Self, parens: bool| {
+                if parens {
+                    format!("({})", f.text())
+                } else {
+                    f.text()
+                }
+            };
+            match self {
+                Self::Num(v) if *v < 0.01 => format!("{v:e}"),
+                Self::Num(v) => format!("{v}"),
+                Self::Name(name, _) => name.to_string(),
+                Self::Neg(a) => format!("-{}", wrap(a, a.strength() < 3)),
+                Self::Call(f, a) => {
+                    let name = FUNCTIONS
+                        .iter()
+                        .find(|(_, g)| g == f)
+                        .map_or("", |(n, _)| n);
+                    format!("{name}({})", a.text())
+                }
+                Self::Bin('^', l, r) => {
+                    format!(
+                        "{}^{}",
+                        wrap(l, l.strength() < 5),
+                        wrap(r, r.strength() < 3)
+                    )
+                }
+                Self::Bin(op, l, r) => {
+                    let s = self.strength();
+                    let (l, r) = (wrap(l, l.strength() < s), wrap(r, r.strength() <= s));
+                    format!("{l} {op} {r}")
+                }
+            }
+        }
+
+        fn value(&self) -> f64 {
+            match self {
+                Self::Num(v) | Self::Name(_, v) => *v,
+                Self::Neg(a) => -a.value(),
+                Self::Call(f, a) => f.apply(a.value()),
+                Self::Bin(op, l, r) => {
+                    let (l, r) = (l.value(), r.value());
+                    match op {
+                        '+' => l + r,
+                        '-' => l - r,
+                        '*' => l * r,
+                        '/' => l / r,
+                        '%' => l % r,
+                        _ => l.powf(r),
+                    }
+                }
+            }
+        }
+    }
+
+    /// Random formulas written with the fewest parentheses compile and evaluate to the bit as
+    /// the formula: precedence, associativity and number syntax as documented.
+    #[test]
+    fn random_formulas_evaluate_as_written() -> Result<()> {
+        let (seed, mut rng) = seeded("random_formulas_evaluate_as_written");
+        for case in 0..5_000 {
+            let f = Formula::random(&mut rng, 6);
+            let text = f.text();
+            let p = custom(&[&text, "u"])
+                .map_err(|e| Error::invalid("seed", format!("{seed}, case {case}: {e}")))?;
+            let got = <Custom as Plant<2, 2>>::derivative(&p, &0.5, &[0.1, 0.2], &[0.3, 0.4])[0];
+            let want = f.value();
+            assert!(
+                got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
+                "seed {seed}, case {case}: {text} gave {got}, the formula {want}"
+            );
+        }
+        Ok(())
+    }
+
+    /// Random strings of expression pieces and stray characters compile or give an error naming
+    /// the key (with a column inside the text), and whatever compiles evaluates: never a panic.
+    /// The seed is printed; `CUSTOM_EXPR_SEED=<seed>` replays a run.
+    #[test]
+    fn random_strings_never_panic() {
+        const PIECES: [&str; 36] = [
+            "x1", "x2", "u", "u1", "u3", "t", "k", "pi", "e", "sin", "ln", "y1", "(", ")", "(",
+            ")", "+", "-", "*", "/", "%", "^", " ", ".", "e", "E", "0", "1", "2", "9", ",", "é",
+            "_", "\t", "1.5e-3", "2^",
+        ];
+        let (seed, mut rng) = seeded("random_strings_never_panic");
+        let mut pick = |n: usize| (rng.next_u64() % n as u64) as usize;
+        let (mut compiled, mut rejected) = (0, 0);
+        for case in 0..20_000 {
+            let text: String = (0..pick(24)).map(|_| PIECES[pick(PIECES.len())]).collect();
+            let run = std::panic::catch_unwind(|| match custom(&[&text, "u"]) {
+                Ok(p) => {
+                    let _ = <Custom as Plant<2, 2>>::derivative(&p, &0.5, &[0.1, 0.2], &[0.3, 0.4]);
+                    None
+                }
+                Err(e) => Some(e.to_string()),
+            });
+            let Ok(error) = run else {
+                panic!("seed {seed}, case {case}: {text:?} panicked");
+            };
+            let Some(m) = error else {
+                compiled += 1;
+                continue;
+            };
+            rejected += 1;
+            assert!(
+                m.contains("plant.dynamics[1]"),
+                "seed {seed}: {text:?}: {m}"
+            );
+            if let Some(col) = m.split("at column ").nth(1) {
+                let col: usize = col
+                    .split(|c: char| !c.is_ascii_digit())
+                    .next()
+                    .and_then(|c| c.parse().ok())
+                    .unwrap_or(0);
+                assert!(
+                    (1..=text.chars().count() + 1).contains(&col),
+                    "seed {seed}: {text:?}: column outside the text: {m}"
+                );
+            }
+        }
+        eprintln!("random expressions: {compiled} compiled, {rejected} rejected");
+        assert!(
+            compiled > 100 && rejected > 100,
+            "{compiled} compiled, {rejected} rejected"
+        );
     }
 
     #[test]
