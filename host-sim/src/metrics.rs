@@ -183,7 +183,7 @@ impl Summary {
     }
 }
 
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 struct Acc {
     iae: f64,
     ise: f64,
@@ -193,13 +193,40 @@ struct Acc {
     /// Distinct `|q|` bits seen, sorted (a quantizer has some dozens of levels: a binary
     /// search beats hashing).
     levels: Vec<u32>,
-    /// The two levels last added or found in `levels` (a chattering quantizer alternates
-    /// between two): a change to one of them needs no search.
-    recent: [u32; 2],
+    /// Index in `levels` of the level last added or found: a quantizer moves to the same
+    /// magnitude (a sign change, the other actuator) or a neighbouring level, found without a
+    /// search.
+    at: usize,
+    /// `levels[at]` (0 before the first level, which no level equals), kept here to spare
+    /// the common case a memory access.
+    cur: u32,
     peak: f64,
     est: [f32; 3],
     faults: u64,
     limited: u64,
+}
+
+impl Acc {
+    /// Adds the level of bits `bits` to `levels` if it is new.
+    #[inline]
+    fn see_level(&mut self, bits: u32) {
+        if bits == self.cur {
+            return;
+        }
+        self.cur = bits;
+        let near = self.at.saturating_sub(1)..(self.at + 2).min(self.levels.len());
+        if let Some(k) = self.levels[near.clone()].iter().position(|&l| l == bits) {
+            self.at = near.start + k;
+            return;
+        }
+        self.at = match self.levels.binary_search(&bits) {
+            Ok(at) => at,
+            Err(at) => {
+                self.levels.insert(at, bits);
+                at
+            }
+        };
+    }
 }
 
 /// Accumulates the metrics while the loop runs.
@@ -222,20 +249,6 @@ impl Metrics {
     pub fn new(setup: &Setup) -> Self {
         let sim = &setup.scenario.simulation;
         let k_after = (setup.predefined_time() / sim.h - 1e-9).ceil().max(0.0) as u64;
-        let acc = Acc {
-            iae: 0.0,
-            ise: 0.0,
-            max_abs_u: 0.0,
-            u_energy: 0.0,
-            changes: 0,
-            levels: Vec::new(),
-            // `|q|` never has the sign bit: no level matches before one is seen.
-            recent: [u32::MAX; 2],
-            peak: 0.0,
-            est: [0.0; 3],
-            faults: 0,
-            limited: 0,
-        };
         Self {
             h: sim.h,
             band: sim.settle_band,
@@ -246,7 +259,7 @@ impl Metrics {
             max_after: None,
             prev_q: vec![0.0; setup.agents() * setup.m()],
             m: setup.m(),
-            agents: vec![acc; setup.agents()],
+            agents: vec![Acc::default(); setup.agents()],
         }
     }
 
@@ -333,12 +346,8 @@ impl<const N: usize, const M: usize> Observer<N, M> for Metrics {
                 if q != *p {
                     a.changes += 1;
                     *p = q;
-                    let bits = q.abs().to_bits();
-                    if self.levels && q != 0.0 && !a.recent.contains(&bits) {
-                        if let Err(at) = a.levels.binary_search(&bits) {
-                            a.levels.insert(at, bits);
-                        }
-                        a.recent = [bits, a.recent[0]];
+                    if self.levels && q != 0.0 {
+                        a.see_level(q.abs().to_bits());
                     }
                 }
             }
@@ -409,6 +418,33 @@ mod tests {
             k2: 1.0,
         };
         Ok(m.summary(&setup, &gains, None))
+    }
+
+    /// The level count equals a set's over seeded walks of neighbouring levels, sign flips
+    /// and jumps (the seed is printed on failure).
+    #[test]
+    fn level_count_is_the_number_of_distinct_levels() {
+        for seed in 1..=50u64 {
+            let mut rng = seed;
+            let mut next = |n: u64| {
+                rng = rng
+                    .wrapping_mul(6_364_136_223_846_793_005)
+                    .wrapping_add(1_442_695_040_888_963_407);
+                (rng >> 33) % n
+            };
+            let (mut acc, mut set) = (Acc::default(), std::collections::BTreeSet::new());
+            let mut level = 100i64;
+            for _ in 0..2000 {
+                level = match next(10) {
+                    0 => next(200) as i64,
+                    r => (level + r as i64 % 5 - 2).clamp(0, 199),
+                };
+                let bits = (1.5f32 * 0.9f32.powi(level as i32)).to_bits();
+                acc.see_level(bits);
+                set.insert(bits);
+                assert_eq!(acc.levels.len(), set.len(), "seed {seed}");
+            }
+        }
     }
 
     #[test]

@@ -17,7 +17,7 @@ use crate::{
     graph::Graph,
     leader::Leader,
     link::{Inbox, LinkModel},
-    plant::{rk4, rk4_batch, Plant, Stages},
+    plant::{rk4, Lanes, Plant},
 };
 
 /// What the loop needs from a validated scenario besides plant and agents.
@@ -176,19 +176,19 @@ impl<L: LinkModel, const N: usize, const M: usize> Agents<N, M> for Linked<L, N,
 }
 
 /// The simulated world: plants and the agents (controllers and their network).
-pub struct Sim<P, A, const N: usize, const M: usize> {
+pub struct Sim<P: Plant<N, M>, A, const N: usize, const M: usize> {
     leader: Leader,
     faults: FaultSchedule,
-    /// Per agent its fault class ([`FaultSchedule::classes`]; `None`: healthy).
-    class: Vec<Option<usize>>,
-    /// One agent of each fault class.
+    /// One agent of each fault class ([`FaultSchedule::classes`]).
     members: Vec<usize>,
-    /// Per substep and fault class the effects at the three RK4 stage times.
-    effects: Vec<[[ActuatorEffect; M]; 3]>,
+    /// Time terms and fault effects of the stages of the sample being integrated.
+    inputs: StageInputs<P::Time, M>,
     plant: P,
     agents: A,
+    /// Plant states at `t_k`, per agent.
     x: Vec<[f64; N]>,
-    q: Vec<[f64; M]>,
+    /// The plants, [`BATCH`] agents to a group: states and held commands.
+    groups: Vec<Group<N, M>>,
     out: Vec<StepOutput<N, M>>,
     h: f64,
     substeps: u32,
@@ -234,16 +234,20 @@ where
             x.push(a);
         }
         let (class, members) = world.faults.classes();
+        let groups = x
+            .chunks(BATCH)
+            .zip(class.chunks(BATCH))
+            .map(|(x, c)| Group::new(x, c))
+            .collect();
         Ok(Self {
             leader: world.leader,
             faults: world.faults,
-            class,
+            inputs: StageInputs::new(members.len()),
             members,
-            effects: Vec::new(),
+            groups,
             plant,
             agents,
             x,
-            q: vec![[0.0; M]; n_agents],
             out: Vec::with_capacity(n_agents),
             h: world.h,
             substeps: world.substeps,
@@ -271,6 +275,11 @@ where
 
     /// The first agent whose state is non-finite or above the bound.
     fn diverged_agent(&self) -> Option<usize> {
+        // Within a finite bound every state is finite: one pass without early exits first.
+        let within = |ok: bool, v: &f64| ok & (v.abs() <= self.bound);
+        if self.bound.is_finite() && self.x.iter().flatten().fold(true, within) {
+            return None;
+        }
         self.x
             .iter()
             .position(|x| x.iter().any(|v| !v.is_finite() || v.abs() > self.bound))
@@ -330,9 +339,11 @@ where
             }
             self.agents.control(k, t, &self.seen, yd, &mut self.out)?;
         }
-        for (q, o) in self.q.iter_mut().zip(&self.out) {
-            for (q, &v) in q.iter_mut().zip(&o.q) {
-                *q = f64::from(v);
+        for (g, out) in self.groups.iter_mut().zip(self.out.chunks(BATCH)) {
+            for (b, o) in out.iter().enumerate() {
+                for (q, &v) in g.q.iter_mut().zip(&o.q) {
+                    q[b] = f64::from(v);
+                }
             }
         }
         Ok(yd)
@@ -345,65 +356,214 @@ where
     /// integrated in parallel with the same result at any thread count.
     fn integrate(&mut self, t: f64) {
         let dt = self.h / f64::from(self.substeps);
-        let mut stages = Vec::with_capacity(self.substeps as usize);
-        self.effects.clear();
+        let (plant, faults, members) = (&self.plant, &self.faults, &self.members);
+        self.inputs.begin_sample();
         for s in 0..self.substeps {
             let t0 = t + f64::from(s) * dt;
             let times = [t0, t0 + 0.5 * dt, t0 + dt];
-            stages.push(times.map(|tt| self.plant.at(tt)));
-            for &r in &self.members {
-                self.effects
-                    .push(times.map(|tt| std::array::from_fn(|l| self.faults.effect(r, l, tt))));
-            }
+            let at = times.map(|tt| {
+                self.inputs
+                    .index(tt, plant, |r, l| faults.effect(members[r], l, tt))
+            });
+            self.inputs.at.push(at);
         }
-        let classes = self.members.len();
-        let (plant, effects) = (&self.plant, &self.effects);
-        let stage = |s: usize, q: &[f64; M], class: Option<usize>| Stages {
-            time: stages[s],
-            act: match class {
-                Some(c) => effects[s * classes + c].map(|e| std::array::from_fn(|l| e[l].on(q[l]))),
-                None => [*q; 3],
-            },
-        };
-        // Two agents at a time: their RK4 chains interleave (`rk4_batch`), same operations.
-        let group = |x: &mut [[f64; N]], q: &[[f64; M]], c: &[Option<usize>]| {
-            if let (Ok(pair), [qa, qb], [ca, cb]) = (<&mut [[f64; N]; 2]>::try_from(&mut *x), q, c)
-            {
-                for s in 0..stages.len() {
-                    rk4_batch(plant, pair, dt, &[stage(s, qa, *ca), stage(s, qb, *cb)]);
-                }
-            } else {
-                for ((x, q), c) in x.iter_mut().zip(q).zip(c) {
-                    for s in 0..stages.len() {
-                        rk4(plant, x, dt, &stage(s, q, *c));
-                    }
-                }
-            }
+        let (plant, inputs) = (&self.plant, &self.inputs);
+        let step = |g: &mut Group<N, M>, x: &mut [[f64; N]]| {
+            advance(plant, inputs, g, dt);
+            g.scatter(x);
         };
         if parallel(self.x.len()) {
-            self.x
-                .par_chunks_mut(2)
-                .zip(self.q.par_chunks(2))
-                .zip(self.class.par_chunks(2))
-                .with_min_len(PAR_CHUNK / 2)
-                .for_each(|((x, q), c)| group(x, q, c));
+            self.groups
+                .par_iter_mut()
+                .zip(self.x.par_chunks_mut(BATCH))
+                .with_min_len(PAR_CHUNK / BATCH)
+                .for_each(|(g, x)| step(g, x));
         } else {
-            for ((x, q), c) in self
-                .x
-                .chunks_mut(2)
-                .zip(self.q.chunks(2))
-                .zip(self.class.chunks(2))
-            {
-                group(x, q, c);
+            for (g, x) in self.groups.iter_mut().zip(self.x.chunks_mut(BATCH)) {
+                step(g, x);
             }
         }
     }
 }
 
+/// Agents integrated side by side by [`rk4`].
+const BATCH: usize = 4;
+
+/// The inputs of one sample's RK4 stages that depend on time only: the plant's time terms and
+/// every fault class's actuator effects, computed once per distinct stage time (a substep's end
+/// is usually the next one's start, to the bit, and the sample's last is the next sample's first).
+struct StageInputs<T, const M: usize> {
+    /// The distinct stage times of this sample (the first may be the previous sample's last).
+    times: Vec<f64>,
+    /// Per stage time, the plant's time terms.
+    terms: Vec<T>,
+    /// Per stage time and fault class, the actuator effects.
+    effects: Vec<[ActuatorEffect; M]>,
+    /// Fault classes.
+    classes: usize,
+    /// Per substep the indices of its start, midpoint and end in `times`.
+    at: Vec<[usize; 3]>,
+}
+
+impl<T: Copy, const M: usize> StageInputs<T, M> {
+    fn new(classes: usize) -> Self {
+        Self {
+            times: Vec::new(),
+            terms: Vec::new(),
+            effects: Vec::new(),
+            classes,
+            at: Vec::new(),
+        }
+    }
+
+    /// Forgets the last sample's stage times but its last one.
+    fn begin_sample(&mut self) {
+        let keep = self.times.len().saturating_sub(1);
+        self.times.drain(..keep);
+        self.terms.drain(..keep);
+        self.effects.drain(..keep * self.classes);
+        self.at.clear();
+    }
+
+    /// The index of stage time `t`: the last one if equal to it, else a new one with the time
+    /// terms of `plant` and `effect(class, actuator)` of every fault class.
+    fn index<const N: usize, P: Plant<N, M, Time = T>>(
+        &mut self,
+        t: f64,
+        plant: &P,
+        effect: impl Fn(usize, usize) -> ActuatorEffect,
+    ) -> usize {
+        if self
+            .times
+            .last()
+            .is_some_and(|l| l.to_bits() == t.to_bits())
+        {
+            return self.times.len() - 1;
+        }
+        self.times.push(t);
+        self.terms.push(plant.at(t));
+        for c in 0..self.classes {
+            self.effects.push(std::array::from_fn(|l| effect(c, l)));
+        }
+        self.times.len() - 1
+    }
+
+    /// Substep `s`'s time terms at its start, midpoint and end.
+    #[inline]
+    fn time(&self, s: usize) -> [T; 3] {
+        let [t0, t1, t2] = self.at[s];
+        [self.terms[t0], self.terms[t1], self.terms[t2]]
+    }
+
+    /// Substep `s`'s actuator outputs of group `g` at its start, midpoint and end.
+    #[inline(always)]
+    fn act<const N: usize>(&self, s: usize, g: &Group<N, M>) -> [Lanes<M, BATCH>; 3] {
+        let [t0, t1, t2] = self.at[s];
+        let effect = |i: usize, c: usize, l: usize| self.effects[i * self.classes + c][l];
+        match g.class {
+            Classes::Healthy => [g.q; 3],
+            Classes::One(c) => {
+                let at = |i: usize| -> Lanes<M, BATCH> {
+                    std::array::from_fn(|l| {
+                        let e = effect(i, c, l);
+                        std::array::from_fn(|b| e.on(g.q[l][b]))
+                    })
+                };
+                [at(t0), at(t1), at(t2)]
+            }
+            Classes::Mixed(class) => {
+                let at = |i: usize| -> Lanes<M, BATCH> {
+                    std::array::from_fn(|l| {
+                        std::array::from_fn(|b| match class[b] {
+                            Some(c) => effect(i, c, l).on(g.q[l][b]),
+                            None => g.q[l][b],
+                        })
+                    })
+                };
+                [at(t0), at(t1), at(t2)]
+            }
+        }
+    }
+}
+
+/// The fault classes of a group's agents.
+#[derive(Debug, Clone, Copy)]
+enum Classes {
+    /// No faults.
+    Healthy,
+    /// All of one class.
+    One(usize),
+    /// Per agent (`None`: healthy).
+    Mixed([Option<usize>; BATCH]),
+}
+
+/// [`BATCH`] agents' plants side by side ([`Lanes`]), integrated together: the vector units
+/// take several agents' same operation at once and their dependent chains overlap. The last
+/// group is padded with agents that restart at rest every sample (their results are unused).
+#[derive(Debug, Clone)]
+struct Group<const N: usize, const M: usize> {
+    /// States.
+    x: Lanes<N, BATCH>,
+    /// Commands held over the sample.
+    q: Lanes<M, BATCH>,
+    class: Classes,
+}
+
+impl<const N: usize, const M: usize> Group<N, M> {
+    /// The agents of states `x` and fault classes `class` (up to [`BATCH`] of them).
+    fn new(x: &[[f64; N]], class: &[Option<usize>]) -> Self {
+        let mut g = Self {
+            x: [[0.0; BATCH]; N],
+            q: [[0.0; BATCH]; M],
+            // A padding agent takes the first one's class.
+            class: if class.iter().all(|&c| c == class[0]) {
+                class[0].map_or(Classes::Healthy, Classes::One)
+            } else {
+                Classes::Mixed(std::array::from_fn(|b| class.get(b).copied().flatten()))
+            },
+        };
+        g.load(x);
+        g
+    }
+
+    /// Sets the states of the group's agents; padding ones at rest.
+    fn load(&mut self, x: &[[f64; N]]) {
+        for (j, lane) in self.x.iter_mut().enumerate() {
+            *lane = std::array::from_fn(|b| x.get(b).map_or(0.0, |x| x[j]));
+        }
+    }
+
+    /// Copies the states out to the group's agents (and puts padding ones back at rest).
+    fn scatter(&mut self, x: &mut [[f64; N]]) {
+        for (b, x) in x.iter_mut().enumerate() {
+            *x = std::array::from_fn(|j| self.x[j][b]);
+        }
+        for lane in &mut self.x {
+            lane[x.len()..].fill(0.0);
+        }
+    }
+}
+
+/// Group `g`'s plants over one sample's RK4 substeps. Not inlined into the loop: its lanes are
+/// loaded and stored whole, which is what makes the compiler vectorise across agents.
+#[inline(never)]
+fn advance<P: Plant<N, M>, const N: usize, const M: usize>(
+    plant: &P,
+    inputs: &StageInputs<P::Time, M>,
+    g: &mut Group<N, M>,
+    dt: f64,
+) {
+    let mut x = g.x;
+    for s in 0..inputs.at.len() {
+        rk4(plant, &mut x, dt, &inputs.time(s), &inputs.act(s, g));
+    }
+    g.x = x;
+}
+
 /// Smallest group stepped in parallel (below it a thread hand-off costs more than it saves).
 pub const PAR_MIN_AGENTS: usize = 256;
 
-/// Agents per parallel work item.
+/// Agents per parallel work item (a multiple of [`BATCH`]).
 const PAR_CHUNK: usize = 64;
 
 /// Whether a group of `agents` is stepped on several threads (rayon's pool has more than one).
