@@ -308,8 +308,7 @@ mod kernel {
     pub(super) fn exp2_with(t: f32, poly: impl Fn(f32) -> f32) -> f32 {
         // |t| < 64 on the bits shifted past the sign: 0x4280_0000 << 1 is an immediate.
         if t.to_bits() << 1 < 0x4280_0000 << 1 {
-            let (r, n) = exp2_split(t);
-            poly(r) * f32::from_bits(((n + 127) as u32) << 23)
+            exp2_scaled(t, poly)
         } else {
             exp2_special(t)
         }
@@ -324,10 +323,10 @@ mod kernel {
             0.0
         } else if t < 0.0 {
             // 2^(t+64) · 2^-64.
-            exp2_scaled(t + 64.0) * f32::from_bits(63 << 23)
+            exp2_scaled(t + 64.0, exp2_poly) * f32::from_bits(63 << 23)
         } else {
             // 2^(t−1) · 2.
-            exp2_scaled(t - 1.0) * 2.0
+            exp2_scaled(t - 1.0, exp2_poly) * 2.0
         }
     }
 
@@ -339,11 +338,11 @@ mod kernel {
         (t - (k - ROUND), k.to_bits() as i32 - 0x4b40_0000)
     }
 
-    /// `2^t` for `|t| < 126.5` (normal result).
+    /// `2^t = poly(r) · 2^n` for `|t| < 126.5` (normal result).
     #[inline]
-    fn exp2_scaled(t: f32) -> f32 {
+    fn exp2_scaled(t: f32, poly: impl Fn(f32) -> f32) -> f32 {
         let (r, n) = exp2_split(t);
-        exp2_poly(r) * f32::from_bits(((n + 127) as u32) << 23)
+        poly(r) * f32::from_bits(((n + 127) as u32) << 23)
     }
 
     /// `2^r`, `|r| ≤ ½`: degree-5 minimax, `poly(0) = 1` exactly.
