@@ -49,9 +49,16 @@ fn main() -> Result<(), host_sim::Error> {
         .nth(1)
         .unwrap_or_else(|| "out/pendulum".into());
     let s = run(Path::new(&out), 10.0)?;
+    let or_none = |v: Option<f64>, unit: &str| match v {
+        Some(v) => format!("{v:.4}{unit}"),
+        None => "none".into(),
+    };
     println!(
-        "pendulum: diverged {}, max |y_i - y_d| after 2Ts = {:?}, settling time {:?} s, max |u| {:.2}; outputs in {out}",
-        s.diverged, s.max_error_after_predefined_time, s.settling_time, s.max_abs_u
+        "pendulum: {}; max |y_i - y_d| after 2Ts = {}; settling time {}; max |u| = {:.2}; outputs in {out}",
+        if s.diverged { "diverged" } else { "no divergence" },
+        or_none(s.max_error_after_predefined_time, ""),
+        or_none(s.settling_time, " s"),
+        s.max_abs_u
     );
     Ok(())
 }
