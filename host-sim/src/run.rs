@@ -8,10 +8,12 @@ use serde::Serialize;
 
 use crate::{
     error::{Error, Result},
-    link::{IdealLink, LinkModel},
     metrics::{Metrics, Summary},
-    network::{CanAgents, NetworkKind},
-    pil::PilAgents,
+    network::{
+        ideal::{IdealLink, LinkModel},
+        spec::NetworkKind,
+        BusAgents,
+    },
     plant::{with_sizes, Custom, Plant, PlantModel},
     report::{self, csv::CsvObserver, plots::Recorder, spread::Spread},
     scenario::{self, Scenario, Setup},
@@ -82,27 +84,15 @@ pub fn run(setup: &Setup, opts: &RunOptions) -> Result<RunResult> {
             "needs a bus: network.kind = \"can\" or \"pil\"",
         )),
         NetworkKind::Ideal => run_with_link(setup, opts, IdealLink),
-        NetworkKind::Can => match &setup.plant {
+        NetworkKind::Can | NetworkKind::Pil => match &setup.plant {
             PlantModel::Example1(p) => {
-                run_with::<_, _, 2, 2>(setup, *p, can_agents(setup, trace)?, opts)
+                run_with::<_, _, 2, 2>(setup, *p, bus_agents(setup, trace)?, opts)
             }
             PlantModel::Manipulator(p) => {
-                run_with::<_, _, 2, 2>(setup, *p, can_agents(setup, trace)?, opts)
+                run_with::<_, _, 2, 2>(setup, *p, bus_agents(setup, trace)?, opts)
             }
             PlantModel::Custom(p) => {
-                run_with::<_, _, 2, 2>(setup, (**p).clone(), can_agents(setup, trace)?, opts)
-            }
-            PlantModel::Library { .. } => Err(library()),
-        },
-        NetworkKind::Pil => match &setup.plant {
-            PlantModel::Example1(p) => {
-                run_with::<_, _, 2, 2>(setup, *p, PilAgents::new(setup, trace)?, opts)
-            }
-            PlantModel::Manipulator(p) => {
-                run_with::<_, _, 2, 2>(setup, *p, PilAgents::new(setup, trace)?, opts)
-            }
-            PlantModel::Custom(p) => {
-                run_with::<_, _, 2, 2>(setup, (**p).clone(), PilAgents::new(setup, trace)?, opts)
+                run_with::<_, _, 2, 2>(setup, (**p).clone(), bus_agents(setup, trace)?, opts)
             }
             PlantModel::Library { .. } => Err(library()),
         },
@@ -192,17 +182,19 @@ fn linked<L: LinkModel, const N: usize, const M: usize>(
     Linked::new(&setup.graph, &setup.controller_configs::<N>()?, link)
 }
 
-/// `hil-mock` nodes of `setup` on the CAN bus of its `[network]`.
-fn can_agents<const N: usize, const M: usize>(
+/// The node firmware of `setup`'s agents on the bus of its `[network]` (`kind = "can"` or
+/// `"pil"`).
+fn bus_agents<const N: usize, const M: usize>(
     setup: &Setup,
     trace: Option<&std::path::Path>,
-) -> Result<CanAgents<N, M>> {
+) -> Result<BusAgents<N, M>> {
     let s = &setup.scenario;
-    CanAgents::new(
+    BusAgents::new(
         &s.network,
         s.simulation.h,
         &setup.graph,
         &setup.controller_configs::<N>()?,
+        setup.samples,
         trace,
     )
 }

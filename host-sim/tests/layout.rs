@@ -10,12 +10,11 @@ use std::{
 };
 
 /// The blocks below `scenario`: they own their spec types and must not import it.
-const BLOCKS: [&str; 7] = [
+const BLOCKS: [&str; 6] = [
     "faults.rs",
     "graph.rs",
     "network",
     "plant",
-    "link",
     "sim.rs",
     "leader.rs",
 ];

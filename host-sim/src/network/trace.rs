@@ -26,7 +26,7 @@ pub const INTERFACE: &str = "can0";
 /// let id = StandardId::new(0x101).unwrap();
 /// let f = MockFrame::new(id, &[0xDE, 0xAD, 0x0B, 0x01]).unwrap();
 /// assert_eq!(
-///     host_sim::report::trace::candump_line(1_000_123_456, "can0", &f),
+///     host_sim::network::trace::candump_line(1_000_123_456, "can0", &f),
 ///     "(1.000123) can0 101#DEAD0B01"
 /// );
 /// ```
@@ -59,7 +59,7 @@ impl TraceWriter {
     /// Creates (truncates) `path`, and its directory if needed.
     pub fn create(path: &Path) -> Result<Self> {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            super::create_dir(dir)?;
+            crate::report::create_dir(dir)?;
         }
         let file = File::create(path).map_err(|e| Error::io(path, e))?;
         Ok(Self {

@@ -1,8 +1,8 @@
 //! `docs/wire.dbc` is generated from the codec's constants: this test fails when the file and
-//! the wire format disagree. Regenerate with `UPDATE_DBC=1 cargo test -p hil-mock --test dbc`.
+//! the wire format disagree. Regenerate with `UPDATE_DBC=1 cargo test -p agent-node --test dbc`.
 
-use hil_mock::{
-    pil::io,
+use agent_node::{
+    link::io,
     wire::{Source, AGENT_ID_BASE, LEADER_ID, MAX_AGENT, PAYLOAD_LEN},
 };
 
@@ -142,6 +142,6 @@ fn wire_dbc_matches_the_codec() {
     let have = std::fs::read_to_string(path).expect("docs/wire.dbc exists");
     assert!(
         have == want,
-        "docs/wire.dbc is out of date: run UPDATE_DBC=1 cargo test -p hil-mock --test dbc"
+        "docs/wire.dbc is out of date: run UPDATE_DBC=1 cargo test -p agent-node --test dbc"
     );
 }
