@@ -10,11 +10,12 @@
 //!   `controller_core::Controller::step`, actuate, broadcast — generic over the `embedded-can`
 //!   controller and small [`Clock`], [`Sensor`], [`Actuator`] traits.
 //! * [`wire`]: the bus codec — identifiers, the `fixed` Q7.16 payload, sequence counters,
-//!   decoding that rejects malformed frames without panicking — and the description of every
-//!   frame kind from which `docs/wire.dbc` is written ([`wire::write_dbc`]).
+//!   decoding that rejects malformed frames without panicking.
 //! * [`link`]: the serial link between a node and the host that owns its plant: SLCAN lines,
 //!   the tick and report records, process-I/O frames, configuration words; and [`CanFrame`],
 //!   the classical CAN frame of the link, of `hil-mock`'s mocks and of its bus model.
+//! * [`dbc`]: every frame kind of the bus and the link described signal by signal, and
+//!   `docs/wire.dbc` written from that description ([`dbc::write_dbc`]).
 //!
 //! The network behaviour, the wire format and the stale-link policy are described in
 //! `docs/NETWORK.md`.
@@ -32,6 +33,7 @@
 #[macro_use]
 mod fmt;
 
+pub mod dbc;
 pub mod link;
 pub mod node;
 pub mod wire;

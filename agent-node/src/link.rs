@@ -196,6 +196,23 @@ pub struct Tick {
     pub dt_us: Option<u32>,
 }
 
+impl Tick {
+    /// The payload and its length: `x` (`f32` LE each), then `dt_us` (`u32` LE) when given.
+    pub fn to_bytes(&self) -> ([u8; 12], usize) {
+        let mut b = [0u8; 12];
+        b[..4].copy_from_slice(&self.x[0].to_le_bytes());
+        b[4..8].copy_from_slice(&self.x[1].to_le_bytes());
+        let len = match self.dt_us {
+            Some(dt) => {
+                b[8..].copy_from_slice(&dt.to_le_bytes());
+                12
+            }
+            None => 8,
+        };
+        (b, len)
+    }
+}
+
 /// The `y` record: what the node did in one tick.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Report {
@@ -298,16 +315,7 @@ fn encode_record(letter: u8, payload: &[u8], out: &mut [u8; RECORD_MAX_LINE]) ->
 /// assert_eq!(slcan_decode(&buf[..n - 1]), Ok(Slcan::Tick(t)));
 /// ```
 pub fn tick_encode(tick: &Tick, out: &mut [u8; RECORD_MAX_LINE]) -> usize {
-    let mut b = [0u8; 12];
-    b[..4].copy_from_slice(&tick.x[0].to_le_bytes());
-    b[4..8].copy_from_slice(&tick.x[1].to_le_bytes());
-    let len = match tick.dt_us {
-        Some(dt) => {
-            b[8..].copy_from_slice(&dt.to_le_bytes());
-            12
-        }
-        None => 8,
-    };
+    let (b, len) = tick.to_bytes();
     encode_record(record::TICK, &b[..len], out)
 }
 
