@@ -12,6 +12,7 @@ use crate::{
     network::{
         ideal::{IdealLink, LinkModel},
         spec::NetworkKind,
+        trace::Traces,
         BusAgents,
     },
     plant::{with_sizes, Custom, Plant, PlantModel},
@@ -37,6 +38,8 @@ pub struct RunOptions {
     pub progress: bool,
     /// Write every bus frame to this candump log (`kind = "can"` and `"pil"` only).
     pub trace: Option<PathBuf>,
+    /// Write everything on the nodes' serial links to this candump log (`kind = "pil"` only).
+    pub link_trace: Option<PathBuf>,
     /// Keep `(t, max_i |y_i − y_d|, max_{i,l} |u_{i,l}|)` of every sample in the result.
     pub worst: bool,
 }
@@ -77,11 +80,18 @@ pub fn simulate(setup: &Setup) -> Result<Summary> {
 /// Runs `setup` with the outputs of `opts` over the network of its `[network]` section: the
 /// ideal link, or firmware nodes over the CAN bus.
 pub fn run(setup: &Setup, opts: &RunOptions) -> Result<RunResult> {
-    let trace = opts.trace.as_deref();
+    let trace = Traces {
+        bus: opts.trace.as_deref(),
+        link: opts.link_trace.as_deref(),
+    };
     match setup.scenario.network.kind {
-        NetworkKind::Ideal if trace.is_some() => Err(Error::invalid(
+        NetworkKind::Ideal if trace.bus.is_some() => Err(Error::invalid(
             "--trace",
             "needs a bus: network.kind = \"can\" or \"pil\"",
+        )),
+        NetworkKind::Ideal if trace.link.is_some() => Err(Error::invalid(
+            "--link-trace",
+            "needs serial links: network.kind = \"pil\"",
         )),
         NetworkKind::Ideal => run_with_link(setup, opts, IdealLink),
         NetworkKind::Can | NetworkKind::Pil => match &setup.plant {
@@ -186,7 +196,7 @@ fn linked<L: LinkModel, const N: usize, const M: usize>(
 /// `"pil"`).
 fn bus_agents<const N: usize, const M: usize>(
     setup: &Setup,
-    trace: Option<&std::path::Path>,
+    trace: Traces<'_>,
 ) -> Result<BusAgents<N, M>> {
     let s = &setup.scenario;
     BusAgents::new(

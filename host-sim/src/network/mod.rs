@@ -33,6 +33,7 @@ pub use crate::network::{
         bus_config, validate, EventName, NetworkEvent, NetworkKind, NetworkSpec, MAX_BITRATE,
         MAX_CAN_AGENTS,
     },
+    trace::Traces,
 };
 use crate::{
     error::{Error, Result},
@@ -45,47 +46,52 @@ use crate::{
 /// or emulated.
 pub enum BusAgents<const N: usize, const M: usize> {
     /// `kind = "can"`.
-    Can(CanAgents<N, M>),
+    Can(Box<CanAgents<N, M>>),
     /// `kind = "pil"`.
-    Pil(PilAgents<N, M>),
+    Pil(Box<PilAgents<N, M>>),
 }
 
 impl<const N: usize, const M: usize> BusAgents<N, M> {
     /// The agents of `spec.kind` for the validated `graph`, with their controller
     /// configurations (`configs`, in agent order), sample period `h` and `samples` samples;
-    /// every frame on the bus goes to `trace` (candump log) when given. The ideal kind has no
-    /// bus: an error naming `network.kind`.
+    /// the frames on the bus, and on the serial links of `"pil"`, go to the candump logs of
+    /// `traces` when given. The ideal kind has no bus: an error naming `network.kind`.
     pub fn new(
         spec: &NetworkSpec,
         h: f64,
         graph: &Graph,
         configs: &[ControllerConfig<N>],
         samples: u64,
-        trace: Option<&Path>,
+        traces: Traces<'_>,
     ) -> Result<Self> {
         match spec.kind {
             NetworkKind::Ideal => Err(Error::invalid(
                 "network.kind",
                 "\"ideal\" has no bus: host-sim's controllers run over a link model",
             )),
-            NetworkKind::Can => CanAgents::new(spec, h, graph, configs, trace).map(Self::Can),
-            NetworkKind::Pil => {
-                PilAgents::new(spec, h, graph, configs, samples, trace).map(Self::Pil)
+            NetworkKind::Can if traces.link.is_some() => Err(Error::invalid(
+                "--link-trace",
+                "needs serial links: network.kind = \"pil\"",
+            )),
+            NetworkKind::Can => {
+                CanAgents::new(spec, h, graph, configs, traces.bus).map(|a| Self::Can(Box::new(a)))
             }
+            NetworkKind::Pil => PilAgents::new(spec, h, graph, configs, samples, traces)
+                .map(|a| Self::Pil(Box::new(a))),
         }
     }
 
     fn agents(&self) -> &dyn Agents<N, M> {
         match self {
-            Self::Can(a) => a,
-            Self::Pil(a) => a,
+            Self::Can(a) => a.as_ref(),
+            Self::Pil(a) => a.as_ref(),
         }
     }
 
     fn agents_mut(&mut self) -> &mut dyn Agents<N, M> {
         match self {
-            Self::Can(a) => a,
-            Self::Pil(a) => a,
+            Self::Can(a) => a.as_mut(),
+            Self::Pil(a) => a.as_mut(),
         }
     }
 }

@@ -50,7 +50,7 @@ use crate::{
     graph::Graph,
     network::{
         spec::{bus_config, node_config, ns, NetworkKind, NetworkSpec},
-        trace::{TraceWriter, INTERFACE},
+        trace::{candump_fd_line, candump_line, TraceWriter, Traces, INTERFACE},
     },
     report::plots::{render, Panel, Series},
     sim::{Agents, K},
@@ -223,10 +223,18 @@ struct Emulator {
     sync_us: u64,
     /// Interval before the last tick [µs] (the node's, once it has one).
     tick_dt_us: Option<u32>,
+    /// Candump lines of everything on the link since they were last taken (`--link-trace`).
+    link_log: Option<Vec<String>>,
 }
 
 impl Emulator {
-    fn spawn(agent: usize, firmware: &Path, timeout: Duration, launch: &Launch) -> Result<Self> {
+    fn spawn(
+        agent: usize,
+        firmware: &Path,
+        timeout: Duration,
+        launch: &Launch,
+        log_link: bool,
+    ) -> Result<Self> {
         let mut child = launch
             .command(agent)
             .args(["-M", "mps2-an386", "-cpu", "cortex-m4", "-nographic"])
@@ -273,33 +281,59 @@ impl Emulator {
             timeout,
             sync_us: 0,
             tick_dt_us: None,
+            link_log: log_link.then(Vec::new),
         })
     }
 
-    fn queue(&mut self, frame: &CanFrame) {
+    /// Keeps `frame`, seen on the link at `t_us`, for the link trace.
+    fn log_frame(&mut self, t_us: u64, frame: &CanFrame) {
+        if let Some(log) = self.link_log.as_mut() {
+            log.push(candump_line(
+                t_us * 1000,
+                &format!("node{}", self.agent),
+                frame,
+            ));
+        }
+    }
+
+    /// Keeps a record's payload, seen on the link at `t_us`, for the link trace, under the
+    /// identifier `id` the DBC gives it.
+    fn log_record(&mut self, t_us: u64, id: u32, payload: &[u8]) {
+        if let Some(log) = self.link_log.as_mut() {
+            let iface = format!("node{}", self.agent);
+            log.push(candump_fd_line(t_us * 1000, &iface, id, payload));
+        }
+    }
+
+    /// `frame` without timestamp, logged at `t_us`.
+    fn queue(&mut self, frame: &CanFrame, t_us: u64) {
         let mut buf = [0u8; SLCAN_MAX_LINE];
         let n = link::slcan_encode(frame, &mut buf);
         self.out.extend_from_slice(&buf[..n]);
+        self.log_frame(t_us, frame);
     }
 
+    /// A process-I/O frame at the time of the last tick.
     fn queue_io(&mut self, id: u32, data: &[u8]) {
         if let Some(f) = CanFrame::io(id, data) {
-            self.queue(&f);
+            self.queue(&f, self.sync_us);
         }
     }
 
     /// `frame` at time `t_us`: timestamped relative to the last tick, or after a `CLOCK`
     /// frame when that does not fit 16 bits.
     fn queue_at(&mut self, frame: &CanFrame, t_us: u64) {
-        let mut buf = [0u8; SLCAN_MAX_LINE];
-        let n = match u16::try_from(t_us.saturating_sub(self.sync_us)) {
-            Ok(ts) => link::slcan_encode_timed(frame, ts, &mut buf),
-            Err(_) => {
-                self.queue_io(io::CLOCK, &(t_us as u32).to_le_bytes());
-                link::slcan_encode(frame, &mut buf)
+        let Ok(ts) = u16::try_from(t_us.saturating_sub(self.sync_us)) else {
+            if let Some(clock) = CanFrame::io(io::CLOCK, &(t_us as u32).to_le_bytes()) {
+                self.queue(&clock, t_us);
             }
+            self.queue(frame, t_us);
+            return;
         };
+        let mut buf = [0u8; SLCAN_MAX_LINE];
+        let n = link::slcan_encode_timed(frame, ts, &mut buf);
         self.out.extend_from_slice(&buf[..n]);
+        self.log_frame(t_us, frame);
     }
 
     /// The tick of sample time `t_us` with the state `x`; the interval only when it changed.
@@ -313,6 +347,8 @@ impl Emulator {
         let mut buf = [0u8; RECORD_MAX_LINE];
         let n = link::tick_encode(&tick, &mut buf);
         self.out.extend_from_slice(&buf[..n]);
+        let (payload, len) = tick.to_bytes();
+        self.log_record(t_us, io::SYNC, &payload[..len]);
         self.sync_us = t_us;
         self.tick_dt_us = Some(dt);
         Ok(())
@@ -330,8 +366,14 @@ impl Emulator {
     /// The next frame or report, or the error that names the agent.
     fn next_answer(&mut self, waiting_for: &str) -> Result<Answer> {
         let what = match self.rx.recv_timeout(self.timeout) {
-            Ok(Output::Frame(f)) => return Ok(Answer::Frame(f)),
-            Ok(Output::Report(r)) => return Ok(Answer::Report(r)),
+            Ok(Output::Frame(f)) => {
+                self.log_frame(self.sync_us, &f);
+                return Ok(Answer::Frame(f));
+            }
+            Ok(Output::Report(r)) => {
+                self.log_record(self.sync_us, io::REPORT, &r.to_bytes());
+                return Ok(Answer::Report(r));
+            }
             Ok(Output::Text(t)) => format!("sent {t:?} while the host waited for {waiting_for}"),
             Ok(Output::Eof) | Err(RecvTimeoutError::Disconnected) => {
                 // Let the stderr reader finish.
@@ -454,20 +496,21 @@ pub struct PilAgents<const N: usize, const M: usize> {
     malformed: u64,
     gains: Gains,
     trace: Option<TraceWriter>,
+    link_trace: Option<TraceWriter>,
 }
 
 impl<const N: usize, const M: usize> PilAgents<N, M> {
     /// Starts one emulator per agent of the validated `graph` and configures its node with
     /// its controller configuration (`configs`, in agent order) and neighbours, on the bus of
-    /// `[network]` (`spec`, sample period `h`, `samples` samples); every frame on the bus goes
-    /// to `trace` (candump log) when given.
+    /// `[network]` (`spec`, sample period `h`, `samples` samples); every frame on the bus, and
+    /// everything on the links, go to the candump logs of `traces` when given.
     pub fn new(
         spec: &NetworkSpec,
         h: f64,
         graph: &Graph,
         configs: &[ControllerConfig<N>],
         samples: u64,
-        trace: Option<&Path>,
+        traces: Traces<'_>,
     ) -> Result<Self> {
         if N != 2 || M != 2 {
             return Err(Error::invalid(
@@ -512,7 +555,8 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
             }
             pinned.push(ctrl.pinned);
             neighbours.push(heard.iter().map(|k| k + 1).collect());
-            let mut emu = Emulator::spawn(i + 1, &firmware, timeout, &launch)?;
+            let mut emu =
+                Emulator::spawn(i + 1, &firmware, timeout, &launch, traces.link.is_some())?;
             let words = link::encode_config(&node, &ctrl);
             let words = words.as_slice().ok_or_else(|| {
                 Error::invalid("network.kind", "configuration too large for the PIL link")
@@ -552,11 +596,12 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
         let cfg = bus_config(spec, h);
         let bitrate = cfg.bitrate;
         let mut bus = Bus::new(cfg, agents + 1).map_err(|e| Error::invalid("network", e))?;
-        let trace = trace.map(TraceWriter::create).transpose()?;
+        let trace = traces.bus.map(TraceWriter::create).transpose()?;
         if trace.is_some() {
             bus.record_wire();
         }
-        Ok(Self {
+        let link_trace = traces.link.map(TraceWriter::create).transpose()?;
+        let mut agents = Self {
             emus,
             bus,
             h_ns: ns(h),
@@ -578,7 +623,19 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
                 k2: f32::NAN,
             }),
             trace,
-        })
+            link_trace,
+        };
+        agents.write_link_log();
+        Ok(agents)
+    }
+
+    /// Moves what the links carried since the last call into the link trace.
+    fn write_link_log(&mut self) {
+        if let Some(w) = self.link_trace.as_mut() {
+            for log in self.emus.iter_mut().filter_map(|e| e.link_log.as_mut()) {
+                w.write_lines(log.drain(..));
+            }
+        }
     }
 
     /// Per-agent figures of the firmware (after the run).
@@ -726,6 +783,7 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
         if let Some(w) = self.trace.as_mut() {
             w.write(INTERFACE, &self.bus.take_wire_log());
         }
+        self.write_link_log();
         Ok(())
     }
 
@@ -796,7 +854,11 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
                 _ => return Err(emu.failure(&format!("unexpected answer to STATS_REQUEST {f:?}"))),
             }
         }
+        self.write_link_log();
         self.emus.clear();
+        if let Some(w) = self.link_trace.as_mut() {
+            w.finish()?;
+        }
         self.trace.as_mut().map_or(Ok(()), TraceWriter::finish)
     }
 }

@@ -1,7 +1,13 @@
-//! `--trace <file>`: every frame that reached the bus, one candump log line per frame,
-//! `(<seconds>.<microseconds>) can0 <ID>#<DATA>`, with the simulation time (end of frame) as
-//! timestamp. python-can's `LogReader`, `canplayer` and SavvyCAN read it; `docs/wire.dbc`
-//! decodes its payloads.
+//! Traces in candump log format, one line per frame, `(<seconds>.<microseconds>) <interface>
+//! <ID>#<DATA>`, simulation time as timestamp; python-can's `LogReader`, `canplayer` and
+//! SavvyCAN read them, `docs/wire.dbc` decodes their payloads.
+//!
+//! * `--trace <file>` (`kind = "can"`, `"pil"`): every frame that reached the bus, on `can0`,
+//!   at its end of frame.
+//! * `--link-trace <file>` (`kind = "pil"`): everything on each node's serial link, on
+//!   `node<i>`: the start-up configuration, the bus frames delivered to the node, its tick and
+//!   report records (as CAN FD lines `<ID>##0<DATA>` under the ids the DBC gives them), its
+//!   own frame, the statistics; at the sample time the host sent or read them.
 
 use std::{
     fmt::Write as _,
@@ -15,7 +21,16 @@ use hil_mock::{bus::Nanos, mock::MockFrame};
 
 use crate::error::{Error, Result};
 
-/// Interface name written on every line.
+/// Where a run writes its traces (`--trace`, `--link-trace`); `None`: not written.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Traces<'a> {
+    /// Every frame on the bus.
+    pub bus: Option<&'a Path>,
+    /// Everything on each node's serial link (`kind = "pil"`).
+    pub link: Option<&'a Path>,
+}
+
+/// Interface name written on every line of the bus trace.
 pub const INTERFACE: &str = "can0";
 
 /// One candump log line (without the newline) for `frame` seen at `t_ns` on `interface`.
@@ -31,8 +46,7 @@ pub const INTERFACE: &str = "can0";
 /// );
 /// ```
 pub fn candump_line(t_ns: Nanos, interface: &str, frame: &MockFrame) -> String {
-    let us = t_ns / 1000;
-    let mut s = format!("({}.{:06}) {interface} ", us / 1_000_000, us % 1_000_000);
+    let mut s = stamp(t_ns, interface);
     // Writing into a String cannot fail.
     let _ = match frame.id() {
         Id::Standard(id) => write!(s, "{:03X}#", id.as_raw()),
@@ -46,6 +60,29 @@ pub fn candump_line(t_ns: Nanos, interface: &str, frame: &MockFrame) -> String {
         }
     }
     s
+}
+
+/// One candump log line for a payload of `data.len()` bytes (a CAN FD length) under the
+/// 29-bit identifier `id`, seen at `t_ns` on `interface`: how a link record is traced.
+///
+/// ```
+/// assert_eq!(
+///     host_sim::network::trace::candump_fd_line(2_000_000, "node1", 0x10080, &[0; 8]),
+///     "(0.002000) node1 00010080##00000000000000000"
+/// );
+/// ```
+pub fn candump_fd_line(t_ns: Nanos, interface: &str, id: u32, data: &[u8]) -> String {
+    let mut s = stamp(t_ns, interface);
+    let _ = write!(s, "{id:08X}##0");
+    for b in data {
+        let _ = write!(s, "{b:02X}");
+    }
+    s
+}
+
+fn stamp(t_ns: Nanos, interface: &str) -> String {
+    let us = t_ns / 1000;
+    format!("({}.{:06}) {interface} ", us / 1_000_000, us % 1_000_000)
 }
 
 /// A candump log file being written.
@@ -72,11 +109,17 @@ impl TraceWriter {
     /// Appends `frames` (end-of-frame time, frame) on `interface`; the first I/O error is kept
     /// for [`TraceWriter::finish`] and later frames are dropped.
     pub fn write(&mut self, interface: &str, frames: &[(Nanos, MockFrame)]) {
+        self.write_lines(frames.iter().map(|(t, f)| candump_line(*t, interface, f)));
+    }
+
+    /// Appends ready-made `lines` (see [`candump_line`], [`candump_fd_line`]); the first I/O
+    /// error is kept for [`TraceWriter::finish`].
+    pub fn write_lines(&mut self, lines: impl IntoIterator<Item = String>) {
         if self.error.is_some() {
             return;
         }
-        for (t, f) in frames {
-            if let Err(e) = writeln!(self.out, "{}", candump_line(*t, interface, f)) {
+        for l in lines {
+            if let Err(e) = writeln!(self.out, "{l}") {
                 self.error = Some(Error::io(&self.path, e));
                 return;
             }
