@@ -158,7 +158,7 @@ fn crate_paths(code: &str) -> Vec<String> {
     out
 }
 
-/// The file defining the longest module prefix of `path` (`report::trace::X` → `report/trace.rs`).
+/// The file defining the longest module prefix of `path` (`network::trace::X` → `network/trace.rs`).
 fn resolve(path: &str, files: &BTreeMap<String, String>) -> Option<String> {
     let segs: Vec<&str> = path.split("::").filter(|s| !s.is_empty()).collect();
     (1..=segs.len()).rev().find_map(|k| {
@@ -200,14 +200,14 @@ fn reach(g: &BTreeMap<String, BTreeSet<String>>, from: &str) -> BTreeSet<String>
 
 #[test]
 fn parser_sees_nested_use_trees() {
-    let code = "use crate::{\n    error::{Error, Result},\n    report::trace::{T, I},\n};\nfn f() { crate::graph::MAX; }";
+    let code = "use crate::{\n    error::{Error, Result},\n    network::trace::{T, I},\n};\nfn f() { crate::graph::MAX; }";
     assert_eq!(
         crate_paths(code),
         [
             "error::Error",
             "error::Result",
-            "report::trace::T",
-            "report::trace::I",
+            "network::trace::T",
+            "network::trace::I",
             "graph::MAX"
         ]
     );
