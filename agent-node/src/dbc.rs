@@ -4,9 +4,9 @@
 //!
 //! * Bus: one value frame ([`VALUE_SIGNALS`], [`crate::wire`]) per sender, the leader and
 //!   agents `1..=`[`MAX_AGENT`].
-//! * Link ([`crate::link`]): the process-I/O frames of [`link::io`] and the payloads of the
+//! * Link ([`crate::link`]): the process-I/O frames of [`crate::link::io`] and the payloads of the
 //!   tick and report records ([`IO_MESSAGES`]). The records are not CAN frames; the DBC gives
-//!   their base64-decoded payload an id ([`link::io::SYNC`], [`link::io::REPORT`]) so the same
+//!   their base64-decoded payload an id ([`crate::link::io::SYNC`], [`crate::link::io::REPORT`]) so the same
 //!   tools decode them.
 //!
 //! Signals are little-endian (Intel); a message id with bit 31 set is a 29-bit identifier, as

@@ -192,7 +192,7 @@ pub const RECORD_MAX_LINE: usize = 66;
 pub struct Tick {
     /// The state `x_{i,1}`, `x_{i,2}` (the node's sensor).
     pub x: [f32; 2],
-    /// `t_k − t_{k−1}` [µs]; `None`: the same as the previous tick's (0 before the first).
+    /// `t_k − t_{k−1}` in µs; `None`: the same as the previous tick's (0 before the first).
     pub dt_us: Option<u32>,
 }
 
