@@ -1,4 +1,4 @@
-//! A CAN-like bus simulator (feature `std`), event-driven, time in nanoseconds.
+//! A CAN-like bus simulator, event-driven, time in nanoseconds.
 //!
 //! ## Model
 //!

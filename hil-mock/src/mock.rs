@@ -1,16 +1,16 @@
-//! Mocked peripherals (feature `std`): an in-memory CAN controller implementing
+//! Mocked peripherals: an in-memory CAN controller implementing
 //! `embedded_can::nb::Can`, a settable clock, sensors and actuators. They are plain values the
-//! host harness reaches through [`crate::Node::can_mut`], [`crate::Node::clock_mut`], ... —
+//! host harness reaches through [`agent_node::Node::can_mut`], [`agent_node::Node::clock_mut`], ... —
 //! no shared pointers — so a node runs unchanged against them.
 
 use std::collections::VecDeque;
 
 use embedded_can::ErrorKind;
 
-use crate::node::{Actuator, Clock, Sensor};
+use agent_node::{Actuator, Clock, Sensor};
 
 /// The mock controller's frame: the crate's classical CAN frame (shared with the PIL link).
-pub use crate::pil::PilFrame as MockFrame;
+pub use agent_node::CanFrame as MockFrame;
 
 /// Errors of the mock CAN controller.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -204,7 +204,7 @@ impl<const M: usize> Actuator<M> for MockActuator<M> {
 
 /// A node on mocked hardware.
 pub type MockNode<const N: usize, const M: usize, const K: usize> =
-    crate::Node<MockCan, MockClock, MockSensor<N>, MockActuator<M>, N, M, K>;
+    agent_node::Node<MockCan, MockClock, MockSensor<N>, MockActuator<M>, N, M, K>;
 
 #[cfg(test)]
 mod tests {

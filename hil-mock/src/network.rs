@@ -1,14 +1,14 @@
 //! [`CanNetwork`]: follower nodes on mocked hardware, a leader, and the [`Bus`] between them,
-//! advanced one sample at a time by a host loop that owns the plant (feature `std`).
+//! advanced one sample at a time by a host loop that owns the plant.
 //!
 //! Bus node `0` is the leader (identifier `0x100`), bus node `i` is agent `i` (`0x100 + i`).
 //! Per sample at time `t` ([`CanNetwork::step`]):
 //!
 //! 1. the bus runs up to `t`; each delivered frame is pushed, at its delivery time, into the
 //!    receive FIFO of every other node that is not bus-off, and the node's
-//!    [`crate::Node::poll_rx`] runs then (the CAN receive interrupt), so values are
+//!    [`agent_node::Node::poll_rx`] runs then (the CAN receive interrupt), so values are
 //!    time-stamped at arrival;
-//! 2. every node gets the agent's state on its sensors and runs [`crate::Node::tick`] with its
+//! 2. every node gets the agent's state on its sensors and runs [`agent_node::Node::tick`] with its
 //!    clock at `t`; its frame goes on the bus, submitted at `t` (computation time neglected);
 //! 3. the leader submits `y_d(t)` (when given) with its own sequence counter;
 //! 4. the age of every neighbour (and leader) value each controller used, `t` minus the
@@ -21,7 +21,7 @@
 //! use controller_core::ControllerConfig;
 //! use hil_mock::bus::BusConfig;
 //! use hil_mock::network::{AgentSetup, CanNetwork};
-//! use hil_mock::NodeConfig;
+//! use agent_node::NodeConfig;
 //!
 //! // Two agents: agent 1 pinned, agent 2 hears agent 1.
 //! let agent = |i: u8| AgentSetup {
@@ -51,8 +51,8 @@ use controller_core::{ControllerConfig, Link};
 
 use crate::bus::{Bus, BusConfig, BusConfigError, BusStats, Nanos};
 use crate::mock::{MockActuator, MockCan, MockClock, MockFrame, MockNode, MockSensor};
-use crate::node::{NodeConfig, NodeError, Tick};
-use crate::wire::{self, Source};
+use agent_node::wire::{self, Source};
+use agent_node::{NodeConfig, NodeError, Tick};
 
 /// Why a network could not be built.
 #[derive(Debug, Clone, Copy, PartialEq)]

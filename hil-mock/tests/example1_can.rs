@@ -2,9 +2,9 @@
 
 mod common;
 
+use agent_node::wire::PAYLOAD_LEN;
 use common::{run_can, run_ideal, H};
 use hil_mock::bus::{frame_bits, BusConfig};
-use hil_mock::wire::PAYLOAD_LEN;
 
 const T_END: f64 = 10.0;
 /// 2 T_s: the predefined settling time of Example 1 (T_s = 2).

@@ -3,12 +3,12 @@
 
 mod common;
 
+use agent_node::wire::{self, Source, WireError};
+use agent_node::{NodeConfig, NodeError, TxOutcome};
 use common::{capture_logs, controller_config, logged};
 use controller_core::{ControllerConfig, Link};
 use embedded_can::{ExtendedId, Frame, Id, StandardId};
 use hil_mock::mock::{MockActuator, MockCan, MockClock, MockFrame, MockNode, MockSensor};
-use hil_mock::wire::{self, Source, WireError};
-use hil_mock::{NodeConfig, NodeError, TxOutcome};
 use proptest::prelude::*;
 
 fn node(

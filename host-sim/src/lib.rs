@@ -7,10 +7,11 @@
 //! controller `f32`.
 //!
 //! Layers: [`scenario`] (TOML, `--set`, validation) → [`graph`], [`leader`], [`plant`],
-//! [`faults`], [`link`], [`network`] or [`pil`] → [`sim`] (the loop) → [`metrics`], [`report`]
-//! → [`run`] (commands) → [`campaign`] (many runs: grids, Monte Carlo, shards). Each block owns
-//! the serde type and checks of its scenario section; [`scenario`] assembles them and no block
-//! imports it (docs/ARCHITECTURE.md, "host-sim modules").
+//! [`faults`], [`network`] (every kind: `ideal`, `can`, `pil`, and the bus `trace`) → [`sim`]
+//! (the loop) → [`metrics`], [`report`] → [`run`] (commands) → [`campaign`] (many runs: grids,
+//! Monte Carlo, shards). Each block owns the serde type and checks of its scenario section;
+//! [`scenario`] assembles them and no block imports it (docs/ARCHITECTURE.md, "host-sim
+//! modules").
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
@@ -22,11 +23,9 @@ pub mod figures;
 pub mod generate;
 pub mod graph;
 pub mod leader;
-pub mod link;
 pub mod matrix;
 pub mod metrics;
 pub mod network;
-pub mod pil;
 pub mod plant;
 pub mod report;
 pub mod run;

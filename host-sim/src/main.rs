@@ -104,6 +104,10 @@ enum Cmd {
         /// or "pil"); docs/wire.dbc decodes it.
         #[arg(long, value_name = "FILE")]
         trace: Option<PathBuf>,
+        /// Write everything on each node's serial link to this file, candump log format
+        /// (network.kind = "pil"); docs/wire.dbc decodes it.
+        #[arg(long, value_name = "FILE")]
+        link_trace: Option<PathBuf>,
     },
     /// Validate a scenario and print it resolved (defaults filled, overrides applied).
     Check {
@@ -256,6 +260,7 @@ fn main_inner(cli: Cli) -> Result<()> {
             quiet,
             force,
             trace,
+            link_trace,
         } => {
             if decimate == Some(0) {
                 return Err(Error::invalid("--decimate", "must be >= 1"));
@@ -295,6 +300,7 @@ fn main_inner(cli: Cli) -> Result<()> {
                 record: false,
                 progress: !quiet,
                 trace,
+                link_trace,
                 worst: false,
             };
             let r = run(&setup, &opts)?;

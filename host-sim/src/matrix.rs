@@ -21,7 +21,7 @@ use serde::Serialize;
 use crate::{
     error::Result,
     faults::{Agents, FaultKind, FaultRule, SensorFault},
-    network::{EventName, NetworkEvent, NetworkKind},
+    network::spec::{EventName, NetworkEvent, NetworkKind},
     run::{run, RunOptions},
     scenario::{self, Scenario},
 };

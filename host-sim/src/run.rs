@@ -8,10 +8,13 @@ use serde::Serialize;
 
 use crate::{
     error::{Error, Result},
-    link::{IdealLink, LinkModel},
     metrics::{Metrics, Summary},
-    network::{CanAgents, NetworkKind},
-    pil::PilAgents,
+    network::{
+        ideal::{IdealLink, LinkModel},
+        spec::NetworkKind,
+        trace::Traces,
+        BusAgents,
+    },
     plant::{with_sizes, Custom, Plant, PlantModel},
     report::{self, csv::CsvObserver, plots::Recorder, spread::Spread},
     scenario::{self, Scenario, Setup},
@@ -35,6 +38,8 @@ pub struct RunOptions {
     pub progress: bool,
     /// Write every bus frame to this candump log (`kind = "can"` and `"pil"` only).
     pub trace: Option<PathBuf>,
+    /// Write everything on the nodes' serial links to this candump log (`kind = "pil"` only).
+    pub link_trace: Option<PathBuf>,
     /// Keep `(t, max_i |y_i − y_d|, max_{i,l} |u_{i,l}|)` of every sample in the result.
     pub worst: bool,
 }
@@ -75,34 +80,29 @@ pub fn simulate(setup: &Setup) -> Result<Summary> {
 /// Runs `setup` with the outputs of `opts` over the network of its `[network]` section: the
 /// ideal link, or firmware nodes over the CAN bus.
 pub fn run(setup: &Setup, opts: &RunOptions) -> Result<RunResult> {
-    let trace = opts.trace.as_deref();
+    let trace = Traces {
+        bus: opts.trace.as_deref(),
+        link: opts.link_trace.as_deref(),
+    };
     match setup.scenario.network.kind {
-        NetworkKind::Ideal if trace.is_some() => Err(Error::invalid(
+        NetworkKind::Ideal if trace.bus.is_some() => Err(Error::invalid(
             "--trace",
             "needs a bus: network.kind = \"can\" or \"pil\"",
         )),
+        NetworkKind::Ideal if trace.link.is_some() => Err(Error::invalid(
+            "--link-trace",
+            "needs serial links: network.kind = \"pil\"",
+        )),
         NetworkKind::Ideal => run_with_link(setup, opts, IdealLink),
-        NetworkKind::Can => match &setup.plant {
+        NetworkKind::Can | NetworkKind::Pil => match &setup.plant {
             PlantModel::Example1(p) => {
-                run_with::<_, _, 2, 2>(setup, *p, can_agents(setup, trace)?, opts)
+                run_with::<_, _, 2, 2>(setup, *p, bus_agents(setup, trace)?, opts)
             }
             PlantModel::Manipulator(p) => {
-                run_with::<_, _, 2, 2>(setup, *p, can_agents(setup, trace)?, opts)
+                run_with::<_, _, 2, 2>(setup, *p, bus_agents(setup, trace)?, opts)
             }
             PlantModel::Custom(p) => {
-                run_with::<_, _, 2, 2>(setup, (**p).clone(), can_agents(setup, trace)?, opts)
-            }
-            PlantModel::Library { .. } => Err(library()),
-        },
-        NetworkKind::Pil => match &setup.plant {
-            PlantModel::Example1(p) => {
-                run_with::<_, _, 2, 2>(setup, *p, PilAgents::new(setup, trace)?, opts)
-            }
-            PlantModel::Manipulator(p) => {
-                run_with::<_, _, 2, 2>(setup, *p, PilAgents::new(setup, trace)?, opts)
-            }
-            PlantModel::Custom(p) => {
-                run_with::<_, _, 2, 2>(setup, (**p).clone(), PilAgents::new(setup, trace)?, opts)
+                run_with::<_, _, 2, 2>(setup, (**p).clone(), bus_agents(setup, trace)?, opts)
             }
             PlantModel::Library { .. } => Err(library()),
         },
@@ -192,17 +192,19 @@ fn linked<L: LinkModel, const N: usize, const M: usize>(
     Linked::new(&setup.graph, &setup.controller_configs::<N>()?, link)
 }
 
-/// `hil-mock` nodes of `setup` on the CAN bus of its `[network]`.
-fn can_agents<const N: usize, const M: usize>(
+/// The node firmware of `setup`'s agents on the bus of its `[network]` (`kind = "can"` or
+/// `"pil"`).
+fn bus_agents<const N: usize, const M: usize>(
     setup: &Setup,
-    trace: Option<&std::path::Path>,
-) -> Result<CanAgents<N, M>> {
+    trace: Traces<'_>,
+) -> Result<BusAgents<N, M>> {
     let s = &setup.scenario;
-    CanAgents::new(
+    BusAgents::new(
         &s.network,
         s.simulation.h,
         &setup.graph,
         &setup.controller_configs::<N>()?,
+        setup.samples,
         trace,
     )
 }

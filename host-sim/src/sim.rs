@@ -4,7 +4,7 @@
 //!
 //! Who computes the commands is an [`Agents`]: host-sim's own controllers fed through a
 //! [`LinkModel`] ([`Linked`]), or firmware nodes over a simulated bus
-//! ([`crate::network::CanAgents`]).
+//! ([`crate::network::BusAgents`]).
 
 use controller_core::{Controller, ControllerConfig, Gains, StepOutput};
 use rayon::prelude::*;
@@ -16,7 +16,7 @@ use crate::{
     figures::{FirmwareSummary, NetworkSummary},
     graph::Graph,
     leader::Leader,
-    link::{Inbox, LinkModel},
+    network::ideal::{Inbox, LinkModel},
     plant::{rk4, Lanes, Plant},
 };
 

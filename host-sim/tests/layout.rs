@@ -1,5 +1,6 @@
 //! host-sim's module layout (docs/ARCHITECTURE.md, "host-sim modules"): the blocks own their
-//! scenario sections and never import `scenario`, and no source file sits on an import circle.
+//! scenario sections and never import `scenario`, no source file sits on an import circle, and
+//! no file imports one of a higher layer ([`LAYERS`]).
 //!
 //! The import graph is read from the sources: every `crate::…` path (in `use` trees and inline)
 //! outside comments, resolved to the file that defines the module.
@@ -10,15 +11,65 @@ use std::{
 };
 
 /// The blocks below `scenario`: they own their spec types and must not import it.
-const BLOCKS: [&str; 7] = [
+const BLOCKS: [&str; 6] = [
     "faults.rs",
     "graph.rs",
     "network",
     "plant",
-    "link",
     "sim.rs",
     "leader.rs",
 ];
+
+/// The layers of `src/`, lowest first: a file may import files of its own layer and of those
+/// below. A file belongs to the layer of the longest path prefix listed here (a directory
+/// `plant` covers `plant/…`); every file must have one, so a new module is placed on purpose.
+/// The same table is in docs/ARCHITECTURE.md, "host-sim modules".
+const LAYERS: &[(&str, &[&str])] = &[
+    (
+        "foundation: errors, random draws, output files and interrupts",
+        &["error.rs", "generate.rs", "report/mod.rs"],
+    ),
+    (
+        "blocks: one scenario section each, and what the loop and the summary share",
+        &[
+            "graph.rs",
+            "leader.rs",
+            "faults.rs",
+            "plant",
+            "figures.rs",
+            "network/spec.rs",
+            "network/ideal.rs",
+            "network/trace.rs",
+        ],
+    ),
+    ("the loop", &["sim.rs"]),
+    ("assembly of a scenario", &["scenario.rs"]),
+    (
+        "agents over a bus, observers and outputs",
+        &[
+            "network/mod.rs",
+            "network/can.rs",
+            "network/pil.rs",
+            "metrics.rs",
+            "report",
+        ],
+    ),
+    ("commands", &["run.rs", "compare.rs", "matrix.rs"]),
+    ("many runs", &["campaign"]),
+    ("crate root and binary", &["lib.rs", "main.rs"]),
+];
+
+/// The layer of `file` (index into [`LAYERS`]).
+fn layer(file: &str) -> Option<usize> {
+    let covers = |prefix: &str| file == prefix || file.starts_with(&format!("{prefix}/"));
+    LAYERS
+        .iter()
+        .enumerate()
+        .flat_map(|(k, (_, prefixes))| prefixes.iter().map(move |p| (k, *p)))
+        .filter(|(_, p)| covers(p))
+        .max_by_key(|(_, p)| p.len())
+        .map(|(k, _)| k)
+}
 
 fn src() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("src")
@@ -107,7 +158,7 @@ fn crate_paths(code: &str) -> Vec<String> {
     out
 }
 
-/// The file defining the longest module prefix of `path` (`report::trace::X` → `report/trace.rs`).
+/// The file defining the longest module prefix of `path` (`network::trace::X` → `network/trace.rs`).
 fn resolve(path: &str, files: &BTreeMap<String, String>) -> Option<String> {
     let segs: Vec<&str> = path.split("::").filter(|s| !s.is_empty()).collect();
     (1..=segs.len()).rev().find_map(|k| {
@@ -149,14 +200,14 @@ fn reach(g: &BTreeMap<String, BTreeSet<String>>, from: &str) -> BTreeSet<String>
 
 #[test]
 fn parser_sees_nested_use_trees() {
-    let code = "use crate::{\n    error::{Error, Result},\n    report::trace::{T, I},\n};\nfn f() { crate::graph::MAX; }";
+    let code = "use crate::{\n    error::{Error, Result},\n    network::trace::{T, I},\n};\nfn f() { crate::graph::MAX; }";
     assert_eq!(
         crate_paths(code),
         [
             "error::Error",
             "error::Result",
-            "report::trace::T",
-            "report::trace::I",
+            "network::trace::T",
+            "network::trace::I",
             "graph::MAX"
         ]
     );
@@ -195,5 +246,55 @@ fn no_import_circle() {
     assert!(
         circular.is_empty(),
         "files on an import circle (file, the imports that lead back to it): {circular:?}"
+    );
+}
+
+#[test]
+fn layers_cover_the_sources_and_name_their_files() {
+    assert_eq!(layer("report/mod.rs"), Some(0));
+    assert_eq!(layer("report/plots.rs"), Some(4));
+    assert_eq!(layer("plant/custom/parse.rs"), Some(1));
+    assert_eq!(layer("network/spec.rs"), Some(1));
+    assert_eq!(layer("network/pil.rs"), Some(4));
+    assert_eq!(layer("sim.rs"), Some(2));
+    let files = sources();
+    let homeless: Vec<&String> = files.keys().filter(|f| layer(f).is_none()).collect();
+    assert!(
+        homeless.is_empty(),
+        "files in no layer of LAYERS (place them, and in docs/ARCHITECTURE.md): {homeless:?}"
+    );
+    for (_, prefixes) in LAYERS {
+        for p in *prefixes {
+            assert!(
+                files
+                    .keys()
+                    .any(|f| f == p || f.starts_with(&format!("{p}/"))),
+                "LAYERS names src/{p}, which is gone"
+            );
+        }
+    }
+}
+
+#[test]
+fn no_file_imports_a_higher_layer() {
+    let g = graph();
+    let upward: Vec<String> = g
+        .iter()
+        .flat_map(|(f, deps)| deps.iter().map(move |d| (f, d)))
+        .filter_map(|(f, d)| {
+            let (lf, ld) = (layer(f)?, layer(d)?);
+            (ld > lf).then(|| {
+                format!(
+                    "{f} ({}) imports {d} ({})",
+                    LAYERS[lf].0.split(':').next().unwrap_or(""),
+                    LAYERS[ld].0.split(':').next().unwrap_or("")
+                )
+            })
+        })
+        .collect();
+    assert!(
+        upward.is_empty(),
+        "imports from a higher layer:\n{}",
+        upward.join("\n")
     );
 }

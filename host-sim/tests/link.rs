@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use host_sim::{
     graph::Graph,
-    link::{Inbox, Link, LinkModel},
+    network::ideal::{Inbox, Link, LinkModel},
     run::{run, run_with_link, RunOptions},
     scenario,
 };

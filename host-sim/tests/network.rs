@@ -1,4 +1,4 @@
-//! `[network]`: Example 1 over the CAN bus (hil-mock nodes), bus load by hand, validation of the
+//! `[network]`: Example 1 over the CAN bus (agent-node nodes on hil-mock's bus), bus load by hand, validation of the
 //! section through the binary, determinism.
 
 use std::{path::Path, process::Output};

@@ -343,19 +343,24 @@ fn a_silent_node_stops_the_run_naming_the_agent() {
 
 /// Real CAN tooling can attach to a node: python-can's `slcan` interface (as used with
 /// CANable / USBtin adapters) opens the emulated node's UART over TCP and exchanges frames
-/// with it. Skipped without python-can and pyserial unless `REQUIRE_CANTOOLS` is set.
+/// with it; `docs/wire.dbc` decodes the node's `Rejected` answer. Skipped without python-can,
+/// pyserial and cantools unless `REQUIRE_CANTOOLS` is set.
 #[test]
 fn python_can_slcan_talks_to_the_node() {
     if !pil_available() {
         return;
     }
-    if !common::python_has("can, serial", "pip install python-can pyserial") {
+    if !common::python_has(
+        "can, serial, cantools",
+        "pip install python-can pyserial cantools",
+    ) {
         return;
     }
     let py = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/slcan_node.py");
     let out = Command::new("python3")
         .arg(py)
         .arg(firmware())
+        .arg(common::wire_dbc())
         .output()
         .expect("run python3");
     assert!(
@@ -364,4 +369,85 @@ fn python_can_slcan_talks_to_the_node() {
         String::from_utf8_lossy(&out.stdout),
         String::from_utf8_lossy(&out.stderr)
     );
+}
+
+/// `docs/wire.dbc` decodes every frame kind of a real PIL run with cantools: the link trace
+/// (start-up configuration, ticks, clock frames, reports, statistics, bus frames delivered to
+/// and sent by each node) and the bus trace. Two samples 100 ms apart with 70 ms bus latency:
+/// frames are delivered more than 2^16 µs after a tick, so the host sends `Clock` frames (the
+/// sample period is far too long for Example 1, whose loop diverges right after; the frames
+/// are what this test reads). `Rejected` is
+/// decoded from a real node by `python_can_slcan_talks_to_the_node`. Skipped without QEMU,
+/// the firmware or cantools unless `REQUIRE_PIL` / `REQUIRE_CANTOOLS` are set.
+#[test]
+fn wire_dbc_decodes_every_frame_kind_of_a_pil_run() {
+    if !pil_available() || !common::python_has("can, cantools", "pip install cantools python-can") {
+        return;
+    }
+    let dir = tmp("pil-link-trace");
+    let (link, bus) = (dir.join("link.log"), dir.join("bus.log"));
+    let out = bin()
+        .args(["run", "--quiet", "--no-plots", "--out"])
+        .arg(&dir)
+        .arg(scenario_path("example1-pil.toml"))
+        .args(["--set", "simulation.h=0.1", "--set", "simulation.t_end=0.2"])
+        .args(["--set", "network.latency=0.07"])
+        .arg("--trace")
+        .arg(&bus)
+        .arg("--link-trace")
+        .arg(&link)
+        .output()
+        .expect("run host-sim");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let py = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/decode_link_trace.py");
+    let kinds = [
+        "Config",
+        "ConfigEnd",
+        "Ready",
+        "Sync",
+        "Clock",
+        "Report",
+        "StatsRequest",
+        "Stats",
+        "Leader",
+        "Agent1",
+        "Agent2",
+        "Agent3",
+        "Agent4",
+        "bus Leader",
+        "bus Agent4",
+    ];
+    let check = Command::new("python3")
+        .arg(py)
+        .arg(common::wire_dbc())
+        .arg(&link)
+        .arg(&bus)
+        .arg("4")
+        .args(kinds)
+        .output()
+        .expect("run python3");
+    let stdout = String::from_utf8_lossy(&check.stdout);
+    assert!(
+        check.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&check.stderr)
+    );
+}
+
+#[test]
+fn link_trace_needs_serial_links() {
+    let dir = tmp("link-trace-can");
+    let out = bin()
+        .args(["run", "--quiet", "--no-plots", "--out"])
+        .arg(&dir)
+        .arg(scenario_path("example1-can.toml"))
+        .args(["--set", "simulation.t_end=0.01", "--link-trace"])
+        .arg(dir.join("link.log"))
+        .output()
+        .expect("run host-sim");
+    assert_invalid(&out, "--link-trace");
 }

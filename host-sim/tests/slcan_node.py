@@ -1,8 +1,9 @@
 """python-can's `slcan` interface talking to the node firmware on QEMU, as a CANable / USBtin
 adapter user would: the UART is exposed as a TCP socket, python-can opens it (`C`, `S8`, `O`,
 answered by the node), sends an (empty, hence invalid) configuration and must receive the
-node's REJECTED frame (29-bit id 0x00010013, reason 1 = word count).
-Usage: slcan_node.py <node-fw ELF>"""
+node's REJECTED frame (29-bit id 0x00010013, reason 1 = word count), which docs/wire.dbc
+decodes as the message Rejected.
+Usage: slcan_node.py <node-fw ELF> <wire.dbc>"""
 import socket
 import struct
 import subprocess
@@ -10,6 +11,7 @@ import sys
 import time
 
 import can
+import cantools
 
 
 def free_port():
@@ -42,7 +44,11 @@ def main():
         bus.shutdown()
         if m is None or m.arbitration_id != 0x00010013 or not m.is_extended_id or list(m.data) != [1]:
             sys.exit(f"expected REJECTED(1) from the node, got {m}")
-        print(f"node answered over SLCAN: {m}")
+        db = cantools.database.load_file(sys.argv[2])
+        decoded = db.get_message_by_name("Rejected")
+        if decoded.frame_id != m.arbitration_id or decoded.decode(bytes(m.data)) != {"code": 1}:
+            sys.exit(f"docs/wire.dbc does not decode {m} as Rejected(code 1)")
+        print(f"node answered over SLCAN: {m}, decoded as Rejected(code 1)")
     finally:
         qemu.kill()
         qemu.wait()

@@ -35,7 +35,7 @@ fn can_trace_decodes_to_the_trajectory() {
     if !python_has("can, cantools", "pip install cantools python-can") {
         return;
     }
-    let dbc = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../docs/wire.dbc");
+    let dbc = common::wire_dbc();
     let py = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/decode_trace.py");
     let check = Command::new("python3")
         .arg(py)

@@ -1,11 +1,11 @@
 //! Processor-in-the-loop node firmware: one follower agent on an emulated Cortex-M4F (QEMU
 //! `mps2-an386`, `-icount shift=0`), started by `host-sim` for `[network] kind = "pil"`.
 //!
-//! `hil_mock::Node`, unchanged, runs over this board: its CAN controller is an SLCAN link on
+//! `agent_node::Node`, unchanged, runs over this board: its CAN controller is an SLCAN link on
 //! UART0 ([`UartCan`]), its clock is the network time the host sends ([`NetClock`]), its
 //! sensor and actuator are process-I/O frames ([`PlantSensor`], [`HeldCommand`]). The link
 //! protocol (identifiers, one sample's exchange, start-up configuration) is
-//! `hil_mock::pil`; `docs/NETWORK.md` §9 describes it. One binary serves every agent: the agent
+//! `agent_node::link`; `docs/NETWORK.md` §9 describes it. One binary serves every agent: the agent
 //! number, its neighbours and the controller configuration arrive at start-up.
 //!
 //! Measured per tick: the instructions of `Node::tick` (SysTick, 40-instruction resolution;
@@ -19,17 +19,17 @@
 #[allow(unsafe_code)]
 mod board;
 
+use agent_node::{
+    link::{
+        self, io, CanFrame, ConfigReject, Report, Slcan, MAX_CONFIG_WORDS, RECORD_MAX_LINE,
+        SLCAN_MAX_LINE,
+    },
+    node::{Actuator, Clock, Node, Sensor},
+};
 use board::Uart;
 use controller_core::StepFault;
 use cortex_m_rt::entry;
 use embedded_can::Frame as _;
-use hil_mock::{
-    node::{Actuator, Clock, Node, Sensor},
-    pil::{
-        self, io, ConfigReject, PilFrame, Report, Slcan, MAX_CONFIG_WORDS, RECORD_MAX_LINE,
-        SLCAN_MAX_LINE,
-    },
-};
 use panic_semihosting as _;
 
 /// State order `n` and actuators `m` of the plants host-sim ships.
@@ -45,19 +45,19 @@ const RX_DEPTH: usize = 64;
 /// the main loop empties onto the link after the tick.
 #[derive(Default)]
 struct UartCan {
-    rx: heapless::Deque<PilFrame, RX_DEPTH>,
-    tx: Option<PilFrame>,
+    rx: heapless::Deque<CanFrame, RX_DEPTH>,
+    tx: Option<CanFrame>,
 }
 
 impl embedded_can::nb::Can for UartCan {
-    type Frame = PilFrame;
+    type Frame = CanFrame;
     type Error = core::convert::Infallible;
 
-    fn transmit(&mut self, frame: &PilFrame) -> nb::Result<Option<PilFrame>, Self::Error> {
+    fn transmit(&mut self, frame: &CanFrame) -> nb::Result<Option<CanFrame>, Self::Error> {
         Ok(self.tx.replace(*frame))
     }
 
-    fn receive(&mut self) -> nb::Result<PilFrame, Self::Error> {
+    fn receive(&mut self) -> nb::Result<CanFrame, Self::Error> {
         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
     }
 }
@@ -125,7 +125,7 @@ impl Link {
             if n == 0 && !overflow {
                 continue;
             }
-            match pil::slcan_decode(&self.line[..n]) {
+            match link::slcan_decode(&self.line[..n]) {
                 Ok(cmd @ (Slcan::Frame(_) | Slcan::Timed(..) | Slcan::Tick(_))) if !overflow => {
                     return cmd
                 }
@@ -139,14 +139,14 @@ impl Link {
         }
     }
 
-    fn send(&self, frame: &PilFrame) {
+    fn send(&self, frame: &CanFrame) {
         let mut buf = [0u8; SLCAN_MAX_LINE];
-        let n = pil::slcan_encode(frame, &mut buf);
+        let n = link::slcan_encode(frame, &mut buf);
         self.uart.write_all(&buf[..n]);
     }
 
     fn send_io(&self, id: u32, data: &[u8]) {
-        if let Some(f) = PilFrame::io(id, data) {
+        if let Some(f) = CanFrame::io(id, data) {
             self.send(&f);
         }
     }
@@ -179,7 +179,7 @@ fn configure(link: &mut Link) -> BoardNode {
                 let result = if sent != count || count > MAX_CONFIG_WORDS {
                     Err(ConfigReject::WordCount)
                 } else {
-                    pil::decode_config::<N, K>(&words[..count])
+                    link::decode_config::<N, K>(&words[..count])
                 };
                 count = 0;
                 match result {
@@ -238,7 +238,7 @@ fn sample(link: &Link, node: &mut BoardNode, counter: &mut Option<board::Counter
         resolution: board::INSN_PER_TICK,
     };
     let mut buf = [0u8; RECORD_MAX_LINE];
-    let n = pil::report_encode(&report, &mut buf);
+    let n = link::report_encode(&report, &mut buf);
     link.uart.write_all(&buf[..n]);
 }
 
@@ -271,7 +271,7 @@ fn main() -> ! {
         if let Some(t) = ts {
             node.clock_mut().0 = sync_us + u64::from(t);
         }
-        match (f.io_id(), pil::unpack_u32(f.data())) {
+        match (f.io_id(), link::unpack_u32(f.data())) {
             (None, _) => {
                 // A bus frame: into the receive FIFO, taken now (the receive interrupt).
                 if node.can_mut().rx.push_back(f).is_ok() {
@@ -280,7 +280,7 @@ fn main() -> ! {
             }
             (Some(io::CLOCK), Some(t)) => {
                 let c = &mut node.clock_mut().0;
-                *c = pil::extend_clock(*c, t);
+                *c = link::extend_clock(*c, t);
             }
             (Some(io::STATS_REQUEST), _) => {
                 let stack = board::stack_high_water(painted).to_le_bytes();

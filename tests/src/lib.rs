@@ -99,10 +99,13 @@ fn is_stale(bin: &Path) -> bool {
         return true;
     };
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..");
-    ["host-sim", "hil-mock", "controller-core"].iter().any(|c| {
-        let c = root.join(c);
-        newest(&c.join("src")).max(newest_file(&c.join("Cargo.toml"))) > Some(built)
-    }) || newest_file(&root.join("Cargo.lock")) > Some(built)
+    ["host-sim", "hil-mock", "agent-node", "controller-core"]
+        .iter()
+        .any(|c| {
+            let c = root.join(c);
+            newest(&c.join("src")).max(newest_file(&c.join("Cargo.toml"))) > Some(built)
+        })
+        || newest_file(&root.join("Cargo.lock")) > Some(built)
 }
 
 fn newest_file(p: &Path) -> Option<std::time::SystemTime> {

@@ -1,5 +1,5 @@
 //! The malformed-input corpus (`tests/corpus`): every scenario file through the built `host-sim`
-//! binary (`check` and a short `run`), every frame through `hil_mock::wire::decode` and a node.
+//! binary (`check` and a short `run`), every frame through `agent_node::wire::decode` and a node.
 //!
 //! Scenario files state their expectation on the first line, `# expect: <text>`: the one-line
 //! message on stderr must contain that text (the key at fault). Optional `# run-set: k=v` lines
@@ -9,13 +9,13 @@
 
 use std::{path::Path, process::Output};
 
-use controller_core::ControllerConfig;
-use embedded_can::{ExtendedId, Frame, Id, StandardId};
-use hil_mock::{
-    mock::{MockActuator, MockCan, MockClock, MockFrame, MockNode, MockSensor},
+use agent_node::{
     wire::{self, DecodeStats, WireError},
     NodeConfig, NodeStats,
 };
+use controller_core::ControllerConfig;
+use embedded_can::{ExtendedId, Frame, Id, StandardId};
+use hil_mock::mock::{MockActuator, MockCan, MockClock, MockFrame, MockNode, MockSensor};
 use integration_tests::{corpus_dir, host_sim_bin, scratch};
 
 fn files(dir: &Path, ext: &str) -> Vec<std::path::PathBuf> {

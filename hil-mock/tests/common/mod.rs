@@ -4,10 +4,10 @@
 
 use std::cell::RefCell;
 
+use agent_node::{NodeConfig, NodeStats, Tick};
 use controller_core::{Controller, ControllerConfig, Link};
 use hil_mock::bus::{BusConfig, BusStats, Nanos};
 use hil_mock::network::{AgentSetup, CanNetwork};
-use hil_mock::{NodeConfig, NodeStats, Tick};
 
 pub const H: f64 = 1e-3;
 pub const H_NS: Nanos = 1_000_000;

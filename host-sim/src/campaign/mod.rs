@@ -229,6 +229,7 @@ fn run_row(plan: &Plan, out: &Path, r: u64) -> Result<String> {
                 record: false,
                 progress: false,
                 trace: None,
+                link_trace: None,
                 worst: false,
             };
             run(&setup, &opts).map(|x| x.summary)

@@ -1,158 +1,130 @@
-//! `[network]`: how the agents talk. `kind = "ideal"` (the default) is host-sim's
-//! [`crate::link::IdealLink`]; `kind = "can"` runs every agent as a `hil-mock` firmware
-//! [`hil_mock::Node`] (its own controller, freshness policy and Q7.16 frames) on mocked hardware
-//! over `hil-mock`'s CAN-like bus, via [`hil_mock::network::CanNetwork`]. The plant, faults,
-//! metrics and outputs are the simulator's, unchanged; `summary.json` gains a `network` object
-//! ([`NetworkSummary`]). The model and its figures: `docs/NETWORK.md`.
+//! `[network]`: how the agents talk, one module per kind, and what the kinds share.
+//!
+//! * [`ideal`] (`kind = "ideal"`, the default): host-sim's own controllers (`sim::Linked`)
+//!   hear each other through a [`LinkModel`]; [`IdealLink`] is the paper's instantaneous one.
+//! * [`can`] (`kind = "can"`): every agent an `agent-node` node on `hil-mock`'s mocked
+//!   hardware over its simulated CAN bus ([`CanAgents`]).
+//! * [`pil`] (`kind = "pil"`): every agent the node firmware on its own emulated Cortex-M4F,
+//!   the bus model on the host ([`PilAgents`]).
+//! * [`trace`]: the candump log of every frame on the bus (`--trace`), for both bus kinds.
+//! * [`spec`]: the `[network]` section, its checks, the bus settings and node settings it
+//!   gives.
+//!
+//! [`BusAgents`] picks the agents of a bus kind, so the run loop is built once for all of
+//! them; a new kind (a host `socketcan` interface, say) is one more module and one more
+//! variant. The model and its figures: `docs/NETWORK.md`.
 
+pub mod can;
+pub mod ideal;
+pub mod pil;
 pub mod spec;
+pub mod trace;
 
-pub use crate::figures::NetworkSummary;
-
-pub use spec::{
-    bus_config, validate, EventName, NetworkEvent, NetworkKind, NetworkSpec, MAX_BITRATE,
-    MAX_CAN_AGENTS,
-};
+use std::path::Path;
 
 use controller_core::{ControllerConfig, Gains, StepOutput};
-use hil_mock::{
-    bus::Nanos,
-    network::{AgentSetup, CanNetwork},
-    NodeConfig,
-};
 
+pub use crate::figures::NetworkSummary;
+pub use crate::network::{
+    can::CanAgents,
+    ideal::{IdealLink, Inbox, Link, LinkModel},
+    pil::PilAgents,
+    spec::{
+        bus_config, validate, EventName, NetworkEvent, NetworkKind, NetworkSpec, MAX_BITRATE,
+        MAX_CAN_AGENTS,
+    },
+    trace::Traces,
+};
 use crate::{
     error::{Error, Result},
+    figures::FirmwareSummary,
     graph::Graph,
-    report::trace::{TraceWriter, INTERFACE},
-    sim::{Agents, K},
+    sim::Agents,
 };
-use spec::ns;
 
-/// Every agent a `hil-mock` node over the simulated CAN bus (`kind = "can"`).
-pub struct CanAgents<const N: usize, const M: usize> {
-    net: CanNetwork<N, M, K>,
-    h_ns: Nanos,
-    bitrate: u32,
-    states: Vec<[f32; N]>,
-    trace: Option<TraceWriter>,
+/// The agents of a bus network kind: node firmware over the simulated CAN bus, host-compiled
+/// or emulated.
+pub enum BusAgents<const N: usize, const M: usize> {
+    /// `kind = "can"`.
+    Can(Box<CanAgents<N, M>>),
+    /// `kind = "pil"`.
+    Pil(Box<PilAgents<N, M>>),
 }
 
-impl<const N: usize, const M: usize> CanAgents<N, M> {
-    /// One node per agent of the validated `graph`, with its controller configuration
-    /// (`configs`, in agent order) and neighbours, on the bus of `[network]` (`spec`, sample
-    /// period `h`); every frame on the bus goes to `trace` (candump log) when given.
+impl<const N: usize, const M: usize> BusAgents<N, M> {
+    /// The agents of `spec.kind` for the validated `graph`, with their controller
+    /// configurations (`configs`, in agent order), sample period `h` and `samples` samples;
+    /// the frames on the bus, and on the serial links of `"pil"`, go to the candump logs of
+    /// `traces` when given. The ideal kind has no bus: an error naming `network.kind`.
     pub fn new(
         spec: &NetworkSpec,
         h: f64,
         graph: &Graph,
         configs: &[ControllerConfig<N>],
-        trace: Option<&std::path::Path>,
+        samples: u64,
+        traces: Traces<'_>,
     ) -> Result<Self> {
-        let stale = spec.stale_timeout.unwrap_or(2.5 * h);
-        let stale_timeout_us = ((stale * 1e6).round() as u64).max(1);
-        let mut agents = Vec::with_capacity(graph.len());
-        for (i, controller) in configs.iter().enumerate() {
-            let agent = u8::try_from(i + 1).map_err(|_| {
-                Error::invalid(
-                    "network.kind",
-                    format!("\"can\" carries at most {MAX_CAN_AGENTS} agents"),
-                )
-            })?;
-            let mut neighbours = [0u8; K];
-            for (d, &k) in neighbours.iter_mut().zip(graph.neighbours(i)) {
-                *d = u8::try_from(k + 1).unwrap_or(0);
+        match spec.kind {
+            NetworkKind::Ideal => Err(Error::invalid(
+                "network.kind",
+                "\"ideal\" has no bus: host-sim's controllers run over a link model",
+            )),
+            NetworkKind::Can if traces.link.is_some() => Err(Error::invalid(
+                "--link-trace",
+                "needs serial links: network.kind = \"pil\"",
+            )),
+            NetworkKind::Can => {
+                CanAgents::new(spec, h, graph, configs, traces.bus).map(|a| Self::Can(Box::new(a)))
             }
-            agents.push(AgentSetup {
-                node: NodeConfig {
-                    agent,
-                    neighbours,
-                    stale_timeout_us,
-                },
-                controller: *controller,
-            });
+            NetworkKind::Pil => PilAgents::new(spec, h, graph, configs, samples, traces)
+                .map(|a| Self::Pil(Box::new(a))),
         }
-        let cfg = bus_config(spec, h);
-        let bitrate = cfg.bitrate;
-        let mut net = CanNetwork::new(cfg, &agents).map_err(|e| Error::invalid("network", e))?;
-        let trace = trace.map(TraceWriter::create).transpose()?;
-        if trace.is_some() {
-            net.bus_mut().record_wire();
-        }
-        Ok(Self {
-            net,
-            h_ns: ns(h),
-            bitrate,
-            states: vec![[0.0; N]; graph.len()],
-            trace,
-        })
     }
 
-    /// The network (nodes, bus, statistics).
-    pub fn network(&self) -> &CanNetwork<N, M, K> {
-        &self.net
+    fn agents(&self) -> &dyn Agents<N, M> {
+        match self {
+            Self::Can(a) => a.as_ref(),
+            Self::Pil(a) => a.as_ref(),
+        }
     }
 
-    /// The figures of `summary.json` `network`.
-    pub fn summary(&self) -> NetworkSummary {
-        let nodes = self.net.nodes();
-        NetworkSummary::new(
-            NetworkKind::Can,
-            self.bitrate,
-            &self.net.stats(),
-            nodes
-                .iter()
-                .map(|n| u64::from(n.stats().malformed.total()))
-                .sum(),
-            nodes
-                .iter()
-                .map(|n| u64::from(n.stats().stale_samples))
-                .sum(),
-        )
+    fn agents_mut(&mut self) -> &mut dyn Agents<N, M> {
+        match self {
+            Self::Can(a) => a.as_mut(),
+            Self::Pil(a) => a.as_mut(),
+        }
     }
 }
 
-impl<const N: usize, const M: usize> Agents<N, M> for CanAgents<N, M> {
+impl<const N: usize, const M: usize> Agents<N, M> for BusAgents<N, M> {
     fn control(
         &mut self,
         k: u64,
-        _t: f64,
+        t: f64,
         x: &[[f64; N]],
         yd: f64,
         out: &mut Vec<StepOutput<N, M>>,
     ) -> Result<()> {
-        for (s, x) in self.states.iter_mut().zip(x) {
-            for (d, v) in s.iter_mut().zip(x) {
-                *d = *v as f32;
-            }
-        }
-        let t_ns = k.saturating_mul(self.h_ns);
-        let ticks = self.net.step(t_ns, &self.states, Some(yd as f32));
-        out.extend(ticks.iter().map(|t| t.output));
-        if let Some(w) = self.trace.as_mut() {
-            w.write(INTERFACE, &self.net.bus_mut().take_wire_log());
-        }
-        Ok(())
-    }
-
-    fn finish(&mut self) -> Result<()> {
-        self.trace.as_mut().map_or(Ok(()), TraceWriter::finish)
+        self.agents_mut().control(k, t, x, yd, out)
     }
 
     fn gains(&self) -> Gains {
-        // Validation rejects an empty graph, so node 1 exists.
-        match self.net.nodes().first() {
-            Some(n) => *n.controller().params().gains(),
-            None => Gains {
-                c1: f32::NAN,
-                c2: f32::NAN,
-                k1: f32::NAN,
-                k2: f32::NAN,
-            },
-        }
+        self.agents().gains()
     }
 
     fn network(&self) -> Option<NetworkSummary> {
-        Some(self.summary())
+        self.agents().network()
+    }
+
+    fn firmware(&self) -> Option<Vec<FirmwareSummary>> {
+        self.agents().firmware()
+    }
+
+    fn draw(&self, dir: &Path, h: f64, title: &str) -> Result<()> {
+        self.agents().draw(dir, h, title)
+    }
+
+    fn finish(&mut self) -> Result<()> {
+        self.agents_mut().finish()
     }
 }

@@ -1,9 +1,13 @@
 //! The `[network]` section: its keys, their validation and the bus settings they give.
 
+use agent_node::NodeConfig;
 use hil_mock::bus::{BusConfig, BusEvent, EventKind, Nanos};
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
+use crate::{
+    error::{Error, Result},
+    graph::{Graph, MAX_NEIGHBOURS},
+};
 
 /// `network.kind`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -15,7 +19,7 @@ pub enum NetworkKind {
     /// Firmware nodes over the simulated CAN bus.
     Can,
     /// The node firmware on one emulated Cortex-M4F per agent, over the simulated CAN bus
-    /// ([`crate::pil`]).
+    /// ([`crate::network::pil`]).
     Pil,
 }
 
@@ -113,6 +117,39 @@ impl NetworkSpec {
 pub const MAX_BITRATE: i64 = 10_000_000;
 /// Largest agent number a CAN identifier can carry (`0x100 + i ≤ 0x1FF`).
 pub const MAX_CAN_AGENTS: usize = 255;
+
+/// Agent `i`'s (0-based) node settings on a bus: its number, the agents it hears in `graph`
+/// (1-based), and the stale timeout of `[network]` (default `2.5 h`, at least 1 µs).
+pub fn node_config(
+    spec: &NetworkSpec,
+    h: f64,
+    graph: &Graph,
+    i: usize,
+) -> Result<NodeConfig<MAX_NEIGHBOURS>> {
+    let agent = u8::try_from(i + 1)
+        .ok()
+        .filter(|_| i < MAX_CAN_AGENTS)
+        .ok_or_else(|| {
+            Error::invalid(
+                "network.kind",
+                format!(
+                    "\"{}\" carries at most {MAX_CAN_AGENTS} agents (got {})",
+                    spec.kind.as_str(),
+                    graph.len()
+                ),
+            )
+        })?;
+    let mut neighbours = [0u8; MAX_NEIGHBOURS];
+    for (d, &k) in neighbours.iter_mut().zip(graph.neighbours(i)) {
+        *d = u8::try_from(k + 1).unwrap_or(0);
+    }
+    let stale = spec.stale_timeout.unwrap_or(2.5 * h);
+    Ok(NodeConfig {
+        agent,
+        neighbours,
+        stale_timeout_us: ((stale * 1e6).round() as u64).max(1),
+    })
+}
 
 /// Seconds to nanoseconds (validated, finite and small enough, input).
 pub(crate) fn ns(s: f64) -> Nanos {

@@ -4,7 +4,6 @@
 pub mod csv;
 pub mod plots;
 pub mod spread;
-pub mod trace;
 
 use std::{
     path::{Path, PathBuf},

@@ -18,6 +18,11 @@ pub fn scenario_path(name: &str) -> PathBuf {
         .join(name)
 }
 
+/// The committed DBC, `docs/wire.dbc`.
+pub fn wire_dbc() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../docs/wire.dbc")
+}
+
 /// A fresh, empty directory under cargo's per-target temporary directory.
 pub fn tmp(name: &str) -> PathBuf {
     let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);

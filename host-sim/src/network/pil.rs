@@ -1,9 +1,9 @@
 //! `[network] kind = "pil"`: processor in the loop. Every follower runs the node firmware
-//! (`node-fw`: `hil_mock::Node` built for `thumbv7em-none-eabihf`) on its own emulated
+//! (`node-fw`: `agent_node::Node` built for `thumbv7em-none-eabihf`) on its own emulated
 //! Cortex-M4F, `qemu-system-arm -M mps2-an386 -icount shift=0`, whose UART0 is the emulator's
 //! standard input and output; the host keeps the plant, the leader and `hil-mock`'s bus model
 //! (bit timing, loss, corruption, silent and babbling nodes), and speaks the link protocol of
-//! [`hil_mock::pil`] (SLCAN) with each node.
+//! [`agent_node::link`] (SLCAN) with each node.
 //!
 //! Per sample `t_k` (as [`hil_mock::network::CanNetwork::step`] does for host-compiled nodes):
 //! the bus runs to `t_k`; each delivered frame goes to every other node that is not bus-off and
@@ -31,25 +31,28 @@ use std::{
     time::Duration,
 };
 
-use controller_core::{Estimates, Gains, LinkReport, StepFault, StepOutput, StepStatus};
+use agent_node::{
+    link::{self, io, CanFrame, Report, Slcan, Tick, RECORD_MAX_LINE, SLCAN_MAX_LINE},
+    wire::{self, Source},
+};
+use controller_core::{
+    ControllerConfig, Estimates, Gains, LinkReport, StepFault, StepOutput, StepStatus,
+};
 use embedded_can::Frame;
 use hil_mock::{
     bus::{Bus, Nanos},
     mock::MockFrame,
-    pil::{self, io, PilFrame, Report, Slcan, Tick, RECORD_MAX_LINE, SLCAN_MAX_LINE},
-    wire::{self, Source},
-    NodeConfig,
 };
 
 use crate::{
     error::{Error, Result},
-    figures::FirmwareSummary,
-    network::{bus_config, NetworkKind, NetworkSummary, MAX_CAN_AGENTS},
-    report::{
-        plots::{render, Panel, Series},
-        trace::{TraceWriter, INTERFACE},
+    figures::{FirmwareSummary, NetworkSummary},
+    graph::Graph,
+    network::{
+        spec::{bus_config, node_config, ns, NetworkKind, NetworkSpec},
+        trace::{candump_fd_line, candump_line, TraceWriter, Traces, INTERFACE},
     },
-    scenario::Setup,
+    report::plots::{render, Panel, Series},
     sim::{Agents, K},
 };
 
@@ -193,7 +196,7 @@ fn kill_all() {
 /// What an emulator printed: an SLCAN frame, a report record, or anything else (a panic
 /// message, `\a`).
 enum Output {
-    Frame(PilFrame),
+    Frame(CanFrame),
     Report(Report),
     Text(String),
     Eof,
@@ -201,7 +204,7 @@ enum Output {
 
 /// A well-formed line of an emulator.
 enum Answer {
-    Frame(PilFrame),
+    Frame(CanFrame),
     Report(Report),
 }
 
@@ -220,10 +223,18 @@ struct Emulator {
     sync_us: u64,
     /// Interval before the last tick [µs] (the node's, once it has one).
     tick_dt_us: Option<u32>,
+    /// Candump lines of everything on the link since they were last taken (`--link-trace`).
+    link_log: Option<Vec<String>>,
 }
 
 impl Emulator {
-    fn spawn(agent: usize, firmware: &Path, timeout: Duration, launch: &Launch) -> Result<Self> {
+    fn spawn(
+        agent: usize,
+        firmware: &Path,
+        timeout: Duration,
+        launch: &Launch,
+        log_link: bool,
+    ) -> Result<Self> {
         let mut child = launch
             .command(agent)
             .args(["-M", "mps2-an386", "-cpu", "cortex-m4", "-nographic"])
@@ -270,33 +281,59 @@ impl Emulator {
             timeout,
             sync_us: 0,
             tick_dt_us: None,
+            link_log: log_link.then(Vec::new),
         })
     }
 
-    fn queue(&mut self, frame: &PilFrame) {
-        let mut buf = [0u8; SLCAN_MAX_LINE];
-        let n = pil::slcan_encode(frame, &mut buf);
-        self.out.extend_from_slice(&buf[..n]);
+    /// Keeps `frame`, seen on the link at `t_us`, for the link trace.
+    fn log_frame(&mut self, t_us: u64, frame: &CanFrame) {
+        if let Some(log) = self.link_log.as_mut() {
+            log.push(candump_line(
+                t_us * 1000,
+                &format!("node{}", self.agent),
+                frame,
+            ));
+        }
     }
 
+    /// Keeps a record's payload, seen on the link at `t_us`, for the link trace, under the
+    /// identifier `id` the DBC gives it.
+    fn log_record(&mut self, t_us: u64, id: u32, payload: &[u8]) {
+        if let Some(log) = self.link_log.as_mut() {
+            let iface = format!("node{}", self.agent);
+            log.push(candump_fd_line(t_us * 1000, &iface, id, payload));
+        }
+    }
+
+    /// `frame` without timestamp, logged at `t_us`.
+    fn queue(&mut self, frame: &CanFrame, t_us: u64) {
+        let mut buf = [0u8; SLCAN_MAX_LINE];
+        let n = link::slcan_encode(frame, &mut buf);
+        self.out.extend_from_slice(&buf[..n]);
+        self.log_frame(t_us, frame);
+    }
+
+    /// A process-I/O frame at the time of the last tick.
     fn queue_io(&mut self, id: u32, data: &[u8]) {
-        if let Some(f) = PilFrame::io(id, data) {
-            self.queue(&f);
+        if let Some(f) = CanFrame::io(id, data) {
+            self.queue(&f, self.sync_us);
         }
     }
 
     /// `frame` at time `t_us`: timestamped relative to the last tick, or after a `CLOCK`
     /// frame when that does not fit 16 bits.
-    fn queue_at(&mut self, frame: &PilFrame, t_us: u64) {
-        let mut buf = [0u8; SLCAN_MAX_LINE];
-        let n = match u16::try_from(t_us.saturating_sub(self.sync_us)) {
-            Ok(ts) => pil::slcan_encode_timed(frame, ts, &mut buf),
-            Err(_) => {
-                self.queue_io(io::CLOCK, &(t_us as u32).to_le_bytes());
-                pil::slcan_encode(frame, &mut buf)
+    fn queue_at(&mut self, frame: &CanFrame, t_us: u64) {
+        let Ok(ts) = u16::try_from(t_us.saturating_sub(self.sync_us)) else {
+            if let Some(clock) = CanFrame::io(io::CLOCK, &(t_us as u32).to_le_bytes()) {
+                self.queue(&clock, t_us);
             }
+            self.queue(frame, t_us);
+            return;
         };
+        let mut buf = [0u8; SLCAN_MAX_LINE];
+        let n = link::slcan_encode_timed(frame, ts, &mut buf);
         self.out.extend_from_slice(&buf[..n]);
+        self.log_frame(t_us, frame);
     }
 
     /// The tick of sample time `t_us` with the state `x`; the interval only when it changed.
@@ -308,8 +345,10 @@ impl Emulator {
             dt_us: (self.tick_dt_us != Some(dt)).then_some(dt),
         };
         let mut buf = [0u8; RECORD_MAX_LINE];
-        let n = pil::tick_encode(&tick, &mut buf);
+        let n = link::tick_encode(&tick, &mut buf);
         self.out.extend_from_slice(&buf[..n]);
+        let (payload, len) = tick.to_bytes();
+        self.log_record(t_us, io::SYNC, &payload[..len]);
         self.sync_us = t_us;
         self.tick_dt_us = Some(dt);
         Ok(())
@@ -327,8 +366,14 @@ impl Emulator {
     /// The next frame or report, or the error that names the agent.
     fn next_answer(&mut self, waiting_for: &str) -> Result<Answer> {
         let what = match self.rx.recv_timeout(self.timeout) {
-            Ok(Output::Frame(f)) => return Ok(Answer::Frame(f)),
-            Ok(Output::Report(r)) => return Ok(Answer::Report(r)),
+            Ok(Output::Frame(f)) => {
+                self.log_frame(self.sync_us, &f);
+                return Ok(Answer::Frame(f));
+            }
+            Ok(Output::Report(r)) => {
+                self.log_record(self.sync_us, io::REPORT, &r.to_bytes());
+                return Ok(Answer::Report(r));
+            }
             Ok(Output::Text(t)) => format!("sent {t:?} while the host waited for {waiting_for}"),
             Ok(Output::Eof) | Err(RecvTimeoutError::Disconnected) => {
                 // Let the stderr reader finish.
@@ -344,7 +389,7 @@ impl Emulator {
     }
 
     /// The next frame, or the error that names the agent.
-    fn next_frame(&mut self, waiting_for: &str) -> Result<PilFrame> {
+    fn next_frame(&mut self, waiting_for: &str) -> Result<CanFrame> {
         match self.next_answer(waiting_for)? {
             Answer::Frame(f) => Ok(f),
             Answer::Report(_) => Err(self.failure(&format!(
@@ -406,7 +451,7 @@ fn read_output(mut stdout: impl Read, tx: &mpsc::Sender<Output>) {
             if line.is_empty() {
                 continue;
             }
-            let msg = match pil::slcan_decode(&line) {
+            let msg = match link::slcan_decode(&line) {
                 Ok(Slcan::Frame(f) | Slcan::Timed(f, _)) => Output::Frame(f),
                 Ok(Slcan::Report(r)) => Output::Report(r),
                 _ => Output::Text(String::from_utf8_lossy(&line).into_owned()),
@@ -451,11 +496,22 @@ pub struct PilAgents<const N: usize, const M: usize> {
     malformed: u64,
     gains: Gains,
     trace: Option<TraceWriter>,
+    link_trace: Option<TraceWriter>,
 }
 
 impl<const N: usize, const M: usize> PilAgents<N, M> {
-    /// Starts one emulator per agent of the validated `setup` and configures its node.
-    pub fn new(setup: &Setup, trace: Option<&Path>) -> Result<Self> {
+    /// Starts one emulator per agent of the validated `graph` and configures its node with
+    /// its controller configuration (`configs`, in agent order) and neighbours, on the bus of
+    /// `[network]` (`spec`, sample period `h`, `samples` samples); every frame on the bus, and
+    /// everything on the links, go to the candump logs of `traces` when given.
+    pub fn new(
+        spec: &NetworkSpec,
+        h: f64,
+        graph: &Graph,
+        configs: &[ControllerConfig<N>],
+        samples: u64,
+        traces: Traces<'_>,
+    ) -> Result<Self> {
         if N != 2 || M != 2 {
             return Err(Error::invalid(
                 "network.kind",
@@ -484,33 +540,14 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
         // Without it Ctrl-C still ends the process group; only a lone SIGINT to host-sim would
         // leave emulators behind.
         crate::report::also_on_interrupt(kill_all);
-        let spec = &setup.scenario.network;
-        let h = setup.scenario.simulation.h;
-        let stale = spec.stale_timeout.unwrap_or(2.5 * h);
-        let stale_timeout_us = ((stale * 1e6).round() as u64).max(1);
-        let agents = setup.agents();
-        if agents > MAX_CAN_AGENTS {
-            return Err(Error::invalid(
-                "network.kind",
-                format!("\"pil\" carries at most {MAX_CAN_AGENTS} agents (got {agents})"),
-            ));
-        }
+        let agents = graph.len();
         let mut emus = Vec::with_capacity(agents);
         let mut pinned = Vec::with_capacity(agents);
         let mut neighbours = Vec::with_capacity(agents);
         let mut gains = None;
-        for i in 0..agents {
-            let mut list = [0u8; K];
-            let heard: Vec<usize> = setup.graph.neighbours(i).to_vec();
-            for (d, &k) in list.iter_mut().zip(&heard) {
-                *d = u8::try_from(k + 1).unwrap_or(0);
-            }
-            let node = NodeConfig {
-                agent: u8::try_from(i + 1).unwrap_or(0),
-                neighbours: list,
-                stale_timeout_us,
-            };
-            let ctrl = setup.controller_config::<N>(i)?;
+        for (i, &ctrl) in configs.iter().enumerate() {
+            let node = node_config(spec, h, graph, i)?;
+            let heard = graph.neighbours(i);
             if gains.is_none() {
                 let c = controller_core::Controller::<N, M, K>::new(&ctrl)
                     .map_err(|e| Error::invalid(format!("controller (agent {})", i + 1), e))?;
@@ -518,8 +555,9 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
             }
             pinned.push(ctrl.pinned);
             neighbours.push(heard.iter().map(|k| k + 1).collect());
-            let mut emu = Emulator::spawn(i + 1, &firmware, timeout, &launch)?;
-            let words = pil::encode_config(&node, &ctrl);
+            let mut emu =
+                Emulator::spawn(i + 1, &firmware, timeout, &launch, traces.link.is_some())?;
+            let words = link::encode_config(&node, &ctrl);
             let words = words.as_slice().ok_or_else(|| {
                 Error::invalid("network.kind", "configuration too large for the PIL link")
             })?;
@@ -558,21 +596,22 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
         let cfg = bus_config(spec, h);
         let bitrate = cfg.bitrate;
         let mut bus = Bus::new(cfg, agents + 1).map_err(|e| Error::invalid("network", e))?;
-        let trace = trace.map(TraceWriter::create).transpose()?;
+        let trace = traces.bus.map(TraceWriter::create).transpose()?;
         if trace.is_some() {
             bus.record_wire();
         }
-        Ok(Self {
+        let link_trace = traces.link.map(TraceWriter::create).transpose()?;
+        let mut agents = Self {
             emus,
             bus,
-            h_ns: (h * 1e9).round() as Nanos,
+            h_ns: ns(h),
             bitrate,
             leader_seq: 0,
             pinned,
             neighbours,
             accept,
             sample_time: vec![vec![None; agents + 1]; agents + 1],
-            costs: vec![Vec::with_capacity(usize::try_from(setup.samples).unwrap_or(0)); agents],
+            costs: vec![Vec::with_capacity(usize::try_from(samples).unwrap_or(0)); agents],
             resolution: 0,
             stale_samples: 0,
             stacks: vec![0; agents],
@@ -584,7 +623,19 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
                 k2: f32::NAN,
             }),
             trace,
-        })
+            link_trace,
+        };
+        agents.write_link_log();
+        Ok(agents)
+    }
+
+    /// Moves what the links carried since the last call into the link trace.
+    fn write_link_log(&mut self) {
+        if let Some(w) = self.link_trace.as_mut() {
+            for log in self.emus.iter_mut().filter_map(|e| e.link_log.as_mut()) {
+                w.write_lines(log.drain(..));
+            }
+        }
     }
 
     /// Per-agent figures of the firmware (after the run).
@@ -700,7 +751,7 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
     ) -> Result<()> {
         let t_ns = k.saturating_mul(self.h_ns);
         for d in self.bus.advance_to(t_ns) {
-            let Some(frame) = PilFrame::new(d.frame.id(), d.frame.data()) else {
+            let Some(frame) = CanFrame::new(d.frame.id(), d.frame.data()) else {
                 continue;
             };
             for (j, emu) in self.emus.iter_mut().enumerate() {
@@ -732,6 +783,7 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
         if let Some(w) = self.trace.as_mut() {
             w.write(INTERFACE, &self.bus.take_wire_log());
         }
+        self.write_link_log();
         Ok(())
     }
 
@@ -794,7 +846,7 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
         }
         for (j, emu) in self.emus.iter_mut().enumerate() {
             let f = emu.next_frame("STATS")?;
-            match (f.io_id(), pil::unpack_u32x2(f.data())) {
+            match (f.io_id(), link::unpack_u32x2(f.data())) {
                 (Some(io::STATS), Some((stack, malformed))) => {
                     self.stacks[j] = stack;
                     self.malformed += u64::from(malformed);
@@ -802,7 +854,11 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
                 _ => return Err(emu.failure(&format!("unexpected answer to STATS_REQUEST {f:?}"))),
             }
         }
+        self.write_link_log();
         self.emus.clear();
+        if let Some(w) = self.link_trace.as_mut() {
+            w.finish()?;
+        }
         self.trace.as_mut().map_or(Ok(()), TraceWriter::finish)
     }
 }

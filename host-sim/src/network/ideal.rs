@@ -1,10 +1,10 @@
-//! How neighbour and leader values reach each agent's controller (LAW §2: `y_k` is the latest
-//! value agent `i` has received). A CAN bus model plugs in here by implementing [`LinkModel`].
-
-mod ideal;
+//! `kind = "ideal"`: host-sim's own controllers hearing each other through a [`LinkModel`]
+//! (LAW §2: `y_k` is the latest value agent `i` has received). [`IdealLink`] is the paper's:
+//! every agent sees its neighbours' outputs sampled at the same instant as its own, as in the
+//! continuous-time analysis. Another link model (delay, loss) plugs in by implementing
+//! [`LinkModel`].
 
 pub use controller_core::Link;
-pub use ideal::IdealLink;
 
 use crate::graph::Graph;
 
@@ -40,4 +40,25 @@ pub trait LinkModel {
     /// Delivers the values agents see at sample `k` (time `t`): outputs `y` (one per agent,
     /// as broadcast) and the leader's `y_d`.
     fn exchange(&mut self, k: u64, t: f64, y: &[f32], yd: f32, graph: &Graph, inbox: &mut Inbox);
+}
+
+/// No delay, no loss.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct IdealLink;
+
+impl LinkModel for IdealLink {
+    #[inline]
+    fn exchange(&mut self, _k: u64, _t: f64, y: &[f32], yd: f32, graph: &Graph, inbox: &mut Inbox) {
+        for i in 0..graph.len() {
+            let o = graph.offset(i);
+            for (slot, &k) in inbox.neighbours[o..].iter_mut().zip(graph.neighbours(i)) {
+                *slot = Link::Fresh(y[k]);
+            }
+            inbox.leader[i] = if graph.pinned(i) {
+                Link::Fresh(yd)
+            } else {
+                Link::Missing
+            };
+        }
+    }
 }

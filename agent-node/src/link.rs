@@ -1,5 +1,6 @@
-//! The processor-in-the-loop link (`no_std`): what host-sim and the node firmware (`node-fw`,
-//! one emulated Cortex-M4F per agent) say to each other over the board's UART.
+//! The serial link between a node and the host that owns its plant and leader: what host-sim's
+//! processor-in-the-loop network and the node firmware (`node-fw`, one emulated Cortex-M4F per
+//! agent) say to each other over the board's UART.
 //!
 //! ## Framing: SLCAN (Lawicel ASCII)
 //!
@@ -90,16 +91,16 @@ pub mod io {
 }
 
 /// A classical CAN frame (standard or extended id, data or remote, 0..=8 bytes): the frames
-/// of SLCAN, of `mock::MockCan` and of the bus model.
+/// of SLCAN, of `hil-mock`'s mocked CAN controller and of its bus model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct PilFrame {
+pub struct CanFrame {
     id: Id,
     remote: bool,
     dlc: u8,
     data: [u8; 8],
 }
 
-impl PilFrame {
+impl CanFrame {
     /// A process-I/O data frame with 29-bit identifier `id`; `None` if `id` or `data` is too
     /// long.
     pub fn io(id: u32, data: &[u8]) -> Option<Self> {
@@ -123,7 +124,7 @@ impl PilFrame {
     }
 }
 
-impl Frame for PilFrame {
+impl Frame for CanFrame {
     fn new(id: impl Into<Id>, data: &[u8]) -> Option<Self> {
         let dlc = u8::try_from(data.len()).ok().filter(|&n| n <= 8)?;
         let mut buf = [0; 8];
@@ -191,8 +192,25 @@ pub const RECORD_MAX_LINE: usize = 66;
 pub struct Tick {
     /// The state `x_{i,1}`, `x_{i,2}` (the node's sensor).
     pub x: [f32; 2],
-    /// `t_k − t_{k−1}` [µs]; `None`: the same as the previous tick's (0 before the first).
+    /// `t_k − t_{k−1}` in µs; `None`: the same as the previous tick's (0 before the first).
     pub dt_us: Option<u32>,
+}
+
+impl Tick {
+    /// The payload and its length: `x` (`f32` LE each), then `dt_us` (`u32` LE) when given.
+    pub fn to_bytes(&self) -> ([u8; 12], usize) {
+        let mut b = [0u8; 12];
+        b[..4].copy_from_slice(&self.x[0].to_le_bytes());
+        b[4..8].copy_from_slice(&self.x[1].to_le_bytes());
+        let len = match self.dt_us {
+            Some(dt) => {
+                b[8..].copy_from_slice(&dt.to_le_bytes());
+                12
+            }
+            None => 8,
+        };
+        (b, len)
+    }
 }
 
 /// The `y` record: what the node did in one tick.
@@ -289,7 +307,7 @@ fn encode_record(letter: u8, payload: &[u8], out: &mut [u8; RECORD_MAX_LINE]) ->
 /// The line of a tick record (ending in `\r`) in `out`; returns its length.
 ///
 /// ```
-/// use hil_mock::pil::{slcan_decode, tick_encode, Slcan, Tick, RECORD_MAX_LINE};
+/// use agent_node::link::{slcan_decode, tick_encode, Slcan, Tick, RECORD_MAX_LINE};
 /// let t = Tick { x: [0.5, -1.0], dt_us: None };
 /// let mut buf = [0u8; RECORD_MAX_LINE];
 /// let n = tick_encode(&t, &mut buf);
@@ -297,16 +315,7 @@ fn encode_record(letter: u8, payload: &[u8], out: &mut [u8; RECORD_MAX_LINE]) ->
 /// assert_eq!(slcan_decode(&buf[..n - 1]), Ok(Slcan::Tick(t)));
 /// ```
 pub fn tick_encode(tick: &Tick, out: &mut [u8; RECORD_MAX_LINE]) -> usize {
-    let mut b = [0u8; 12];
-    b[..4].copy_from_slice(&tick.x[0].to_le_bytes());
-    b[4..8].copy_from_slice(&tick.x[1].to_le_bytes());
-    let len = match tick.dt_us {
-        Some(dt) => {
-            b[8..].copy_from_slice(&dt.to_le_bytes());
-            12
-        }
-        None => 8,
-    };
+    let (b, len) = tick.to_bytes();
     encode_record(record::TICK, &b[..len], out)
 }
 
@@ -319,10 +328,10 @@ pub fn report_encode(report: &Report, out: &mut [u8; RECORD_MAX_LINE]) -> usize 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Slcan {
     /// `t`, `T`, `r`, `R`: a frame.
-    Frame(PilFrame),
+    Frame(CanFrame),
     /// A frame followed by SLCAN's 4-digit timestamp extension (`Z1` mode of Lawicel
     /// adapters, there in ms); on this link: µs since the last [`Tick`].
-    Timed(PilFrame, u16),
+    Timed(CanFrame, u16),
     /// `O`: open the channel.
     Open,
     /// `C`: close the channel.
@@ -365,23 +374,23 @@ fn hex_value(digits: &[u8]) -> Option<u32> {
 ///
 /// ```
 /// use embedded_can::{Frame, StandardId};
-/// use hil_mock::pil::{slcan_decode, slcan_encode, PilFrame, Slcan, SLCAN_MAX_LINE};
-/// let f = PilFrame::new(StandardId::new(0x101).unwrap(), &[0x1F, 0x05, 0, 0x01]).unwrap();
+/// use agent_node::link::{slcan_decode, slcan_encode, CanFrame, Slcan, SLCAN_MAX_LINE};
+/// let f = CanFrame::new(StandardId::new(0x101).unwrap(), &[0x1F, 0x05, 0, 0x01]).unwrap();
 /// let mut buf = [0u8; SLCAN_MAX_LINE];
 /// let n = slcan_encode(&f, &mut buf);
 /// assert_eq!(&buf[..n], b"t10141F050001\r");
 /// assert_eq!(slcan_decode(&buf[..n - 1]), Ok(Slcan::Frame(f)));
 /// ```
-pub fn slcan_encode(frame: &PilFrame, out: &mut [u8; SLCAN_MAX_LINE]) -> usize {
+pub fn slcan_encode(frame: &CanFrame, out: &mut [u8; SLCAN_MAX_LINE]) -> usize {
     encode_line(frame, None, out)
 }
 
 /// The SLCAN line of `frame` with the 4-digit timestamp `ts` (see [`Slcan::Timed`]).
-pub fn slcan_encode_timed(frame: &PilFrame, ts: u16, out: &mut [u8; SLCAN_MAX_LINE]) -> usize {
+pub fn slcan_encode_timed(frame: &CanFrame, ts: u16, out: &mut [u8; SLCAN_MAX_LINE]) -> usize {
     encode_line(frame, Some(ts), out)
 }
 
-fn encode_line(frame: &PilFrame, ts: Option<u16>, out: &mut [u8; SLCAN_MAX_LINE]) -> usize {
+fn encode_line(frame: &CanFrame, ts: Option<u16>, out: &mut [u8; SLCAN_MAX_LINE]) -> usize {
     let (cmd, id, digits) = match (frame.id, frame.remote) {
         (Id::Standard(s), false) => (b't', u32::from(s.as_raw()), 3),
         (Id::Standard(s), true) => (b'r', u32::from(s.as_raw()), 3),
@@ -457,14 +466,14 @@ pub fn slcan_decode(line: &[u8]) -> Result<Slcan, SlcanError> {
         _ => return Err(SlcanError::Malformed),
     };
     let frame = if cmd == b'r' || cmd == b'R' {
-        PilFrame::new_remote(id, usize::from(dlc))
+        CanFrame::new_remote(id, usize::from(dlc))
     } else {
         let mut data = [0u8; 8];
         for (d, pair) in data.iter_mut().zip(payload.chunks_exact(2)) {
             *d = u8::try_from(hex_value(pair).ok_or(SlcanError::Malformed)?)
                 .map_err(|_| SlcanError::Malformed)?;
         }
-        PilFrame::new(id, &data[..usize::from(dlc)])
+        CanFrame::new(id, &data[..usize::from(dlc)])
     };
     let frame = frame.ok_or(SlcanError::Malformed)?;
     Ok(match ts {
@@ -520,7 +529,7 @@ pub fn unpack_u32(data: &[u8]) -> Option<u32> {
 /// back and advances by less than 2³² µs (71 min) between two messages.
 ///
 /// ```
-/// use hil_mock::pil::extend_clock;
+/// use agent_node::link::extend_clock;
 /// assert_eq!(extend_clock(5, 7), 7);
 /// assert_eq!(extend_clock(0xFFFF_FFF0, 0x10), 0x1_0000_0010);
 /// ```
@@ -891,7 +900,7 @@ mod tests {
         }
         assert_eq!(slcan_decode(b"O"), Ok(Slcan::Open));
         assert_eq!(slcan_decode(b"S8"), Ok(Slcan::Bitrate(8)));
-        let f = PilFrame::io(io::SYNC, &pack_f32x2(1.0, -2.0)).expect("frame");
+        let f = CanFrame::io(io::SYNC, &pack_f32x2(1.0, -2.0)).expect("frame");
         let mut buf = [0u8; SLCAN_MAX_LINE];
         let n = slcan_encode(&f, &mut buf);
         assert_eq!(n, SLCAN_MAX_LINE - 4);

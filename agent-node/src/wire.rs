@@ -23,7 +23,7 @@
 //! ```
 //!
 //! Four bytes keep a standard data frame at 95 bits on the wire with worst-case stuffing (see
-//! `bus::frame_bits`), so five frames per 1 ms sample (leader + 4 agents of Example 1) fit on a
+//! `hil_mock::bus::frame_bits`), so five frames per 1 ms sample (leader + 4 agents of Example 1) fit on a
 //! 500 kbit/s bus (95 % load) and use 47.5 % of a 1 Mbit/s bus. An 8-byte payload (135 bits)
 //! would not fit at 500 kbit/s.
 //!
@@ -188,7 +188,7 @@ pub struct Encoded {
 /// [[`Y_MIN`], [`Y_MAX`]] (`true` when clamped). `None` for NaN and ±∞.
 ///
 /// ```
-/// use hil_mock::wire::quantize;
+/// use agent_node::wire::quantize;
 /// assert_eq!(quantize(0.5), Some((0.5, false)));
 /// assert_eq!(quantize(1000.0), Some((128.0 - 1.0 / 65536.0, true)));
 /// assert_eq!(quantize(f32::NAN), None);
@@ -303,7 +303,7 @@ pub enum SeqCheck {
 /// 0 is a repeat, 32..=63 ahead (i.e. 1..=32 behind) is older.
 ///
 /// ```
-/// use hil_mock::wire::{seq_check, SeqCheck};
+/// use agent_node::wire::{seq_check, SeqCheck};
 /// assert_eq!(seq_check(5, 6), SeqCheck::Newer { skipped: 0 });
 /// assert_eq!(seq_check(63, 1), SeqCheck::Newer { skipped: 1 });
 /// assert_eq!(seq_check(6, 6), SeqCheck::Repeated);

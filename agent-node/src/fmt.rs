@@ -9,7 +9,7 @@
 #![allow(unused_macros)]
 
 #[cfg(all(feature = "defmt", feature = "log"))]
-compile_error!("hil-mock: the `defmt` and `log` features are mutually exclusive; enable one");
+compile_error!("agent-node: the `defmt` and `log` features are mutually exclusive; enable one");
 
 macro_rules! log_impl {
     ($level:ident, $s:literal $(, $x:expr)* $(,)?) => {{

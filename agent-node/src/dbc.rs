@@ -1,0 +1,481 @@
+//! Every frame kind of the bus and of the serial link, described signal by signal, and the
+//! DBC file written from that description ([`write_dbc`], committed as `docs/wire.dbc`), so
+//! cantools, SavvyCAN or a bus analyser decode traces without a second copy of the layout.
+//!
+//! * Bus: one value frame ([`VALUE_SIGNALS`], [`crate::wire`]) per sender, the leader and
+//!   agents `1..=`[`MAX_AGENT`].
+//! * Link ([`crate::link`]): the process-I/O frames of [`crate::link::io`] and the payloads of the
+//!   tick and report records ([`IO_MESSAGES`]). The records are not CAN frames; the DBC gives
+//!   their base64-decoded payload an id ([`crate::link::io::SYNC`], [`crate::link::io::REPORT`]) so the same
+//!   tools decode them.
+//!
+//! Signals are little-endian (Intel); a message id with bit 31 set is a 29-bit identifier, as
+//! DBC writes them.
+
+use core::fmt::{self, Write};
+
+use crate::{
+    link::io,
+    wire::{Source, LEADER_ID, MAX_AGENT, PAYLOAD_LEN},
+};
+
+/// How a signal's raw bits become a value.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Encoding {
+    /// An unsigned integer.
+    Unsigned,
+    /// An IEEE 754 `f32` (32 bits).
+    Float,
+    /// A two's complement integer times `factor`, within `[min, max]`.
+    Scaled {
+        /// Value of one raw count.
+        factor: f64,
+        /// Smallest value.
+        min: f64,
+        /// Largest value.
+        max: f64,
+    },
+}
+
+/// One signal of a message.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Signal {
+    /// DBC name.
+    pub name: &'static str,
+    /// First bit (bit 0 is the least significant bit of byte 0).
+    pub start: u16,
+    /// Bits.
+    pub len: u16,
+    /// How the bits are read.
+    pub encoding: Encoding,
+    /// Largest value of an [`Encoding::Unsigned`] signal that has a documented range (flags,
+    /// counters); `None`: the full width.
+    pub max: Option<u32>,
+    /// What it means, for `CM_ SG_` (written once, on the leader's message, for value frames).
+    pub comment: Option<&'static str>,
+}
+
+impl Signal {
+    const fn unsigned(name: &'static str, start: u16, len: u16) -> Self {
+        Self {
+            name,
+            start,
+            len,
+            encoding: Encoding::Unsigned,
+            max: None,
+            comment: None,
+        }
+    }
+
+    const fn float(name: &'static str, start: u16) -> Self {
+        Self {
+            name,
+            start,
+            len: 32,
+            encoding: Encoding::Float,
+            max: None,
+            comment: None,
+        }
+    }
+
+    /// The raw bits of this signal in `data` (little-endian); `None` when `data` is too short.
+    pub fn raw(&self, data: &[u8]) -> Option<u64> {
+        (0..self.len).rev().try_fold(0u64, |v, k| {
+            let bit = usize::from(self.start + k);
+            let byte = data.get(bit / 8)?;
+            Some((v << 1) | u64::from((byte >> (bit % 8)) & 1))
+        })
+    }
+
+    /// The value of this signal in `data`: raw count, `f32`, or scaled two's complement.
+    pub fn value(&self, data: &[u8]) -> Option<f64> {
+        let raw = self.raw(data)?;
+        Some(match self.encoding {
+            Encoding::Unsigned => raw as f64,
+            Encoding::Float => f64::from(f32::from_bits(raw as u32)),
+            Encoding::Scaled { factor, .. } => {
+                let shift = 64 - u32::from(self.len);
+                (((raw << shift) as i64) >> shift) as f64 * factor
+            }
+        })
+    }
+}
+
+/// One message kind of the link.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Message {
+    /// DBC name.
+    pub name: &'static str,
+    /// The 29-bit identifier (a process-I/O frame, or the id a record's payload is given).
+    pub id: u32,
+    /// Who sends it: `Host` or `Node`.
+    pub sender: &'static str,
+    /// Signals, by start bit.
+    pub signals: &'static [Signal],
+    /// What it is, for `CM_ BO_`.
+    pub comment: Option<&'static str>,
+}
+
+impl Message {
+    /// Payload bytes: up to the last bit of the last signal.
+    pub fn len(&self) -> u16 {
+        self.signals
+            .iter()
+            .map(|s| (s.start + s.len).div_ceil(8))
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// No signals (a request without data).
+    pub fn is_empty(&self) -> bool {
+        self.signals.is_empty()
+    }
+}
+
+/// The signals of every value frame (leader and agents): payload of [`crate::wire`].
+pub const VALUE_SIGNALS: [Signal; 4] = [
+    Signal {
+        name: "y",
+        start: 0,
+        len: 24,
+        encoding: Encoding::Scaled {
+            factor: 1.0 / 65536.0,
+            min: -128.0,
+            max: 128.0 - 1.0 / 65536.0,
+        },
+        max: None,
+        comment: Some("Q7.16 value, resolution 2^-16; 0 when no_value"),
+    },
+    Signal {
+        name: "seq",
+        start: 24,
+        len: 6,
+        encoding: Encoding::Unsigned,
+        max: Some(63),
+        comment: Some("sender's sample count modulo 64"),
+    },
+    Signal {
+        name: "saturated",
+        start: 30,
+        len: 1,
+        encoding: Encoding::Unsigned,
+        max: Some(1),
+        comment: Some("y was outside [-128, 128) and clamped"),
+    },
+    Signal {
+        name: "no_value",
+        start: 31,
+        len: 1,
+        encoding: Encoding::Unsigned,
+        max: Some(1),
+        comment: Some("the sender had no finite value"),
+    },
+];
+
+/// Comment of the leader's value frame.
+const LEADER_COMMENT: &str = "Leader reference y_d, one frame per sample";
+
+/// The messages of the serial link, in the order of a run: start-up, samples, statistics.
+pub const IO_MESSAGES: [Message; 9] = [
+    Message {
+        name: "Config",
+        id: io::CONFIG,
+        sender: "Host",
+        signals: &[
+            Signal::unsigned("word1", 0, 32),
+            Signal::unsigned("word2", 32, 32),
+        ],
+        comment: Some(
+            "PIL link start-up: one or two configuration words in order (4 bytes for the last one of an odd count)",
+        ),
+    },
+    Message {
+        name: "ConfigEnd",
+        id: io::CONFIG_END,
+        sender: "Host",
+        signals: &[Signal::unsigned("words", 0, 16)],
+        comment: Some("PIL link start-up: end of the configuration, its word count"),
+    },
+    Message {
+        name: "Ready",
+        id: io::READY,
+        sender: "Node",
+        signals: &[Signal::unsigned("agent", 0, 8)],
+        comment: Some("PIL link start-up: configuration accepted by this agent"),
+    },
+    Message {
+        name: "Rejected",
+        id: io::REJECTED,
+        sender: "Node",
+        signals: &[Signal::unsigned("code", 0, 8)],
+        comment: Some(
+            "PIL link start-up: configuration rejected; 1 word count, 2 bad tag, 3 refused by the node, 4 unexpected frame",
+        ),
+    },
+    Message {
+        name: "Sync",
+        id: io::SYNC,
+        sender: "Host",
+        signals: &[
+            Signal::float("x1", 0),
+            Signal::float("x2", 32),
+            Signal::unsigned("dt_us", 64, 32),
+        ],
+        comment: Some(
+            "PIL link only (docs/NETWORK.md 9): payload of the k (tick) record, base64 on the link, not a CAN frame; dt_us only when the interval changed (8 bytes otherwise)",
+        ),
+    },
+    Message {
+        name: "Clock",
+        id: io::CLOCK,
+        sender: "Host",
+        signals: &[Signal::unsigned("t_us", 0, 32)],
+        comment: Some(
+            "PIL link: the clock (low 32 bits, us) before a bus frame delivered 2^16 us or more after the previous tick",
+        ),
+    },
+    Message {
+        name: "Report",
+        id: io::REPORT,
+        sender: "Node",
+        signals: &[
+            Signal::float("q1", 0),
+            Signal::float("q2", 32),
+            Signal::float("u1", 64),
+            Signal::float("u2", 96),
+            Signal::float("e1", 128),
+            Signal::float("e2", 160),
+            Signal::float("mu", 192),
+            Signal::float("xi", 224),
+            Signal::float("lambda", 256),
+            Signal::unsigned("fault", 288, 8),
+            Signal::unsigned("stale", 296, 8),
+            Signal::unsigned("missing", 304, 8),
+            Signal::unsigned("leader_stale", 312, 1),
+            Signal::unsigned("leader_missing", 313, 1),
+            Signal::unsigned("instructions", 320, 32),
+            Signal::unsigned("resolution", 352, 32),
+        ],
+        comment: Some(
+            "PIL link only (docs/NETWORK.md 9): payload of the y (report) record, base64 on the link, not a CAN frame",
+        ),
+    },
+    Message {
+        name: "StatsRequest",
+        id: io::STATS_REQUEST,
+        sender: "Host",
+        signals: &[],
+        comment: Some("PIL link, end of a run: ask the node for its statistics"),
+    },
+    Message {
+        name: "Stats",
+        id: io::STATS,
+        sender: "Node",
+        signals: &[
+            Signal::unsigned("stack_bytes", 0, 32),
+            Signal::unsigned("malformed", 32, 32),
+        ],
+        comment: Some("PIL link, end of a run: stack high-water mark and malformed bus frames"),
+    },
+];
+
+/// A DBC message id of a 29-bit identifier (bit 31 set).
+const EXTENDED: u32 = 0x8000_0000;
+
+fn write_signal(out: &mut impl Write, s: &Signal) -> fmt::Result {
+    let sign = if matches!(s.encoding, Encoding::Unsigned) {
+        '+'
+    } else {
+        '-'
+    };
+    write!(out, " SG_ {} : {}|{}@1{sign} ", s.name, s.start, s.len)?;
+    match (s.encoding, s.max) {
+        (Encoding::Scaled { factor, min, max }, _) => write!(out, "({factor},0) [{min}|{max}]")?,
+        (_, Some(max)) => write!(out, "(1,0) [0|{max}]")?,
+        (_, None) => out.write_str("(1,0) [0|0]")?,
+    }
+    out.write_str(" \"\" Vector__XXX\n")
+}
+
+fn write_value_message(out: &mut impl Write, source: Source, id: u16) -> fmt::Result {
+    match source {
+        Source::Leader => writeln!(out, "BO_ {id} Leader: {PAYLOAD_LEN} Leader")?,
+        Source::Agent(i) => writeln!(out, "BO_ {id} Agent{i}: {PAYLOAD_LEN} Agent{i}")?,
+    }
+    for s in &VALUE_SIGNALS {
+        write_signal(out, s)?;
+    }
+    out.write_char('\n')
+}
+
+/// `docs/wire.dbc`: nodes, every value frame, every link message, comments, and the `f32`
+/// signal types, in that order.
+pub fn write_dbc(out: &mut impl Write) -> fmt::Result {
+    out.write_str("VERSION \"\"\n\nNS_ :\n\nBS_:\n\nBU_: Host Node Leader")?;
+    for i in 1..=MAX_AGENT {
+        write!(out, " Agent{i}")?;
+    }
+    out.write_str("\n\n")?;
+    let senders = core::iter::once(Source::Leader).chain((1..=MAX_AGENT).map(Source::Agent));
+    for source in senders {
+        if let Some(id) = source.raw_id() {
+            write_value_message(out, source, id)?;
+        }
+    }
+    for m in &IO_MESSAGES {
+        writeln!(
+            out,
+            "BO_ {} {}: {} {}",
+            m.id | EXTENDED,
+            m.name,
+            m.len(),
+            m.sender
+        )?;
+        for s in m.signals {
+            write_signal(out, s)?;
+        }
+        out.write_char('\n')?;
+    }
+    writeln!(out, "CM_ BO_ {LEADER_ID} \"{LEADER_COMMENT}\";")?;
+    for s in &VALUE_SIGNALS {
+        if let Some(c) = s.comment {
+            writeln!(out, "CM_ SG_ {LEADER_ID} {} \"{c}\";", s.name)?;
+        }
+    }
+    for m in &IO_MESSAGES {
+        if let Some(c) = m.comment {
+            writeln!(out, "CM_ BO_ {} \"{c}\";", m.id | EXTENDED)?;
+        }
+    }
+    for m in &IO_MESSAGES {
+        for s in m.signals.iter().filter(|s| s.encoding == Encoding::Float) {
+            writeln!(out, "SIG_VALTYPE_ {} {} : 1;", m.id | EXTENDED, s.name)?;
+        }
+    }
+    Ok(())
+}
+
+/// The link message of a 29-bit identifier.
+pub fn io_message(id: u32) -> Option<&'static Message> {
+    IO_MESSAGES.iter().find(|m| m.id == id)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{
+        link::{Report, Tick},
+        wire::encode_payload,
+    };
+
+    fn value_of(m: &Message, name: &str, data: &[u8]) -> f64 {
+        m.signals
+            .iter()
+            .find(|s| s.name == name)
+            .and_then(|s| s.value(data))
+            .unwrap_or(f64::NAN)
+    }
+
+    #[test]
+    fn value_signals_read_what_the_codec_wrote() {
+        let m = Message {
+            name: "value",
+            id: 0,
+            sender: "",
+            signals: &VALUE_SIGNALS,
+            comment: None,
+        };
+        for (y, seq) in [(0.5f32, 3u8), (-1.25, 63), (-127.5, 0), (1000.0, 7)] {
+            let e = encode_payload(y, seq);
+            let back = crate::wire::decode_payload(Source::Leader, &e.data).expect("valid");
+            assert_eq!(
+                value_of(&m, "y", &e.data),
+                f64::from(back.y.expect("value"))
+            );
+            assert_eq!(value_of(&m, "seq", &e.data), f64::from(seq % 64));
+            assert_eq!(
+                value_of(&m, "saturated", &e.data),
+                f64::from(u8::from(e.saturated))
+            );
+            assert_eq!(value_of(&m, "no_value", &e.data), 0.0);
+        }
+        let e = encode_payload(f32::NAN, 1);
+        assert_eq!(value_of(&m, "no_value", &e.data), 1.0);
+        assert_eq!(usize::from(m.len()), PAYLOAD_LEN);
+    }
+
+    #[test]
+    fn record_signals_read_what_the_codec_wrote() {
+        let r = Report {
+            q: [1.5, -2.0],
+            u: [3.25, 4.0],
+            e: [-5.0, 6.5],
+            mu: 0.25,
+            xi: 7.0,
+            lambda: 1.5,
+            fault: 2,
+            stale: 3,
+            missing: 4,
+            leader: 2,
+            instructions: 1_600,
+            resolution: 40,
+        };
+        let m = io_message(io::REPORT).expect("described");
+        let b = r.to_bytes();
+        assert_eq!(usize::from(m.len()), b.len());
+        let want = [
+            ("q1", 1.5),
+            ("q2", -2.0),
+            ("u1", 3.25),
+            ("u2", 4.0),
+            ("e1", -5.0),
+            ("e2", 6.5),
+            ("mu", 0.25),
+            ("xi", 7.0),
+            ("lambda", 1.5),
+            ("fault", 2.0),
+            ("stale", 3.0),
+            ("missing", 4.0),
+            ("leader_stale", 0.0),
+            ("leader_missing", 1.0),
+            ("instructions", 1600.0),
+            ("resolution", 40.0),
+        ];
+        for (name, v) in want {
+            assert_eq!(value_of(m, name, &b), v, "{name}");
+        }
+        let t = Tick {
+            x: [0.5, -1.0],
+            dt_us: Some(1000),
+        };
+        let (b, n) = t.to_bytes();
+        let m = io_message(io::SYNC).expect("described");
+        assert_eq!(usize::from(m.len()), n);
+        assert_eq!(value_of(m, "x1", &b), 0.5);
+        assert_eq!(value_of(m, "x2", &b), -1.0);
+        assert_eq!(value_of(m, "dt_us", &b), 1000.0);
+    }
+
+    #[test]
+    fn every_io_id_is_described_once() {
+        let ids = [
+            io::CONFIG,
+            io::CONFIG_END,
+            io::READY,
+            io::REJECTED,
+            io::SYNC,
+            io::CLOCK,
+            io::REPORT,
+            io::STATS_REQUEST,
+            io::STATS,
+        ];
+        for id in ids {
+            assert_eq!(
+                IO_MESSAGES.iter().filter(|m| m.id == id).count(),
+                1,
+                "{id:#x}"
+            );
+        }
+        assert_eq!(ids.len(), IO_MESSAGES.len());
+    }
+}

@@ -1,0 +1,42 @@
+//! # agent-node
+//!
+//! The application every agent node runs, whatever carries it: the PIL firmware `node-fw`, a
+//! board, a Linux process, or `hil-mock`'s mocked hardware on the host. `no_std`, no
+//! allocation, no `unsafe`; it depends on `controller-core` only among the project's crates.
+//!
+//! ## Modules
+//!
+//! * [`node`]: [`Node`], one follower's firmware — sample, drain received frames, freshness,
+//!   `controller_core::Controller::step`, actuate, broadcast — generic over the `embedded-can`
+//!   controller and small [`Clock`], [`Sensor`], [`Actuator`] traits.
+//! * [`wire`]: the bus codec — identifiers, the `fixed` Q7.16 payload, sequence counters,
+//!   decoding that rejects malformed frames without panicking.
+//! * [`link`]: the serial link between a node and the host that owns its plant: SLCAN lines,
+//!   the tick and report records, process-I/O frames, configuration words; and [`CanFrame`],
+//!   the classical CAN frame of the link, of `hil-mock`'s mocks and of its bus model.
+//! * [`dbc`]: every frame kind of the bus and the link described signal by signal, and
+//!   `docs/wire.dbc` written from that description ([`dbc::write_dbc`]).
+//!
+//! The network behaviour, the wire format and the stale-link policy are described in
+//! `docs/NETWORK.md`.
+//!
+//! ## Features
+//!
+//! * `log` (default): node log lines through the `log` crate (host).
+//! * `defmt`: node log lines through `defmt` (firmware); `defmt::Format` on the node's types.
+//!   Mutually exclusive with `log`. Firmware build:
+//!   `cargo build -p agent-node --target thumbv7em-none-eabihf --no-default-features --features defmt`.
+#![cfg_attr(not(test), no_std)]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+#[macro_use]
+mod fmt;
+
+pub mod dbc;
+pub mod link;
+pub mod node;
+pub mod wire;
+
+pub use link::CanFrame;
+pub use node::{Actuator, Clock, Node, NodeConfig, NodeError, NodeStats, Sensor, Tick, TxOutcome};

@@ -1,0 +1,134 @@
+//! `kind = "can"`: every agent runs as an `agent-node` [`agent_node::Node`] (its own
+//! controller, freshness policy and Q7.16 frames) on `hil-mock`'s mocked hardware over its
+//! CAN-like bus, via [`hil_mock::network::CanNetwork`]. The plant, faults, metrics and outputs
+//! are the simulator's, unchanged; `summary.json` gains a `network` object
+//! ([`NetworkSummary`]). The model and its figures: `docs/NETWORK.md`.
+
+use controller_core::{ControllerConfig, Gains, StepOutput};
+use hil_mock::{
+    bus::Nanos,
+    network::{AgentSetup, CanNetwork},
+};
+
+use crate::{
+    error::{Error, Result},
+    figures::NetworkSummary,
+    graph::Graph,
+    network::{
+        spec::{bus_config, node_config, ns, NetworkKind, NetworkSpec},
+        trace::{TraceWriter, INTERFACE},
+    },
+    sim::{Agents, K},
+};
+
+/// Every agent an `agent-node` node on mocked hardware over the simulated CAN bus.
+pub struct CanAgents<const N: usize, const M: usize> {
+    net: CanNetwork<N, M, K>,
+    h_ns: Nanos,
+    bitrate: u32,
+    states: Vec<[f32; N]>,
+    trace: Option<TraceWriter>,
+}
+
+impl<const N: usize, const M: usize> CanAgents<N, M> {
+    /// One node per agent of the validated `graph`, with its controller configuration
+    /// (`configs`, in agent order) and neighbours, on the bus of `[network]` (`spec`, sample
+    /// period `h`); every frame on the bus goes to `trace` (candump log) when given.
+    pub fn new(
+        spec: &NetworkSpec,
+        h: f64,
+        graph: &Graph,
+        configs: &[ControllerConfig<N>],
+        trace: Option<&std::path::Path>,
+    ) -> Result<Self> {
+        let mut agents = Vec::with_capacity(graph.len());
+        for (i, controller) in configs.iter().enumerate() {
+            agents.push(AgentSetup {
+                node: node_config(spec, h, graph, i)?,
+                controller: *controller,
+            });
+        }
+        let cfg = bus_config(spec, h);
+        let bitrate = cfg.bitrate;
+        let mut net = CanNetwork::new(cfg, &agents).map_err(|e| Error::invalid("network", e))?;
+        let trace = trace.map(TraceWriter::create).transpose()?;
+        if trace.is_some() {
+            net.bus_mut().record_wire();
+        }
+        Ok(Self {
+            net,
+            h_ns: ns(h),
+            bitrate,
+            states: vec![[0.0; N]; graph.len()],
+            trace,
+        })
+    }
+
+    /// The network (nodes, bus, statistics).
+    pub fn network(&self) -> &CanNetwork<N, M, K> {
+        &self.net
+    }
+
+    /// The figures of `summary.json` `network`.
+    pub fn summary(&self) -> NetworkSummary {
+        let nodes = self.net.nodes();
+        NetworkSummary::new(
+            NetworkKind::Can,
+            self.bitrate,
+            &self.net.stats(),
+            nodes
+                .iter()
+                .map(|n| u64::from(n.stats().malformed.total()))
+                .sum(),
+            nodes
+                .iter()
+                .map(|n| u64::from(n.stats().stale_samples))
+                .sum(),
+        )
+    }
+}
+
+impl<const N: usize, const M: usize> Agents<N, M> for CanAgents<N, M> {
+    fn control(
+        &mut self,
+        k: u64,
+        _t: f64,
+        x: &[[f64; N]],
+        yd: f64,
+        out: &mut Vec<StepOutput<N, M>>,
+    ) -> Result<()> {
+        for (s, x) in self.states.iter_mut().zip(x) {
+            for (d, v) in s.iter_mut().zip(x) {
+                *d = *v as f32;
+            }
+        }
+        let t_ns = k.saturating_mul(self.h_ns);
+        let ticks = self.net.step(t_ns, &self.states, Some(yd as f32));
+        out.extend(ticks.iter().map(|t| t.output));
+        if let Some(w) = self.trace.as_mut() {
+            w.write(INTERFACE, &self.net.bus_mut().take_wire_log());
+        }
+        Ok(())
+    }
+
+    fn finish(&mut self) -> Result<()> {
+        self.trace.as_mut().map_or(Ok(()), TraceWriter::finish)
+    }
+
+    fn gains(&self) -> Gains {
+        // Validation rejects an empty graph, so node 1 exists.
+        match self.net.nodes().first() {
+            Some(n) => *n.controller().params().gains(),
+            None => Gains {
+                c1: f32::NAN,
+                c2: f32::NAN,
+                k1: f32::NAN,
+                k2: f32::NAN,
+            },
+        }
+    }
+
+    fn network(&self) -> Option<NetworkSummary> {
+        Some(self.summary())
+    }
+}
