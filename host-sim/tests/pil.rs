@@ -1,7 +1,7 @@
-//! `[network] kind = "pil"`: the node firmware on emulated Cortex-M4Fs. Needs
-//! `qemu-system-arm` and the firmware (`cd node-fw && cargo build --release`); without them the
-//! tests that run emulators are skipped with a message, unless `REQUIRE_PIL` is set (CI builds
-//! the firmware, installs QEMU and sets it).
+//! `[network] kind = "pil"`: the node firmware on emulated Cortex-M4Fs. The tests that run
+//! emulators need `qemu-system-arm` and the firmware (`cd node-fw && cargo build --release`), so
+//! they are `#[ignore]`d with that reason (`cargo test` lists them as ignored) and fail when run
+//! without them: `cargo test -p host-sim --test pil -- --ignored` (`.ci/run` does).
 
 mod common;
 
@@ -18,23 +18,17 @@ fn firmware() -> PathBuf {
         .join("../node-fw/target/thumbv7em-none-eabihf/release/node-fw")
 }
 
-fn pil_available() -> bool {
+/// Fails the calling test unless QEMU and the node firmware are there.
+fn require_pil() {
     let qemu = Command::new("qemu-system-arm")
         .arg("--version")
         .output()
         .is_ok_and(|o| o.status.success());
-    let ok = qemu && firmware().is_file();
-    if !ok {
-        assert!(
-            std::env::var_os("REQUIRE_PIL").is_none(),
-            "REQUIRE_PIL is set but qemu-system-arm or {} is missing",
-            firmware().display()
-        );
-        eprintln!(
-            "SKIPPED: needs qemu-system-arm and the node firmware (cd node-fw && cargo build --release)"
-        );
-    }
-    ok
+    assert!(
+        qemu && firmware().is_file(),
+        "this check needs qemu-system-arm and {} (apt-get install qemu-system-arm; cd node-fw && cargo build --release)",
+        firmware().display()
+    );
 }
 
 fn run(scenario: &str, dir: &std::path::Path, t_end: &str) -> std::process::Output {
@@ -61,10 +55,9 @@ fn run_with(
 /// Lost frames make links stale: the node's freshness decisions depend on the delivery times
 /// the host sends as SLCAN timestamps, so they too must match the host-compiled node's.
 #[test]
+#[ignore = "needs qemu-system-arm and the node-fw build; run with --ignored"]
 fn pil_matches_the_host_node_on_a_lossy_bus() {
-    if !pil_available() {
-        return;
-    }
+    require_pil();
     let (can, pil) = (tmp("pil-lossy-can"), tmp("pil-lossy-pil"));
     let set = ["network.event=[]", "network.loss=0.3"];
     for (dir, kind) in [(&can, "\"can\""), (&pil, "\"pil\"")] {
@@ -102,10 +95,9 @@ fn pil_matches_the_host_node_on_a_lossy_bus() {
 /// the same `f32` commands as the host-compiled node, sample for sample (every column of
 /// `trajectory.csv`, printed with the shortest round-trip representation, is equal).
 #[test]
+#[ignore = "needs qemu-system-arm and the node-fw build; run with --ignored"]
 fn pil_commands_are_bit_identical_to_the_host_node() {
-    if !pil_available() {
-        return;
-    }
+    require_pil();
     let (can, pil) = (tmp("pil-identity-can"), tmp("pil-identity-pil"));
     let out = run("example1-can.toml", &can, "1");
     assert!(
@@ -192,10 +184,9 @@ fn run_example1_with_env(
 /// A firmware that does not start (here: not an ELF) stops the run with a message naming the
 /// agent, and leaves no emulator behind.
 #[test]
+#[ignore = "needs qemu-system-arm and the node-fw build; run with --ignored"]
 fn a_dead_emulator_stops_the_run_naming_the_agent() {
-    if !pil_available() {
-        return;
-    }
+    require_pil();
     let dir = tmp("pil-dead");
     let bogus = dir.join("not-an-elf");
     std::fs::write(&bogus, b"not firmware").expect("write");
@@ -282,10 +273,9 @@ fn signal(pid: u32, sig: &str) {
 /// SIGINT to host-sim alone (not its process group) in the middle of a run: it exits and
 /// no emulator outlives it.
 #[test]
+#[ignore = "needs qemu-system-arm and the node-fw build; run with --ignored"]
 fn ctrl_c_leaves_no_emulator_behind() {
-    if !pil_available() {
-        return;
-    }
+    require_pil();
     let (child, emulators) = start_pil_run("pil-sigint", &[]);
     signal(child.id(), "-INT");
     let out = child.wait_with_output().expect("wait");
@@ -301,10 +291,9 @@ fn ctrl_c_leaves_no_emulator_behind() {
 /// SIGKILL to host-sim, which no handler sees: the kernel kills the emulators (their parent-
 /// death signal).
 #[test]
+#[ignore = "needs qemu-system-arm and the node-fw build; run with --ignored"]
 fn sigkill_leaves_no_emulator_behind() {
-    if !pil_available() {
-        return;
-    }
+    require_pil();
     let (mut child, emulators) = start_pil_run("pil-sigkill", &[]);
     child.kill().expect("SIGKILL host-sim");
     let _ = child.wait();
@@ -315,10 +304,9 @@ fn sigkill_leaves_no_emulator_behind() {
 /// answer timeout with a message naming it, and no emulator, the frozen one included, is
 /// left. A timeout that is not a positive number of seconds is refused up front.
 #[test]
+#[ignore = "needs qemu-system-arm and the node-fw build; run with --ignored"]
 fn a_silent_node_stops_the_run_naming_the_agent() {
-    if !pil_available() {
-        return;
-    }
+    require_pil();
     let bad = run_example1_with_env(&tmp("pil-bad-timeout"), "HOST_SIM_PIL_ANSWER_TIMEOUT", "-1");
     let err = String::from_utf8_lossy(&bad.stderr);
     assert_eq!(bad.status.code(), Some(2), "{err}");
@@ -343,19 +331,15 @@ fn a_silent_node_stops_the_run_naming_the_agent() {
 
 /// Real CAN tooling can attach to a node: python-can's `slcan` interface (as used with
 /// CANable / USBtin adapters) opens the emulated node's UART over TCP and exchanges frames
-/// with it; `docs/wire.dbc` decodes the node's `Rejected` answer. Skipped without python-can,
-/// pyserial and cantools unless `REQUIRE_CANTOOLS` is set.
+/// with it; `docs/wire.dbc` decodes the node's `Rejected` answer.
 #[test]
+#[ignore = "needs qemu-system-arm, the node-fw build and python3 python-can, pyserial, cantools; run with --ignored"]
 fn python_can_slcan_talks_to_the_node() {
-    if !pil_available() {
-        return;
-    }
-    if !common::python_has(
+    require_pil();
+    common::require_python(
         "can, serial, cantools",
         "pip install python-can pyserial cantools",
-    ) {
-        return;
-    }
+    );
     let py = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/slcan_node.py");
     let out = Command::new("python3")
         .arg(py)
@@ -377,13 +361,12 @@ fn python_can_slcan_talks_to_the_node() {
 /// frames are delivered more than 2^16 µs after a tick, so the host sends `Clock` frames (the
 /// sample period is far too long for Example 1, whose loop diverges right after; the frames
 /// are what this test reads). `Rejected` is
-/// decoded from a real node by `python_can_slcan_talks_to_the_node`. Skipped without QEMU,
-/// the firmware or cantools unless `REQUIRE_PIL` / `REQUIRE_CANTOOLS` are set.
+/// decoded from a real node by `python_can_slcan_talks_to_the_node`.
 #[test]
+#[ignore = "needs qemu-system-arm, the node-fw build and python3 cantools; run with --ignored"]
 fn wire_dbc_decodes_every_frame_kind_of_a_pil_run() {
-    if !pil_available() || !common::python_has("can, cantools", "pip install cantools python-can") {
-        return;
-    }
+    require_pil();
+    common::require_python("can, cantools", "pip install cantools python-can");
     let dir = tmp("pil-link-trace");
     let (link, bus) = (dir.join("link.log"), dir.join("bus.log"));
     let out = bin()
