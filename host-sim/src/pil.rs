@@ -43,12 +43,13 @@ use hil_mock::{
 
 use crate::{
     error::{Error, Result},
+    figure::{
+        panel::{render, Panel, Series},
+        FigureStyle,
+    },
     figures::FirmwareSummary,
     network::{bus_config, NetworkKind, NetworkSummary, MAX_CAN_AGENTS},
-    report::{
-        plots::{render, Panel, Series},
-        trace::{TraceWriter, INTERFACE},
-    },
+    report::trace::{TraceWriter, INTERFACE},
     scenario::Setup,
     sim::{Agents, K},
 };
@@ -784,7 +785,13 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
             series,
             ..Panel::default()
         };
-        render(dir, "firmware", &[panel], (1, 1), (1000, 560))
+        render(
+            dir,
+            "firmware",
+            &[panel],
+            (1, 1),
+            FigureStyle::px(1000, 560),
+        )
     }
 
     fn finish(&mut self) -> Result<()> {
