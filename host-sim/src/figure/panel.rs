@@ -163,6 +163,19 @@ pub struct Panel {
     pub clip_spikes: bool,
     /// Draw the title's combining marks (the hat of `ξ̂`) as separate glyphs (bitmap output).
     pub marks_by_hand: bool,
+    /// Where the legend goes.
+    pub legend: Legend,
+}
+
+/// The legend of a panel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Legend {
+    /// In the corner with the fewest data points; when every corner has data, the y range
+    /// grows so that the upper right one is free.
+    #[default]
+    Corner,
+    /// None: another panel of the figure names the same lines (one legend per figure).
+    Hidden,
 }
 
 /// Colour of line `i` (the tab10 palette: distinct, readable on white).
@@ -523,7 +536,7 @@ fn draw_panel<DB: DrawingBackend>(
         }
     }
     let (mut corner, covered) = legend_corner(&pts, &notes, (x0, x1), (y0, y1), legend_box);
-    if covered > 0 && legend_box.1 < 0.35 && clip.is_none() {
+    if p.legend == Legend::Corner && covered > 0 && legend_box.1 < 0.35 && clip.is_none() {
         let grow = (y1 - y0) * legend_box.1 / (1.0 - legend_box.1);
         y1 += if p.log_y { grow.ceil() } else { grow };
         corner = SeriesLabelPosition::UpperRight;
@@ -698,12 +711,39 @@ fn draw_panel<DB: DrawingBackend>(
             }
         }
     }
-    legend(&mut chart, page, corner, 12)
+    match p.legend {
+        Legend::Corner => legend(&mut chart, page, corner, 12),
+        Legend::Hidden => Ok(()),
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_hidden_legend_leaves_one_legend_per_figure() {
+        let dir = std::env::temp_dir().join(format!("host-sim-legend-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let line = |legend| Panel {
+            series: vec![Series::styled(
+                "agent 7".into(),
+                0,
+                vec![(0.0, 0.0), (1.0, 1.0)],
+            )],
+            legend,
+            ..Panel::default()
+        };
+        let style = FigureStyle::px(400, 400);
+        let legends = |panels: &[Panel]| {
+            render(&dir, "legend", panels, (2, 1), style).expect("figure");
+            let svg = std::fs::read_to_string(dir.join("legend.svg")).expect("svg");
+            svg.matches("agent 7").count()
+        };
+        assert_eq!(legends(&[line(Legend::Corner), line(Legend::Corner)]), 2);
+        assert_eq!(legends(&[line(Legend::Corner), line(Legend::Hidden)]), 1);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 
     #[test]
     fn spikes_are_found_only_when_they_stand_out() {
