@@ -25,14 +25,14 @@ use crate::{
 /// What drawing into a backend returns: the backend's error as text.
 pub type DrawResult = std::result::Result<(), String>;
 
-/// Size and text of a figure. Text sizes are given to [`FigureStyle::font`] in pixels of a
-/// figure at its nominal size, so that a style in millimetres and points can scale them all.
+/// Size and text of a figure. Writers give the nominal size ([`FigureStyle::px`]) and text sizes
+/// in pixels of that size ([`FigureStyle::font`]); the fields stay private so that a style in
+/// millimetres and points, or a print style, changes what [`FigureStyle::size`] and
+/// [`FigureStyle::font`] return here and in no writer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct FigureStyle {
-    /// Width in pixels.
-    pub width: u32,
-    /// Height in pixels.
-    pub height: u32,
+    width: u32,
+    height: u32,
 }
 
 impl FigureStyle {
