@@ -153,9 +153,9 @@ fn page<DB: DrawingBackend>(
     format: Format,
     figure: &impl Figure,
 ) -> DrawResult {
-    root.fill(&WHITE).map_err(|e| e.to_string())?;
+    root.fill(&WHITE).map_err(drawing_error)?;
     figure.draw(root, style, format)?;
-    root.present().map_err(|e| e.to_string())
+    root.present().map_err(drawing_error)
 }
 
 /// `root` split into `rows` × `cols` equal charts, row by row.

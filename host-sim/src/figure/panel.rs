@@ -18,7 +18,7 @@ use plotters_backend::{
 
 use super::{
     chart::{axes, legend, Drawn},
-    grid, save_png_and_svg,
+    drawing_error, grid, save_png_and_svg,
     text::{bitmap_text, secs, short_name, significant, sup, tick_label},
     DrawResult, Figure, FigureStyle, Format,
 };
@@ -221,7 +221,7 @@ impl Figure for Panels<'_> {
             } else {
                 draw_panel(area, style, p)
             };
-            drawn.map_err(|e| e.to_string())?;
+            drawn.map_err(drawing_error)?;
         }
         Ok(())
     }
