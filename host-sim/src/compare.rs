@@ -8,11 +8,13 @@ use serde::Serialize;
 
 use crate::{
     error::{Error, Result},
-    metrics::Summary,
-    report::{
-        self, fmt_time,
-        plots::{render, secs, Panel, Recorder, Series},
+    figure::{
+        panel::{render, Panel, Series},
+        text::secs,
+        FigureStyle,
     },
+    metrics::Summary,
+    report::{self, fmt_time, plots::Recorder},
     run::{run, RunOptions},
     scenario::Setup,
 };
@@ -240,5 +242,5 @@ fn overlay(out: &Path, a: &Setup, ra: &Recorder, b: &Setup, rb: &Recorder) -> Re
     }
     panels.push(u);
     panels.push(tr);
-    render(out, "compare", &panels, (2, 2), (1400, 900))
+    render(out, "compare", &panels, (2, 2), FigureStyle::px(1400, 900))
 }

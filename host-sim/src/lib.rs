@@ -9,9 +9,9 @@
 //! Layers: [`scenario`] (TOML, `--set`, validation) → [`graph`], [`leader`], [`plant`],
 //! [`faults`], [`network`] (every kind: `ideal`, `can`, `pil`, and the bus `trace`) → [`sim`]
 //! (the loop) → [`metrics`], [`report`] → [`run`] (commands) → [`campaign`] (many runs: grids,
-//! Monte Carlo, shards). Each block owns the serde type and checks of its scenario section;
-//! [`scenario`] assembles them and no block imports it (docs/ARCHITECTURE.md, "host-sim
-//! modules").
+//! Monte Carlo, shards). Every figure is drawn and written through [`figure`]. Each block owns
+//! the serde type and checks of its scenario section; [`scenario`] assembles them and no block
+//! imports it (docs/ARCHITECTURE.md, "host-sim modules").
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
@@ -19,6 +19,7 @@ pub mod campaign;
 pub mod compare;
 pub mod error;
 pub mod faults;
+pub mod figure;
 pub mod figures;
 pub mod generate;
 pub mod graph;

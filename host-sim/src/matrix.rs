@@ -13,14 +13,23 @@
 //! what this configuration achieves anyway". Loss and corruption last the whole run: their
 //! recovery time is counted from 0 (a settling time).
 
-use std::fmt::Write as _;
+use std::{fmt::Write as _, path::Path};
 
+use plotters::{
+    coord::{ranged1d::Ranged, Shift},
+    prelude::*,
+};
 use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::{
     error::Result,
     faults::{Agents, FaultKind, FaultRule, SensorFault},
+    figure::{
+        self,
+        chart::{axes, cartesian, legend, Frame},
+        drawing_error, grid, DrawResult, Figure, FigureStyle, Format,
+    },
     network::spec::{EventName, NetworkEvent, NetworkKind},
     run::{run, RunOptions},
     scenario::{self, Scenario},
@@ -358,23 +367,70 @@ pub fn markdown(results: &[CellResult], two_ts: f64, u_max: Option<f64>) -> Stri
 /// `matrix.png`: per cell (numbered as in the table), `max |u|` from the fault's start
 /// (log scale) and the time back in band, safety on and off; diverged runs on the top edge.
 pub fn draw(
-    path: &std::path::Path,
+    path: &Path,
     results: &[CellResult],
     two_ts: f64,
     u_max: Option<f64>,
     title: &str,
 ) -> Result<()> {
-    use plotters::prelude::*;
-    crate::report::plots::register_font();
-    let n = results.iter().filter(|r| r.safety).count().max(1);
-    let tmp = crate::report::temp_path(path);
-    let draw = || -> std::result::Result<(), String> {
-        let root = BitMapBackend::new(&tmp, (1400, 900)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| e.to_string())?;
-        let (top, bottom) = root.split_vertically(450);
+    let chart = MatrixFigure {
+        results,
+        two_ts,
+        u_max,
+        title,
+    };
+    figure::save(path, &FigureStyle::px(1400, 900), &chart)
+}
+
+struct MatrixFigure<'a> {
+    results: &'a [CellResult],
+    two_ts: f64,
+    u_max: Option<f64>,
+    title: &'a str,
+}
+
+/// Captions 18 px, margin 10, room for the tick labels.
+const FRAME: Frame = Frame {
+    caption: 18,
+    margin: 10,
+    x_labels: 30,
+    y_labels: 70,
+};
+
+/// The reference line of a chart (`u_max`, `2 Ts`) as a legend entry.
+fn reference_line<'a, DB, X, Y>(
+    c: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
+    (x0, x1): (f64, f64),
+    y: f64,
+    label: String,
+) -> DrawResult
+where
+    DB: DrawingBackend + 'a,
+    X: Ranged<ValueType = f64>,
+    Y: Ranged<ValueType = f64>,
+{
+    let style = BLACK.mix(0.6).stroke_width(2);
+    c.draw_series(LineSeries::new([(x0, y), (x1, y)], style))
+        .map_err(drawing_error)?
+        .label(label)
+        .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], style));
+    Ok(())
+}
+
+impl Figure for MatrixFigure<'_> {
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        style: &FigureStyle,
+        _: Format,
+    ) -> DrawResult {
+        let (results, two_ts, title) = (self.results, self.two_ts, self.title);
+        let n = results.iter().filter(|r| r.safety).count().max(1);
+        let halves = grid(root, (2, 1));
         let index = |k: usize| (k + 1) as f64;
         let cell_no = numbers(results);
         let cells = cell_no.last().map_or(n, |k| k + 1);
+        let x_end = cells as f64 + 1.0;
         let u_hi = results
             .iter()
             .filter(|r| r.diverged_at.is_none())
@@ -382,30 +438,22 @@ pub fn draw(
             .filter(|u| u.is_finite())
             .fold(1.0, f64::max)
             * 30.0;
-        let mut c = ChartBuilder::on(&top)
-            .caption(
-                format!("{title}: max |u| from the fault's start (log); x = diverged"),
-                ("sans-serif", 18),
-            )
-            .margin(10)
-            .x_label_area_size(30)
-            .y_label_area_size(70)
-            .build_cartesian_2d(0.0..(cells as f64 + 1.0), (1.0..u_hi).log_scale())
-            .map_err(|e| e.to_string())?;
-        c.configure_mesh()
-            .x_desc("cell (table row)")
-            .y_desc("max |u|")
+        let caption = format!("{title}: max |u| from the fault's start (log); x = diverged");
+        let mut c = cartesian(
+            &halves[0],
+            style,
+            &caption,
+            FRAME,
+            (0.0..x_end, (1.0..u_hi).log_scale()),
+        )
+        .map_err(drawing_error)?;
+        axes(&mut c, style, ("cell (table row)", "max |u|"), (13, 13))
             .x_label_formatter(&|v| format!("{v:.0}"))
             .y_label_formatter(&|v| format!("{v:.0}"))
-            .label_style(("sans-serif", 13))
             .draw()
-            .map_err(|e| e.to_string())?;
-        if let Some(m) = u_max {
-            let style = BLACK.mix(0.6).stroke_width(2);
-            c.draw_series(LineSeries::new([(0.0, m), (cells as f64 + 1.0, m)], style))
-                .map_err(|e| e.to_string())?
-                .label(format!("u_max = {m}"))
-                .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], style));
+            .map_err(drawing_error)?;
+        if let Some(m) = self.u_max {
+            reference_line(&mut c, (0.0, x_end), m, format!("u_max = {m}"))?;
         }
         for (on, color, name) in [(false, RED, "safety off"), (true, BLUE, "safety on")] {
             let pts: Vec<(f64, f64, bool)> = results
@@ -426,7 +474,7 @@ pub fn draw(
                     .filter(|p| !p.2)
                     .map(|&(x, y, _)| Circle::new((x, y), 4, color.filled())),
             )
-            .map_err(|e| e.to_string())?
+            .map_err(drawing_error)?
             .label(name)
             .legend(move |(x, y)| Circle::new((x + 9, y), 4, color.filled()));
             c.draw_series(
@@ -434,40 +482,28 @@ pub fn draw(
                     .filter(|p| p.2)
                     .map(|&(x, y, _)| Cross::new((x, y), 6, color.stroke_width(2))),
             )
-            .map_err(|e| e.to_string())?;
+            .map_err(drawing_error)?;
         }
-        legend(&mut c, SeriesLabelPosition::UpperLeft)?;
+        legend(&mut c, style, SeriesLabelPosition::UpperLeft, 13).map_err(drawing_error)?;
 
         let t_hi = results
             .iter()
             .filter_map(|r| r.back_in_band_s)
             .fold(2.0 * two_ts, f64::max)
             * 1.15;
-        let mut c = ChartBuilder::on(&bottom)
-            .caption(
-                "time back in band after the fault ends [s] (whole-run faults: from 0); x = diverged or never back",
-                ("sans-serif", 18),
-            )
-            .margin(10)
-            .x_label_area_size(30)
-            .y_label_area_size(70)
-            .build_cartesian_2d(0.0..(cells as f64 + 1.0), 0.0..t_hi)
-            .map_err(|e| e.to_string())?;
-        c.configure_mesh()
-            .x_desc("cell (table row)")
-            .y_desc("s")
-            .x_label_formatter(&|v| format!("{v:.0}"))
-            .label_style(("sans-serif", 13))
-            .draw()
-            .map_err(|e| e.to_string())?;
-        let style = BLACK.mix(0.6).stroke_width(2);
-        c.draw_series(LineSeries::new(
-            [(0.0, two_ts), (cells as f64 + 1.0, two_ts)],
+        let mut c = cartesian(
+            &halves[1],
             style,
-        ))
-        .map_err(|e| e.to_string())?
-        .label(format!("2 Ts = {two_ts} s"))
-        .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], style));
+            "time back in band after the fault ends [s] (whole-run faults: from 0); x = diverged or never back",
+            FRAME,
+            (0.0..x_end, 0.0..t_hi),
+        )
+        .map_err(drawing_error)?;
+        axes(&mut c, style, ("cell (table row)", "s"), (13, 13))
+            .x_label_formatter(&|v| format!("{v:.0}"))
+            .draw()
+            .map_err(drawing_error)?;
+        reference_line(&mut c, (0.0, x_end), two_ts, format!("2 Ts = {two_ts} s"))?;
         for (on, color) in [(false, RED), (true, BLUE)] {
             let pts: Vec<(f64, Option<f64>)> = results
                 .iter()
@@ -484,34 +520,16 @@ pub fn draw(
                 pts.iter()
                     .filter_map(|&(x, y)| y.map(|y| Circle::new((x, y), 4, color.filled()))),
             )
-            .map_err(|e| e.to_string())?;
+            .map_err(drawing_error)?;
             c.draw_series(
                 pts.iter()
                     .filter(|p| p.1.is_none())
                     .map(|&(x, _)| Cross::new((x, t_hi / 1.08), 6, color.stroke_width(2))),
             )
-            .map_err(|e| e.to_string())?;
+            .map_err(drawing_error)?;
         }
-        legend(&mut c, SeriesLabelPosition::UpperLeft)?;
-        root.present().map_err(|e| e.to_string())
-    };
-    draw().map_err(|e| crate::Error::io(path, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| crate::Error::io(path, e))
-}
-
-/// The legend box at `at`.
-fn legend<'a, DB: plotters::prelude::DrawingBackend + 'a, CT: plotters::coord::CoordTranslate>(
-    c: &mut plotters::chart::ChartContext<'a, DB, CT>,
-    at: plotters::chart::SeriesLabelPosition,
-) -> std::result::Result<(), String> {
-    use plotters::prelude::*;
-    c.configure_series_labels()
-        .position(at)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 13))
-        .draw()
-        .map_err(|e| e.to_string())
+        legend(&mut c, style, SeriesLabelPosition::UpperLeft, 13).map_err(drawing_error)
+    }
 }
 
 /// One run of a torque-limit sweep (`host-sim/tests/torque_limit.rs`).
@@ -529,76 +547,86 @@ pub struct LimitPoint {
 
 /// Settling time and max error after `2 T_s` against `u_max` (log x), with the `2 T_s` line.
 pub fn draw_limit_sweep(
-    path: &std::path::Path,
+    path: &Path,
     points: &[LimitPoint],
     two_ts: f64,
     title: &str,
 ) -> Result<()> {
-    use plotters::prelude::*;
-    crate::report::plots::register_font();
-    let tmp = crate::report::temp_path(path);
-    let (lo, hi) = points.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), p| {
-        (lo.min(p.u_max), hi.max(p.u_max))
-    });
-    let t_hi = points
-        .iter()
-        .filter_map(|p| p.settling_time)
-        .fold(2.0 * two_ts, f64::max)
-        * 1.1;
-    let e_hi = points
-        .iter()
-        .filter_map(|p| p.max_error_after_predefined_time)
-        .fold(0.1, f64::max)
-        * 1.1;
-    let draw = || -> std::result::Result<(), String> {
-        let root = BitMapBackend::new(&tmp, (1100, 800)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| e.to_string())?;
-        let (top, bottom) = root.split_vertically(400);
-        let x_range = (lo / 1.2..hi * 1.2).log_scale();
+    let chart = LimitSweep {
+        points,
+        two_ts,
+        title,
+    };
+    figure::save(path, &FigureStyle::px(1100, 800), &chart)
+}
+
+struct LimitSweep<'a> {
+    points: &'a [LimitPoint],
+    two_ts: f64,
+    title: &'a str,
+}
+
+impl Figure for LimitSweep<'_> {
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        style: &FigureStyle,
+        _: Format,
+    ) -> DrawResult {
+        let (points, two_ts) = (self.points, self.two_ts);
+        let (lo, hi) = points.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), p| {
+            (lo.min(p.u_max), hi.max(p.u_max))
+        });
+        let t_hi = points
+            .iter()
+            .filter_map(|p| p.settling_time)
+            .fold(2.0 * two_ts, f64::max)
+            * 1.1;
+        let e_hi = points
+            .iter()
+            .filter_map(|p| p.max_error_after_predefined_time)
+            .fold(0.1, f64::max)
+            * 1.1;
+        let halves = grid(root, (2, 1));
         let settling: fn(&LimitPoint) -> Option<f64> = |p| p.settling_time;
         let error: fn(&LimitPoint) -> Option<f64> = |p| p.max_error_after_predefined_time;
         let panels = [
-            (&top, "settling time (band settle_band) [s]", t_hi, settling),
-            (&bottom, "max |y_i - y_d| after 2 Ts", e_hi, error),
+            ("settling time (band settle_band) [s]", t_hi, settling),
+            ("max |y_i - y_d| after 2 Ts", e_hi, error),
         ];
-        for (k, (area, label, y_hi, value)) in panels.into_iter().enumerate() {
+        for (k, ((label, y_hi, value), area)) in panels.into_iter().zip(&halves).enumerate() {
             let caption = if k == 0 {
-                format!("{title}: torque limit u_max vs settling")
+                format!("{}: torque limit u_max vs settling", self.title)
             } else {
                 "tracking error after the predefined time 2 Ts".to_string()
             };
-            let mut c = ChartBuilder::on(area)
-                .caption(caption, ("sans-serif", 18))
-                .margin(10)
-                .x_label_area_size(34)
-                .y_label_area_size(70)
-                .build_cartesian_2d(x_range.clone(), 0.0..y_hi)
-                .map_err(|e| e.to_string())?;
-            c.configure_mesh()
-                .x_desc("u_max per actuator (log)")
-                .y_desc(label)
+            let frame = Frame {
+                x_labels: 34,
+                ..FRAME
+            };
+            let x_range = (lo / 1.2..hi * 1.2).log_scale();
+            let mut c = cartesian(area, style, &caption, frame, (x_range, 0.0..y_hi))
+                .map_err(drawing_error)?;
+            axes(&mut c, style, ("u_max per actuator (log)", label), (13, 13))
                 .x_label_formatter(&|v| format!("{v:.0}"))
-                .label_style(("sans-serif", 13))
                 .draw()
-                .map_err(|e| e.to_string())?;
+                .map_err(drawing_error)?;
             if k == 0 {
-                let style = BLACK.mix(0.6).stroke_width(2);
-                c.draw_series(LineSeries::new(
-                    [(lo / 1.2, two_ts), (hi * 1.2, two_ts)],
-                    style,
-                ))
-                .map_err(|e| e.to_string())?
-                .label(format!("2 Ts = {two_ts} s"))
-                .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], style));
+                reference_line(
+                    &mut c,
+                    (lo / 1.2, hi * 1.2),
+                    two_ts,
+                    format!("2 Ts = {two_ts} s"),
+                )?;
             }
             let pts: Vec<(f64, f64)> = points
                 .iter()
                 .filter_map(|p| value(p).map(|v| (p.u_max, v)))
                 .collect();
             c.draw_series(LineSeries::new(pts.clone(), BLUE.stroke_width(2)))
-                .map_err(|e| e.to_string())?;
+                .map_err(drawing_error)?;
             c.draw_series(pts.iter().map(|&p| Circle::new(p, 4, BLUE.filled())))
-                .map_err(|e| e.to_string())?
+                .map_err(drawing_error)?
                 .label("Example 2, [safety] u_max")
                 .legend(|(x, y)| Circle::new((x + 9, y), 4, BLUE.filled()));
             let never: Vec<(f64, f64)> = points
@@ -607,11 +635,9 @@ pub fn draw_limit_sweep(
                 .map(|p| (p.u_max, y_hi / 1.1))
                 .collect();
             c.draw_series(never.iter().map(|&p| Cross::new(p, 6, RED.stroke_width(2))))
-                .map_err(|e| e.to_string())?;
-            legend(&mut c, SeriesLabelPosition::UpperRight)?;
+                .map_err(drawing_error)?;
+            legend(&mut c, style, SeriesLabelPosition::UpperRight, 13).map_err(drawing_error)?;
         }
-        root.present().map_err(|e| e.to_string())
-    };
-    draw().map_err(|e| crate::Error::io(path, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| crate::Error::io(path, e))
+        Ok(())
+    }
 }

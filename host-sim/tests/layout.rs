@@ -27,7 +27,7 @@ const BLOCKS: [&str; 6] = [
 const LAYERS: &[(&str, &[&str])] = &[
     (
         "foundation: errors, random draws, output files and interrupts",
-        &["error.rs", "generate.rs", "report/mod.rs"],
+        &["error.rs", "generate.rs", "report/mod.rs", "figure"],
     ),
     (
         "blocks: one scenario section each, and what the loop and the summary share",
@@ -56,7 +56,7 @@ const LAYERS: &[(&str, &[&str])] = &[
     ),
     ("commands", &["run.rs", "compare.rs", "matrix.rs"]),
     ("many runs", &["campaign"]),
-    ("crate root and binary", &["lib.rs", "main.rs"]),
+    ("crate root and binary", &["lib.rs", "main.rs", "cli"]),
 ];
 
 /// The layer of `file` (index into [`LAYERS`]).

@@ -5,15 +5,21 @@
 use std::{collections::BTreeMap, ops::Range, path::Path, path::PathBuf};
 
 use plotters::{
-    coord::{ranged1d::SegmentValue, Shift},
+    coord::{ranged1d::SegmentValue, types::RangedCoordf64, Shift},
     prelude::*,
     style::colors::colormaps::ViridisRGB,
 };
 
 use crate::{
-    campaign::spec::CampaignFile,
+    campaign::spec::{Axis, CampaignFile},
     error::{Error, Result},
-    report::{plots::register_font, temp_path},
+    figure::{
+        self,
+        chart::{axes, cartesian, legend, Frame},
+        drawing_error as err, grid,
+        text::short,
+        DrawResult, Figure, FigureStyle, Format,
+    },
     scenario::Scenario,
 };
 
@@ -179,23 +185,6 @@ impl Scale {
     }
 }
 
-/// Three significant digits.
-fn short(v: f64) -> String {
-    if v == 0.0 {
-        "0".into()
-    } else if (1e-4..1e4).contains(&v.abs()) {
-        let digits = (2 - v.abs().log10().floor() as i32).clamp(0, 6) as usize;
-        let s = format!("{v:.digits$}");
-        if s.contains('.') {
-            s.trim_end_matches('0').trim_end_matches('.').to_string()
-        } else {
-            s
-        }
-    } else {
-        format!("{v:.2e}")
-    }
-}
-
 /// Writes the figures that fit the campaign's shape; returns their paths.
 pub fn draw(
     file: &CampaignFile,
@@ -204,12 +193,15 @@ pub fn draw(
     rows: &BTreeMap<u64, String>,
     out: &Path,
 ) -> Result<Vec<PathBuf>> {
-    register_font();
     let t = Table::new(&file.plot.metric, base.controller.ts, header, rows)?;
     let mut written = Vec::new();
     if file.draws > 1 || (file.axis.is_empty() && !file.sample.is_empty()) {
         let p = out.join("montecarlo.png");
-        png(&p, (1300, 560), |root| monte_carlo(root, &t))?;
+        figure::save(
+            &p,
+            &FigureStyle::px(1300, 560),
+            &CampaignFigure::MonteCarlo(&t),
+        )?;
         written.push(p);
     }
     let t = if file.draws > 1 {
@@ -219,37 +211,45 @@ pub fn draw(
     };
     if file.axis.len() == 1 {
         let p = out.join("line.png");
-        png(&p, (1000, 600), |root| line(root, &t, &file.axis[0]))?;
+        let chart = CampaignFigure::Line(&t, &file.axis[0]);
+        figure::save(&p, &FigureStyle::px(1000, 600), &chart)?;
         written.push(p);
     } else if file.axis.len() == 2 {
         let p = out.join("map.png");
         let (a, b) = (&file.axis[0], &file.axis[1]);
-        let size = (
+        let style = FigureStyle::px(
             (300 + 100 * a.values.len()).clamp(1000, 1800) as u32,
             (200 + 60 * b.values.len()).clamp(500, 1400) as u32,
         );
-        png(&p, size, |root| heatmap(root, &t, a, b))?;
+        figure::save(&p, &style, &CampaignFigure::Heatmap(&t, a, b))?;
         written.push(p);
     }
     Ok(written)
 }
 
-type Draw<'a> = DrawingArea<BitMapBackend<'a>, Shift>;
-type DrawResult = std::result::Result<(), String>;
-
-fn png(path: &Path, size: (u32, u32), f: impl FnOnce(&Draw<'_>) -> DrawResult) -> Result<()> {
-    let tmp = temp_path(path);
-    {
-        let root = BitMapBackend::new(&tmp, size).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| Error::io(path, e))?;
-        f(&root).map_err(|e| Error::io(path, e))?;
-        root.present().map_err(|e| Error::io(path, e))?;
-    }
-    std::fs::rename(&tmp, path).map_err(|e| Error::io(path, e))
+/// The figures of a campaign.
+enum CampaignFigure<'a> {
+    /// The histogram and settling-time CDF of a Monte Carlo campaign.
+    MonteCarlo(&'a Table),
+    /// The metric over the one axis.
+    Line(&'a Table, &'a Axis),
+    /// The metric over the two axes.
+    Heatmap(&'a Table, &'a Axis, &'a Axis),
 }
 
-fn err(e: impl std::fmt::Display) -> String {
-    e.to_string()
+impl Figure for CampaignFigure<'_> {
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        style: &FigureStyle,
+        _: Format,
+    ) -> DrawResult {
+        match *self {
+            Self::MonteCarlo(t) => monte_carlo(root, style, t),
+            Self::Line(t, a) => line(root, style, t, a),
+            Self::Heatmap(t, a, b) => heatmap(root, style, t, a, b),
+        }
+    }
 }
 
 fn axis_number(v: &toml::Value) -> Option<f64> {
@@ -261,11 +261,12 @@ fn axis_label(v: &toml::Value) -> String {
 }
 
 /// Heatmap: first axis across, second axis up; colour = metric (log10 when it spans decades).
-fn heatmap(
-    root: &Draw<'_>,
+fn heatmap<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    style: &FigureStyle,
     t: &Table,
-    a: &crate::campaign::spec::Axis,
-    b: &crate::campaign::spec::Axis,
+    a: &Axis,
+    b: &Axis,
 ) -> DrawResult {
     let (nx, ny) = (a.values.len(), b.values.len());
     let scale = Scale::for_values(t.values().collect::<Vec<_>>().into_iter());
@@ -283,20 +284,21 @@ fn heatmap(
     let (w, _) = root.dim_in_pixel();
     let (main, bar) = root.split_horizontally(w.saturating_sub(150));
     let metric = t.metric.as_str();
-    let mut chart = ChartBuilder::on(&main)
-        .caption(
-            format!("{metric} over {} x {}{}", a.key, b.key, t.summary),
-            ("sans-serif", 18),
-        )
-        .margin(12)
-        .x_label_area_size(48)
-        .y_label_area_size(80)
-        .build_cartesian_2d(
+    let mut chart = cartesian(
+        &main,
+        style,
+        &format!("{metric} over {} x {}{}", a.key, b.key, t.summary),
+        Frame {
+            caption: 18,
+            ..FRAME
+        },
+        (
             (0..nx as i32 - 1).into_segmented(),
             (0..ny as i32 - 1).into_segmented(),
-        )
-        .map_err(err)?;
-    let label = |axis: &crate::campaign::spec::Axis, v: &SegmentValue<i32>| match v {
+        ),
+    )
+    .map_err(err)?;
+    let label = |axis: &Axis, v: &SegmentValue<i32>| match v {
         SegmentValue::CenterOf(i) => axis
             .values
             .get(*i as usize)
@@ -306,20 +308,15 @@ fn heatmap(
     };
     let xl = |v: &SegmentValue<i32>| label(a, v);
     let yl = |v: &SegmentValue<i32>| label(b, v);
-    chart
-        .configure_mesh()
+    axes(&mut chart, style, (&a.key, &b.key), (14, 16))
         .disable_mesh()
         .x_labels(nx)
         .y_labels(ny)
-        .x_desc(a.key.as_str())
-        .y_desc(b.key.as_str())
         .x_label_formatter(&xl)
         .y_label_formatter(&yl)
-        .label_style(("sans-serif", 14))
-        .axis_desc_style(("sans-serif", 16))
         .draw()
         .map_err(err)?;
-    let font = ("sans-serif", 13).into_font();
+    let font = style.font(13);
     for (run, cell) in t.cells.iter().enumerate() {
         let (i, j) = ((run / ny) as i32, (run % ny) as i32);
         let (div, of) = t.diverged[run];
@@ -380,10 +377,16 @@ fn heatmap(
                 .map_err(err)?;
         }
     }
-    colour_bar(&bar, lo, hi, scale, metric)
+    colour_bar(&bar, style, (lo, hi), scale, metric)
 }
 
-fn colour_bar(area: &Draw<'_>, lo: f64, hi: f64, scale: Scale, metric: &str) -> DrawResult {
+fn colour_bar<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    style: &FigureStyle,
+    (lo, hi): (f64, f64),
+    scale: Scale,
+    metric: &str,
+) -> DrawResult {
     let fmt = move |v: &f64| short(scale.from(*v));
     let mut c = ChartBuilder::on(area)
         .margin_top(50)
@@ -401,7 +404,7 @@ fn colour_bar(area: &Draw<'_>, lo: f64, hi: f64, scale: Scale, metric: &str) -> 
         } else {
             metric.to_string()
         })
-        .label_style(("sans-serif", 12))
+        .label_style(style.font(12))
         .draw()
         .map_err(err)?;
     let steps = 100;
@@ -416,7 +419,12 @@ fn colour_bar(area: &Draw<'_>, lo: f64, hi: f64, scale: Scale, metric: &str) -> 
 }
 
 /// Line over the one axis; diverged and invalid runs as markers along the top.
-fn line(root: &Draw<'_>, t: &Table, a: &crate::campaign::spec::Axis) -> DrawResult {
+fn line<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    style: &FigureStyle,
+    t: &Table,
+    a: &Axis,
+) -> DrawResult {
     let numeric = a.values.iter().all(|v| axis_number(v).is_some());
     let xs: Vec<f64> = a
         .values
@@ -456,18 +464,20 @@ fn line(root: &Draw<'_>, t: &Table, a: &crate::campaign::spec::Axis) -> DrawResu
         }
     };
     let yf = move |v: &f64| short(yscale.from(*v));
-    let mut c = ChartBuilder::on(root)
-        .caption(
-            format!("{} over {}{}", t.metric, a.key, t.summary),
-            ("sans-serif", 20),
-        )
-        .margin(12)
-        .x_label_area_size(48)
-        .y_label_area_size(80)
-        .build_cartesian_2d(xr, yr.clone())
-        .map_err(err)?;
+    let mut c = cartesian(
+        root,
+        style,
+        &format!("{} over {}{}", t.metric, a.key, t.summary),
+        Frame {
+            caption: 20,
+            ..FRAME
+        },
+        (xr, yr.clone()),
+    )
+    .map_err(err)?;
     mesh(
         &mut c,
+        style,
         &xf,
         &yf,
         &with_scale(&a.key, xscale),
@@ -528,7 +538,7 @@ fn line(root: &Draw<'_>, t: &Table, a: &crate::campaign::spec::Axis) -> DrawResu
             .label("predefined time 2Ts")
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], grey));
     }
-    legend(&mut c, SeriesLabelPosition::UpperRight)
+    legend(&mut c, style, SeriesLabelPosition::UpperRight, 13).map_err(err)
 }
 
 fn with_scale(name: &str, s: Scale) -> String {
@@ -539,44 +549,43 @@ fn with_scale(name: &str, s: Scale) -> String {
     }
 }
 
-type Chart<'a, 'b> = ChartContext<
-    'a,
-    BitMapBackend<'b>,
-    Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
->;
+/// Captions, margins and label areas of the line and Monte Carlo charts (the caption size is
+/// each chart's own).
+const FRAME: Frame = Frame {
+    caption: 17,
+    margin: 12,
+    x_labels: 48,
+    y_labels: 80,
+};
 
-fn mesh<'a, 'b: 'a>(
-    c: &mut Chart<'a, 'b>,
+/// The grid and axes of a line or Monte Carlo chart: value formatters and descriptions.
+fn mesh<DB: DrawingBackend>(
+    c: &mut ChartContext<'_, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>,
+    style: &FigureStyle,
     xf: &dyn Fn(&f64) -> String,
     yf: &dyn Fn(&f64) -> String,
     xd: &str,
     yd: &str,
 ) -> DrawResult {
-    c.configure_mesh()
+    axes(c, style, (xd, yd), (13, 15))
         .x_label_formatter(xf)
         .y_label_formatter(yf)
-        .x_desc(xd)
-        .y_desc(yd)
-        .label_style(("sans-serif", 13))
-        .axis_desc_style(("sans-serif", 15))
-        .draw()
-        .map_err(err)
-}
-
-fn legend<'a, 'b: 'a>(c: &mut Chart<'a, 'b>, at: SeriesLabelPosition) -> DrawResult {
-    c.configure_series_labels()
-        .position(at)
-        .label_font(("sans-serif", 13))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
         .draw()
         .map_err(err)
 }
 
 /// Histogram of the metric (runs with a value) and the empirical CDF of the settling time
 /// over all finished runs (never settled or diverged count as not settled), with `2 T_s`.
-fn monte_carlo(root: &Draw<'_>, t: &Table) -> DrawResult {
-    let panels = root.split_evenly((1, 2));
+fn monte_carlo<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    style: &FigureStyle,
+    t: &Table,
+) -> DrawResult {
+    let panels = grid(root, (1, 2));
+    let frame = Frame {
+        y_labels: 64,
+        ..FRAME
+    };
     let n = t.cells.len();
     let diverged = t.cells.iter().filter(|c| **c == Cell::Diverged).count();
     let invalid = t.cells.iter().filter(|c| **c == Cell::Invalid).count();
@@ -594,21 +603,21 @@ fn monte_carlo(root: &Draw<'_>, t: &Table) -> DrawResult {
     let ymax = f64::from(counts.iter().copied().max().unwrap_or(1)).max(1.0) * 1.1;
     let xf = move |v: &f64| short(scale.from(*v));
     let yf = |v: &f64| format!("{v:.0}");
-    let mut c = ChartBuilder::on(&panels[0])
-        .caption(
-            format!(
-                "{}: {} of {n} runs ({diverged} diverged, {invalid} invalid)",
-                t.metric,
-                vals.len()
-            ),
-            ("sans-serif", 17),
-        )
-        .margin(12)
-        .x_label_area_size(48)
-        .y_label_area_size(64)
-        .build_cartesian_2d(xr.clone(), 0.0..ymax)
-        .map_err(err)?;
-    mesh(&mut c, &xf, &yf, &with_scale(&t.metric, scale), "runs")?;
+    let caption = format!(
+        "{}: {} of {n} runs ({diverged} diverged, {invalid} invalid)",
+        t.metric,
+        vals.len()
+    );
+    let mut c =
+        cartesian(&panels[0], style, &caption, frame, (xr.clone(), 0.0..ymax)).map_err(err)?;
+    mesh(
+        &mut c,
+        style,
+        &xf,
+        &yf,
+        &with_scale(&t.metric, scale),
+        "runs",
+    )?;
     let blue = RGBColor(31, 119, 180);
     c.draw_series(counts.iter().enumerate().map(|(b, &k)| {
         let x0 = xr.start + b as f64 * width;
@@ -642,24 +651,18 @@ fn monte_carlo(root: &Draw<'_>, t: &Table) -> DrawResult {
         .max(predefined)
         .max(1e-9)
         * 1.05;
-    let mut c = ChartBuilder::on(&panels[1])
-        .caption(
-            format!(
-                "settling time: {:.1} % settle, {:.1} % by 2Ts",
-                100.0 * share(settled.len()),
-                100.0 * share(by_predefined)
-            ),
-            ("sans-serif", 17),
-        )
-        .margin(12)
-        .x_label_area_size(48)
-        .y_label_area_size(64)
-        .build_cartesian_2d(0.0..tmax, 0.0..1.02)
-        .map_err(err)?;
+    let caption = format!(
+        "settling time: {:.1} % settle, {:.1} % by 2Ts",
+        100.0 * share(settled.len()),
+        100.0 * share(by_predefined)
+    );
+    let mut c =
+        cartesian(&panels[1], style, &caption, frame, (0.0..tmax, 0.0..1.02)).map_err(err)?;
     let xf = |v: &f64| short(*v);
     let yf = |v: &f64| format!("{v:.1}");
     mesh(
         &mut c,
+        style,
         &xf,
         &yf,
         "settling_time [s]",
@@ -683,20 +686,5 @@ fn monte_carlo(root: &Draw<'_>, t: &Table) -> DrawResult {
     .map_err(err)?
     .label(format!("predefined time 2Ts = {}", short(predefined)))
     .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], grey));
-    legend(&mut c, SeriesLabelPosition::LowerRight)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::short;
-
-    #[test]
-    fn short_numbers() {
-        assert_eq!(short(0.001), "0.001");
-        assert_eq!(short(0.1703), "0.17");
-        assert_eq!(short(47.21), "47.2");
-        assert_eq!(short(2.0), "2");
-        assert_eq!(short(0.0), "0");
-        assert_eq!(short(16519.0), "1.65e4");
-    }
+    legend(&mut c, style, SeriesLabelPosition::LowerRight, 13).map_err(err)
 }

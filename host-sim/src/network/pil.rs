@@ -46,13 +46,16 @@ use hil_mock::{
 
 use crate::{
     error::{Error, Result},
+    figure::{
+        panel::{render, Panel, Series},
+        FigureStyle,
+    },
     figures::{FirmwareSummary, NetworkSummary},
     graph::Graph,
     network::{
         spec::{bus_config, node_config, ns, NetworkKind, NetworkSpec},
         trace::{candump_fd_line, candump_line, TraceWriter, Traces, INTERFACE},
     },
-    report::plots::{render, Panel, Series},
     sim::{Agents, K},
 };
 
@@ -836,7 +839,13 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
             series,
             ..Panel::default()
         };
-        render(dir, "firmware", &[panel], (1, 1), (1000, 560))
+        render(
+            dir,
+            "firmware",
+            &[panel],
+            (1, 1),
+            FigureStyle::px(1000, 560),
+        )
     }
 
     fn finish(&mut self) -> Result<()> {

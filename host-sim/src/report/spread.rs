@@ -6,9 +6,14 @@ use std::path::Path;
 
 use plotters::style::{Color, RGBAColor, BLACK};
 
-use super::plots::{color, render, secs, Panel, Series, MAX_PLOTTED_AGENTS, TARGET_POINTS};
+use super::plots::{MAX_PLOTTED_AGENTS, TARGET_POINTS};
 use crate::{
     error::Result,
+    figure::{
+        panel::{color, render, Panel, Series},
+        text::secs,
+        FigureStyle,
+    },
     scenario::Setup,
     sim::{Observer, SampleView},
 };
@@ -138,7 +143,13 @@ impl Spread {
             clip_spikes: true,
             ..Panel::default()
         };
-        render(dir, "spread", &[errors, inputs], (2, 1), (1200, 800))
+        render(
+            dir,
+            "spread",
+            &[errors, inputs],
+            (2, 1),
+            FigureStyle::px(1200, 800),
+        )
     }
 }
 

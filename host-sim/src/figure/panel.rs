@@ -1,0 +1,756 @@
+//! Time-series panels (the run, spread, compare and firmware figures): lines told apart by
+//! colour, dash pattern and marker, the band `±b`, vertical and horizontal reference lines,
+//! shaded windows, a log y axis, clipped spikes with their peak written, and a legend in the
+//! corner with the fewest data points.
+
+use std::path::Path;
+
+use plotters::{
+    coord::Shift,
+    element::{DashedPathElement, Drawable, PointCollection},
+    prelude::*,
+    style::RGBAColor,
+};
+use plotters_backend::{
+    text_anchor::{HPos, Pos, VPos},
+    BackendCoord, DrawingErrorKind,
+};
+
+use super::{
+    chart::{axes, legend, Drawn},
+    drawing_error, grid, save_png_and_svg,
+    text::{bitmap_text, secs, short_name, significant, sup, tick_label},
+    DrawResult, Figure, FigureStyle, Format,
+};
+use crate::error::Result;
+
+/// Markers per series, staggered between the series of a panel so that they never coincide.
+const MARKERS_PER_SERIES: usize = 20;
+
+/// Stroke pattern of a line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Dash {
+    /// Continuous.
+    Solid,
+    /// Long dashes.
+    Long,
+    /// Short dashes.
+    Short,
+    /// Dots.
+    Dotted,
+}
+
+impl Dash {
+    /// Dash and gap length [px], `None` for a solid line.
+    fn pattern(self) -> Option<(u32, u32)> {
+        match self {
+            Self::Solid => None,
+            Self::Long => Some((12, 6)),
+            Self::Short => Some((5, 4)),
+            Self::Dotted => Some((2, 4)),
+        }
+    }
+}
+
+/// Marker drawn at a few points of a line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Marker {
+    /// No marker.
+    None,
+    /// Open circle.
+    Circle,
+    /// Filled triangle.
+    Triangle,
+    /// Cross.
+    Cross,
+    /// Filled circle.
+    Disc,
+}
+
+const DASHES: [Dash; 4] = [Dash::Solid, Dash::Long, Dash::Short, Dash::Dotted];
+const MARKERS: [Marker; 5] = [
+    Marker::None,
+    Marker::Circle,
+    Marker::Triangle,
+    Marker::Cross,
+    Marker::Disc,
+];
+
+/// One line of a panel.
+#[derive(Debug, Clone)]
+pub struct Series {
+    /// Legend text.
+    pub label: String,
+    /// Colour.
+    pub color: RGBAColor,
+    /// Stroke width.
+    pub width: u32,
+    /// Stroke pattern.
+    pub dash: Dash,
+    /// Marker.
+    pub marker: Marker,
+    /// Points.
+    pub points: Vec<(f64, f64)>,
+    /// The exact largest-magnitude sample `(t, value)` when the points are decimated (named in
+    /// the note on a clipped peak).
+    pub peak: Option<(f64, f64)>,
+}
+
+impl Series {
+    /// Line number `i` of a panel: colour, dash pattern and marker all differ from line `i ± 1`.
+    pub fn styled(label: String, i: usize, points: Vec<(f64, f64)>) -> Self {
+        Self {
+            label,
+            color: color(i),
+            width: 2,
+            dash: DASHES[i % DASHES.len()],
+            marker: MARKERS[i % MARKERS.len()],
+            points,
+            peak: None,
+        }
+    }
+
+    /// A solid line without marker.
+    pub fn plain(label: String, color: RGBAColor, width: u32, points: Vec<(f64, f64)>) -> Self {
+        Self {
+            label,
+            color,
+            width,
+            dash: Dash::Solid,
+            marker: Marker::None,
+            points,
+            peak: None,
+        }
+    }
+}
+
+/// A shaded time interval (an actuator fault window).
+#[derive(Debug, Clone)]
+pub struct Shade {
+    /// Start [s].
+    pub from: f64,
+    /// End [s].
+    pub to: f64,
+    /// Fill.
+    pub color: RGBAColor,
+    /// Legend text (one entry per distinct text).
+    pub label: String,
+}
+
+/// One chart.
+#[derive(Debug, Clone, Default)]
+pub struct Panel {
+    /// Caption.
+    pub title: String,
+    /// Y axis label, with unit.
+    pub y_label: String,
+    /// Lines.
+    pub series: Vec<Series>,
+    /// Vertical markers (e.g. the predefined time `2 Tₛ`).
+    pub vlines: Vec<(f64, String)>,
+    /// Horizontal dashed lines (e.g. the band `b` on a log axis).
+    pub hlines: Vec<(f64, String)>,
+    /// The band `±b`, shaded.
+    pub band: Option<(f64, String)>,
+    /// Shaded intervals.
+    pub shades: Vec<Shade>,
+    /// Show only `t ≥` this.
+    pub x_from: Option<f64>,
+    /// Logarithmic y axis (non-positive values are left out).
+    pub log_y: bool,
+    /// Clip isolated spikes (the y range follows the bulk of the data) and mark each clipped
+    /// peak with its value.
+    pub clip_spikes: bool,
+    /// Draw the title's combining marks (the hat of `ξ̂`) as separate glyphs (bitmap output).
+    pub marks_by_hand: bool,
+    /// Where the legend goes.
+    pub legend: Legend,
+}
+
+/// The legend of a panel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Legend {
+    /// In the corner with the fewest data points; when every corner has data, the y range
+    /// grows so that the upper right one is free.
+    #[default]
+    Corner,
+    /// None: another panel of the figure names the same lines (one legend per figure).
+    Hidden,
+}
+
+/// Colour of line `i` (the tab10 palette: distinct, readable on white).
+pub fn color(i: usize) -> RGBAColor {
+    const TAB10: [(u8, u8, u8); 10] = [
+        (31, 119, 180),
+        (255, 127, 14),
+        (44, 160, 44),
+        (214, 39, 40),
+        (148, 103, 189),
+        (140, 86, 75),
+        (227, 119, 194),
+        (127, 127, 127),
+        (188, 189, 34),
+        (23, 190, 207),
+    ];
+    let (r, g, b) = TAB10[i % TAB10.len()];
+    RGBColor(r, g, b).to_rgba()
+}
+
+/// Panels on a `rows` × `cols` grid, row by row; an empty panel leaves its cell blank.
+#[derive(Debug, Clone, Copy)]
+pub struct Panels<'a> {
+    /// The panels.
+    pub panels: &'a [Panel],
+    /// `(rows, cols)`.
+    pub layout: (usize, usize),
+}
+
+impl Figure for Panels<'_> {
+    fn draw<DB: DrawingBackend>(
+        &self,
+        root: &DrawingArea<DB, Shift>,
+        style: &FigureStyle,
+        format: Format,
+    ) -> DrawResult {
+        for (area, p) in grid(root, self.layout).iter().zip(self.panels) {
+            if p.series.is_empty() {
+                continue;
+            }
+            let drawn = if format.is_bitmap() {
+                draw_panel(area, style, &for_bitmap(p))
+            } else {
+                draw_panel(area, style, p)
+            };
+            drawn.map_err(drawing_error)?;
+        }
+        Ok(())
+    }
+}
+
+/// Draws `panels` on a `layout` grid into `dir/stem.png` and `dir/stem.svg`.
+pub fn render(
+    dir: &Path,
+    stem: &str,
+    panels: &[Panel],
+    layout: (usize, usize),
+    style: FigureStyle,
+) -> Result<()> {
+    save_png_and_svg(dir, stem, &style, &Panels { panels, layout })
+}
+
+fn for_bitmap(p: &Panel) -> Panel {
+    let mut p = p.clone();
+    p.marks_by_hand = true;
+    p.y_label = bitmap_text(&p.y_label);
+    for s in &mut p.series {
+        s.label = bitmap_text(&s.label);
+    }
+    for (_, l) in p.vlines.iter_mut().chain(p.hlines.iter_mut()) {
+        *l = bitmap_text(l);
+    }
+    p
+}
+
+/// `(lo, hi)` of the finite values, padded; a unit range around a constant.
+fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in values.filter(|v| v.is_finite()) {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    if !lo.is_finite() {
+        return (-1.0, 1.0);
+    }
+    let pad = ((hi - lo) * 0.05).max(1e-9 + lo.abs().max(hi.abs()) * 1e-6);
+    (lo - pad, hi + pad)
+}
+
+/// The y limit beyond which isolated spikes are clipped: `None` when nothing stands out.
+/// The bulk is the 99th percentile of `|y|`; a peak more than 4× above it is a spike.
+fn spike_limit(values: &[f64]) -> Option<f64> {
+    let mut mags: Vec<f64> = values.iter().map(|v| v.abs()).collect();
+    if mags.len() < 20 {
+        return None;
+    }
+    mags.sort_by(f64::total_cmp);
+    let bulk = mags[(mags.len() - 1) * 99 / 100];
+    let max = mags[mags.len() - 1];
+    (bulk > 0.0 && max > 4.0 * bulk).then_some(1.5 * bulk)
+}
+
+/// A marker, or a legend sample (line with its dash pattern and marker), drawn with the
+/// backend's primitives so that one element type serves every kind.
+struct Glyph<C> {
+    at: C,
+    marker: Marker,
+    /// `Some`: a legend sample, 24 px of line with this pattern before the marker.
+    dash: Option<Dash>,
+    color: RGBAColor,
+    width: u32,
+}
+
+impl<'b, C: 'b> PointCollection<'b, C> for &'b Glyph<C> {
+    type Point = &'b C;
+    type IntoIter = std::iter::Once<&'b C>;
+    fn point_iter(self) -> Self::IntoIter {
+        std::iter::once(&self.at)
+    }
+}
+
+impl<C, DB: DrawingBackend> Drawable<DB> for Glyph<C> {
+    fn draw<I: Iterator<Item = BackendCoord>>(
+        &self,
+        mut pos: I,
+        b: &mut DB,
+        _: (u32, u32),
+    ) -> std::result::Result<(), DrawingErrorKind<DB::ErrorType>> {
+        let Some((mut x, y)) = pos.next() else {
+            return Ok(());
+        };
+        let line = self.color.stroke_width(self.width.min(3));
+        if let Some(dash) = self.dash {
+            let (d, g) = dash.pattern().unwrap_or((24, 0));
+            let mut s = 0;
+            while s < 24 {
+                b.draw_line((x + s, y), (x + (s + d as i32).min(24), y), &line)?;
+                s += (d + g) as i32;
+            }
+            x += 12;
+        }
+        let thin = self.color.stroke_width(1);
+        let fill = self.color.filled();
+        match self.marker {
+            Marker::None => {}
+            Marker::Circle => b.draw_circle((x, y), 4, &thin, false)?,
+            Marker::Disc => b.draw_circle((x, y), 3, &fill, true)?,
+            Marker::Triangle => {
+                b.fill_polygon([(x, y - 5), (x - 5, y + 4), (x + 5, y + 4)], &fill)?
+            }
+            Marker::Cross => {
+                let bold = self.color.stroke_width(2);
+                b.draw_line((x - 4, y - 4), (x + 4, y + 4), &bold)?;
+                b.draw_line((x - 4, y + 4), (x + 4, y - 4), &bold)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Draws `title` centred in `area`. With `marks_by_hand`, each combining mark (U+0300–U+036F)
+/// is drawn as its spacing form above its letter, raised over tall letters: the bitmap font
+/// renderer has no mark positioning and would bury the hat of `ξ̂` inside the `ξ`.
+fn draw_title<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    style: &FigureStyle,
+    title: &str,
+    marks_by_hand: bool,
+) -> Drawn<DB> {
+    let font = TextStyle::from(style.font(17));
+    let (w, h) = area.dim_in_pixel();
+    let plain: String = title
+        .chars()
+        .filter(|c| !(marks_by_hand && ('\u{300}'..='\u{36f}').contains(c)))
+        .collect();
+    let width = |t: &str| area.estimate_text_size(t, &font).map(|s| s.0 as i32);
+    let left = w as i32 / 2 - width(&plain)? / 2;
+    let top = h as i32 / 2 + 2;
+    area.draw(&Text::new(
+        plain.clone(),
+        (left, top),
+        font.pos(Pos::new(HPos::Left, VPos::Center)),
+    ))?;
+    if !marks_by_hand {
+        return Ok(());
+    }
+    let mut prefix = String::new();
+    for c in title.chars() {
+        if !('\u{300}'..='\u{36f}').contains(&c) {
+            prefix.push(c);
+            continue;
+        }
+        let Some(base) = prefix.pop() else { continue };
+        let x = left + width(&prefix)? + width(&base.to_string())? / 2;
+        prefix.push(base);
+        let spacing = match c {
+            '\u{302}' => 'ˆ',
+            '\u{303}' => '˜',
+            '\u{304}' => '¯',
+            '\u{307}' => '˙',
+            _ => continue,
+        };
+        let tall = base.is_uppercase() || "bdfhklλξδζθβ".contains(base);
+        let y = top - if tall { 5 } else { 1 };
+        area.draw(&Text::new(
+            spacing.to_string(),
+            (x, y),
+            font.pos(Pos::new(HPos::Center, VPos::Center)),
+        ))?;
+    }
+    Ok(())
+}
+
+/// The largest-magnitude point of a series beyond the clip limit `c`: its exact peak when
+/// known, else the largest of `pts`.
+fn clipped_peak(s: &Series, pts: &[(f64, f64)], c: f64) -> Option<(f64, f64)> {
+    s.peak.filter(|p| p.1.abs() > c).or_else(|| {
+        pts.iter()
+            .copied()
+            .filter(|(_, y)| y.abs() > c)
+            .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+    })
+}
+
+/// A note at `t` is written to the left of its peak in the right 45 % of the plot.
+fn note_to_the_left(t: f64, (x0, x1): (f64, f64)) -> bool {
+    (t - x0) / (x1 - x0) > 0.55
+}
+
+/// The corner of the plot where a legend box of `w` × `h` (fractions of the plot) covers the
+/// fewest data points (a point of a note counts 100), and how many it covers.
+fn legend_corner(
+    pts: &[Vec<(f64, f64)>],
+    notes: &[(f64, f64)],
+    (x0, x1): (f64, f64),
+    (y0, y1): (f64, f64),
+    (w, h): (f64, f64),
+) -> (SeriesLabelPosition, usize) {
+    let fx = |x: f64| (x - x0) / (x1 - x0);
+    let fy = |y: f64| (y.clamp(y0, y1) - y0) / (y1 - y0);
+    let corners = [
+        (SeriesLabelPosition::UpperRight, 1.0 - w, 1.0, 1.0 - h, 1.0),
+        (SeriesLabelPosition::LowerRight, 1.0 - w, 1.0, 0.0, h),
+        (SeriesLabelPosition::UpperLeft, 0.0, w, 1.0 - h, 1.0),
+        (SeriesLabelPosition::LowerLeft, 0.0, w, 0.0, h),
+    ];
+    let mut best = (SeriesLabelPosition::UpperRight, usize::MAX);
+    for (pos, ax, bx, ay, by) in corners {
+        let within =
+            |&&(x, y): &&(f64, f64)| (ax..=bx).contains(&fx(x)) && (ay..=by).contains(&fy(y));
+        let inside =
+            pts.iter().flatten().filter(within).count() + 100 * notes.iter().filter(within).count();
+        if inside < best.1 {
+            best = (pos, inside);
+        }
+    }
+    best
+}
+
+fn draw_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    page: &FigureStyle,
+    p: &Panel,
+) -> Drawn<DB> {
+    let from = p.x_from.unwrap_or(f64::NEG_INFINITY);
+    let visible = |s: &Series| -> Vec<(f64, f64)> {
+        s.points
+            .iter()
+            .copied()
+            .filter(|(x, y)| *x >= from && y.is_finite() && (!p.log_y || *y > 0.0))
+            .map(|(x, y)| if p.log_y { (x, y.log10()) } else { (x, y) })
+            .collect()
+    };
+    let pts: Vec<Vec<(f64, f64)>> = p.series.iter().map(visible).collect();
+    let (x0, x1) = range(pts.iter().flatten().map(|p| p.0));
+    let x0 = if p.x_from.is_some() {
+        x0.max(from)
+    } else {
+        x0.max(0.0)
+    };
+    let all_y: Vec<f64> = pts.iter().flatten().map(|p| p.1).collect();
+    let clip = if p.clip_spikes {
+        spike_limit(&all_y)
+    } else {
+        None
+    };
+    let extra: Vec<f64> = p
+        .band
+        .iter()
+        .flat_map(|(b, _)| [-b * 1.3, b * 1.3])
+        .chain(
+            p.hlines
+                .iter()
+                .map(|(v, _)| if p.log_y { v.log10() } else { *v }),
+        )
+        .collect();
+    let (mut y0, mut y1) = range(
+        all_y
+            .iter()
+            .map(|v| clip.map_or(*v, |c| v.clamp(-c, c)))
+            .chain(extra.iter().copied()),
+    );
+    if p.log_y {
+        // Whole decades around the data, without the linear padding.
+        let (lo, hi) = all_y
+            .iter()
+            .chain(&extra)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(*v), b.max(*v))
+            });
+        if lo.is_finite() {
+            (y0, y1) = (
+                (lo + 1e-9).floor(),
+                (hi - 1e-9).ceil().max(lo.floor() + 1.0),
+            );
+        }
+    }
+    // The legend goes into a free corner; when every corner has data, the y range grows so
+    // that the upper right one is free.
+    let mut shade_labels: Vec<&str> = p.shades.iter().map(|s| s.label.as_str()).collect();
+    shade_labels.sort_unstable();
+    shade_labels.dedup();
+    let entries = p.series.len()
+        + p.vlines.len()
+        + p.hlines.len()
+        + usize::from(p.band.is_some())
+        + shade_labels.len();
+    let longest = p
+        .series
+        .iter()
+        .map(|s| &s.label)
+        .chain(p.vlines.iter().chain(&p.hlines).map(|l| &l.1))
+        .chain(&p.band.iter().map(|b| b.1.clone()).collect::<Vec<_>>())
+        .map(|l| l.chars().count())
+        .chain(shade_labels.iter().map(|l| l.chars().count()))
+        .max()
+        .unwrap_or(0);
+    let (aw, ah) = area.dim_in_pixel();
+    let legend_box = (
+        (longest as f64 * 6.6 + 48.0) / (f64::from(aw) - 100.0).max(1.0),
+        (entries as f64 * 17.0 + 14.0) / (f64::from(ah) - 80.0).max(1.0),
+    );
+    // The notes on clipped peaks occupy a strip beside the peak; the legend must not hide them.
+    let mut notes = Vec::new();
+    if let Some(c) = clip {
+        for (s, sp) in p.series.iter().zip(&pts) {
+            if let Some((t, v)) = clipped_peak(s, sp, c) {
+                let edge = v.clamp(-c, c);
+                let dir = if note_to_the_left(t, (x0, x1)) {
+                    -1.0
+                } else {
+                    1.0
+                };
+                notes.extend(
+                    (0..40).map(|k| (t + dir * (x1 - x0) * 0.5 * f64::from(k) / 40.0, edge)),
+                );
+            }
+        }
+    }
+    let (mut corner, covered) = legend_corner(&pts, &notes, (x0, x1), (y0, y1), legend_box);
+    if p.legend == Legend::Corner && covered > 0 && legend_box.1 < 0.35 && clip.is_none() {
+        let grow = (y1 - y0) * legend_box.1 / (1.0 - legend_box.1);
+        y1 += if p.log_y { grow.ceil() } else { grow };
+        corner = SeriesLabelPosition::UpperRight;
+    }
+    let span = y1 - y0;
+    let (title_area, area) = area.split_vertically(28);
+    draw_title(&title_area, page, &p.title, p.marks_by_hand)?;
+    let mut chart = ChartBuilder::on(&area)
+        .margin(8)
+        .margin_top(4)
+        .x_label_area_size(34)
+        .y_label_area_size(78)
+        .build_cartesian_2d(x0..x1, y0..y1)?;
+    let log = p.log_y;
+    let y_fmt = move |v: &f64| -> String {
+        if log {
+            let k = v.round();
+            if (v - k).abs() < 1e-6 {
+                format!("10{}", sup(k as i32))
+            } else {
+                String::new()
+            }
+        } else {
+            tick_label(*v, (y0, y1))
+        }
+    };
+    let x_fmt = move |v: &f64| tick_label(*v, (x0, x1));
+    let mut mesh = axes(&mut chart, page, ("time t [s]", &p.y_label), (13, 14));
+    mesh.y_label_formatter(&y_fmt).x_label_formatter(&x_fmt);
+    if log {
+        mesh.y_labels((span as usize + 1).min(12))
+            .y_max_light_lines(0);
+    }
+    mesh.draw()?;
+    if log {
+        // Minor grid at 2…9 × 10ᵏ.
+        let faint = BLACK.mix(0.08).stroke_width(1);
+        let minor = (y0 as i32..y1 as i32)
+            .flat_map(|k| (2..10).map(move |m| f64::from(k) + f64::from(m).log10()));
+        chart.draw_series(minor.map(|v| PathElement::new(vec![(x0, v), (x1, v)], faint)))?;
+    }
+
+    let mut labelled = Vec::new();
+    for sh in &p.shades {
+        let (a, b) = (sh.from.max(x0), sh.to.min(x1));
+        if a >= b {
+            continue;
+        }
+        let anno = chart.draw_series([Rectangle::new([(a, y0), (b, y1)], sh.color.filled())])?;
+        if !labelled.contains(&sh.label) {
+            labelled.push(sh.label.clone());
+            let c = sh.color.mix(2.5);
+            anno.label(sh.label.as_str())
+                .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 24, y + 5)], c.filled()));
+        }
+    }
+    if let Some((b, label)) = &p.band {
+        let fill = RGBColor(44, 160, 44).mix(0.12);
+        let edge = RGBColor(44, 160, 44).mix(0.8).stroke_width(1);
+        chart
+            .draw_series([Rectangle::new([(x0, -b), (x1, *b)], fill.filled())])?
+            .label(label.as_str())
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 24, y + 5)], fill.filled()));
+        for v in [-b, *b] {
+            chart.draw_series(DashedLineSeries::new([(x0, v), (x1, v)], 6, 4, edge))?;
+        }
+    }
+    for (v, label) in &p.hlines {
+        let v = if log { v.log10() } else { *v };
+        let style = RGBColor(44, 160, 44).stroke_width(2);
+        chart
+            .draw_series(DashedLineSeries::new([(x0, v), (x1, v)], 8, 5, style))?
+            .label(label.as_str())
+            .legend(move |(x, y)| DashedPathElement::new(vec![(x, y), (x + 24, y)], 8, 5, style));
+    }
+    for (k, (t, label)) in p.vlines.iter().enumerate() {
+        if *t < x0 || *t > x1 {
+            continue;
+        }
+        let style = if k == 0 {
+            BLACK.mix(0.6).stroke_width(2)
+        } else {
+            color(4 + k).stroke_width(2)
+        };
+        let (d, g) = if k == 0 { (1000, 1) } else { (6, 4) };
+        chart
+            .draw_series(DashedLineSeries::new([(*t, y0), (*t, y1)], d, g, style))?
+            .label(label.as_str())
+            .legend(move |(x, y)| DashedPathElement::new(vec![(x, y), (x + 24, y)], d, g, style));
+    }
+    let n_series = p.series.len().max(1);
+    let mut notes_drawn = 0;
+    for (k, (s, pts)) in p.series.iter().zip(&pts).enumerate() {
+        if pts.is_empty() {
+            continue;
+        }
+        let shown: Vec<(f64, f64)> = match clip {
+            Some(c) => pts.iter().map(|&(x, y)| (x, y.clamp(-c, c))).collect(),
+            None => pts.clone(),
+        };
+        let style = s.color.stroke_width(s.width);
+        let anno = match s.dash.pattern() {
+            None => chart.draw_series(LineSeries::new(shown.iter().copied(), style))?,
+            Some((d, g)) => {
+                chart.draw_series(DashedLineSeries::new(shown.iter().copied(), d, g, style))?
+            }
+        };
+        let (marker, dash, color, width) = (s.marker, s.dash, s.color, s.width);
+        if !s.label.is_empty() {
+            // An unlabelled series (the second edge of a band) has no legend entry.
+            anno.label(s.label.as_str()).legend(move |at| Glyph {
+                at,
+                marker,
+                dash: Some(dash),
+                color,
+                width,
+            });
+        }
+        let step = (shown.len() / MARKERS_PER_SERIES).max(1);
+        let offset = k * step / n_series;
+        if s.marker != Marker::None {
+            chart.draw_series(shown.iter().skip(offset).step_by(step).map(|&at| Glyph {
+                at,
+                marker: s.marker,
+                dash: None,
+                color: s.color,
+                width: s.width,
+            }))?;
+        }
+        if let Some(c) = clip {
+            // Mark the clipped peak of this series with its value.
+            if let Some((t, v)) = clipped_peak(s, pts, c) {
+                let edge = v.clamp(-c, c);
+                let arrow = if v > 0.0 { "▲" } else { "▼" };
+                // Notes stack into the plot: downwards from the top edge, upwards from the bottom.
+                let rank = notes_drawn;
+                notes_drawn += 1;
+                let dy = if v > 0.0 {
+                    4 + 16 * rank
+                } else {
+                    -18 - 16 * rank
+                };
+                // The note runs to the right of the peak, or to its left near the right edge.
+                let left = note_to_the_left(t, (x0, x1));
+                let (dx, h) = if left {
+                    (-24, HPos::Right)
+                } else {
+                    (24, HPos::Left)
+                };
+                let text = page.font(12).color(&s.color).pos(Pos::new(h, VPos::Top));
+                let note = format!(
+                    "{arrow} {}peak {} at t = {} (clipped)",
+                    if n_series > 1 {
+                        format!("{}: ", short_name(&s.label))
+                    } else {
+                        String::new()
+                    },
+                    significant(v),
+                    secs(t)
+                );
+                // A light backing keeps the note readable across grid and marker lines.
+                let w = (note.chars().count() as f64 * 6.4) as i32 + 4;
+                let (a, b) = if left {
+                    (dx - w, dx + 2)
+                } else {
+                    (dx - 2, dx + w)
+                };
+                chart.draw_series([EmptyElement::at((t, edge))
+                    + Rectangle::new([(a, dy - 1), (b, dy + 14)], WHITE.mix(0.8).filled())
+                    + TriangleMarker::new((0, 0), 6, s.color.filled())
+                    + Text::new(note, (dx, dy), text)])?;
+            }
+        }
+    }
+    match p.legend {
+        Legend::Corner => legend(&mut chart, page, corner, 12),
+        Legend::Hidden => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_hidden_legend_leaves_one_legend_per_figure() {
+        let dir = std::env::temp_dir().join(format!("host-sim-legend-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let line = |legend| Panel {
+            series: vec![Series::styled(
+                "agent 7".into(),
+                0,
+                vec![(0.0, 0.0), (1.0, 1.0)],
+            )],
+            legend,
+            ..Panel::default()
+        };
+        let style = FigureStyle::px(400, 400);
+        let legends = |panels: &[Panel]| {
+            render(&dir, "legend", panels, (2, 1), style).expect("figure");
+            let svg = std::fs::read_to_string(dir.join("legend.svg")).expect("svg");
+            svg.matches("agent 7").count()
+        };
+        assert_eq!(legends(&[line(Legend::Corner), line(Legend::Corner)]), 2);
+        assert_eq!(legends(&[line(Legend::Corner), line(Legend::Hidden)]), 1);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn spikes_are_found_only_when_they_stand_out() {
+        let mut v: Vec<f64> = (0..1000).map(|k| (k as f64 * 0.1).sin()).collect();
+        assert_eq!(spike_limit(&v), None);
+        v[3] = -27_000.0;
+        let c = spike_limit(&v).expect("a spike");
+        assert!(c > 1.0 && c < 2.0, "{c}");
+    }
+}
