@@ -231,7 +231,7 @@ pub const CATALOGUE: [(&str, &str); 16] = [
     ("bench.VARIANT.KEY", "one number of step.json's VARIANT (KEY also flash_total)"),
     ("scenarios", "shipped scenario table (host-sim run, stable-h)"),
     ("stable-h", "largest stable sample period per paper scenario (host-sim stable-h)"),
-    ("run.SCENARIO.KEY", "one figure of a shipped scenario's summary.json (KEY: max_error, settling_time, max_abs_u, bus_load, saturated)"),
+    ("run.SCENARIO.KEY", "one figure of a shipped scenario's summary.json (KEY: max_error, settling_time, max_abs_u, bus_load, saturated, frames_lost)"),
     ("agents.SCENARIO", "per-agent table of a shipped scenario's summary.json"),
     ("headline.SCENARIO", "the headline line of a shipped scenario's summary.json"),
     ("matrix.CASE", "fault matrix table, safety on and off (CASE: example1, example2, example2-fast)"),
@@ -689,7 +689,10 @@ fn scenario_table(src: &mut Sources) -> Result<String> {
 }
 
 fn parse_stable_h(text: &str) -> Option<(f64, Option<f64>)> {
-    let line = text.lines().find(|l| l.contains("stable"))?;
+    let line = text
+        .lines()
+        .rev()
+        .find(|l| l.starts_with("largest stable h") || l.starts_with("stable at h-max"))?;
     let value_after = |key: &str| -> Option<f64> {
         let at = line.find(key)? + key.len();
         line[at..]
@@ -743,10 +746,13 @@ fn headline(s: &Value) -> Result<String> {
 
 /// Three significant digits, in scientific notation below 0.01.
 fn sig3(x: f64) -> String {
-    if x != 0.0 && x.abs() < 0.01 {
+    if x == 0.0 {
+        "0".to_owned()
+    } else if x.abs() < 0.01 {
         format!("{x:.2e}")
     } else {
-        format!("{x:.3}")
+        let decimals = (2 - x.abs().log10().floor() as i32).max(0) as usize;
+        format!("{x:.decimals$}")
     }
 }
 
@@ -989,7 +995,7 @@ pub fn civil_from_days(z: i64) -> (i64, u32, u32) {
     (yoe + era * 400 + i64::from(m <= 2), m, d)
 }
 
-/// CPU model and core count.
+/// CPU model, core count and the one-minute load average.
 fn machine() -> String {
     let model = fs::read_to_string("/proc/cpuinfo")
         .ok()
@@ -1001,7 +1007,11 @@ fn machine() -> String {
         })
         .unwrap_or_else(|| std::env::consts::ARCH.to_owned());
     let cores = std::thread::available_parallelism().map_or(1, usize::from);
-    format!("{model}, {cores} cores")
+    let load = fs::read_to_string("/proc/loadavg")
+        .ok()
+        .and_then(|l| l.split_whitespace().next().map(|l| format!(", load {l}")))
+        .unwrap_or_default();
+    format!("{model}, {cores} cores{load}")
 }
 
 #[cfg(test)]
@@ -1100,6 +1110,15 @@ mod tests {
         assert_eq!(grouped(987.0, 0), "987");
         assert_eq!(grouped(1_234_567.0, 0), "1,234,567");
         assert_eq!(grouped(-0.04, 1), "0.0");
+    }
+
+    #[test]
+    fn estimates_keep_three_significant_digits() {
+        assert_eq!(sig3(0.0632), "0.0632");
+        assert_eq!(sig3(0.182), "0.182");
+        assert_eq!(sig3(0.11), "0.110");
+        assert_eq!(sig3(3.83e-6), "3.83e-6");
+        assert_eq!(sig3(12.34), "12.3");
     }
 
     #[test]
