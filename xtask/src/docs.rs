@@ -657,7 +657,7 @@ fn run_figure(s: &Value, key: &str) -> Result<String> {
         "settling_time" => settling(s),
         "max_abs_u" => grouped(num(s, "max_abs_u")?, 1),
         "bus_load" => fixed(num(&s["network"], "bus_load_percent")?, 1),
-        "saturated" => fixed(100.0 * num(s, "saturated_fraction")?, 2),
+        "saturated" => fixed(100.0 * num(s, "saturated_fraction")?, 1),
         "frames_lost" => grouped(num(&s["network"], "frames_lost")?, 0),
         other => return Err(format!("no run figure `{other}`")),
     })
