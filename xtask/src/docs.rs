@@ -245,27 +245,90 @@ pub const CATALOGUE: [(&str, &str); 16] = [
     ("wall.example1-run", "wall time of host-sim run example1 (date and machine; --wall-clock)"),
 ];
 
+/// A figure a block can name.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Figure<'a> {
+    BenchTable,
+    Bench(&'a str, &'a str),
+    Scenarios,
+    StableH,
+    Run(&'a str, &'a str),
+    Agents(&'a str),
+    Headline(&'a str),
+    Matrix(&'a str),
+    MatrixMet(&'a str),
+    MatrixCells(&'a str),
+    Torque,
+    TorqueSmallest,
+    TorqueFails,
+    Pil,
+    Size(&'a str),
+    WallExample1,
+}
+
+/// Figures of a `summary.json` that `run.SCENARIO.KEY` renders.
+const RUN_KEYS: [&str; 6] = [
+    "max_error",
+    "settling_time",
+    "max_abs_u",
+    "bus_load",
+    "saturated",
+    "frames_lost",
+];
+/// Fault matrices: `example1`, `example2` (the deploy scenarios, as CI runs them) and
+/// `example2-fast` (Example 2's deploy scenario at h = 0.2 ms on a 5 Mbit/s bus).
+const MATRICES: [&str; 3] = ["example1", "example2", "example2-fast"];
+/// `size_of` figures the sizes test prints.
+const SIZES: [&str; 4] = ["controller", "params", "state", "controller-n3"];
+
+/// The figure a block's name stands for; `None` when no figure has that name.
+fn parse(name: &str) -> Option<Figure<'_>> {
+    let parts: Vec<&str> = name.split('.').collect();
+    let scenario = |s: &str| SCENARIOS.iter().any(|x| x.0 == s);
+    let matrix = |c: &str| MATRICES.contains(&c);
+    Some(match parts.as_slice() {
+        ["bench-table"] => Figure::BenchTable,
+        ["bench", variant, key] => Figure::Bench(variant, key),
+        ["scenarios"] => Figure::Scenarios,
+        ["stable-h"] => Figure::StableH,
+        ["run", stem, key] if scenario(stem) && RUN_KEYS.contains(key) => Figure::Run(stem, key),
+        ["agents", stem] if scenario(stem) => Figure::Agents(stem),
+        ["headline", stem] if scenario(stem) => Figure::Headline(stem),
+        ["matrix", case] if matrix(case) => Figure::Matrix(case),
+        ["matrix", case, "met"] if matrix(case) => Figure::MatrixMet(case),
+        ["matrix", case, "cells"] if matrix(case) => Figure::MatrixCells(case),
+        ["torque-limit"] => Figure::Torque,
+        ["torque-limit", "smallest"] => Figure::TorqueSmallest,
+        ["torque-limit", "fails"] => Figure::TorqueFails,
+        ["pil"] => Figure::Pil,
+        ["sizes", key] if SIZES.contains(key) => Figure::Size(key),
+        ["wall", "example1-run"] => Figure::WallExample1,
+        _ => return None,
+    })
+}
+
 /// Renders figure `name`; `Ok(None)` when no figure has that name.
 fn render(name: &str, src: &mut Sources) -> Result<Option<String>> {
-    let parts: Vec<&str> = name.split('.').collect();
-    let text = match parts.as_slice() {
-        ["bench-table"] => bench_table(&src.bench()?)?,
-        ["bench", variant, key] => bench_figure(&src.bench()?, variant, key)?,
-        ["scenarios"] => scenario_table(src)?,
-        ["stable-h"] => stable_h_table(src)?,
-        ["run", stem, key] => run_figure(&src.summary(stem)?, key)?,
-        ["agents", stem] => agents_table(&src.summary(stem)?)?,
-        ["headline", stem] => headline(&src.summary(stem)?)?,
-        ["matrix", case] => matrix_table(&src.matrix(case)?)?,
-        ["matrix", case, "met"] => matrix_met(&src.matrix(case)?).to_string(),
-        ["matrix", case, "cells"] => matrix_cells(&src.matrix(case)?).to_string(),
-        ["torque-limit"] => torque_table(&src.torque()?)?,
-        ["torque-limit", "smallest"] => fixed(num(&src.torque()?, "smallest")?, 2),
-        ["torque-limit", "fails"] => fixed(num(&src.torque()?, "fails")?, 2),
-        ["pil"] => pil_table(&src.pil()?)?,
-        ["sizes", key] => sizes_figure(&src.sizes()?, key)?,
-        ["wall", "example1-run"] => wall_example1(src)?,
-        _ => return Ok(None),
+    let Some(figure) = parse(name) else {
+        return Ok(None);
+    };
+    let text = match figure {
+        Figure::BenchTable => bench_table(&src.bench()?)?,
+        Figure::Bench(variant, key) => bench_figure(&src.bench()?, variant, key)?,
+        Figure::Scenarios => scenario_table(src)?,
+        Figure::StableH => stable_h_table(src)?,
+        Figure::Run(stem, key) => run_figure(&src.summary(stem)?, key)?,
+        Figure::Agents(stem) => agents_table(&src.summary(stem)?)?,
+        Figure::Headline(stem) => headline(&src.summary(stem)?)?,
+        Figure::Matrix(case) => matrix_table(&src.matrix(case)?)?,
+        Figure::MatrixMet(case) => matrix_met(&src.matrix(case)?).to_string(),
+        Figure::MatrixCells(case) => matrix_cells(&src.matrix(case)?).to_string(),
+        Figure::Torque => torque_table(&src.torque()?)?,
+        Figure::TorqueSmallest => fixed(num(&src.torque()?, "smallest")?, 2),
+        Figure::TorqueFails => fixed(num(&src.torque()?, "fails")?, 2),
+        Figure::Pil => pil_table(&src.pil()?)?,
+        Figure::Size(key) => sizes_figure(&src.sizes()?, key)?,
+        Figure::WallExample1 => wall_example1(src)?,
     };
     Ok(Some(text))
 }
@@ -1194,6 +1257,43 @@ mod tests {
         let root = workspace("match", "1,089");
         process(&root, true, |_| false, figures).expect("figures match");
         let _ = fs::remove_dir_all(&root);
+    }
+
+    #[test]
+    fn every_block_in_the_repository_names_a_known_figure() {
+        let root = workspace_root();
+        let mut names = 0;
+        for file in documents(&root).expect("README.md and docs/") {
+            let text = fs::read_to_string(root.join(&file)).expect("readable");
+            for b in blocks(&text).unwrap_or_else(|e| panic!("{}: {e}", file.display())) {
+                assert!(
+                    parse(&b.name).is_some(),
+                    "{}:{}: unknown figure block `fig:{}`",
+                    file.display(),
+                    b.line,
+                    b.name
+                );
+                names += 1;
+            }
+        }
+        assert!(names > 0, "the documents quote no measured figure");
+    }
+
+    #[test]
+    fn names_with_an_unknown_scenario_key_or_case_are_unknown() {
+        assert_eq!(
+            parse("run.example1.max_error"),
+            Some(Figure::Run("example1", "max_error"))
+        );
+        for name in [
+            "run.example9.max_error",
+            "run.example1.nope",
+            "matrix.example3",
+            "sizes.x",
+            "pil.x",
+        ] {
+            assert_eq!(parse(name), None, "{name}");
+        }
     }
 
     #[test]
