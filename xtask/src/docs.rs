@@ -226,7 +226,7 @@ fn short(s: &str) -> String {
 }
 
 /// The figure names (patterns) and what they render.
-pub const CATALOGUE: [(&str, &str); 16] = [
+pub const CATALOGUE: [(&str, &str); 18] = [
     ("bench-table", "target bench table (target/bench/step.json)"),
     ("bench.VARIANT.KEY", "one number of step.json's VARIANT (KEY also flash_total)"),
     ("scenarios", "shipped scenario table (host-sim run, stable-h)"),
@@ -242,6 +242,8 @@ pub const CATALOGUE: [(&str, &str); 16] = [
     ("torque-limit.fails", "largest u_max found not to track"),
     ("pil", "per-agent Node::tick instructions of the 2 s PIL run (target/ci-pil/pil)"),
     ("sizes.KEY", "size_of in bytes (KEY: controller, params, state, controller-n3)"),
+    ("campaign.NAME", "Ts x h map summary per Ts (NAME: example1-ts-h, example2-ts-h; out/campaigns/NAME/results.csv)"),
+    ("campaign.example1-monte-carlo.KEY", "Monte Carlo figures (KEY: runs, diverged, bounded, error-min, error-max, error-median, error-p95)"),
     ("wall.example1-run", "wall time of host-sim run example1 (date and machine; --wall-clock)"),
 ];
 
@@ -263,6 +265,8 @@ enum Figure<'a> {
     TorqueFails,
     Pil,
     Size(&'a str),
+    TsH(&'a str),
+    MonteCarlo(&'a str),
     WallExample1,
 }
 
@@ -278,6 +282,18 @@ const RUN_KEYS: [&str; 6] = [
 /// Fault matrices: `example1`, `example2` (the deploy scenarios, as CI runs them) and
 /// `example2-fast` (Example 2's deploy scenario at h = 0.2 ms on a 5 Mbit/s bus).
 const MATRICES: [&str; 3] = ["example1", "example2", "example2-fast"];
+/// The shipped campaigns over `Ts × h`.
+const TS_H: [&str; 2] = ["example1-ts-h", "example2-ts-h"];
+/// Figures of the Monte Carlo campaign: runs, diverged and the error after `2 T_s` of the others.
+const MONTE_CARLO: [&str; 7] = [
+    "runs",
+    "diverged",
+    "bounded",
+    "error-min",
+    "error-max",
+    "error-median",
+    "error-p95",
+];
 /// `size_of` figures the sizes test prints.
 const SIZES: [&str; 4] = ["controller", "params", "state", "controller-n3"];
 
@@ -302,6 +318,10 @@ fn parse(name: &str) -> Option<Figure<'_>> {
         ["torque-limit", "fails"] => Figure::TorqueFails,
         ["pil"] => Figure::Pil,
         ["sizes", key] if SIZES.contains(key) => Figure::Size(key),
+        ["campaign", name] if TS_H.contains(name) => Figure::TsH(name),
+        ["campaign", "example1-monte-carlo", key] if MONTE_CARLO.contains(key) => {
+            Figure::MonteCarlo(key)
+        }
         ["wall", "example1-run"] => Figure::WallExample1,
         _ => return None,
     })
@@ -328,6 +348,8 @@ fn render(name: &str, src: &mut Sources) -> Result<Option<String>> {
         Figure::TorqueFails => fixed(num(&src.torque()?, "fails")?, 2),
         Figure::Pil => pil_table(&src.pil()?)?,
         Figure::Size(key) => sizes_figure(&src.sizes()?, key)?,
+        Figure::TsH(name) => ts_h_table(&src.campaign(name)?)?,
+        Figure::MonteCarlo(key) => monte_carlo(&src.campaign("example1-monte-carlo")?, key)?,
         Figure::WallExample1 => wall_example1(src)?,
     };
     Ok(Some(text))
@@ -558,6 +580,29 @@ impl Sources {
                 .arg(file.parent().unwrap_or(file)))
             .map(|_| ())
         })
+    }
+
+    /// `results.csv` of a shipped campaign, where CI's sweep writes it.
+    fn campaign(&mut self, name: &str) -> Result<Vec<Row>> {
+        let path = format!("out/campaigns/{name}/results.csv");
+        let file = self.file(&path, |s, file| {
+            let bin = s.host_sim()?;
+            let dir = file.parent().unwrap_or(file);
+            // A directory left by another campaign or an older run would be resumed.
+            let _ = fs::remove_dir_all(dir);
+            run(Command::new(bin)
+                .current_dir(workspace_root())
+                .args([
+                    "sweep",
+                    &format!("campaigns/{name}.toml"),
+                    "--quiet",
+                    "--out",
+                ])
+                .arg(dir))
+            .map(|_| ())
+        })?;
+        let text = fs::read_to_string(&file).map_err(|e| format!("{path}: {e}"))?;
+        rows(&text).map_err(|e| format!("{path}: {e}"))
     }
 
     fn sizes(&mut self) -> Result<String> {
@@ -932,6 +977,119 @@ fn matrix_table(m: &Matrix) -> Result<String> {
 }
 
 // ---------------------------------------------------------------------------------------------
+// Campaigns
+
+/// One row of a campaign's `results.csv`: its cells up to `status`, by column name.
+type Row = BTreeMap<String, String>;
+
+/// The rows of `results.csv`; cells after `status` (a quoted error message, draws) are left out.
+fn rows(csv: &str) -> Result<Vec<Row>> {
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().ok_or("empty")?.split(',').collect();
+    let end = header
+        .iter()
+        .position(|h| *h == "status")
+        .ok_or("no `status` column")?;
+    Ok(lines
+        .map(|l| {
+            header[..=end]
+                .iter()
+                .zip(l.split(','))
+                .map(|(h, c)| ((*h).to_owned(), c.to_owned()))
+                .collect()
+        })
+        .collect())
+}
+
+fn cell(r: &Row, key: &str) -> Result<Option<f64>> {
+    match r.get(key).map(String::as_str) {
+        None => Err(format!("no column `{key}`")),
+        Some("") => Ok(None),
+        Some(c) => c
+            .parse()
+            .map(Some)
+            .map_err(|_| format!("`{key}` = `{c}` is not a number")),
+    }
+}
+
+fn diverged(r: &Row) -> bool {
+    r.get("diverged").map(String::as_str) == Some("true")
+}
+
+/// A cell of a `Ts × h` grid: `h`, diverged, max error after `2 Ts`.
+type GridCell = (f64, bool, Option<f64>);
+
+/// Per `Ts`: the largest `h` of the grid up to which no run diverges, the smallest that
+/// diverges, and the largest error after `2 Ts` of the stable cells.
+fn ts_h_table(rows: &[Row]) -> Result<String> {
+    let mut by_ts: Vec<(f64, Vec<GridCell>)> = Vec::new();
+    for r in rows {
+        if r.get("status").map(String::as_str) != Some("ok") {
+            return Err(format!("run {} is not ok", r.get("run").map_or("?", |v| v)));
+        }
+        let ts = cell(r, "controller.ts")?.ok_or("a row without controller.ts")?;
+        let h = cell(r, "simulation.h")?.ok_or("a row without simulation.h")?;
+        let cell = (h, diverged(r), cell(r, "max_error_after_predefined_time")?);
+        match by_ts.iter_mut().find(|(t, _)| *t == ts) {
+            Some((_, cells)) => cells.push(cell),
+            None => by_ts.push((ts, vec![cell])),
+        }
+    }
+    by_ts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut t = String::from(
+        "| Ts | stable up to h (grid) | diverges from h | max error after 2Ts (stable cells) |\n|---|---|---|---|\n",
+    );
+    for (ts, mut cells) in by_ts {
+        cells.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let first_bad = cells.iter().position(|c| c.1);
+        let stable = &cells[..first_bad.unwrap_or(cells.len())];
+        let up_to = match (stable.last(), first_bad) {
+            (None, _) => "none".to_owned(),
+            (Some(c), None) => format!("≥ {}", ms(c.0)),
+            (Some(c), Some(_)) => ms(c.0),
+        };
+        let from = first_bad.map_or("–".to_owned(), |k| ms(cells[k].0));
+        let err = stable
+            .iter()
+            .filter_map(|c| c.2)
+            .fold(None, |m: Option<f64>, e| Some(m.map_or(e, |m| m.max(e))))
+            .map_or("–".to_owned(), |e| fixed(e, 3));
+        let _ = writeln!(t, "| {ts} | {up_to} | {from} | {err} |");
+    }
+    Ok(t)
+}
+
+/// Nearest-rank percentile of sorted values.
+fn percentile(sorted: &[f64], p: f64) -> f64 {
+    let k = ((p / 100.0) * sorted.len() as f64).ceil() as usize;
+    sorted[k.clamp(1, sorted.len()) - 1]
+}
+
+fn monte_carlo(rows: &[Row], key: &str) -> Result<String> {
+    let mut errors: Vec<f64> = Vec::new();
+    for r in rows.iter().filter(|r| !diverged(r)) {
+        errors.push(
+            cell(r, "max_error_after_predefined_time")?
+                .ok_or("a bounded run without an error after 2Ts")?,
+        );
+    }
+    errors.sort_by(f64::total_cmp);
+    if errors.is_empty() && key.starts_with("error") {
+        return Err("every run diverged".into());
+    }
+    Ok(match key {
+        "runs" => grouped(rows.len() as f64, 0),
+        "diverged" => grouped((rows.len() - errors.len()) as f64, 0),
+        "bounded" => grouped(errors.len() as f64, 0),
+        "error-min" => fixed(errors[0], 3),
+        "error-max" => fixed(errors[errors.len() - 1], 3),
+        "error-median" => fixed(percentile(&errors, 50.0), 3),
+        "error-p95" => fixed(percentile(&errors, 95.0), 3),
+        other => return Err(format!("no Monte Carlo figure `{other}`")),
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
 // Torque limit, PIL, sizes
 
 fn torque_table(v: &Value) -> Result<String> {
@@ -1294,6 +1452,51 @@ mod tests {
         ] {
             assert_eq!(parse(name), None, "{name}");
         }
+    }
+
+    #[test]
+    fn ts_h_maps_give_the_stable_range_per_ts() {
+        let csv = "run,controller.ts,simulation.h,diverged,divergence_time,settling_time,max_error_after_predefined_time,max_abs_u,total_u_energy,status,error\n\
+                   0,1,0.001,false,,,0.09,1,1,ok,\n1,1,0.002,false,,,0.091,1,1,ok,\n2,1,0.003,true,0.01,,,1,1,ok,\n\
+                   3,2,0.001,false,,,0.17,1,1,ok,\n4,2,0.003,false,,,0.171,1,1,ok,\n\
+                   5,0.5,0.001,true,0.01,,,1,1,ok,\n";
+        let t = ts_h_table(&rows(csv).expect("csv")).expect("table");
+        let lines: Vec<&str> = t.lines().skip(2).collect();
+        assert_eq!(
+            lines,
+            [
+                "| 0.5 | none | 1 ms | – |",
+                "| 1 | 2 ms | 3 ms | 0.091 |",
+                "| 2 | ≥ 3 ms | – | 0.171 |"
+            ]
+        );
+    }
+
+    #[test]
+    fn monte_carlo_figures_count_and_rank_the_bounded_runs() {
+        let mut csv =
+            String::from("run,diverged,max_error_after_predefined_time,status,error,draw\n");
+        for k in 0..20 {
+            let diverged = k % 4 == 0;
+            let e = if diverged {
+                String::new()
+            } else {
+                format!("0.{:03}", 100 + k)
+            };
+            csv.push_str(&format!("{k},{diverged},{e},ok,,\"a, b\"\n"));
+        }
+        let r = rows(&csv).expect("csv");
+        let f = |k: &str| monte_carlo(&r, k).expect(k);
+        assert_eq!(
+            (f("runs"), f("diverged"), f("bounded")),
+            ("20".into(), "5".into(), "15".into())
+        );
+        assert_eq!(
+            (f("error-min"), f("error-max")),
+            ("0.101".into(), "0.119".into())
+        );
+        assert_eq!(f("error-median"), "0.110");
+        assert_eq!(f("error-p95"), "0.119");
     }
 
     #[test]
