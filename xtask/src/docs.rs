@@ -5,11 +5,13 @@
 //! A block's body is replaced verbatim: a body that starts on the marker's line is an inline
 //! figure (`<!-- fig:bench.libm-n2m2.median -->1,089<!-- /fig:bench.libm-n2m2.median -->`), one
 //! that starts on the next line a block (a table). Names are listed by `cargo xtask docs --list`.
+//! A marker is a marker wherever it stands, code spans included: prose about markers names them
+//! without the comment syntax.
 //!
 //! Each figure has a source: a file a CI step already writes (`target/bench/step.json`,
 //! `target/fault-matrix/*/matrix.json`, `target/torque-limit/torque-limit.json`,
-//! `target/ci-pil/pil/summary.json`) or one this task writes under `target/docs/` by running
-//! the command; an existing file is reused (so CI runs nothing twice) unless `--rerun` is given.
+//! `target/ci-pil/pil/summary.json`, `out/campaigns/*/results.csv`) or one this task writes
+//! under `target/docs/` by running the command; an existing file is reused (so CI runs nothing twice) unless `--rerun` is given.
 //! Wall-clock figures (`wall.*`) depend on the machine: they carry the date and the machine,
 //! are skipped by `--check` and rewritten only with `--wall-clock`.
 
