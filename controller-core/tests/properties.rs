@@ -1,6 +1,6 @@
 //! Property tests of the core (proptest's default case count under `cargo test`; the
 //! million-case run is `cargo test -p controller-core --release --test properties -- --ignored`
-//! with `PROPTEST_CASES`, see README). Seeds, stored failures and replaying a CI failure:
+//! with `PROPTEST_CASES`, see docs/FIRMWARE.md). Seeds, stored failures and replaying a CI failure:
 //! docs/RELIABILITY.md, "Replaying a failure".
 
 use controller_core::{
@@ -83,7 +83,7 @@ proptest! {
 
     /// Any finite command, up to ±`f32::MAX`, and quantizers from the coarsest to `ρ` next to 1
     /// and `u_min` next to `f32::MAX`: the output is finite, within the top level, of the
-    /// command's sign, and the incremental search equals the closed form (issue 11).
+    /// command's sign, and the incremental search equals the closed form.
     #[test]
     fn quantizer_output_is_finite_for_any_finite_command(
         rho in prop_oneof![0.001f32..0.999, Just(1.0 - f32::EPSILON / 2.0), Just(f32::MIN_POSITIVE)],
@@ -309,7 +309,7 @@ proptest! {
         ..ProptestConfig::default()
     })]
 
-    /// The million-case run (ignored by default; see README): any config, any inputs, NaN and ∞
+    /// The million-case run (ignored by default; see docs/FIRMWARE.md): any config, any inputs, NaN and ∞
     /// included. No panic, every output finite, estimates ≥ 0, a non-finite own state always
     /// gives the `InvalidState` fault, and valid inputs afterwards give a fault-free step.
     #[test]

@@ -1,4 +1,4 @@
-//! The footprint of one agent's controller (the figures the README reports).
+//! The footprint of one agent's controller (the figures `docs/FIRMWARE.md` reports through `cargo xtask docs`).
 
 use controller_core::{Controller, Params, State};
 use core::mem::size_of;
@@ -13,7 +13,7 @@ fn example1_controller_footprint() {
         "Controller<3, 3, 4>: {} B",
         size_of::<Controller<3, 3, 4>>()
     );
-    // The issue-5 goal for the per-agent state; settings are read-only and can live in flash.
+    // The goal for the per-agent state; settings are read-only and can live in flash.
     assert!(state <= 256, "state is {state} B");
     assert!(total <= 512, "controller is {total} B");
 }

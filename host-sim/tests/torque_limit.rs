@@ -1,12 +1,13 @@
-//! Example 2 under a torque limit (issue 13): how the settling time grows as `u_max` shrinks,
+//! Example 2 under a torque limit: how the settling time grows as `u_max` shrinks,
 //! and the smallest `u_max` that still tracks into the band. Release only (tens of runs of
 //! 10 s at h = 0.2 ms):
 //!
 //! ```sh
 //! TORQUE_SWEEP_OUT=docs/figures cargo test -p host-sim --release --test torque_limit -- --ignored --nocapture
 //! ```
-//! prints the table of `docs/RELIABILITY.md` §5 and writes `torque-limit.png` into
-//! `TORQUE_SWEEP_OUT` (default: cargo's temporary directory).
+//! prints the table of `docs/RELIABILITY.md` §5 and writes `torque-limit.png` and
+//! `torque-limit.json` (the table and the smallest tracking `u_max`, which `cargo xtask docs`
+//! renders) into `TORQUE_SWEEP_OUT` (default: cargo's temporary directory).
 
 mod common;
 
@@ -94,6 +95,20 @@ fn example2_settling_time_against_the_torque_limit() {
         .map_or_else(|| common::tmp("torque-limit"), std::path::PathBuf::from);
     std::fs::create_dir_all(&dir).expect("output directory");
     draw_limit_sweep(&dir.join("torque-limit.png"), &points, 1.0, "Example 2").expect("figure");
+    let json = serde_json::json!({
+        "scenario": "scenarios/example2.toml with safety.enabled = true, safety.u_max swept",
+        "points": points.iter().map(|p| serde_json::json!({
+            "u_max": p.u_max,
+            "settling_time": p.settling_time,
+            "max_error_after_predefined_time": p.max_error_after_predefined_time,
+            "saturated_fraction": p.saturated_fraction,
+            "tracks": tracks(p),
+        })).collect::<Vec<_>>(),
+        "smallest": ok,
+        "fails": bad,
+    });
+    let text = serde_json::to_string_pretty(&json).expect("json") + "\n";
+    std::fs::write(dir.join("torque-limit.json"), text).expect("torque-limit.json");
     // The paper's law needs no limit to track; the sweep must find the limit where it stops.
     assert!(ok > 5.0 && ok < 20.0, "{ok}");
 }

@@ -25,11 +25,11 @@ use std::fs;
 pub const TOLERANCE: f64 = 0.10;
 /// The largest tolerance a budget may set.
 pub const MAX_TOLERANCE: f64 = 0.10;
-/// Absolute goal for the painted stack of one step, bytes (issue 5).
+/// Absolute goal for the painted stack of one step, bytes.
 pub const STACK_GOAL: u64 = 512;
-/// Absolute goal for the flash of the step and its callees, bytes (issue 5). The configuration
+/// Absolute goal for the flash of the step and its callees, bytes. The configuration
 /// code a firmware links beside it (`flash_config_bytes`) is gated by its budget; step and
-/// configuration together are over this goal since `[safety]` (README, bench table).
+/// configuration together are over this goal since `[safety]` (`docs/FIRMWARE.md` §3).
 pub const FLASH_GOAL: u64 = 16 * 1024;
 
 /// The gated figures: the key in `step.json` and in the budget, and its unit for messages.
@@ -310,7 +310,7 @@ mod tests {
     }
 
     #[test]
-    fn the_step_files_of_issue_14_fail() {
+    fn huge_stack_and_flash_and_faulted_steps_fail_with_medians_in_budget() {
         let budget = budget_at(1234, 1849, 400, 8214);
         // Stack 99,999, flash 999,999 and every step faulted, medians in budget.
         let mut step = step_at(1234, 1849, 400, 8214);

@@ -8,10 +8,14 @@
 //! * `bench-gate`: `bench-target`, then fails when a variant's median or maximum instructions,
 //!   stack, step flash or configuration flash are more than the budget's tolerance (10 %) above
 //!   `bench-fw/budget.json`, or a replayed step faulted (details: `gate.rs`).
+//! * `docs`: rewrites the measured figures of `README.md` and `docs/*.md` between their markers
+//!   from the files the measuring commands write; `--check` fails naming each block that differs
+//!   (details: `docs.rs`).
 //!
 //! Nothing is installed: a missing `qemu-system-arm` or `thumbv7em-none-eabihf` target is
 //! reported with the command that installs it.
 
+mod docs;
 mod flash;
 mod gate;
 mod target;
@@ -33,6 +37,12 @@ tasks:
       bench-target (unless --no-run), then fail if a variant's instructions (median, max),
       stack or flash exceed bench-fw/budget.json by more than its tolerance, or a step
       faulted; --update-budget writes the budget from the current step.json instead
+  docs [--check] [--rerun] [--wall-clock] [--list]
+      rewrite every measured figure of README.md and docs/*.md between its
+      <!-- fig:NAME --> and <!-- /fig:NAME --> markers from the files the measuring
+      commands write (reused when present; --rerun measures again); --check writes
+      nothing and fails naming each block that differs; wall-clock figures (wall.*)
+      are rewritten only with --wall-clock and never checked; --list names the figures
 ";
 
 fn main() -> ExitCode {
@@ -51,6 +61,7 @@ fn main() -> ExitCode {
     let result = match task.as_str() {
         "bench-target" => target::bench_target(&opts).map(|_| ()),
         "bench-gate" => gate::bench_gate(&opts),
+        "docs" => docs::docs(&opts),
         "help" | "--help" | "-h" => {
             print!("{USAGE}");
             Ok(())
@@ -70,25 +81,29 @@ fn main() -> ExitCode {
 }
 
 /// Command-line options shared by the tasks.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Default)]
 pub struct Options {
     pub verbose: bool,
     pub no_run: bool,
     pub update_budget: bool,
+    pub check: bool,
+    pub rerun: bool,
+    pub wall_clock: bool,
+    pub list: bool,
 }
 
 impl Options {
     fn parse(args: &[String]) -> Result<Self> {
-        let mut o = Options {
-            verbose: false,
-            no_run: false,
-            update_budget: false,
-        };
+        let mut o = Options::default();
         for a in args {
             match a.as_str() {
                 "--verbose" | "-v" => o.verbose = true,
                 "--no-run" => o.no_run = true,
                 "--update-budget" => o.update_budget = true,
+                "--check" => o.check = true,
+                "--rerun" => o.rerun = true,
+                "--wall-clock" => o.wall_clock = true,
+                "--list" => o.list = true,
                 other => return Err(format!("unknown option `{other}`")),
             }
         }

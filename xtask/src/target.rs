@@ -41,7 +41,7 @@ pub struct Variant {
     pub n3: bool,
 }
 
-/// The variants of issue 5, and `[safety]` on (issue 13).
+/// The benchmarked builds: default, fast kernels, the baseline, `n = 3`, and `[safety]` on.
 pub const VARIANTS: [Variant; 5] = [
     Variant {
         name: "libm-n2m2",
