@@ -14,7 +14,7 @@ fn issue11_quantizer() -> QuantizerConfig {
     }
 }
 
-/// Issue 11: the million-case run (183,567th case) found a finite `u` near `f32::MAX` quantized
+/// The million-case property run (183,567th case) found a finite `u` near `f32::MAX` quantized
 /// to `±∞` with no fault: the level above the top finite level overflowed. This is the shrunk
 /// case, replayed through the whole step.
 #[test]
@@ -74,7 +74,7 @@ fn issue11_finite_command_near_f32_max_gives_a_finite_quantized_command() {
     );
 }
 
-/// Issue 11, the same quantizer alone: rising to `3.34e38` and falling from it. Falling, the
+/// The same quantizer alone: rising to `3.34e38` and falling from it. Falling, the
 /// bracket value `b = |u| (1+δ)` overflowed: the incremental search returned `∞` and the closed
 /// form the lowest level (`1.30`).
 #[test]

@@ -1,4 +1,4 @@
-//! One hour of simulated time of Example 1 with the recurring faults (issue: fault endurance).
+//! One hour of simulated time of Example 1 with the recurring faults (fault endurance).
 //! Ignored under plain `cargo test` (it takes a while in a debug build); run it with
 //! `cargo test -p controller-core --release --test soak -- --ignored --nocapture`.
 

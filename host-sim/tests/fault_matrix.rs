@@ -1,6 +1,6 @@
 //! The fault-matrix cells CI checks with `[safety]` on (`scenarios/example1-deploy.toml`):
-//! a babbling node starving the bus for 0.5 s and a silent neighbour that returns. Goal of
-//! issue 13: no divergence, `|u| ≤ u_max` in every sample, back in the band within `2 T_s`
+//! a babbling node starving the bus for 0.5 s and a silent neighbour that returns. What they
+//! must show: no divergence, `|u| ≤ u_max` in every sample, back in the band within `2 T_s`
 //! after the fault ends. The whole matrix: `host-sim fault-matrix` (docs/RELIABILITY.md §4).
 
 mod common;

@@ -1,4 +1,4 @@
-//! Cross-crate integration tests. The helpers here serve the tests in `tests/tests/`: where the
+//! Cross-crate integration tests. The functions here serve the tests in `tests/tests/`: where the
 //! built `host-sim` binary is, and the corpus directory.
 
 use std::{

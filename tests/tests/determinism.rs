@@ -1,4 +1,4 @@
-//! Determinism (issue 7): the same scenario and seed give byte-identical outputs, also when
+//! Determinism: the same scenario and seed give byte-identical outputs, also when
 //! `compare` runs its two scenarios in parallel on rayon's pool (`RAYON_NUM_THREADS=1` against
 //! `4`), and over the seeded lossy CAN bus.
 

@@ -1,4 +1,4 @@
-//! Extreme but valid scenarios (issue 7): a very short predefined time, ζ close to 1, 50 agents
+//! Extreme but valid scenarios: a very short predefined time, ζ close to 1, 50 agents
 //! on a line graph, a 10 ms sample period, and all of them at once. Each run either finishes or
 //! reports its divergence with time and agent; never a panic, never a NaN or ∞ in
 //! `trajectory.csv`, and `summary.json` is always valid JSON.

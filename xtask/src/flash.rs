@@ -7,7 +7,7 @@
 //!   `step`), found by decoding the Thumb-2 `BL` / `B.W` / `B` instructions of each reached
 //!   function (literal pools, marked by the `$d` mapping symbols, are skipped). Panic paths
 //!   (`core::panicking`, `core::fmt`, …: the formatting machinery) are not followed or counted;
-//!   `memcpy` / `fminf`-style helpers the step calls are.
+//!   `memcpy` / `fminf`-style routines the step calls are.
 //! * Read-only data: the named `.rodata` objects of controller-core, and those of libm or
 //!   micromath when a function of that crate is reached (e.g. libm's `RSQRT_TAB` with
 //!   `sqrtf`). Constants kept in literal pools are inside the function sizes. A table used

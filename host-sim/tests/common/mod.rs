@@ -1,4 +1,4 @@
-//! Helpers shared by host-sim's integration tests (each test binary uses a subset).
+//! Functions shared by host-sim's integration tests (each test binary uses a subset).
 #![allow(dead_code)]
 
 use std::{
