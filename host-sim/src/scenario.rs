@@ -4,8 +4,8 @@
 use std::{fmt, path::Path};
 
 use controller_core::{
-    BaselineConfig, ConfigError, Controller, ControllerConfig, GainSelection, QuantizerConfig,
-    QuantizerDirection, SafetyConfig, SchemeConfig,
+    BaselineConfig, ConfigError, Controller, ControllerConfig, GainSelection, Param,
+    QuantizerConfig, QuantizerDirection, SafetyConfig, SchemeConfig,
 };
 use serde::{Deserialize, Serialize};
 
@@ -87,13 +87,11 @@ pub struct SafetySpec {
 impl Default for SafetySpec {
     fn default() -> Self {
         Self {
-            enabled: false,
+            enabled: Param::SafetyEnabled.default_bool(),
             u_max: None,
             du_max: None,
-            // `SafetyConfig::default()`'s values, written as f64 so that `check` prints them
-            // as written (tested in `safety_defaults_match_the_controller`).
-            recovery_rate: 1.0,
-            recovery_jump: 0.05,
+            recovery_rate: Param::RecoveryRate.default_f64(),
+            recovery_jump: Param::RecoveryJump.default_f64(),
         }
     }
 }
@@ -106,12 +104,17 @@ impl SafetySpec {
 
     /// The controller's settings, `None` when off.
     pub fn config(&self) -> Option<SafetyConfig> {
-        self.enabled.then(|| SafetyConfig {
+        self.enabled.then(|| self.settings())
+    }
+
+    /// The controller's settings whether on or off.
+    fn settings(&self) -> SafetyConfig {
+        SafetyConfig {
             u_max: self.u_max.map(|v| v as f32),
             du_max: self.du_max.map(|v| v as f32),
             recovery_rate: self.recovery_rate as f32,
             recovery_jump: self.recovery_jump as f32,
-        })
+        }
     }
 }
 
@@ -134,7 +137,7 @@ pub struct Simulation {
 impl Default for Simulation {
     fn default() -> Self {
         Self {
-            h: 1e-3,
+            h: Param::H.default_f64(),
             t_end: 10.0,
             substeps: 4,
             settle_band: 0.05,
@@ -228,28 +231,30 @@ pub struct ControllerSpec {
 
 impl Default for ControllerSpec {
     fn default() -> Self {
+        // Per-step values for the default plant (Example 1, n = 2).
+        let steps = |p: Param| vec![p.default_f64(); 2];
         Self {
             scheme: SchemeName::PredefinedTime,
-            ts: 2.0,
-            zeta: 0.1,
-            a_check: vec![90.0, 90.0],
-            p: 80.0,
-            eta: 50.0,
-            tau: 50.0,
-            gamma: 0.1,
-            mtn_order: 2,
-            phi_low: vec![1.0, 1.0],
-            phi_up: vec![1.0, 1.0],
-            eps_bar: vec![0.0, 0.0],
-            diff_l1: 1.0,
-            diff_l2: 1.0,
-            varpi0: 0.1,
-            varpi_decay: 0.7,
-            varpi_min: 1e-6,
-            mu0: 0.0,
-            xi0: 0.0,
-            lambda0: 1.0,
-            estimate_max: 1e6,
+            ts: Param::Ts.default_f64(),
+            zeta: Param::Zeta.default_f64(),
+            a_check: steps(Param::ACheck),
+            p: Param::P.default_f64(),
+            eta: Param::Eta.default_f64(),
+            tau: Param::Tau.default_f64(),
+            gamma: Param::Gamma.default_f64(),
+            mtn_order: Param::MtnOrder.default_f64() as u32,
+            phi_low: steps(Param::PhiLow),
+            phi_up: steps(Param::PhiUp),
+            eps_bar: steps(Param::EpsBar),
+            diff_l1: Param::DiffL1.default_f64(),
+            diff_l2: Param::DiffL2.default_f64(),
+            varpi0: Param::Varpi0.default_f64(),
+            varpi_decay: Param::VarpiDecay.default_f64(),
+            varpi_min: Param::VarpiMin.default_f64(),
+            mu0: Param::Mu0.default_f64(),
+            xi0: Param::Xi0.default_f64(),
+            lambda0: Param::Lambda0.default_f64(),
+            estimate_max: Param::EstimateMax.default_f64(),
             c1: None,
             c2: None,
             kappa: None,
@@ -287,9 +292,9 @@ pub struct QuantizerSpec {
 impl Default for QuantizerSpec {
     fn default() -> Self {
         Self {
-            enabled: true,
-            rho: 0.9,
-            u_min: 0.01,
+            enabled: Param::QuantizerEnabled.default_bool(),
+            rho: Param::Rho.default_f64(),
+            u_min: Param::UMin.default_f64(),
             direction: DirectionName::Signed,
         }
     }
@@ -445,58 +450,54 @@ impl Setup {
 
 /// [`Setup::check_controllers`] for state order `N` and `M` actuators.
 fn check_controllers_of<const N: usize, const M: usize>(setup: &Setup) -> Result<()> {
+    let safety = &setup.scenario.safety;
     for i in 0..setup.agents() {
         let cfg = setup.controller_config::<N>(i)?;
-        Controller::<N, M, MAX_NEIGHBOURS>::new(&cfg).map_err(|e| {
-            let auto_gains = setup.scenario.controller.c1.is_none();
-            let key = config_error_key(&e, i, auto_gains);
-            let why = if key == "controller.ts" && auto_gains {
-                " (the gains c1, c2 of LAW §3 computed from ts, zeta, p, eta, tau)"
-            } else {
-                ""
+        check_controller::<N, M>(setup, &cfg, i)?;
+        if cfg.safety.is_none() {
+            // `[safety]` is checked whether on or off, so a typo does not wait for the day it
+            // is switched on.
+            let on = ControllerConfig {
+                safety: Some(safety.settings()),
+                ..cfg
             };
-            Error::invalid(key, format!("{e}{why} (agent {})", i + 1))
-        })?;
+            check_controller::<N, M>(setup, &on, i)?;
+        }
     }
     Ok(())
 }
 
+/// `Controller::new` of agent `i` (0-based), its error named by the scenario key.
+fn check_controller<const N: usize, const M: usize>(
+    setup: &Setup,
+    cfg: &ControllerConfig<N>,
+    i: usize,
+) -> Result<()> {
+    Controller::<N, M, MAX_NEIGHBOURS>::new(cfg).map_err(|e| {
+        let auto_gains = setup.scenario.controller.c1.is_none();
+        let key = config_error_key(&e, i, auto_gains);
+        let why = if key == "controller.ts" && auto_gains {
+            " (the gains c1, c2 of LAW §3 computed from ts, zeta, p, eta, tau)"
+        } else {
+            ""
+        };
+        Error::invalid(key, format!("{e}{why} (agent {})", i + 1))
+    })?;
+    Ok(())
+}
+
 /// The scenario key behind a controller-core [`ConfigError`] of agent `i` (0-based): the
-/// controller names its own parameter, the user wrote a dotted key.
+/// controller names its [`Param`] (whose key is [`Param::key`]) and the step of a per-step one.
 fn config_error_key(e: &ConfigError, i: usize, auto_gains: bool) -> String {
-    let param = |p: &str| match p {
-        "h" => "simulation.h".to_string(),
+    let key = match e.param() {
         // Computed gains out of range: the user wrote ts (and zeta, p, eta, tau).
-        "c1" | "c2" if auto_gains => "controller.ts".to_string(),
-        "rho" | "u_min" => format!("quantizer.{p}"),
-        "u_max" | "du_max" | "recovery_rate" | "recovery_jump" => format!("safety.{p}"),
-        p => format!("controller.{p}"),
+        Param::C1 | Param::C2 if auto_gains => Param::Ts.key(),
+        Param::Neighbours | Param::Pinned => return format!("graph.neighbours[{}]", i + 1),
+        p => p.key(),
     };
-    match *e {
-        ConfigError::NonFinite(p)
-        | ConfigError::NonPositive(p)
-        | ConfigError::Negative(p)
-        | ConfigError::GainTooLarge(p)
-        | ConfigError::DerivedOverflow(p) => param(p),
-        ConfigError::ZetaOutOfRange => param("zeta"),
-        ConfigError::NonPositiveTs => param("ts"),
-        ConfigError::NonPositiveSamplePeriod => param("h"),
-        ConfigError::RhoOutOfRange => param("rho"),
-        ConfigError::NonPositiveUMin => param("u_min"),
-        ConfigError::NonPositivePhiLow { step } | ConfigError::PhiLowAbovePhiUp { step } => {
-            format!("controller.phi_low[{step}]")
-        }
-        ConfigError::ZeroACheck { step } => format!("controller.a_check[{step}]"),
-        ConfigError::ZeroMtnOrder | ConfigError::MtnOrderTooLarge => param("mtn_order"),
-        ConfigError::TooManyNeighbours | ConfigError::Isolated => {
-            format!("graph.neighbours[{}]", i + 1)
-        }
-        ConfigError::VarpiMinOutOfRange => param("varpi_min"),
-        ConfigError::InitialEstimateAboveMax => param("estimate_max"),
-        ConfigError::MuMaxBelowOne => param("mu_max"),
-        ConfigError::ZeroStateOrder => "plant.model".into(),
-        ConfigError::UMaxNotAboveUMin => "safety.u_max".into(),
-        _ => "controller".into(),
+    match e.step() {
+        Some(j) => format!("{key}[{j}]"),
+        None => key.to_string(),
     }
 }
 
@@ -792,13 +793,6 @@ fn positive(v: f64, key: &str) -> Result<()> {
     Ok(())
 }
 
-fn finite(v: f64, key: &str) -> Result<()> {
-    if !v.is_finite() {
-        return Err(Error::invalid(key, format!("must be finite (got {v})")));
-    }
-    Ok(())
-}
-
 /// Checks the scenario and resolves graph, plant, initial states and faults.
 pub fn validate(scenario: Scenario) -> Result<Setup> {
     validate_plant(scenario, None)
@@ -856,121 +850,13 @@ fn validate_plant(mut scenario: Scenario, plant: Option<PlantModel>) -> Result<S
     }
     let samples = samples_f as u64;
     scenario.leader.check(sim.t_end)?;
-    let c = &scenario.controller;
-    positive(c.ts, "controller.ts")?;
-    if !(c.zeta > 0.0 && c.zeta < 1.0) {
-        return Err(Error::invalid(
-            "controller.zeta",
-            format!("must lie in (0, 1) (got {})", c.zeta),
-        ));
-    }
-    for (k, v) in [
-        ("controller.p", c.p),
-        ("controller.eta", c.eta),
-        ("controller.tau", c.tau),
-        ("controller.gamma", c.gamma),
-        ("controller.diff_l1", c.diff_l1),
-        ("controller.diff_l2", c.diff_l2),
-        ("controller.varpi0", c.varpi0),
-        ("controller.varpi_min", c.varpi_min),
-        ("controller.estimate_max", c.estimate_max),
-    ] {
-        positive(v, k)?;
-    }
-    for (k, v) in [
-        ("controller.varpi_decay", c.varpi_decay),
-        ("controller.mu0", c.mu0),
-        ("controller.xi0", c.xi0),
-        ("controller.lambda0", c.lambda0),
-    ] {
-        if !v.is_finite() || v < 0.0 {
-            return Err(Error::invalid(
-                k,
-                format!("must be a finite number >= 0 (got {v})"),
-            ));
-        }
-    }
-    if c.mtn_order == 0 {
-        return Err(Error::invalid("controller.mtn_order", "must be >= 1"));
-    }
-    for (k, v) in [("controller.c1", c.c1), ("controller.c2", c.c2)] {
-        if let Some(v) = v {
-            positive(v, k)?;
-        }
-    }
-    let q = &scenario.quantizer;
-    if q.enabled {
-        if !(q.rho > 0.0 && q.rho < 1.0) {
-            return Err(Error::invalid(
-                "quantizer.rho",
-                format!("must lie in (0, 1) (got {})", q.rho),
-            ));
-        }
-        positive(q.u_min, "quantizer.u_min")?;
-    }
-
-    // Checked whether on or off, so a typo does not wait for the day it is switched on.
-    let sf = &scenario.safety;
-    for (k, v) in [("safety.u_max", sf.u_max), ("safety.du_max", sf.du_max)] {
-        if let Some(v) = v {
-            positive(v, k)?;
-            if v > f64::from(f32::MAX) {
-                return Err(Error::invalid(k, format!("must fit f32 (got {v:e})")));
-            }
-        }
-    }
-    if sf.recovery_rate.is_nan() || sf.recovery_rate <= 0.0 {
-        return Err(Error::invalid(
-            "safety.recovery_rate",
-            format!(
-                "must be > 0 (units of y per second; inf: no blending) (got {})",
-                sf.recovery_rate
-            ),
-        ));
-    }
-    if !sf.recovery_jump.is_finite() || sf.recovery_jump < 0.0 {
-        return Err(Error::invalid(
-            "safety.recovery_jump",
-            format!("must be a finite number >= 0 (got {})", sf.recovery_jump),
-        ));
-    }
-    if let (Some(u_max), true) = (sf.u_max, q.enabled) {
-        if u_max <= q.u_min {
-            return Err(Error::invalid(
-                "safety.u_max",
-                format!(
-                    "must be above quantizer.u_min = {} (got {u_max}): every command would quantize to 0",
-                    q.u_min
-                ),
-            ));
-        }
-    }
-
+    // [controller], [quantizer] and [safety] are checked by `Controller::new` (check_controllers).
     let graph = Graph::from_spec(&scenario.graph)?;
     let plant = match plant {
         Some(p) => p,
         None => PlantModel::from_spec(&scenario.plant)?,
     };
     let (n, m) = (plant.n(), plant.m());
-    for (k, v) in [
-        ("a_check", &c.a_check),
-        ("phi_low", &c.phi_low),
-        ("phi_up", &c.phi_up),
-        ("eps_bar", &c.eps_bar),
-    ] {
-        if v.len() != n {
-            return Err(Error::invalid(
-                format!("controller.{k}"),
-                format!(
-                    "expected {n} entries (one per step j = 1..n), got {}",
-                    v.len()
-                ),
-            ));
-        }
-        for (j, x) in v.iter().enumerate() {
-            finite(*x, &format!("controller.{k}[{}]", j + 1))?;
-        }
-    }
     let x0 = scenario
         .plant
         .initial_states(graph.len(), n, sim.divergence_bound)?;
@@ -1008,18 +894,6 @@ pub fn to_toml(s: &Scenario) -> String {
 
 #[cfg(test)]
 mod tests {
-    #[test]
-    fn safety_defaults_match_the_controller() {
-        let (spec, core) = (
-            super::SafetySpec::default(),
-            controller_core::SafetyConfig::default(),
-        );
-        assert_eq!(spec.recovery_rate as f32, core.recovery_rate);
-        assert_eq!(spec.recovery_jump as f32, core.recovery_jump);
-        assert_eq!((spec.u_max, spec.du_max), (None, None));
-        assert!(core.u_max.is_none() && core.du_max.is_none());
-    }
-
     use super::*;
 
     #[test]
