@@ -2,8 +2,9 @@
 //! produce it; the exhaustive `match` makes a new reason fail to compile here until it has a case.
 
 use crate::{
-    BaselineConfig, ConfigError, Controller, ControllerConfig, GainSelection, Gains, Param,
-    QuantizerConfig, Reason, SafetyConfig, SchemeConfig,
+    Agent, BaselineConfig, ConfigError, Controller, ControllerConfig, ControllerSection,
+    GainSelection, Gains, Param, QuantizerConfig, QuantizerSection, Reason, SafetyConfig,
+    SafetySection, SchemeConfig,
 };
 
 type C = Controller<2, 2, 4>;
@@ -23,7 +24,7 @@ fn quantizer(rho: f32, u_min: f32) -> Option<QuantizerConfig> {
 }
 
 /// One configuration per way to be wrong, and the error it must give.
-fn cases() -> [(Result<C, ConfigError>, ConfigError); 22] {
+fn cases() -> [(Result<C, ConfigError>, ConfigError); 25] {
     use Param as P;
     use Reason as R;
     let e = ConfigError::new;
@@ -95,7 +96,37 @@ fn cases() -> [(Result<C, ConfigError>, ConfigError); 22] {
             }),
             e(P::UMax, R::NotAbove(P::UMin)),
         ),
+        (
+            sections::<3>(|_| {}),
+            e(
+                P::ACheck,
+                R::StepCount {
+                    expected: 2,
+                    got: 3,
+                },
+            ),
+        ),
+        (sections::<2>(|c| c.c1 = Some(9.0)), e(P::C2, R::Unpaired)),
+        (
+            sections::<2>(|c| c.kappa = Some(2.0)),
+            e(P::Kappa, R::BaselineOnly),
+        ),
     ]
+}
+
+/// A controller from the default sections (`S` entries per step) changed by `f`.
+fn sections<const S: usize>(
+    f: impl FnOnce(&mut ControllerSection<f32, heapless::Vec<f32, S>>),
+) -> Result<C, ConfigError> {
+    let mut c = ControllerSection::default();
+    f(&mut c);
+    let cfg = ControllerConfig::from_sections(
+        Agent::default(),
+        &c,
+        &QuantizerSection::default(),
+        &SafetySection::default(),
+    )?;
+    C::new(&cfg)
 }
 
 fn default_controller() -> C {
@@ -104,7 +135,7 @@ fn default_controller() -> C {
 
 #[test]
 fn every_reason_is_reached() {
-    let mut seen = [false; 12];
+    let mut seen = [false; 15];
     for (i, (got, want)) in cases().into_iter().enumerate() {
         assert_eq!(got.err(), Some(want), "case {i}");
         let slot = match want.reason() {
@@ -120,6 +151,9 @@ fn every_reason_is_reached() {
             Reason::BelowInitialEstimates => 9,
             Reason::OverCapacity => 10,
             Reason::Isolated => 11,
+            Reason::StepCount { .. } => 12,
+            Reason::Unpaired => 13,
+            Reason::BaselineOnly => 14,
         };
         seen[slot] = true;
     }

@@ -4,7 +4,7 @@
 use core::fmt;
 
 pub use crate::param::Reason;
-use crate::{gains::MAX_GAIN, param::Range, Param};
+use crate::{gains::MAX_GAIN, param::Range, sections::SchemeName, Param};
 
 /// Why a controller configuration was rejected by [`crate::Controller::new`]: the parameter,
 /// the 1-based step `j` of a per-step parameter (as in the paper, `j = 1..n`) and the reason.
@@ -85,6 +85,17 @@ impl fmt::Display for ConfigError {
                 f.write_str("must not be below `mu0`, `xi0` and `lambda0`")
             }
             Reason::OverCapacity => f.write_str("exceeds the controller's capacity K"),
+            Reason::StepCount { expected, got } => write!(
+                f,
+                "must have {expected} entries, one per step j = 1..n (got {got})"
+            ),
+            Reason::Unpaired => {
+                let other = if p == Param::C1 { Param::C2 } else { Param::C1 };
+                write!(f, "is required when `{other}` is given")
+            }
+            Reason::BaselineOnly => {
+                write!(f, "is only for scheme = \"{}\"", SchemeName::PrescribedTime)
+            }
             Reason::Isolated => {
                 f.write_str("is empty and the agent is not pinned to the leader (A_i = 0)")
             }

@@ -9,6 +9,8 @@ pub const MAX_GAIN: f32 = 1.844_674_3e19;
 /// How `c_1`, `c_2` are chosen.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "kebab-case"))]
 pub enum GainSelection {
     /// From `T_s`, `ζ` and the adaptation gains by LAW §3 (the paper's choice).
     Auto,

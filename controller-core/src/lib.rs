@@ -57,6 +57,9 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+#[cfg(feature = "alloc")]
+extern crate alloc;
+
 // The shared Example 1 test loop (`tests/common`) names the crate `controller_core`, also when a
 // unit test includes it.
 #[cfg(test)]
@@ -79,6 +82,7 @@ pub mod powers;
 pub mod quantizer;
 pub mod safety;
 pub mod scheme;
+pub mod sections;
 pub mod smoothing;
 
 pub use adaptive::Estimates;
@@ -93,3 +97,6 @@ pub use param::{Param, Reason};
 pub use quantizer::{HysteresisQuantizer, QuantizerConfig, QuantizerDirection};
 pub use safety::SafetyConfig;
 pub use scheme::{BaselineConfig, SchemeConfig};
+#[cfg(feature = "serde")]
+pub use sections::ConfigFile;
+pub use sections::{Agent, ControllerSection, QuantizerSection, SafetySection, SchemeName};

@@ -478,6 +478,17 @@ pub enum Reason {
     OverCapacity,
     /// The agent hears neither a neighbour nor the leader (`A_i = 0`): it cannot take part.
     Isolated,
+    /// A per-step parameter without one entry per step `j = 1..n`.
+    StepCount {
+        /// `n`.
+        expected: usize,
+        /// Entries given.
+        got: usize,
+    },
+    /// `c1` or `c2` given without the other.
+    Unpaired,
+    /// A baseline parameter given for the predefined-time scheme.
+    BaselineOnly,
 }
 
 #[cfg(test)]

@@ -22,6 +22,8 @@ use crate::{math, param::Range, ConfigError, Param, Reason};
 /// How the direction `d` of eq. (2) is read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "kebab-case"))]
 pub enum QuantizerDirection {
     /// `d = sign(u_k − u_{k−1})`: the literal reading of eq. (2) (default).
     #[default]
@@ -33,6 +35,7 @@ pub enum QuantizerDirection {
 /// Quantizer parameters as a user writes them.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct QuantizerConfig {
     /// `0 < ρ < 1`: ratio of successive levels.
     pub rho: f32,

@@ -23,6 +23,7 @@ use crate::{ConfigError, Link, Param};
 /// Safety settings as a user writes them (units of the command `u` and seconds).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct SafetyConfig {
     /// Limit of `|u|` per actuator before the quantizer (`None`: no magnitude limit).
     pub u_max: Option<f32>,

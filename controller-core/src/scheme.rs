@@ -7,6 +7,8 @@ use crate::{math, powers::Powers, ConfigError, Gains, Param};
 /// Which scheme a controller runs.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "kebab-case"))]
 pub enum SchemeConfig {
     /// The paper's predefined-time law (default).
     #[default]
@@ -21,6 +23,7 @@ pub enum SchemeConfig {
 /// Fig. 8, not a copy of its (unavailable) ref. [39].
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct BaselineConfig {
     /// `κ > 0` (default 2).
     pub kappa: f32,

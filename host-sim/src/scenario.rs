@@ -1,11 +1,12 @@
 //! The scenario file of docs/SCENARIO.md: serde types with the defaults of LAW §8 (Example 1),
 //! `--set` overrides and validation into a [`Setup`] the simulator runs.
 
-use std::{fmt, path::Path};
+use std::path::Path;
 
+pub use controller_core::SchemeName;
 use controller_core::{
-    BaselineConfig, ConfigError, Controller, ControllerConfig, GainSelection, Param,
-    QuantizerConfig, QuantizerDirection, SafetyConfig, SchemeConfig,
+    Agent, ConfigError, Controller, ControllerConfig, ControllerSection, Param, QuantizerSection,
+    SafetySection,
 };
 use serde::{Deserialize, Serialize};
 
@@ -64,60 +65,6 @@ impl Default for Scenario {
     }
 }
 
-/// `[safety]`: command limits, anti-windup and recovery of `controller-core`'s
-/// [`controller_core::safety`]. Off by default: the paper's law.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct SafetySpec {
-    /// On: limits, conditional integration, bumpless re-entry, differentiator re-seeding.
-    pub enabled: bool,
-    /// Limit of `|u|` per actuator before the quantizer [command units]; absent: none.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub u_max: Option<f64>,
-    /// Limit of `|du/dt|` [command units / s]; absent: none.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub du_max: Option<f64>,
-    /// `v_r` [units of `y` / s]: a returning neighbour / leader value's jump is removed at
-    /// this speed (`inf`: used at once).
-    pub recovery_rate: f64,
-    /// Jumps up to this size [units of `y`] re-enter at once.
-    pub recovery_jump: f64,
-}
-
-impl Default for SafetySpec {
-    fn default() -> Self {
-        Self {
-            enabled: Param::SafetyEnabled.default_bool(),
-            u_max: None,
-            du_max: None,
-            recovery_rate: Param::RecoveryRate.default_f64(),
-            recovery_jump: Param::RecoveryJump.default_f64(),
-        }
-    }
-}
-
-impl SafetySpec {
-    /// The default (off, nothing set).
-    pub fn is_default(&self) -> bool {
-        *self == Self::default()
-    }
-
-    /// The controller's settings, `None` when off.
-    pub fn config(&self) -> Option<SafetyConfig> {
-        self.enabled.then(|| self.settings())
-    }
-
-    /// The controller's settings whether on or off.
-    fn settings(&self) -> SafetyConfig {
-        SafetyConfig {
-            u_max: self.u_max.map(|v| v as f32),
-            du_max: self.du_max.map(|v| v as f32),
-            recovery_rate: self.recovery_rate as f32,
-            recovery_jump: self.recovery_jump as f32,
-        }
-    }
-}
-
 /// `[simulation]`: sampling, horizon and the plant integrator.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -146,159 +93,12 @@ impl Default for Simulation {
     }
 }
 
-/// Which control law (LAW §5 or the §10 baseline).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum SchemeName {
-    /// The paper's predefined-time law.
-    #[default]
-    PredefinedTime,
-    /// The LAW §10 prescribed-time baseline.
-    PrescribedTime,
-}
-
-impl fmt::Display for SchemeName {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Self::PredefinedTime => "predefined-time",
-            Self::PrescribedTime => "prescribed-time",
-        })
-    }
-}
-
-/// `[controller]`: the design values of LAW §3–§5, shared by all agents.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct ControllerSpec {
-    /// Proposed law or baseline.
-    pub scheme: SchemeName,
-    /// `T_s` [s].
-    pub ts: f64,
-    /// `ζ`.
-    pub zeta: f64,
-    /// `ǎ_j`, one per step.
-    pub a_check: Vec<f64>,
-    /// `p`.
-    pub p: f64,
-    /// `η`.
-    pub eta: f64,
-    /// `τ`.
-    pub tau: f64,
-    /// `γ`.
-    pub gamma: f64,
-    /// MTN order.
-    pub mtn_order: u32,
-    /// `φ_low_j`.
-    pub phi_low: Vec<f64>,
-    /// `φ_up_j`.
-    pub phi_up: Vec<f64>,
-    /// `ε̄_j`.
-    pub eps_bar: Vec<f64>,
-    /// `ℓ_1`.
-    pub diff_l1: f64,
-    /// `ℓ_2`.
-    pub diff_l2: f64,
-    /// `ϖ_0`.
-    pub varpi0: f64,
-    /// `κ` of `ϖ(t)`.
-    pub varpi_decay: f64,
-    /// `ϖ_min`.
-    pub varpi_min: f64,
-    /// `μ̂(0)`.
-    pub mu0: f64,
-    /// `ξ̂(0)`.
-    pub xi0: f64,
-    /// `λ̂(0)`.
-    pub lambda0: f64,
-    /// Projection bound of the three estimates.
-    pub estimate_max: f64,
-    /// Explicit `c_1` (with `c2`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub c1: Option<f64>,
-    /// Explicit `c_2` (with `c1`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub c2: Option<f64>,
-    /// Baseline `κ`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub kappa: Option<f64>,
-    /// Baseline `μ_max`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub mu_max: Option<f64>,
-    /// Baseline `T` (default `T_s`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub t_prescribed: Option<f64>,
-}
-
-impl Default for ControllerSpec {
-    fn default() -> Self {
-        // Per-step values for the default plant (Example 1, n = 2).
-        let steps = |p: Param| vec![p.default_f64(); 2];
-        Self {
-            scheme: SchemeName::PredefinedTime,
-            ts: Param::Ts.default_f64(),
-            zeta: Param::Zeta.default_f64(),
-            a_check: steps(Param::ACheck),
-            p: Param::P.default_f64(),
-            eta: Param::Eta.default_f64(),
-            tau: Param::Tau.default_f64(),
-            gamma: Param::Gamma.default_f64(),
-            mtn_order: Param::MtnOrder.default_f64() as u32,
-            phi_low: steps(Param::PhiLow),
-            phi_up: steps(Param::PhiUp),
-            eps_bar: steps(Param::EpsBar),
-            diff_l1: Param::DiffL1.default_f64(),
-            diff_l2: Param::DiffL2.default_f64(),
-            varpi0: Param::Varpi0.default_f64(),
-            varpi_decay: Param::VarpiDecay.default_f64(),
-            varpi_min: Param::VarpiMin.default_f64(),
-            mu0: Param::Mu0.default_f64(),
-            xi0: Param::Xi0.default_f64(),
-            lambda0: Param::Lambda0.default_f64(),
-            estimate_max: Param::EstimateMax.default_f64(),
-            c1: None,
-            c2: None,
-            kappa: None,
-            mu_max: None,
-            t_prescribed: None,
-        }
-    }
-}
-
-/// Reading of the quantizer direction (LAW §4).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum DirectionName {
-    /// `sign(u_k − u_{k−1})`.
-    #[default]
-    Signed,
-    /// `sign(|u_k| − |u_{k−1}|)`.
-    Magnitude,
-}
-
-/// `[quantizer]`: the hysteresis quantizer of eq. (2).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct QuantizerSpec {
-    /// Off: actuators get `u` itself.
-    pub enabled: bool,
-    /// `ρ`.
-    pub rho: f64,
-    /// `u_min`.
-    pub u_min: f64,
-    /// Direction reading.
-    pub direction: DirectionName,
-}
-
-impl Default for QuantizerSpec {
-    fn default() -> Self {
-        Self {
-            enabled: Param::QuantizerEnabled.default_bool(),
-            rho: Param::Rho.default_f64(),
-            u_min: Param::UMin.default_f64(),
-            direction: DirectionName::Signed,
-        }
-    }
-}
+/// `[controller]` (controller-core's section, read in `f64`).
+pub type ControllerSpec = ControllerSection<f64, Vec<f64>>;
+/// `[quantizer]`.
+pub type QuantizerSpec = QuantizerSection<f64>;
+/// `[safety]`.
+pub type SafetySpec = SafetySection<f64>;
 
 /// A scenario checked and resolved: everything the simulator needs.
 #[derive(Debug, Clone)]
@@ -352,99 +152,14 @@ impl Setup {
 
     /// The controller configuration of agent `i` (0-based), for state order `N`.
     pub fn controller_config<const N: usize>(&self, i: usize) -> Result<ControllerConfig<N>> {
-        let c = &self.scenario.controller;
-        let q = &self.scenario.quantizer;
-        let arr = |v: &[f64], key: &str| -> Result<[f32; N]> {
-            let mut a = [0.0f32; N];
-            if v.len() != N {
-                return Err(Error::invalid(
-                    format!("controller.{key}"),
-                    format!(
-                        "expected {N} entries (one per step j = 1..n), got {}",
-                        v.len()
-                    ),
-                ));
-            }
-            for (d, s) in a.iter_mut().zip(v) {
-                *d = *s as f32;
-            }
-            Ok(a)
+        let s = &self.scenario;
+        let agent = Agent {
+            h: s.simulation.h as f32,
+            neighbour_count: self.graph.neighbours(i).len(),
+            pinned: self.graph.pinned(i),
         };
-        let gains = match (c.c1, c.c2) {
-            (None, None) => GainSelection::Auto,
-            (Some(c1), Some(c2)) => GainSelection::Explicit {
-                c1: c1 as f32,
-                c2: c2 as f32,
-            },
-            (Some(_), None) => {
-                return Err(Error::invalid("controller.c2", "required when c1 is given"))
-            }
-            (None, Some(_)) => {
-                return Err(Error::invalid("controller.c1", "required when c2 is given"))
-            }
-        };
-        let scheme = match c.scheme {
-            SchemeName::PredefinedTime => {
-                for (k, v) in [
-                    ("kappa", c.kappa),
-                    ("mu_max", c.mu_max),
-                    ("t_prescribed", c.t_prescribed),
-                ] {
-                    if v.is_some() {
-                        return Err(Error::invalid(
-                            format!("controller.{k}"),
-                            "only for scheme = \"prescribed-time\"",
-                        ));
-                    }
-                }
-                SchemeConfig::PredefinedTime
-            }
-            SchemeName::PrescribedTime => {
-                let d = BaselineConfig::default();
-                SchemeConfig::PrescribedTime(BaselineConfig {
-                    kappa: c.kappa.map_or(d.kappa, |v| v as f32),
-                    mu_max: c.mu_max.map_or(d.mu_max, |v| v as f32),
-                    t_prescribed: c.t_prescribed.map(|v| v as f32),
-                })
-            }
-        };
-        let graph = &self.graph;
-        Ok(ControllerConfig {
-            h: self.scenario.simulation.h as f32,
-            neighbour_count: graph.neighbours(i).len(),
-            pinned: graph.pinned(i),
-            ts: c.ts as f32,
-            zeta: c.zeta as f32,
-            gains,
-            a_check: arr(&c.a_check, "a_check")?,
-            p: c.p as f32,
-            eta: c.eta as f32,
-            tau: c.tau as f32,
-            gamma: c.gamma as f32,
-            mtn_order: c.mtn_order as usize,
-            phi_low: arr(&c.phi_low, "phi_low")?,
-            phi_up: arr(&c.phi_up, "phi_up")?,
-            eps_bar: arr(&c.eps_bar, "eps_bar")?,
-            diff_l1: c.diff_l1 as f32,
-            diff_l2: c.diff_l2 as f32,
-            varpi0: c.varpi0 as f32,
-            varpi_decay: c.varpi_decay as f32,
-            varpi_min: c.varpi_min as f32,
-            mu0: c.mu0 as f32,
-            xi0: c.xi0 as f32,
-            lambda0: c.lambda0 as f32,
-            estimate_max: c.estimate_max as f32,
-            quantizer: q.enabled.then_some(QuantizerConfig {
-                rho: q.rho as f32,
-                u_min: q.u_min as f32,
-                direction: match q.direction {
-                    DirectionName::Signed => QuantizerDirection::Signed,
-                    DirectionName::Magnitude => QuantizerDirection::Magnitude,
-                },
-            }),
-            scheme,
-            safety: self.scenario.safety.config(),
-        })
+        ControllerConfig::from_sections(agent, &s.controller, &s.quantizer, &s.safety)
+            .map_err(|e| Error::invalid(config_error_key(&e, i, false), e.to_string()))
     }
 }
 
