@@ -18,13 +18,13 @@ use crate::{
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ControllerConfig<const N: usize> {
-    /// Sample period `h` [s].
+    /// Sample period `h` (s).
     pub h: f32,
     /// `S_i`: neighbours this agent hears (their values come in this order to `step`).
     pub neighbour_count: usize,
     /// `r_i = 1`: the agent hears the leader.
     pub pinned: bool,
-    /// Predefined-time parameter `T_s` [s]; the settling time is `2 T_s`.
+    /// Predefined-time parameter `T_s` (s); the settling time is `2 T_s`.
     pub ts: f32,
     /// `ζ ∈ (0, 1)`.
     pub zeta: f32,

@@ -53,6 +53,16 @@
 //!   examples stays within 1 % of the default build's (checked in CI). The name is historical:
 //!   the `micromath` crate's own functions, used before, were slower and up to 7 % off.
 //! * `defmt`: `defmt::Format` for the configuration, errors, state and outputs.
+//! * `serde`: `Serialize`/`Deserialize` of [`ControllerConfig`] and its parts (`serde` without
+//!   its default features): a node reads the same scenario file as `host-sim`
+//!   ([`sections`]: `[simulation]` `h`, `[controller]`, `[quantizer]`, `[safety]`).
+//! * `alloc`: `Vec` as the per-step values of [`ControllerSection`] (host tools).
+//!
+//! ## Parameters
+//!
+//! [`Param::spec`] is the one table of every parameter's scenario key, unit, default and range:
+//! the defaults of [`ControllerConfig`] and of the scenario sections come from it, the
+//! constructors check against it, and a [`ConfigError`] names the [`Param`] at fault.
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
