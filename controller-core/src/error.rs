@@ -8,7 +8,7 @@ use crate::{gains::MAX_GAIN, param::Range, sections::SchemeName, Param};
 
 /// Why a controller configuration was rejected by [`crate::Controller::new`]: the parameter,
 /// the 1-based step `j` of a per-step parameter (as in the paper, `j = 1..n`) and the reason.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ConfigError {
     param: Param,
@@ -47,6 +47,17 @@ impl ConfigError {
     /// Why it was rejected.
     pub const fn reason(&self) -> Reason {
         self.reason
+    }
+}
+
+/// Compact for logs: `NonPositive(controller.ts)`, `Zero(controller.a_check[2])`.
+impl fmt::Debug for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{:?}({}", self.reason, self.param.key())?;
+        match self.step {
+            Some(j) => write!(f, "[{j}])"),
+            None => f.write_str(")"),
+        }
     }
 }
 
