@@ -87,16 +87,23 @@ pub fn theta(zeta: f32, n: usize, p: f32, eta: f32, tau: f32) -> Result<f32, Con
     if n == 0 {
         return Err(ConfigError::new(Param::StateOrder, Reason::OutOfRange));
     }
-    let two = math::powf(2.0, 1.0 + zeta / 2.0);
+    let two = scaled_power(1.0, 2.0, 1.0 + zeta / 2.0, 1.0, 1.0);
     let half = zeta / 2.0;
     let f1 = (1.0 + zeta) / (2.0 + zeta);
     let candidates = [
-        math::powf(n as f32, -half),
-        two * math::powf(p, half) * f1,
-        two * math::powf(eta, half) * f1,
-        two * math::powf(tau, half) * (1.0 + 2.0 * zeta) / (2.0 + 2.0 * zeta),
+        scaled_power(1.0, n as f32, -half, 1.0, 1.0),
+        scaled_power(two, p, half, f1, 1.0),
+        scaled_power(two, eta, half, f1, 1.0),
+        scaled_power(two, tau, half, 1.0 + 2.0 * zeta, 2.0 + 2.0 * zeta),
     ];
     Ok(candidates.iter().fold(f32::INFINITY, |m, &c| m.min(c)))
+}
+
+/// `a x^y b / c`, rounded in that order (factors of 1 are exact). Out of line so that a
+/// firmware links one copy of `powf` for the five powers of `ϑ`, not five inlined ones.
+#[inline(never)]
+fn scaled_power(a: f32, x: f32, y: f32, b: f32, c: f32) -> f32 {
+    a * math::powf(x, y) * b / c
 }
 
 #[cfg(test)]

@@ -481,9 +481,9 @@ pub enum Reason {
     /// A per-step parameter without one entry per step `j = 1..n`.
     StepCount {
         /// `n`.
-        expected: usize,
-        /// Entries given.
-        got: usize,
+        expected: u8,
+        /// Entries given (saturated at `u32::MAX`).
+        got: u32,
     },
     /// `c1` or `c2` given without the other.
     Unpaired,

@@ -323,8 +323,8 @@ impl Default for Agent {
 fn steps<const N: usize, F: Number>(param: Param, v: &[F]) -> Result<[f32; N], ConfigError> {
     if v.len() != N {
         let reason = Reason::StepCount {
-            expected: N,
-            got: v.len(),
+            expected: u8::try_from(N).unwrap_or(u8::MAX),
+            got: u32::try_from(v.len()).unwrap_or(u32::MAX),
         };
         return Err(ConfigError::new(param, reason));
     }
