@@ -192,13 +192,26 @@ fn check_controller<const N: usize, const M: usize>(
         let auto_gains = setup.scenario.controller.c1.is_none();
         let key = config_error_key(&e, i, auto_gains);
         let why = if key == "controller.ts" && auto_gains {
-            " (the gains c1, c2 of LAW §3 computed from ts, zeta, p, eta, tau)"
+            " (the gains c1, c2 of LAW §3 computed from ts, zeta, p, eta, tau)".to_string()
         } else {
-            ""
+            scenario_value(&setup.scenario, e.param(), e.step())
+                .filter(|_| key.starts_with(e.param().key()))
+                .map_or_else(String::new, |v| format!(" (got {v})"))
         };
         Error::invalid(key, format!("{e}{why} (agent {})", i + 1))
     })?;
     Ok(())
+}
+
+/// The value the scenario gives `param` (entry `step`, 1-based, of a per-step one), as TOML.
+fn scenario_value(scenario: &Scenario, param: Param, step: Option<u8>) -> Option<toml::Value> {
+    let (section, name) = param.key().split_once('.')?;
+    let table = toml::Value::try_from(scenario).ok()?;
+    let v = table.get(section)?.get(name)?;
+    match step {
+        Some(j) => v.get(usize::from(j).checked_sub(1)?).cloned(),
+        None => Some(v.clone()),
+    }
 }
 
 /// The scenario key behind a controller-core [`ConfigError`] of agent `i` (0-based): the
