@@ -200,7 +200,7 @@ fn more_parameters_are_named() {
         .err(),
         Some(E::new(Param::Kappa, Reason::NonPositive))
     );
-    // Subnormal or huge values whose reciprocal or product with A_i overflows (issue 11).
+    // Subnormal or huge values whose reciprocal or product with A_i overflows.
     let tiny = |c: &mut ControllerConfig<2>| {
         c.phi_low = [1e-40; 2];
         c.phi_up = [1e-40; 2];
