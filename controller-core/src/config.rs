@@ -6,12 +6,11 @@ use crate::{
     backstepping::Backstepping,
     consensus::Consensus,
     differentiator::LevantDifferentiator,
-    gains::{non_negative, positive},
     quantizer::{HysteresisQuantizer, QuantizerConfig},
     safety::{Safety, SafetyConfig},
     scheme::{Scheme, SchemeConfig},
     smoothing::VarpiSchedule,
-    ConfigError, GainSelection, Gains, MtnRegressor,
+    ConfigError, GainSelection, Gains, MtnRegressor, Param, Reason,
 };
 
 /// Everything one agent's controller needs, with the defaults of LAW §8 (Example 1, agent 1:
@@ -19,13 +18,13 @@ use crate::{
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ControllerConfig<const N: usize> {
-    /// Sample period `h` [s].
+    /// Sample period `h` (s).
     pub h: f32,
     /// `S_i`: neighbours this agent hears (their values come in this order to `step`).
     pub neighbour_count: usize,
     /// `r_i = 1`: the agent hears the leader.
     pub pinned: bool,
-    /// Predefined-time parameter `T_s` [s]; the settling time is `2 T_s`.
+    /// Predefined-time parameter `T_s` (s); the settling time is `2 T_s`.
     pub ts: f32,
     /// `ζ ∈ (0, 1)`.
     pub zeta: f32,
@@ -79,30 +78,30 @@ pub struct ControllerConfig<const N: usize> {
 impl<const N: usize> Default for ControllerConfig<N> {
     fn default() -> Self {
         Self {
-            h: 1e-3,
+            h: const { Param::H.default_f32() },
             neighbour_count: 0,
             pinned: true,
-            ts: 2.0,
-            zeta: 0.1,
+            ts: const { Param::Ts.default_f32() },
+            zeta: const { Param::Zeta.default_f32() },
             gains: GainSelection::Auto,
-            a_check: [90.0; N],
-            p: 80.0,
-            eta: 50.0,
-            tau: 50.0,
-            gamma: 0.1,
-            mtn_order: 2,
-            phi_low: [1.0; N],
-            phi_up: [1.0; N],
-            eps_bar: [0.0; N],
-            diff_l1: 1.0,
-            diff_l2: 1.0,
-            varpi0: 0.1,
-            varpi_decay: 0.7,
-            varpi_min: 1e-6,
-            mu0: 0.0,
-            xi0: 0.0,
-            lambda0: 1.0,
-            estimate_max: 1e6,
+            a_check: [const { Param::ACheck.default_f32() }; N],
+            p: const { Param::P.default_f32() },
+            eta: const { Param::Eta.default_f32() },
+            tau: const { Param::Tau.default_f32() },
+            gamma: const { Param::Gamma.default_f32() },
+            mtn_order: const { Param::MtnOrder.default_f64() as usize },
+            phi_low: [const { Param::PhiLow.default_f32() }; N],
+            phi_up: [const { Param::PhiUp.default_f32() }; N],
+            eps_bar: [const { Param::EpsBar.default_f32() }; N],
+            diff_l1: const { Param::DiffL1.default_f32() },
+            diff_l2: const { Param::DiffL2.default_f32() },
+            varpi0: const { Param::Varpi0.default_f32() },
+            varpi_decay: const { Param::VarpiDecay.default_f32() },
+            varpi_min: const { Param::VarpiMin.default_f32() },
+            mu0: const { Param::Mu0.default_f32() },
+            xi0: const { Param::Xi0.default_f32() },
+            lambda0: const { Param::Lambda0.default_f32() },
+            estimate_max: const { Param::EstimateMax.default_f32() },
             quantizer: Some(QuantizerConfig::default()),
             scheme: SchemeConfig::PredefinedTime,
             safety: None,
@@ -136,14 +135,9 @@ impl<const N: usize> Params<N> {
     /// Validates `cfg` for a controller with neighbour capacity `capacity`.
     pub fn new(cfg: &ControllerConfig<N>, capacity: usize) -> Result<Self, ConfigError> {
         if N == 0 {
-            return Err(ConfigError::ZeroStateOrder);
+            return Err(ConfigError::new(Param::StateOrder, Reason::OutOfRange));
         }
-        if !cfg.h.is_finite() {
-            return Err(ConfigError::NonFinite("h"));
-        }
-        if cfg.h <= 0.0 {
-            return Err(ConfigError::NonPositiveSamplePeriod);
-        }
+        Param::H.check(cfg.h)?;
         let gains = match cfg.gains {
             GainSelection::Auto => {
                 Gains::predefined_time(cfg.ts, cfg.zeta, N, cfg.p, cfg.eta, cfg.tau)?
@@ -156,11 +150,11 @@ impl<const N: usize> Params<N> {
         };
         let mtn = MtnRegressor::new(cfg.mtn_order)?;
         if cfg.neighbour_count > capacity || cfg.neighbour_count > u8::MAX as usize {
-            return Err(ConfigError::TooManyNeighbours);
+            return Err(ConfigError::new(Param::Neighbours, Reason::OverCapacity));
         }
         let consensus = Consensus::new(cfg.neighbour_count as u8, cfg.pinned);
         if consensus.a() == 0.0 {
-            return Err(ConfigError::Isolated);
+            return Err(ConfigError::new(Param::Neighbours, Reason::Isolated));
         }
         let quantizer = match &cfg.quantizer {
             Some(q) => Some(HysteresisQuantizer::new(q)?),
@@ -175,73 +169,58 @@ impl<const N: usize> Params<N> {
         let mut inv_l_phi_low = [0.0; N];
         for j in 0..N {
             let step = (j + 1).min(u8::MAX as usize) as u8;
-            let a = cfg.a_check[j];
-            if !a.is_finite() {
-                return Err(ConfigError::NonFinite("a_check"));
-            }
-            if a == 0.0 {
-                return Err(ConfigError::ZeroACheck { step });
-            }
-            let (lo, up) = (cfg.phi_low[j], cfg.phi_up[j]);
-            if !lo.is_finite() {
-                return Err(ConfigError::NonFinite("phi_low"));
-            }
-            if !up.is_finite() {
-                return Err(ConfigError::NonFinite("phi_up"));
-            }
-            if lo <= 0.0 {
-                return Err(ConfigError::NonPositivePhiLow { step });
-            }
+            let overflow = |p| ConfigError::new(p, Reason::DerivedOverflow).at_step(step);
+            let a = Param::ACheck.check_step(step, cfg.a_check[j])?;
+            let lo = Param::PhiLow.check_step(step, cfg.phi_low[j])?;
+            let up = Param::PhiUp.check_step(step, cfg.phi_up[j])?;
             if lo > up {
-                return Err(ConfigError::PhiLowAbovePhiUp { step });
+                return Err(
+                    ConfigError::new(Param::PhiLow, Reason::Exceeds(Param::PhiUp)).at_step(step),
+                );
             }
-            non_negative(cfg.eps_bar[j], "eps_bar")?;
+            Param::EpsBar.check_step(step, cfg.eps_bar[j])?;
             inv_two_a2[j] = 1.0 / (2.0 * a * a);
             p_over_two_a2[j] = cfg.p * inv_two_a2[j];
+            if !inv_two_a2[j].is_finite() || !p_over_two_a2[j].is_finite() {
+                return Err(overflow(Param::ACheck));
+            }
             let l = if j == 0 { consensus.a() } else { 1.0 };
             inv_l_phi_low[j] = 1.0 / (l * lo);
+            if !inv_l_phi_low[j].is_finite() {
+                return Err(overflow(Param::PhiLow));
+            }
             if j > 0 {
                 let jj = if j == 1 { consensus.a() } else { 1.0 };
                 cross[j] = jj * cfg.phi_up[j - 1];
+                if !cross[j].is_finite() {
+                    return Err(overflow(Param::PhiUp).at_step(step - 1));
+                }
                 eps_bar[j] = cfg.eps_bar[j - 1];
             }
         }
-        if inv_two_a2
-            .iter()
-            .chain(p_over_two_a2.iter())
-            .any(|v| !v.is_finite())
-        {
-            return Err(ConfigError::NonFinite("a_check"));
-        }
-        if inv_l_phi_low.iter().any(|v| !v.is_finite()) {
-            return Err(ConfigError::DerivedOverflow("phi_low"));
-        }
-        if cross.iter().any(|v| !v.is_finite()) {
-            return Err(ConfigError::DerivedOverflow("phi_up"));
-        }
-        let gamma = positive(cfg.gamma, "gamma")?;
+        let gamma = Param::Gamma.check(cfg.gamma)?;
         let inv_gamma = 1.0 / gamma;
         if !inv_gamma.is_finite() {
-            return Err(ConfigError::DerivedOverflow("gamma"));
+            return Err(ConfigError::new(Param::Gamma, Reason::DerivedOverflow));
         }
-        positive(cfg.diff_l1, "diff_l1")?;
-        positive(cfg.diff_l2, "diff_l2")?;
-        positive(cfg.varpi0, "varpi0")?;
-        non_negative(cfg.varpi_decay, "varpi_decay")?;
-        if !cfg.varpi_min.is_finite() {
-            return Err(ConfigError::NonFinite("varpi_min"));
+        Param::DiffL1.check(cfg.diff_l1)?;
+        Param::DiffL2.check(cfg.diff_l2)?;
+        Param::Varpi0.check(cfg.varpi0)?;
+        Param::VarpiDecay.check(cfg.varpi_decay)?;
+        if Param::VarpiMin.check(cfg.varpi_min)? > cfg.varpi0 {
+            return Err(ConfigError::new(Param::VarpiMin, Reason::OutOfRange));
         }
-        if cfg.varpi_min <= 0.0 || cfg.varpi_min > cfg.varpi0 {
-            return Err(ConfigError::VarpiMinOutOfRange);
-        }
-        let estimate_max = positive(cfg.estimate_max, "estimate_max")?;
+        let estimate_max = Param::EstimateMax.check(cfg.estimate_max)?;
         let initial = Estimates {
-            mu: non_negative(cfg.mu0, "mu0")?,
-            xi: non_negative(cfg.xi0, "xi0")?,
-            lambda: non_negative(cfg.lambda0, "lambda0")?,
+            mu: Param::Mu0.check(cfg.mu0)?,
+            xi: Param::Xi0.check(cfg.xi0)?,
+            lambda: Param::Lambda0.check(cfg.lambda0)?,
         };
         if initial.mu > estimate_max || initial.xi > estimate_max || initial.lambda > estimate_max {
-            return Err(ConfigError::InitialEstimateAboveMax);
+            return Err(ConfigError::new(
+                Param::EstimateMax,
+                Reason::BelowInitialEstimates,
+            ));
         }
         let scheme = Scheme::new(&cfg.scheme, &gains, cfg.zeta, cfg.ts)?;
         let safety = match &cfg.safety {
@@ -249,7 +228,7 @@ impl<const N: usize> Params<N> {
                 let safety = Safety::new(sc, cfg.h)?;
                 if let Some(q) = &cfg.quantizer {
                     if safety.u_max() <= q.u_min {
-                        return Err(ConfigError::UMaxNotAboveUMin);
+                        return Err(ConfigError::new(Param::UMax, Reason::NotAbove(Param::UMin)));
                     }
                 }
                 Some(safety)

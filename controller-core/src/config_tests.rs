@@ -1,9 +1,10 @@
-//! Every [`ConfigError`] variant is reached by a configuration that should produce it; the
-//! exhaustive `match` makes a new variant fail to compile here until it has a case.
+//! Every [`Reason`] a configuration is rejected for is reached by a configuration that should
+//! produce it; the exhaustive `match` makes a new reason fail to compile here until it has a case.
 
 use crate::{
-    BaselineConfig, ConfigError, Controller, ControllerConfig, GainSelection, Gains,
-    QuantizerConfig, SafetyConfig, SchemeConfig,
+    Agent, BaselineConfig, ConfigError, Controller, ControllerConfig, ControllerSection,
+    GainSelection, Gains, Param, QuantizerConfig, QuantizerSection, Reason, SafetyConfig,
+    SafetySection, SchemeConfig,
 };
 
 type C = Controller<2, 2, 4>;
@@ -22,9 +23,11 @@ fn quantizer(rho: f32, u_min: f32) -> Option<QuantizerConfig> {
     })
 }
 
-/// One configuration per variant, and the variant it must give.
-fn cases() -> [(Result<C, ConfigError>, ConfigError); 22] {
-    use ConfigError as E;
+/// One configuration per way to be wrong, and the error it must give.
+fn cases() -> [(Result<C, ConfigError>, ConfigError); 25] {
+    use Param as P;
+    use Reason as R;
+    let e = ConfigError::new;
     let baseline = |mu_max, kappa| {
         SchemeConfig::PrescribedTime(BaselineConfig {
             kappa,
@@ -33,41 +36,56 @@ fn cases() -> [(Result<C, ConfigError>, ConfigError); 22] {
         })
     };
     [
-        (with(|c| c.h = f32::NAN), E::NonFinite("h")),
-        (with(|c| c.zeta = 1.0), E::ZetaOutOfRange),
-        (with(|c| c.ts = -1.0), E::NonPositiveTs),
-        (with(|c| c.h = 0.0), E::NonPositiveSamplePeriod),
+        (with(|c| c.h = f32::NAN), e(P::H, R::NonFinite)),
+        (with(|c| c.zeta = 1.0), e(P::Zeta, R::OutOfRange)),
+        (with(|c| c.ts = -1.0), e(P::Ts, R::NonPositive)),
+        (with(|c| c.h = 0.0), e(P::H, R::NonPositive)),
         (
             with(|c| c.quantizer = quantizer(1.2, 0.01)),
-            E::RhoOutOfRange,
+            e(P::Rho, R::OutOfRange),
         ),
         (
             with(|c| c.quantizer = quantizer(0.9, 0.0)),
-            E::NonPositiveUMin,
+            e(P::UMin, R::NonPositive),
         ),
         (
             with(|c| c.phi_low[1] = 0.0),
-            E::NonPositivePhiLow { step: 2 },
+            e(P::PhiLow, R::NonPositive).at_step(2),
         ),
         (
             with(|c| c.phi_low[0] = 2.0),
-            E::PhiLowAbovePhiUp { step: 1 },
+            e(P::PhiLow, R::Exceeds(P::PhiUp)).at_step(1),
         ),
-        (with(|c| c.a_check[1] = 0.0), E::ZeroACheck { step: 2 }),
-        (with(|c| c.mtn_order = 0), E::ZeroMtnOrder),
-        (with(|c| c.mtn_order = 9), E::MtnOrderTooLarge),
-        (with(|c| c.neighbour_count = 5), E::TooManyNeighbours),
-        (with(|c| c.pinned = false), E::Isolated),
-        (with(|c| c.gamma = 0.0), E::NonPositive("gamma")),
-        (with(|c| c.eps_bar[0] = -0.1), E::Negative("eps_bar")),
-        (with(|c| c.zeta = 1e-30), E::GainTooLarge("c1")),
-        (with(|c| c.gamma = 1e-40), E::DerivedOverflow("gamma")),
-        (with(|c| c.varpi_min = 1.0), E::VarpiMinOutOfRange),
-        (with(|c| c.mu0 = 2e6), E::InitialEstimateAboveMax),
-        (with(|c| c.scheme = baseline(0.5, 2.0)), E::MuMaxBelowOne),
+        (
+            with(|c| c.a_check[1] = 0.0),
+            e(P::ACheck, R::Zero).at_step(2),
+        ),
+        (with(|c| c.mtn_order = 0), e(P::MtnOrder, R::OutOfRange)),
+        (with(|c| c.mtn_order = 9), e(P::MtnOrder, R::OutOfRange)),
+        (
+            with(|c| c.neighbour_count = 5),
+            e(P::Neighbours, R::OverCapacity),
+        ),
+        (with(|c| c.pinned = false), e(P::Neighbours, R::Isolated)),
+        (with(|c| c.gamma = 0.0), e(P::Gamma, R::NonPositive)),
+        (
+            with(|c| c.eps_bar[0] = -0.1),
+            e(P::EpsBar, R::Negative).at_step(1),
+        ),
+        (with(|c| c.zeta = 1e-30), e(P::C1, R::TooLarge)),
+        (with(|c| c.gamma = 1e-40), e(P::Gamma, R::DerivedOverflow)),
+        (with(|c| c.varpi_min = 1.0), e(P::VarpiMin, R::OutOfRange)),
+        (
+            with(|c| c.mu0 = 2e6),
+            e(P::EstimateMax, R::BelowInitialEstimates),
+        ),
+        (
+            with(|c| c.scheme = baseline(0.5, 2.0)),
+            e(P::MuMax, R::OutOfRange),
+        ),
         (
             Gains::predefined_time(1.0, 0.5, 0, 1.0, 1.0, 1.0).map(|_| default_controller()),
-            E::ZeroStateOrder,
+            e(P::StateOrder, R::OutOfRange),
         ),
         (
             with(|c| {
@@ -76,9 +94,39 @@ fn cases() -> [(Result<C, ConfigError>, ConfigError); 22] {
                     ..SafetyConfig::default()
                 })
             }),
-            E::UMaxNotAboveUMin,
+            e(P::UMax, R::NotAbove(P::UMin)),
+        ),
+        (
+            sections::<3>(|_| {}),
+            e(
+                P::ACheck,
+                R::StepCount {
+                    expected: 2,
+                    got: 3,
+                },
+            ),
+        ),
+        (sections::<2>(|c| c.c1 = Some(9.0)), e(P::C2, R::Unpaired)),
+        (
+            sections::<2>(|c| c.kappa = Some(2.0)),
+            e(P::Kappa, R::BaselineOnly),
         ),
     ]
+}
+
+/// A controller from the default sections (`S` entries per step) changed by `f`.
+fn sections<const S: usize>(
+    f: impl FnOnce(&mut ControllerSection<f32, heapless::Vec<f32, S>>),
+) -> Result<C, ConfigError> {
+    let mut c = ControllerSection::default();
+    f(&mut c);
+    let cfg = ControllerConfig::from_sections(
+        Agent::default(),
+        &c,
+        &QuantizerSection::default(),
+        &SafetySection::default(),
+    )?;
+    C::new(&cfg)
 }
 
 fn default_controller() -> C {
@@ -86,33 +134,26 @@ fn default_controller() -> C {
 }
 
 #[test]
-fn every_variant_is_reached() {
-    let mut seen = [false; 22];
+fn every_reason_is_reached() {
+    let mut seen = [false; 15];
     for (i, (got, want)) in cases().into_iter().enumerate() {
         assert_eq!(got.err(), Some(want), "case {i}");
-        let slot = match want {
-            ConfigError::NonFinite(_) => 0,
-            ConfigError::ZetaOutOfRange => 1,
-            ConfigError::NonPositiveTs => 2,
-            ConfigError::NonPositiveSamplePeriod => 3,
-            ConfigError::RhoOutOfRange => 4,
-            ConfigError::NonPositiveUMin => 5,
-            ConfigError::NonPositivePhiLow { .. } => 6,
-            ConfigError::PhiLowAbovePhiUp { .. } => 7,
-            ConfigError::ZeroACheck { .. } => 8,
-            ConfigError::ZeroMtnOrder => 9,
-            ConfigError::MtnOrderTooLarge => 10,
-            ConfigError::TooManyNeighbours => 11,
-            ConfigError::Isolated => 12,
-            ConfigError::NonPositive(_) => 13,
-            ConfigError::Negative(_) => 14,
-            ConfigError::VarpiMinOutOfRange => 15,
-            ConfigError::InitialEstimateAboveMax => 16,
-            ConfigError::MuMaxBelowOne => 17,
-            ConfigError::ZeroStateOrder => 18,
-            ConfigError::GainTooLarge(_) => 19,
-            ConfigError::DerivedOverflow(_) => 20,
-            ConfigError::UMaxNotAboveUMin => 21,
+        let slot = match want.reason() {
+            Reason::NonFinite => 0,
+            Reason::NonPositive => 1,
+            Reason::Negative => 2,
+            Reason::Zero => 3,
+            Reason::OutOfRange => 4,
+            Reason::TooLarge => 5,
+            Reason::DerivedOverflow => 6,
+            Reason::Exceeds(_) => 7,
+            Reason::NotAbove(_) => 8,
+            Reason::BelowInitialEstimates => 9,
+            Reason::OverCapacity => 10,
+            Reason::Isolated => 11,
+            Reason::StepCount { .. } => 12,
+            Reason::Unpaired => 13,
+            Reason::BaselineOnly => 14,
         };
         seen[slot] = true;
     }
@@ -123,27 +164,33 @@ fn every_variant_is_reached() {
 fn more_parameters_are_named() {
     use ConfigError as E;
     let q = |rho| with(|c| c.quantizer = quantizer(rho, 0.01)).err();
-    assert_eq!(q(f32::INFINITY), Some(E::NonFinite("rho")));
-    assert_eq!(with(|c| c.p = -1.0).err(), Some(E::NonPositive("p")));
+    assert_eq!(
+        q(f32::INFINITY),
+        Some(E::new(Param::Rho, Reason::NonFinite))
+    );
+    assert_eq!(
+        with(|c| c.p = -1.0).err(),
+        Some(E::new(Param::P, Reason::NonPositive))
+    );
     assert_eq!(
         with(|c| c.diff_l2 = 0.0).err(),
-        Some(E::NonPositive("diff_l2"))
+        Some(E::new(Param::DiffL2, Reason::NonPositive))
     );
     assert_eq!(
         with(|c| c.lambda0 = -1.0).err(),
-        Some(E::Negative("lambda0"))
+        Some(E::new(Param::Lambda0, Reason::Negative))
     );
     assert_eq!(
         with(|c| c.varpi_decay = -0.7).err(),
-        Some(E::Negative("varpi_decay"))
+        Some(E::new(Param::VarpiDecay, Reason::Negative))
     );
     assert_eq!(
         with(|c| c.a_check[0] = f32::NAN).err(),
-        Some(E::NonFinite("a_check"))
+        Some(E::new(Param::ACheck, Reason::NonFinite).at_step(1))
     );
     assert_eq!(
         with(|c| c.gains = GainSelection::Explicit { c1: 0.0, c2: 9.0 }).err(),
-        Some(E::NonPositive("c1"))
+        Some(E::new(Param::C1, Reason::NonPositive))
     );
     assert_eq!(
         with(|c| c.scheme = SchemeConfig::PrescribedTime(BaselineConfig {
@@ -151,20 +198,26 @@ fn more_parameters_are_named() {
             ..BaselineConfig::default()
         }))
         .err(),
-        Some(E::NonPositive("kappa"))
+        Some(E::new(Param::Kappa, Reason::NonPositive))
     );
-    // Subnormal or huge values whose reciprocal or product with A_i overflows (issue 11).
+    // Subnormal or huge values whose reciprocal or product with A_i overflows.
     let tiny = |c: &mut ControllerConfig<2>| {
         c.phi_low = [1e-40; 2];
         c.phi_up = [1e-40; 2];
     };
-    assert_eq!(with(tiny).err(), Some(E::DerivedOverflow("phi_low")));
+    assert_eq!(
+        with(tiny).err(),
+        Some(E::new(Param::PhiLow, Reason::DerivedOverflow).at_step(1))
+    );
     let huge_up = |c: &mut ControllerConfig<2>| {
         c.pinned = true;
         c.neighbour_count = 2;
         c.phi_up = [f32::MAX; 2];
     };
-    assert_eq!(with(huge_up).err(), Some(E::DerivedOverflow("phi_up")));
+    assert_eq!(
+        with(huge_up).err(),
+        Some(E::new(Param::PhiUp, Reason::DerivedOverflow).at_step(1))
+    );
     let safety = |u_max, du_max, recovery_rate| {
         with(|c| {
             c.safety = Some(SafetyConfig {
@@ -176,14 +229,17 @@ fn more_parameters_are_named() {
         })
         .err()
     };
-    assert_eq!(safety(Some(-1.0), None, 1.0), Some(E::NonPositive("u_max")));
+    assert_eq!(
+        safety(Some(-1.0), None, 1.0),
+        Some(E::new(Param::UMax, Reason::NonPositive))
+    );
     assert_eq!(
         safety(None, Some(f32::NAN), 1.0),
-        Some(E::NonFinite("du_max"))
+        Some(E::new(Param::DuMax, Reason::NonFinite))
     );
     assert_eq!(
         safety(None, None, -1.0),
-        Some(E::NonPositive("recovery_rate"))
+        Some(E::new(Param::RecoveryRate, Reason::NonPositive))
     );
     assert_eq!(safety(Some(20.0), Some(1e4), f32::INFINITY), None);
     assert_eq!(
@@ -194,11 +250,16 @@ fn more_parameters_are_named() {
             })
         })
         .err(),
-        Some(E::Negative("recovery_jump"))
+        Some(E::new(Param::RecoveryJump, Reason::Negative))
     );
     // Messages name the parameter.
     extern crate std;
     use std::string::ToString;
-    assert!(E::NonPositive("gamma").to_string().contains("gamma"));
-    assert!(E::ZeroACheck { step: 2 }.to_string().contains("a_check[2]"));
+    assert!(E::new(Param::Gamma, Reason::NonPositive)
+        .to_string()
+        .contains("gamma"));
+    assert!(E::new(Param::ACheck, Reason::Zero)
+        .at_step(2)
+        .to_string()
+        .contains("a_check[2]"));
 }

@@ -1,6 +1,6 @@
 //! Predefined-time gains `c_1`, `c_2`, `k_1`, `k_2` (LAW §3; the paper's Theorem 1).
 
-use crate::{math, ConfigError};
+use crate::{math, ConfigError, Param, Reason};
 use core::f32::consts::PI;
 
 /// `√f32::MAX`: the largest usable `c_1`, `c_2` (the recursion squares them).
@@ -9,6 +9,8 @@ pub const MAX_GAIN: f32 = 1.844_674_3e19;
 /// How `c_1`, `c_2` are chosen.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "kebab-case"))]
 pub enum GainSelection {
     /// From `T_s`, `ζ` and the adaptation gains by LAW §3 (the paper's choice).
     Auto,
@@ -52,13 +54,8 @@ impl Gains {
         eta: f32,
         tau: f32,
     ) -> Result<Self, ConfigError> {
-        check_zeta(zeta)?;
-        if !ts.is_finite() {
-            return Err(ConfigError::NonFinite("ts"));
-        }
-        if ts <= 0.0 {
-            return Err(ConfigError::NonPositiveTs);
-        }
+        Param::Zeta.check(zeta)?;
+        Param::Ts.check(ts)?;
         let theta = theta(zeta, n, p, eta, tau)?;
         let c2 = PI / (zeta * ts);
         Self::explicit(c2 / theta, c2, zeta)
@@ -66,10 +63,10 @@ impl Gains {
 
     /// Explicit `c_1`, `c_2`; `k_1`, `k_2` follow from `ζ`.
     pub fn explicit(c1: f32, c2: f32, zeta: f32) -> Result<Self, ConfigError> {
-        check_zeta(zeta)?;
-        for (c, name) in [(c1, "c1"), (c2, "c2")] {
-            if positive(c, name)? >= MAX_GAIN {
-                return Err(ConfigError::GainTooLarge(name));
+        Param::Zeta.check(zeta)?;
+        for (c, param) in [(c1, Param::C1), (c2, Param::C2)] {
+            if param.check(c)? >= MAX_GAIN {
+                return Err(ConfigError::new(param, Reason::TooLarge));
             }
         }
         Ok(Self {
@@ -83,53 +80,30 @@ impl Gains {
 
 /// The factor `ϑ` of LAW §3 (the paper's `r`).
 pub fn theta(zeta: f32, n: usize, p: f32, eta: f32, tau: f32) -> Result<f32, ConfigError> {
-    check_zeta(zeta)?;
-    positive(p, "p")?;
-    positive(eta, "eta")?;
-    positive(tau, "tau")?;
+    Param::Zeta.check(zeta)?;
+    Param::P.check(p)?;
+    Param::Eta.check(eta)?;
+    Param::Tau.check(tau)?;
     if n == 0 {
-        return Err(ConfigError::ZeroStateOrder);
+        return Err(ConfigError::new(Param::StateOrder, Reason::OutOfRange));
     }
-    let two = math::powf(2.0, 1.0 + zeta / 2.0);
+    let two = scaled_power(1.0, 2.0, 1.0 + zeta / 2.0, 1.0, 1.0);
     let half = zeta / 2.0;
     let f1 = (1.0 + zeta) / (2.0 + zeta);
     let candidates = [
-        math::powf(n as f32, -half),
-        two * math::powf(p, half) * f1,
-        two * math::powf(eta, half) * f1,
-        two * math::powf(tau, half) * (1.0 + 2.0 * zeta) / (2.0 + 2.0 * zeta),
+        scaled_power(1.0, n as f32, -half, 1.0, 1.0),
+        scaled_power(two, p, half, f1, 1.0),
+        scaled_power(two, eta, half, f1, 1.0),
+        scaled_power(two, tau, half, 1.0 + 2.0 * zeta, 2.0 + 2.0 * zeta),
     ];
     Ok(candidates.iter().fold(f32::INFINITY, |m, &c| m.min(c)))
 }
 
-fn check_zeta(zeta: f32) -> Result<(), ConfigError> {
-    if !zeta.is_finite() {
-        return Err(ConfigError::NonFinite("zeta"));
-    }
-    if zeta <= 0.0 || zeta >= 1.0 {
-        return Err(ConfigError::ZetaOutOfRange);
-    }
-    Ok(())
-}
-
-pub(crate) fn positive(x: f32, name: &'static str) -> Result<f32, ConfigError> {
-    if !x.is_finite() {
-        Err(ConfigError::NonFinite(name))
-    } else if x <= 0.0 {
-        Err(ConfigError::NonPositive(name))
-    } else {
-        Ok(x)
-    }
-}
-
-pub(crate) fn non_negative(x: f32, name: &'static str) -> Result<f32, ConfigError> {
-    if !x.is_finite() {
-        Err(ConfigError::NonFinite(name))
-    } else if x < 0.0 {
-        Err(ConfigError::Negative(name))
-    } else {
-        Ok(x)
-    }
+/// `a x^y b / c`, rounded in that order (factors of 1 are exact). Out of line so that a
+/// firmware links one copy of `powf` for the five powers of `ϑ`, not five inlined ones.
+#[inline(never)]
+fn scaled_power(a: f32, x: f32, y: f32, b: f32, c: f32) -> f32 {
+    a * math::powf(x, y) * b / c
 }
 
 #[cfg(test)]
@@ -171,30 +145,31 @@ mod tests {
 
     #[test]
     fn rejects_bad_inputs() {
+        let e = ConfigError::new;
         assert_eq!(
             Gains::predefined_time(2.0, 1.0, 2, 1.0, 1.0, 1.0),
-            Err(ConfigError::ZetaOutOfRange)
+            Err(e(Param::Zeta, Reason::OutOfRange))
         );
         assert_eq!(
             Gains::predefined_time(0.0, 0.5, 2, 1.0, 1.0, 1.0),
-            Err(ConfigError::NonPositiveTs)
+            Err(e(Param::Ts, Reason::NonPositive))
         );
         assert_eq!(
             Gains::explicit(-1.0, 1.0, 0.5),
-            Err(ConfigError::NonPositive("c1"))
+            Err(e(Param::C1, Reason::NonPositive))
         );
         assert_eq!(
             Gains::predefined_time(1.0, 0.5, 0, 1.0, 1.0, 1.0),
-            Err(ConfigError::ZeroStateOrder)
+            Err(e(Param::StateOrder, Reason::OutOfRange))
         );
         // ζ = 1e-30 passes the range check, but c_2 = π/(ζ T_s) ≈ 1.6e30 cannot be used.
         assert_eq!(
             Gains::predefined_time(2.0, 1e-30, 2, 80.0, 50.0, 50.0),
-            Err(ConfigError::GainTooLarge("c1"))
+            Err(e(Param::C1, Reason::TooLarge))
         );
         assert_eq!(
             Gains::explicit(1.0, 2e19, 0.5),
-            Err(ConfigError::GainTooLarge("c2"))
+            Err(e(Param::C2, Reason::TooLarge))
         );
     }
 }

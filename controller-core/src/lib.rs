@@ -53,9 +53,22 @@
 //!   examples stays within 1 % of the default build's (checked in CI). The name is historical:
 //!   the `micromath` crate's own functions, used before, were slower and up to 7 % off.
 //! * `defmt`: `defmt::Format` for the configuration, errors, state and outputs.
+//! * `serde`: `Serialize`/`Deserialize` of [`ControllerConfig`] and its parts (`serde` without
+//!   its default features): a node reads the same scenario file as `host-sim`
+//!   ([`sections`]: `[simulation]` `h`, `[controller]`, `[quantizer]`, `[safety]`).
+//! * `alloc`: `Vec` as the per-step values of [`ControllerSection`] (host tools).
+//!
+//! ## Parameters
+//!
+//! [`Param::spec`] is the one table of every parameter's scenario key, unit, default and range:
+//! the defaults of [`ControllerConfig`] and of the scenario sections come from it, the
+//! constructors check against it, and a [`ConfigError`] names the [`Param`] at fault.
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
+
+#[cfg(feature = "alloc")]
+extern crate alloc;
 
 // The shared Example 1 test loop (`tests/common`) names the crate `controller_core`, also when a
 // unit test includes it.
@@ -74,10 +87,12 @@ mod error;
 pub mod gains;
 pub mod math;
 pub mod mtn;
+pub mod param;
 pub mod powers;
 pub mod quantizer;
 pub mod safety;
 pub mod scheme;
+pub mod sections;
 pub mod smoothing;
 
 pub use adaptive::Estimates;
@@ -88,6 +103,10 @@ pub use differentiator::LevantDifferentiator;
 pub use error::ConfigError;
 pub use gains::{GainSelection, Gains};
 pub use mtn::MtnRegressor;
+pub use param::{Param, Reason};
 pub use quantizer::{HysteresisQuantizer, QuantizerConfig, QuantizerDirection};
 pub use safety::SafetyConfig;
 pub use scheme::{BaselineConfig, SchemeConfig};
+#[cfg(feature = "serde")]
+pub use sections::ConfigFile;
+pub use sections::{Agent, ControllerSection, QuantizerSection, SafetySection, SchemeName};

@@ -4,7 +4,7 @@
 //! The law needs only `‖Φ‖² = Σ_{k=1..m} h_k(X₁², …, X_d²)` (complete homogeneous symmetric
 //! polynomials), which [`MtnAccumulator`] evaluates in `O(d·m)` without building `Φ`.
 
-use crate::ConfigError;
+use crate::{ConfigError, Param};
 
 /// Largest supported MTN order `m`.
 pub const MAX_MTN_ORDER: usize = 8;
@@ -27,12 +27,9 @@ pub struct MtnRegressor {
 impl MtnRegressor {
     /// A regressor of order `1 ≤ m ≤ MAX_MTN_ORDER`.
     pub const fn new(order: usize) -> Result<Self, ConfigError> {
-        if order == 0 {
-            Err(ConfigError::ZeroMtnOrder)
-        } else if order > MAX_MTN_ORDER {
-            Err(ConfigError::MtnOrderTooLarge)
-        } else {
-            Ok(Self { order: order as u8 })
+        match Param::MtnOrder.check_count(order) {
+            Ok(order) => Ok(Self { order: order as u8 }),
+            Err(e) => Err(e),
         }
     }
 
@@ -243,7 +240,8 @@ mod tests {
         assert_eq!(MtnRegressor::new(1).unwrap().len(4), 4);
         assert_eq!(MtnRegressor::new(3).unwrap().len(2), 9);
         assert_eq!(MtnRegressor::new(2).unwrap().len(0), 0);
-        assert_eq!(MtnRegressor::new(0), Err(ConfigError::ZeroMtnOrder));
-        assert_eq!(MtnRegressor::new(9), Err(ConfigError::MtnOrderTooLarge));
+        let out_of_range = Err(ConfigError::new(Param::MtnOrder, crate::Reason::OutOfRange));
+        assert_eq!(MtnRegressor::new(0), out_of_range);
+        assert_eq!(MtnRegressor::new(9), out_of_range);
     }
 }

@@ -17,11 +17,13 @@
 //! [`HysteresisQuantizer::saturation`] (`u_c` or `u_c (1+δ)` of that top level). So every finite
 //! `u` gives a finite `q`; Lemma 3's sector holds for `|u|` up to the top level.
 
-use crate::{gains::positive, math, ConfigError};
+use crate::{math, param::Range, ConfigError, Param, Reason};
 
 /// How the direction `d` of eq. (2) is read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "kebab-case"))]
 pub enum QuantizerDirection {
     /// `d = sign(u_k − u_{k−1})`: the literal reading of eq. (2) (default).
     #[default]
@@ -33,6 +35,7 @@ pub enum QuantizerDirection {
 /// Quantizer parameters as a user writes them.
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct QuantizerConfig {
     /// `0 < ρ < 1`: ratio of successive levels.
     pub rho: f32,
@@ -45,8 +48,8 @@ pub struct QuantizerConfig {
 impl Default for QuantizerConfig {
     fn default() -> Self {
         Self {
-            rho: 0.9,
-            u_min: 0.01,
+            rho: const { Param::Rho.default_f32() },
+            u_min: const { Param::UMin.default_f32() },
             direction: QuantizerDirection::Signed,
         }
     }
@@ -108,21 +111,13 @@ const SQUARINGS: usize = 8;
 impl HysteresisQuantizer {
     /// Checks `0 < ρ < 1`, `u_min > 0`.
     pub fn new(cfg: &QuantizerConfig) -> Result<Self, ConfigError> {
-        if !cfg.rho.is_finite() {
-            return Err(ConfigError::NonFinite("rho"));
-        }
-        if cfg.rho <= 0.0 || cfg.rho >= 1.0 {
-            return Err(ConfigError::RhoOutOfRange);
-        }
-        if !cfg.u_min.is_finite() {
-            return Err(ConfigError::NonFinite("u_min"));
-        }
-        if cfg.u_min <= 0.0 {
-            return Err(ConfigError::NonPositiveUMin);
-        }
+        Param::Rho.check(cfg.rho)?;
+        Param::UMin.check(cfg.u_min)?;
         let delta = (1.0 - cfg.rho) / (1.0 + cfg.rho);
         let inv_rho = 1.0 / cfg.rho;
-        let inv_ln_inv_rho = positive(1.0 / math::ln(inv_rho), "rho")?;
+        let inv_ln_inv_rho = Range::Positive
+            .check(1.0 / math::ln(inv_rho))
+            .map_err(|_| ConfigError::new(Param::Rho, Reason::DerivedOverflow))?;
         let ln_u_min = math::ln(cfg.u_min);
         let mut squarings = [inv_rho; SQUARINGS];
         let mut x = inv_rho;
@@ -488,9 +483,10 @@ mod tests {
                 direction: QuantizerDirection::Signed,
             })
         };
-        assert_eq!(bad(1.0, 0.01), Err(ConfigError::RhoOutOfRange));
-        assert_eq!(bad(0.0, 0.01), Err(ConfigError::RhoOutOfRange));
-        assert_eq!(bad(0.5, 0.0), Err(ConfigError::NonPositiveUMin));
-        assert_eq!(bad(f32::NAN, 0.01), Err(ConfigError::NonFinite("rho")));
+        let e = |p, r| Err(ConfigError::new(p, r));
+        assert_eq!(bad(1.0, 0.01), e(Param::Rho, Reason::OutOfRange));
+        assert_eq!(bad(0.0, 0.01), e(Param::Rho, Reason::OutOfRange));
+        assert_eq!(bad(0.5, 0.0), e(Param::UMin, Reason::NonPositive));
+        assert_eq!(bad(f32::NAN, 0.01), e(Param::Rho, Reason::NonFinite));
     }
 }

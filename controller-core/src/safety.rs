@@ -18,11 +18,12 @@
 //! [`Safety`] holds the validated settings. The step applies the re-entry to the links before
 //! the law and the limits inside it; with safety off (`None`) none of this code runs.
 
-use crate::{gains::positive, ConfigError, Link};
+use crate::{ConfigError, Link, Param};
 
 /// Safety settings as a user writes them (units of the command `u` and seconds).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct SafetyConfig {
     /// Limit of `|u|` per actuator before the quantizer (`None`: no magnitude limit).
     pub u_max: Option<f32>,
@@ -42,8 +43,8 @@ impl Default for SafetyConfig {
         Self {
             u_max: None,
             du_max: None,
-            recovery_rate: 1.0,
-            recovery_jump: 0.05,
+            recovery_rate: const { Param::RecoveryRate.default_f32() },
+            recovery_jump: const { Param::RecoveryJump.default_f32() },
         }
     }
 }
@@ -62,25 +63,18 @@ impl Safety {
     /// Validates `cfg` for sample period `h` (> 0, checked by the caller).
     pub fn new(cfg: &SafetyConfig, h: f32) -> Result<Self, ConfigError> {
         let u_max = match cfg.u_max {
-            Some(v) => positive(v, "u_max")?,
+            Some(v) => Param::UMax.check(v)?,
             None => f32::INFINITY,
         };
         let du_step = match cfg.du_max {
-            Some(v) => positive(v, "du_max")? * h,
+            Some(v) => Param::DuMax.check(v)? * h,
             None => f32::INFINITY,
         };
-        let v = cfg.recovery_rate;
-        if v.is_nan() {
-            return Err(ConfigError::NonFinite("recovery_rate"));
-        }
-        if v <= 0.0 {
-            return Err(ConfigError::NonPositive("recovery_rate"));
-        }
         Ok(Self {
             u_max,
             du_step,
-            blend_step: v * h,
-            jump: crate::gains::non_negative(cfg.recovery_jump, "recovery_jump")?,
+            blend_step: Param::RecoveryRate.check(cfg.recovery_rate)? * h,
+            jump: Param::RecoveryJump.check(cfg.recovery_jump)?,
         })
     }
 
@@ -326,22 +320,15 @@ mod tests {
             )
             .unwrap_err()
         };
-        assert_eq!(bad(Some(0.0), None, 0.1), ConfigError::NonPositive("u_max"));
-        assert_eq!(
-            bad(Some(f32::NAN), None, 0.1),
-            ConfigError::NonFinite("u_max")
-        );
-        assert_eq!(
-            bad(None, Some(-1.0), 0.1),
-            ConfigError::NonPositive("du_max")
-        );
+        use crate::Reason as R;
+        let e = ConfigError::new;
+        assert_eq!(bad(Some(0.0), None, 0.1), e(Param::UMax, R::NonPositive));
+        assert_eq!(bad(Some(f32::NAN), None, 0.1), e(Param::UMax, R::NonFinite));
+        assert_eq!(bad(None, Some(-1.0), 0.1), e(Param::DuMax, R::NonPositive));
         assert_eq!(
             bad(None, None, f32::NAN),
-            ConfigError::NonFinite("recovery_rate")
+            e(Param::RecoveryRate, R::NonFinite)
         );
-        assert_eq!(
-            bad(None, None, 0.0),
-            ConfigError::NonPositive("recovery_rate")
-        );
+        assert_eq!(bad(None, None, 0.0), e(Param::RecoveryRate, R::NonPositive));
     }
 }

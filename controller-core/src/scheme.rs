@@ -2,11 +2,13 @@
 //! `k_1 M(e) + k_2 N(e)` of (17)–(19), or the prescribed-time `(c_1 + c_2 μ_T(t)) e` of the
 //! LAW §10 baseline. Everything else of the backstepping design is shared.
 
-use crate::{gains::positive, math, powers::Powers, ConfigError, Gains};
+use crate::{math, powers::Powers, ConfigError, Gains, Param};
 
 /// Which scheme a controller runs.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "kebab-case"))]
 pub enum SchemeConfig {
     /// The paper's predefined-time law (default).
     #[default]
@@ -21,6 +23,7 @@ pub enum SchemeConfig {
 /// Fig. 8, not a copy of its (unavailable) ref. [39].
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct BaselineConfig {
     /// `κ > 0` (default 2).
     pub kappa: f32,
@@ -33,8 +36,8 @@ pub struct BaselineConfig {
 impl Default for BaselineConfig {
     fn default() -> Self {
         Self {
-            kappa: 2.0,
-            mu_max: 10.0,
+            kappa: const { Param::Kappa.default_f32() },
+            mu_max: const { Param::MuMax.default_f32() },
             t_prescribed: None,
         }
     }
@@ -94,19 +97,18 @@ impl Scheme {
                 powers: Powers::new(zeta),
             },
             SchemeConfig::PrescribedTime(b) => {
-                positive(b.kappa, "kappa")?;
-                if !b.mu_max.is_finite() {
-                    return Err(ConfigError::NonFinite("mu_max"));
-                }
-                if b.mu_max < 1.0 {
-                    return Err(ConfigError::MuMaxBelowOne);
-                }
+                let kappa = Param::Kappa.check(b.kappa)?;
+                let mu_max = Param::MuMax.check(b.mu_max)?;
+                let t_prescribed = match b.t_prescribed {
+                    Some(t) => Param::TPrescribed.check(t)?,
+                    None => ts,
+                };
                 Self::PrescribedTime {
                     c1: gains.c1,
                     c2: gains.c2,
-                    kappa: b.kappa,
-                    mu_max: b.mu_max,
-                    t_prescribed: positive(b.t_prescribed.unwrap_or(ts), "t_prescribed")?,
+                    kappa,
+                    mu_max,
+                    t_prescribed,
                 }
             }
         })

@@ -6,7 +6,7 @@ use controller_core::{
     QuantizerDirection, SchemeConfig,
 };
 
-fn issue11_quantizer() -> QuantizerConfig {
+fn near_max_quantizer() -> QuantizerConfig {
     QuantizerConfig {
         rho: 0.4660296,
         u_min: 0.9543642,
@@ -18,7 +18,7 @@ fn issue11_quantizer() -> QuantizerConfig {
 /// to `±∞` with no fault: the level above the top finite level overflowed. This is the shrunk
 /// case, replayed through the whole step.
 #[test]
-fn issue11_finite_command_near_f32_max_gives_a_finite_quantized_command() {
+fn finite_command_near_f32_max_gives_a_finite_quantized_command() {
     let cfg = ControllerConfig::<2> {
         h: 1e-4,
         neighbour_count: 1,
@@ -37,7 +37,7 @@ fn issue11_finite_command_near_f32_max_gives_a_finite_quantized_command() {
         mu0: 4.6767554,
         xi0: 4.874346,
         lambda0: 1.4612558,
-        quantizer: Some(issue11_quantizer()),
+        quantizer: Some(near_max_quantizer()),
         scheme: SchemeConfig::PredefinedTime,
         ..ControllerConfig::default()
     };
@@ -78,8 +78,8 @@ fn issue11_finite_command_near_f32_max_gives_a_finite_quantized_command() {
 /// bracket value `b = |u| (1+δ)` overflowed: the incremental search returned `∞` and the closed
 /// form the lowest level (`1.30`).
 #[test]
-fn issue11_quantizer_near_f32_max_is_finite_and_search_agrees() {
-    let qz = HysteresisQuantizer::new(&issue11_quantizer()).unwrap();
+fn quantizer_near_f32_max_is_finite_and_search_agrees() {
+    let qz = HysteresisQuantizer::new(&near_max_quantizer()).unwrap();
     let sat = qz.saturation();
     assert!(sat.is_finite() && sat > f32::MAX * 0.4660296);
     let mut s = qz.state();

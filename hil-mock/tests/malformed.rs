@@ -146,7 +146,10 @@ fn configuration_errors_are_rejected_named_and_logged() {
     let lines = logged();
     assert!(lines.contains(&"ERROR agent 0: configuration rejected: AgentZero".to_string()));
     assert!(
-        lines.contains(&"ERROR agent 4: configuration rejected: Config(NonPositiveTs)".to_string()),
+        lines.contains(
+            &"ERROR agent 4: configuration rejected: Config(NonPositive(controller.ts))"
+                .to_string()
+        ),
         "{lines:?}"
     );
     assert_eq!(lines.iter().filter(|l| l.starts_with("ERROR")).count(), 5);

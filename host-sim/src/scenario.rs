@@ -1,11 +1,12 @@
 //! The scenario file of docs/SCENARIO.md: serde types with the defaults of LAW §8 (Example 1),
 //! `--set` overrides and validation into a [`Setup`] the simulator runs.
 
-use std::{fmt, path::Path};
+use std::path::Path;
 
+pub use controller_core::SchemeName;
 use controller_core::{
-    BaselineConfig, ConfigError, Controller, ControllerConfig, GainSelection, QuantizerConfig,
-    QuantizerDirection, SafetyConfig, SchemeConfig,
+    Agent, ConfigError, Controller, ControllerConfig, ControllerSection, Param, QuantizerSection,
+    SafetySection,
 };
 use serde::{Deserialize, Serialize};
 
@@ -64,57 +65,6 @@ impl Default for Scenario {
     }
 }
 
-/// `[safety]`: command limits, anti-windup and recovery of `controller-core`'s
-/// [`controller_core::safety`]. Off by default: the paper's law.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct SafetySpec {
-    /// On: limits, conditional integration, bumpless re-entry, differentiator re-seeding.
-    pub enabled: bool,
-    /// Limit of `|u|` per actuator before the quantizer [command units]; absent: none.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub u_max: Option<f64>,
-    /// Limit of `|du/dt|` [command units / s]; absent: none.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub du_max: Option<f64>,
-    /// `v_r` [units of `y` / s]: a returning neighbour / leader value's jump is removed at
-    /// this speed (`inf`: used at once).
-    pub recovery_rate: f64,
-    /// Jumps up to this size [units of `y`] re-enter at once.
-    pub recovery_jump: f64,
-}
-
-impl Default for SafetySpec {
-    fn default() -> Self {
-        Self {
-            enabled: false,
-            u_max: None,
-            du_max: None,
-            // `SafetyConfig::default()`'s values, written as f64 so that `check` prints them
-            // as written (tested in `safety_defaults_match_the_controller`).
-            recovery_rate: 1.0,
-            recovery_jump: 0.05,
-        }
-    }
-}
-
-impl SafetySpec {
-    /// The default (off, nothing set).
-    pub fn is_default(&self) -> bool {
-        *self == Self::default()
-    }
-
-    /// The controller's settings, `None` when off.
-    pub fn config(&self) -> Option<SafetyConfig> {
-        self.enabled.then(|| SafetyConfig {
-            u_max: self.u_max.map(|v| v as f32),
-            du_max: self.du_max.map(|v| v as f32),
-            recovery_rate: self.recovery_rate as f32,
-            recovery_jump: self.recovery_jump as f32,
-        })
-    }
-}
-
 /// `[simulation]`: sampling, horizon and the plant integrator.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -134,7 +84,7 @@ pub struct Simulation {
 impl Default for Simulation {
     fn default() -> Self {
         Self {
-            h: 1e-3,
+            h: Param::H.default_f64(),
             t_end: 10.0,
             substeps: 4,
             settle_band: 0.05,
@@ -143,157 +93,12 @@ impl Default for Simulation {
     }
 }
 
-/// Which control law (LAW §5 or the §10 baseline).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum SchemeName {
-    /// The paper's predefined-time law.
-    #[default]
-    PredefinedTime,
-    /// The LAW §10 prescribed-time baseline.
-    PrescribedTime,
-}
-
-impl fmt::Display for SchemeName {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(match self {
-            Self::PredefinedTime => "predefined-time",
-            Self::PrescribedTime => "prescribed-time",
-        })
-    }
-}
-
-/// `[controller]`: the design values of LAW §3–§5, shared by all agents.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct ControllerSpec {
-    /// Proposed law or baseline.
-    pub scheme: SchemeName,
-    /// `T_s` [s].
-    pub ts: f64,
-    /// `ζ`.
-    pub zeta: f64,
-    /// `ǎ_j`, one per step.
-    pub a_check: Vec<f64>,
-    /// `p`.
-    pub p: f64,
-    /// `η`.
-    pub eta: f64,
-    /// `τ`.
-    pub tau: f64,
-    /// `γ`.
-    pub gamma: f64,
-    /// MTN order.
-    pub mtn_order: u32,
-    /// `φ_low_j`.
-    pub phi_low: Vec<f64>,
-    /// `φ_up_j`.
-    pub phi_up: Vec<f64>,
-    /// `ε̄_j`.
-    pub eps_bar: Vec<f64>,
-    /// `ℓ_1`.
-    pub diff_l1: f64,
-    /// `ℓ_2`.
-    pub diff_l2: f64,
-    /// `ϖ_0`.
-    pub varpi0: f64,
-    /// `κ` of `ϖ(t)`.
-    pub varpi_decay: f64,
-    /// `ϖ_min`.
-    pub varpi_min: f64,
-    /// `μ̂(0)`.
-    pub mu0: f64,
-    /// `ξ̂(0)`.
-    pub xi0: f64,
-    /// `λ̂(0)`.
-    pub lambda0: f64,
-    /// Projection bound of the three estimates.
-    pub estimate_max: f64,
-    /// Explicit `c_1` (with `c2`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub c1: Option<f64>,
-    /// Explicit `c_2` (with `c1`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub c2: Option<f64>,
-    /// Baseline `κ`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub kappa: Option<f64>,
-    /// Baseline `μ_max`.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub mu_max: Option<f64>,
-    /// Baseline `T` (default `T_s`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub t_prescribed: Option<f64>,
-}
-
-impl Default for ControllerSpec {
-    fn default() -> Self {
-        Self {
-            scheme: SchemeName::PredefinedTime,
-            ts: 2.0,
-            zeta: 0.1,
-            a_check: vec![90.0, 90.0],
-            p: 80.0,
-            eta: 50.0,
-            tau: 50.0,
-            gamma: 0.1,
-            mtn_order: 2,
-            phi_low: vec![1.0, 1.0],
-            phi_up: vec![1.0, 1.0],
-            eps_bar: vec![0.0, 0.0],
-            diff_l1: 1.0,
-            diff_l2: 1.0,
-            varpi0: 0.1,
-            varpi_decay: 0.7,
-            varpi_min: 1e-6,
-            mu0: 0.0,
-            xi0: 0.0,
-            lambda0: 1.0,
-            estimate_max: 1e6,
-            c1: None,
-            c2: None,
-            kappa: None,
-            mu_max: None,
-            t_prescribed: None,
-        }
-    }
-}
-
-/// Reading of the quantizer direction (LAW §4).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum DirectionName {
-    /// `sign(u_k − u_{k−1})`.
-    #[default]
-    Signed,
-    /// `sign(|u_k| − |u_{k−1}|)`.
-    Magnitude,
-}
-
-/// `[quantizer]`: the hysteresis quantizer of eq. (2).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct QuantizerSpec {
-    /// Off: actuators get `u` itself.
-    pub enabled: bool,
-    /// `ρ`.
-    pub rho: f64,
-    /// `u_min`.
-    pub u_min: f64,
-    /// Direction reading.
-    pub direction: DirectionName,
-}
-
-impl Default for QuantizerSpec {
-    fn default() -> Self {
-        Self {
-            enabled: true,
-            rho: 0.9,
-            u_min: 0.01,
-            direction: DirectionName::Signed,
-        }
-    }
-}
+/// `[controller]` (controller-core's section, read in `f64`).
+pub type ControllerSpec = ControllerSection<f64, Vec<f64>>;
+/// `[quantizer]`.
+pub type QuantizerSpec = QuantizerSection<f64>;
+/// `[safety]`.
+pub type SafetySpec = SafetySection<f64>;
 
 /// A scenario checked and resolved: everything the simulator needs.
 #[derive(Debug, Clone)]
@@ -347,156 +152,80 @@ impl Setup {
 
     /// The controller configuration of agent `i` (0-based), for state order `N`.
     pub fn controller_config<const N: usize>(&self, i: usize) -> Result<ControllerConfig<N>> {
-        let c = &self.scenario.controller;
-        let q = &self.scenario.quantizer;
-        let arr = |v: &[f64], key: &str| -> Result<[f32; N]> {
-            let mut a = [0.0f32; N];
-            if v.len() != N {
-                return Err(Error::invalid(
-                    format!("controller.{key}"),
-                    format!(
-                        "expected {N} entries (one per step j = 1..n), got {}",
-                        v.len()
-                    ),
-                ));
-            }
-            for (d, s) in a.iter_mut().zip(v) {
-                *d = *s as f32;
-            }
-            Ok(a)
+        let s = &self.scenario;
+        let agent = Agent {
+            h: s.simulation.h as f32,
+            neighbour_count: self.graph.neighbours(i).len(),
+            pinned: self.graph.pinned(i),
         };
-        let gains = match (c.c1, c.c2) {
-            (None, None) => GainSelection::Auto,
-            (Some(c1), Some(c2)) => GainSelection::Explicit {
-                c1: c1 as f32,
-                c2: c2 as f32,
-            },
-            (Some(_), None) => {
-                return Err(Error::invalid("controller.c2", "required when c1 is given"))
-            }
-            (None, Some(_)) => {
-                return Err(Error::invalid("controller.c1", "required when c2 is given"))
-            }
-        };
-        let scheme = match c.scheme {
-            SchemeName::PredefinedTime => {
-                for (k, v) in [
-                    ("kappa", c.kappa),
-                    ("mu_max", c.mu_max),
-                    ("t_prescribed", c.t_prescribed),
-                ] {
-                    if v.is_some() {
-                        return Err(Error::invalid(
-                            format!("controller.{k}"),
-                            "only for scheme = \"prescribed-time\"",
-                        ));
-                    }
-                }
-                SchemeConfig::PredefinedTime
-            }
-            SchemeName::PrescribedTime => {
-                let d = BaselineConfig::default();
-                SchemeConfig::PrescribedTime(BaselineConfig {
-                    kappa: c.kappa.map_or(d.kappa, |v| v as f32),
-                    mu_max: c.mu_max.map_or(d.mu_max, |v| v as f32),
-                    t_prescribed: c.t_prescribed.map(|v| v as f32),
-                })
-            }
-        };
-        let graph = &self.graph;
-        Ok(ControllerConfig {
-            h: self.scenario.simulation.h as f32,
-            neighbour_count: graph.neighbours(i).len(),
-            pinned: graph.pinned(i),
-            ts: c.ts as f32,
-            zeta: c.zeta as f32,
-            gains,
-            a_check: arr(&c.a_check, "a_check")?,
-            p: c.p as f32,
-            eta: c.eta as f32,
-            tau: c.tau as f32,
-            gamma: c.gamma as f32,
-            mtn_order: c.mtn_order as usize,
-            phi_low: arr(&c.phi_low, "phi_low")?,
-            phi_up: arr(&c.phi_up, "phi_up")?,
-            eps_bar: arr(&c.eps_bar, "eps_bar")?,
-            diff_l1: c.diff_l1 as f32,
-            diff_l2: c.diff_l2 as f32,
-            varpi0: c.varpi0 as f32,
-            varpi_decay: c.varpi_decay as f32,
-            varpi_min: c.varpi_min as f32,
-            mu0: c.mu0 as f32,
-            xi0: c.xi0 as f32,
-            lambda0: c.lambda0 as f32,
-            estimate_max: c.estimate_max as f32,
-            quantizer: q.enabled.then_some(QuantizerConfig {
-                rho: q.rho as f32,
-                u_min: q.u_min as f32,
-                direction: match q.direction {
-                    DirectionName::Signed => QuantizerDirection::Signed,
-                    DirectionName::Magnitude => QuantizerDirection::Magnitude,
-                },
-            }),
-            scheme,
-            safety: self.scenario.safety.config(),
-        })
+        ControllerConfig::from_sections(agent, &s.controller, &s.quantizer, &s.safety)
+            .map_err(|e| Error::invalid(config_error_key(&e, i, false), e.to_string()))
     }
 }
 
 /// [`Setup::check_controllers`] for state order `N` and `M` actuators.
 fn check_controllers_of<const N: usize, const M: usize>(setup: &Setup) -> Result<()> {
+    let safety = &setup.scenario.safety;
     for i in 0..setup.agents() {
         let cfg = setup.controller_config::<N>(i)?;
-        Controller::<N, M, MAX_NEIGHBOURS>::new(&cfg).map_err(|e| {
-            let auto_gains = setup.scenario.controller.c1.is_none();
-            let key = config_error_key(&e, i, auto_gains);
-            let why = if key == "controller.ts" && auto_gains {
-                " (the gains c1, c2 of LAW §3 computed from ts, zeta, p, eta, tau)"
-            } else {
-                ""
+        check_controller::<N, M>(setup, &cfg, i)?;
+        if cfg.safety.is_none() {
+            // `[safety]` is checked whether on or off, so a typo does not wait for the day it
+            // is switched on.
+            let on = ControllerConfig {
+                safety: Some(safety.settings()),
+                ..cfg
             };
-            Error::invalid(key, format!("{e}{why} (agent {})", i + 1))
-        })?;
+            check_controller::<N, M>(setup, &on, i)?;
+        }
     }
     Ok(())
 }
 
+/// `Controller::new` of agent `i` (0-based), its error named by the scenario key.
+fn check_controller<const N: usize, const M: usize>(
+    setup: &Setup,
+    cfg: &ControllerConfig<N>,
+    i: usize,
+) -> Result<()> {
+    Controller::<N, M, MAX_NEIGHBOURS>::new(cfg).map_err(|e| {
+        let auto_gains = setup.scenario.controller.c1.is_none();
+        let key = config_error_key(&e, i, auto_gains);
+        let why = if key == "controller.ts" && auto_gains {
+            " (the gains c1, c2 of LAW §3 computed from ts, zeta, p, eta, tau)".to_string()
+        } else {
+            scenario_value(&setup.scenario, e.param(), e.step())
+                .filter(|_| key.starts_with(e.param().key()))
+                .map_or_else(String::new, |v| format!(" (got {v})"))
+        };
+        Error::invalid(key, format!("{e}{why} (agent {})", i + 1))
+    })?;
+    Ok(())
+}
+
+/// The value the scenario gives `param` (entry `step`, 1-based, of a per-step one), as TOML.
+fn scenario_value(scenario: &Scenario, param: Param, step: Option<u8>) -> Option<toml::Value> {
+    let (section, name) = param.key().split_once('.')?;
+    let table = toml::Value::try_from(scenario).ok()?;
+    let v = table.get(section)?.get(name)?;
+    match step {
+        Some(j) => v.get(usize::from(j).checked_sub(1)?).cloned(),
+        None => Some(v.clone()),
+    }
+}
+
 /// The scenario key behind a controller-core [`ConfigError`] of agent `i` (0-based): the
-/// controller names its own parameter, the user wrote a dotted key.
+/// controller names its [`Param`] (whose key is [`Param::key`]) and the step of a per-step one.
 fn config_error_key(e: &ConfigError, i: usize, auto_gains: bool) -> String {
-    let param = |p: &str| match p {
-        "h" => "simulation.h".to_string(),
+    let key = match e.param() {
         // Computed gains out of range: the user wrote ts (and zeta, p, eta, tau).
-        "c1" | "c2" if auto_gains => "controller.ts".to_string(),
-        "rho" | "u_min" => format!("quantizer.{p}"),
-        "u_max" | "du_max" | "recovery_rate" | "recovery_jump" => format!("safety.{p}"),
-        p => format!("controller.{p}"),
+        Param::C1 | Param::C2 if auto_gains => Param::Ts.key(),
+        Param::Neighbours | Param::Pinned => return format!("graph.neighbours[{}]", i + 1),
+        p => p.key(),
     };
-    match *e {
-        ConfigError::NonFinite(p)
-        | ConfigError::NonPositive(p)
-        | ConfigError::Negative(p)
-        | ConfigError::GainTooLarge(p)
-        | ConfigError::DerivedOverflow(p) => param(p),
-        ConfigError::ZetaOutOfRange => param("zeta"),
-        ConfigError::NonPositiveTs => param("ts"),
-        ConfigError::NonPositiveSamplePeriod => param("h"),
-        ConfigError::RhoOutOfRange => param("rho"),
-        ConfigError::NonPositiveUMin => param("u_min"),
-        ConfigError::NonPositivePhiLow { step } | ConfigError::PhiLowAbovePhiUp { step } => {
-            format!("controller.phi_low[{step}]")
-        }
-        ConfigError::ZeroACheck { step } => format!("controller.a_check[{step}]"),
-        ConfigError::ZeroMtnOrder | ConfigError::MtnOrderTooLarge => param("mtn_order"),
-        ConfigError::TooManyNeighbours | ConfigError::Isolated => {
-            format!("graph.neighbours[{}]", i + 1)
-        }
-        ConfigError::VarpiMinOutOfRange => param("varpi_min"),
-        ConfigError::InitialEstimateAboveMax => param("estimate_max"),
-        ConfigError::MuMaxBelowOne => param("mu_max"),
-        ConfigError::ZeroStateOrder => "plant.model".into(),
-        ConfigError::UMaxNotAboveUMin => "safety.u_max".into(),
-        _ => "controller".into(),
+    match e.step() {
+        Some(j) => format!("{key}[{j}]"),
+        None => key.to_string(),
     }
 }
 
@@ -792,13 +521,6 @@ fn positive(v: f64, key: &str) -> Result<()> {
     Ok(())
 }
 
-fn finite(v: f64, key: &str) -> Result<()> {
-    if !v.is_finite() {
-        return Err(Error::invalid(key, format!("must be finite (got {v})")));
-    }
-    Ok(())
-}
-
 /// Checks the scenario and resolves graph, plant, initial states and faults.
 pub fn validate(scenario: Scenario) -> Result<Setup> {
     validate_plant(scenario, None)
@@ -856,121 +578,13 @@ fn validate_plant(mut scenario: Scenario, plant: Option<PlantModel>) -> Result<S
     }
     let samples = samples_f as u64;
     scenario.leader.check(sim.t_end)?;
-    let c = &scenario.controller;
-    positive(c.ts, "controller.ts")?;
-    if !(c.zeta > 0.0 && c.zeta < 1.0) {
-        return Err(Error::invalid(
-            "controller.zeta",
-            format!("must lie in (0, 1) (got {})", c.zeta),
-        ));
-    }
-    for (k, v) in [
-        ("controller.p", c.p),
-        ("controller.eta", c.eta),
-        ("controller.tau", c.tau),
-        ("controller.gamma", c.gamma),
-        ("controller.diff_l1", c.diff_l1),
-        ("controller.diff_l2", c.diff_l2),
-        ("controller.varpi0", c.varpi0),
-        ("controller.varpi_min", c.varpi_min),
-        ("controller.estimate_max", c.estimate_max),
-    ] {
-        positive(v, k)?;
-    }
-    for (k, v) in [
-        ("controller.varpi_decay", c.varpi_decay),
-        ("controller.mu0", c.mu0),
-        ("controller.xi0", c.xi0),
-        ("controller.lambda0", c.lambda0),
-    ] {
-        if !v.is_finite() || v < 0.0 {
-            return Err(Error::invalid(
-                k,
-                format!("must be a finite number >= 0 (got {v})"),
-            ));
-        }
-    }
-    if c.mtn_order == 0 {
-        return Err(Error::invalid("controller.mtn_order", "must be >= 1"));
-    }
-    for (k, v) in [("controller.c1", c.c1), ("controller.c2", c.c2)] {
-        if let Some(v) = v {
-            positive(v, k)?;
-        }
-    }
-    let q = &scenario.quantizer;
-    if q.enabled {
-        if !(q.rho > 0.0 && q.rho < 1.0) {
-            return Err(Error::invalid(
-                "quantizer.rho",
-                format!("must lie in (0, 1) (got {})", q.rho),
-            ));
-        }
-        positive(q.u_min, "quantizer.u_min")?;
-    }
-
-    // Checked whether on or off, so a typo does not wait for the day it is switched on.
-    let sf = &scenario.safety;
-    for (k, v) in [("safety.u_max", sf.u_max), ("safety.du_max", sf.du_max)] {
-        if let Some(v) = v {
-            positive(v, k)?;
-            if v > f64::from(f32::MAX) {
-                return Err(Error::invalid(k, format!("must fit f32 (got {v:e})")));
-            }
-        }
-    }
-    if sf.recovery_rate.is_nan() || sf.recovery_rate <= 0.0 {
-        return Err(Error::invalid(
-            "safety.recovery_rate",
-            format!(
-                "must be > 0 (units of y per second; inf: no blending) (got {})",
-                sf.recovery_rate
-            ),
-        ));
-    }
-    if !sf.recovery_jump.is_finite() || sf.recovery_jump < 0.0 {
-        return Err(Error::invalid(
-            "safety.recovery_jump",
-            format!("must be a finite number >= 0 (got {})", sf.recovery_jump),
-        ));
-    }
-    if let (Some(u_max), true) = (sf.u_max, q.enabled) {
-        if u_max <= q.u_min {
-            return Err(Error::invalid(
-                "safety.u_max",
-                format!(
-                    "must be above quantizer.u_min = {} (got {u_max}): every command would quantize to 0",
-                    q.u_min
-                ),
-            ));
-        }
-    }
-
+    // [controller], [quantizer] and [safety] are checked by `Controller::new` (check_controllers).
     let graph = Graph::from_spec(&scenario.graph)?;
     let plant = match plant {
         Some(p) => p,
         None => PlantModel::from_spec(&scenario.plant)?,
     };
     let (n, m) = (plant.n(), plant.m());
-    for (k, v) in [
-        ("a_check", &c.a_check),
-        ("phi_low", &c.phi_low),
-        ("phi_up", &c.phi_up),
-        ("eps_bar", &c.eps_bar),
-    ] {
-        if v.len() != n {
-            return Err(Error::invalid(
-                format!("controller.{k}"),
-                format!(
-                    "expected {n} entries (one per step j = 1..n), got {}",
-                    v.len()
-                ),
-            ));
-        }
-        for (j, x) in v.iter().enumerate() {
-            finite(*x, &format!("controller.{k}[{}]", j + 1))?;
-        }
-    }
     let x0 = scenario
         .plant
         .initial_states(graph.len(), n, sim.divergence_bound)?;
@@ -1008,18 +622,6 @@ pub fn to_toml(s: &Scenario) -> String {
 
 #[cfg(test)]
 mod tests {
-    #[test]
-    fn safety_defaults_match_the_controller() {
-        let (spec, core) = (
-            super::SafetySpec::default(),
-            controller_core::SafetyConfig::default(),
-        );
-        assert_eq!(spec.recovery_rate as f32, core.recovery_rate);
-        assert_eq!(spec.recovery_jump as f32, core.recovery_jump);
-        assert_eq!((spec.u_max, spec.du_max), (None, None));
-        assert!(core.u_max.is_none() && core.du_max.is_none());
-    }
-
     use super::*;
 
     #[test]

@@ -1,12 +1,18 @@
 //! docs/SCENARIO.md cannot drift from the code: every key the scenario parser accepts (asked of
 //! the parser itself, through serde's `deny_unknown_fields` messages), every value of its
 //! enumerations, every `summary.json` key (with a unit in `units`) and every `trajectory.csv`
-//! column of real runs appears there.
+//! column of real runs appears there; every documented key is accepted, documented defaults
+//! are the parser's, and the `[controller]`, `[quantizer]` and `[safety]` rows state the unit,
+//! default and range of controller-core's parameter table (`Param::spec`).
 
 mod common;
 
 use std::collections::BTreeSet;
 
+use controller_core::{
+    param::{DefaultValue, Range, Spec},
+    Param,
+};
 use host_sim::{error::Error, run::simulate, scenario};
 use serde_json::Value;
 
@@ -119,6 +125,205 @@ fn every_scenario_key_the_parser_accepts_is_documented() {
         missing.is_empty(),
         "accepted by the parser but not in docs/SCENARIO.md: {missing:?}"
     );
+}
+
+/// The rows of docs/SCENARIO.md's key tables (`| key | unit | default | range | meaning |`):
+/// key (without backticks), unit, default and range cells.
+fn documented_rows() -> Vec<[String; 4]> {
+    let doc = doc();
+    let mut rows = Vec::new();
+    let mut in_keys = false;
+    for line in doc.lines() {
+        if !line.starts_with('|') {
+            in_keys = false;
+            continue;
+        }
+        if line.starts_with("| key | unit | default | range | meaning |") {
+            in_keys = true;
+            continue;
+        }
+        if !in_keys || line.starts_with("|---") {
+            continue;
+        }
+        let cells = split_row(line);
+        assert!(cells.len() >= 4, "short key row: {line}");
+        let key = cells[0].trim_matches('`').to_string();
+        rows.push([key, cells[1].clone(), cells[2].clone(), cells[3].clone()]);
+    }
+    rows
+}
+
+/// The cells of a Markdown table row (`\|` stays inside its cell).
+fn split_row(line: &str) -> Vec<String> {
+    let inner = line.trim().trim_start_matches('|').trim_end_matches('|');
+    let mut cells = vec![String::new()];
+    let mut prev = ' ';
+    for c in inner.chars() {
+        if c == '|' && prev != '\\' {
+            cells.push(String::new());
+        } else if let Some(cell) = cells.last_mut() {
+            cell.push(c);
+        }
+        prev = c;
+    }
+    cells.iter().map(|c| c.trim().to_string()).collect()
+}
+
+#[test]
+fn every_documented_scenario_key_is_accepted_by_the_parser() {
+    let (mut keys, mut values) = (BTreeSet::new(), BTreeSet::new());
+    accepted_keys("", "", &mut keys, &mut values);
+    let rows = documented_rows();
+    assert!(rows.len() > 50, "found {} key rows", rows.len());
+    let unknown: Vec<_> = rows
+        .iter()
+        .map(|r| &r[0])
+        .filter(|k| !keys.contains(*k) && !keys.contains(&format!("[{k}]")))
+        .collect();
+    assert!(
+        unknown.is_empty(),
+        "in docs/SCENARIO.md but not accepted by the parser: {unknown:?}"
+    );
+}
+
+/// A parameter table range as docs/SCENARIO.md writes it.
+fn documented_range(spec: &Spec) -> String {
+    let range = match spec.range {
+        Range::Positive => "`> 0`".to_string(),
+        Range::PositiveOrInfinite => "`> 0` (`inf`: at once)".to_string(),
+        Range::NonNegative => "`≥ 0`".to_string(),
+        Range::OpenUnit => "`(0, 1)`".to_string(),
+        Range::NonZero => "`≠ 0`".to_string(),
+        Range::AtLeastOne => "`≥ 1`".to_string(),
+        Range::UpTo(p) => format!("`(0, {p}]`"),
+        Range::AtLeast(p) => format!("`≥ {p}`"),
+        Range::Count { min, max } => format!("`{min}..={max}`"),
+        Range::OneOf(names) => names
+            .iter()
+            .map(|n| format!("`\"{n}\"`"))
+            .collect::<Vec<_>>()
+            .join(", "),
+        Range::Bool => "bool".to_string(),
+        Range::Elsewhere => "(another section)".to_string(),
+    };
+    let steps = if spec.per_step { "`n` values " } else { "" };
+    format!("{steps}{range}{}", spec.condition)
+}
+
+/// The numbers of a default cell such as `` `1e-6` `` or `` `[90.0, 90.0]` ``.
+fn numbers(cell: &str) -> Option<Vec<f64>> {
+    let inner = cell.strip_prefix('`')?.strip_suffix('`')?;
+    let list = inner.trim_start_matches('[').trim_end_matches(']');
+    list.split(',').map(|x| x.trim().parse().ok()).collect()
+}
+
+/// Whether a default cell states the table's default (a per-step one for the default plant,
+/// `n = 2`).
+fn default_matches(spec: &Spec, cell: &str) -> bool {
+    match spec.default {
+        DefaultValue::Num(v) => numbers(cell) == Some(vec![v]),
+        DefaultValue::PerStep(v) => numbers(cell) == Some(vec![v; 2]) && cell.contains('['),
+        DefaultValue::Computed => cell == "computed (LAW §3)",
+        DefaultValue::Same(p) => cell == format!("`{p}`"),
+        DefaultValue::None => cell == "none",
+        DefaultValue::Bool(b) => cell == format!("`{b}`"),
+        DefaultValue::Name(n) => cell == format!("`\"{n}\"`"),
+        DefaultValue::Elsewhere => true,
+    }
+}
+
+/// A TOML integer or float as `f64`.
+fn number(v: &toml::Value) -> Option<f64> {
+    v.as_float().or(v.as_integer().map(|i| i as f64))
+}
+
+/// The value at a dotted key of the default scenario as the parser resolves it.
+fn parser_default(key: &str) -> Option<toml::Value> {
+    let mut v = toml::Value::try_from(scenario::Scenario::default()).ok()?;
+    for part in key.split('.') {
+        v = v.get(part)?.clone();
+    }
+    Some(v)
+}
+
+#[test]
+fn controller_quantizer_and_safety_keys_match_the_parameter_table_both_ways() {
+    let owned = ["controller.", "quantizer.", "safety."];
+    let rows = documented_rows();
+    let table: Vec<Spec> = Param::ALL
+        .iter()
+        .map(|p| p.spec())
+        .filter(|s| owned.iter().any(|o| s.key.starts_with(o)))
+        .collect();
+    let documented: Vec<&[String; 4]> = rows
+        .iter()
+        .filter(|r| owned.iter().any(|o| r[0].starts_with(o)))
+        .collect();
+    let doc_keys: BTreeSet<&str> = documented.iter().map(|r| r[0].as_str()).collect();
+    let table_keys: BTreeSet<&str> = table.iter().map(|s| s.key).collect();
+    assert_eq!(doc_keys, table_keys, "docs/SCENARIO.md rows vs Param::ALL");
+    let mut wrong = Vec::new();
+    for spec in &table {
+        let Some(row) = documented.iter().find(|r| r[0] == spec.key) else {
+            continue;
+        };
+        let (unit, default, range) = (&row[1], &row[2], &row[3]);
+        if *unit != spec.unit {
+            wrong.push(format!(
+                "{}: unit {unit:?}, table {:?}",
+                spec.key, spec.unit
+            ));
+        }
+        if !default_matches(spec, default) {
+            wrong.push(format!(
+                "{}: default {default:?}, table {:?}",
+                spec.key, spec.default
+            ));
+        }
+        let want = documented_range(spec);
+        if *range != want {
+            wrong.push(format!("{}: range {range:?}, table {want:?}", spec.key));
+        }
+        // The parser's resolved default is the table's too.
+        match (spec.default, parser_default(spec.key)) {
+            (DefaultValue::Num(v), Some(p)) if number(&p) != Some(v) => {
+                wrong.push(format!("{}: parser default {p}, table {v}", spec.key));
+            }
+            (DefaultValue::Name(n), Some(p)) if p.as_str() != Some(n) => {
+                wrong.push(format!("{}: parser default {p}, table {n}", spec.key));
+            }
+            (DefaultValue::Bool(b), Some(p)) if p.as_bool() != Some(b) => {
+                wrong.push(format!("{}: parser default {p}, table {b}", spec.key));
+            }
+            _ => {}
+        }
+    }
+    assert!(wrong.is_empty(), "{wrong:#?}");
+}
+
+#[test]
+fn documented_defaults_of_the_other_sections_are_the_parsers() {
+    let mut wrong = Vec::new();
+    let mut compared = 0;
+    for [key, _, default, _] in documented_rows() {
+        let Some(literal) = default.strip_prefix('`').and_then(|d| d.strip_suffix('`')) else {
+            continue;
+        };
+        let (Ok(doc), Some(parsed)) = (
+            format!("v = {literal}").parse::<toml::Table>(),
+            parser_default(&key),
+        ) else {
+            continue;
+        };
+        let doc = &doc["v"];
+        let same = *doc == parsed || number(doc).is_some_and(|d| number(&parsed) == Some(d));
+        if !same {
+            wrong.push(format!("{key}: documented {literal}, parser {parsed}"));
+        }
+        compared += 1;
+    }
+    assert!(compared > 30, "only {compared} defaults compared");
+    assert!(wrong.is_empty(), "{wrong:#?}");
 }
 
 /// Dotted paths of the keys of `v` (first element of arrays of objects), and the numeric ones.

@@ -59,3 +59,94 @@ fn example2_at_one_millisecond_diverges_and_says_where() {
     );
     assert_eq!(s.settling_time, None);
 }
+
+/// `text` parsed, and half a unit of its last written digit (`"0.17"`: 0.005, `"1.652e4"`: 5).
+fn quoted(text: &str) -> (f64, f64) {
+    let value: f64 = text.parse().unwrap_or_else(|e| panic!("{text:?}: {e}"));
+    let (mantissa, exponent) = text.split_once('e').unwrap_or((text, "0"));
+    let decimals = mantissa.split_once('.').map_or(0, |(_, d)| d.len()) as i32;
+    let exponent: i32 = exponent.parse().expect("exponent");
+    (value, 0.5 * 10f64.powi(exponent - decimals))
+}
+
+/// The figure `name` (see `definitions` in the golden file) of a run.
+fn figure(s: &Summary, name: &str) -> f64 {
+    match name {
+        "max_error_after_predefined_time" => s
+            .max_error_after_predefined_time
+            .expect("samples after 2Ts"),
+        "rms_error" => {
+            let ise: f64 = s.agents.iter().map(|a| a.ise).sum();
+            (ise / s.agents.len() as f64 / s.t_end).sqrt()
+        }
+        "max_abs_u" => s.max_abs_u,
+        other => panic!("unknown figure {other}"),
+    }
+}
+
+/// The claim of docs/REPRODUCTION.md, "What the reproduction claims": with `[safety]` off the
+/// shipped paper scenarios meet the float64 reference figures of docs/LAW.md at their quoted
+/// precision, and the figures held in `tests/golden/paper-figures.json` (recorded once, never
+/// regenerated here) at theirs.
+#[test]
+fn paper_scenarios_with_safety_off_meet_the_f64_reference_and_the_held_figures() {
+    let held: serde_json::Value =
+        serde_json::from_str(include_str!("golden/paper-figures.json")).expect("JSON");
+    let figures = held["figures"].as_object().expect("figures");
+    let mut runs = std::collections::BTreeMap::new();
+    for scenario in figures.keys() {
+        let s = run(&format!("{scenario}.toml"), &["safety.enabled=false"]);
+        assert!(!s.diverged, "{scenario}");
+        runs.insert(scenario.clone(), s);
+    }
+    let mut off = Vec::new();
+    let mut check = |what: &str, scenario: &str, name: &str, text: &str| {
+        let (want, tol) = quoted(text);
+        let got = figure(&runs[scenario], name);
+        if (got - want).abs() > tol {
+            off.push(format!(
+                "{what} {scenario} {name}: {got} is not {text} (± {tol:e})"
+            ));
+        }
+    };
+    let mut anchors = 0;
+    for r in held["f64_reference"].as_array().expect("f64_reference") {
+        let field = |k: &str| r[k].as_str().expect("string field");
+        check(
+            "f64 reference",
+            field("scenario"),
+            field("figure"),
+            field("value"),
+        );
+        anchors += 1;
+    }
+    for (scenario, f) in figures {
+        for (name, text) in f.as_object().expect("figures of a scenario") {
+            check(
+                "held",
+                scenario,
+                name,
+                text.as_str().expect("quoted figure"),
+            );
+        }
+    }
+    assert_eq!(anchors, 2, "docs/LAW.md §8 has two float64 anchors");
+    assert!(off.is_empty(), "{off:#?}");
+    for d in held["f64_divergence"].as_array().expect("f64_divergence") {
+        let h = d["h"].as_f64().expect("h");
+        let scenario = d["scenario"].as_str().expect("scenario");
+        let s = run(
+            &format!("{scenario}.toml"),
+            &[
+                "safety.enabled=false",
+                &format!("simulation.h={h}"),
+                "simulation.t_end=1",
+            ],
+        );
+        assert_eq!(
+            Some(s.diverged),
+            d["diverges"].as_bool(),
+            "{scenario} at h = {h}"
+        );
+    }
+}

@@ -66,7 +66,7 @@ fn sizes_are_checked_against_the_plant() {
         ),
         (
             &["controller.a_check=[90.0, 90.0]"][..],
-            "controller.a_check: expected 3 entries",
+            "controller.a_check: `a_check` must have 3 entries",
         ),
         (
             &["plant.x0[2]=[0.1, 0.1]"][..],
