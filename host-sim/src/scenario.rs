@@ -14,7 +14,7 @@ use crate::{
     faults::{FaultSchedule, FaultsSpec},
     graph::{Graph, GraphSpec, MAX_NEIGHBOURS},
     leader::Leader,
-    metrics::MetricsSpec,
+    metrics::spec::MetricsSpec,
     network::spec::{self as network, NetworkSpec},
     plant::{with_sizes, PlantModel, PlantSpec},
 };
