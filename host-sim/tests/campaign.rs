@@ -314,6 +314,7 @@ fn invalid_campaign_files_exit_2_naming_the_key() {
         ("draws = 0", "draws"),
         ("colour = 1", "colour"),
         ("[plot]\nmetric = \"speed\"", "plot.metric"),
+        ("[plot]\nmetric = \"window.none\"", "plot.metric"),
         ("[output]\nruns = [5]", "output.runs"),
         ("set = [\"controller.zeta=2\"]", "controller.zeta"),
     ];
@@ -407,7 +408,7 @@ fn window_columns_and_replication_means_with_student_t_intervals() {
     std::fs::write(
         &file,
         "scenario = \"scenario.toml\"\nset = [\"simulation.t_end=1\"]\n\
-         draws = 4\nseed = 5\n[[axis]]\nkey = \"controller.ts\"\nvalues = [1.0, 2.0]\n\
+         draws = 4\nseed = 5\n[plot]\nmetric = \"window.late iae\"\n[[axis]]\nkey = \"controller.ts\"\nvalues = [1.0, 2.0]\n\
          [[sample]]\nkey = \"faults.rule[1].start\"\ndist = \"uniform\"\nlow = 0.0\nhigh = 1.0\n",
     )
     .expect("campaign");
@@ -452,6 +453,7 @@ fn window_columns_and_replication_means_with_student_t_intervals() {
         .collect();
     let points: Vec<csv::StringRecord> = r.records().map(|x| x.expect("row")).collect();
     assert_eq!(points.len(), 2, "one row per grid point");
+    assert!(out.join("line.png").exists(), "the window metric over the axis");
     let scol = |n: &str| sh.iter().position(|x| x == n).expect(n);
     for (p, rec) in points.iter().enumerate() {
         assert_eq!(&rec[scol("runs")], "4");

@@ -7,8 +7,8 @@ use distrs::StudentsT;
 
 use crate::{
     campaign::{
-        results::{csv_line, WINDOW_PREFIX},
-        spec::json_number,
+        results::csv_line,
+        spec::{json_number, WINDOW_PREFIX},
     },
     error::Result,
     report::write_atomic,

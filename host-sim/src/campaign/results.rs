@@ -11,7 +11,7 @@ use std::{
 };
 
 use crate::{
-    campaign::spec::{cell, json_number, Plan, RunPoint},
+    campaign::spec::{cell, json_number, Plan, RunPoint, WINDOW_PREFIX},
     error::{Error, Result},
     metrics::Summary,
     report::write_atomic,
@@ -29,9 +29,6 @@ pub const METRIC_COLUMNS: [&str; 6] = [
 
 /// Name of the journal in `--out`.
 pub const JOURNAL: &str = "runs.journal";
-
-/// Prefix of the column of a `[[metrics.window]]` of the base scenario.
-pub const WINDOW_PREFIX: &str = "window.";
 
 /// The header of `results.csv`: `run`, axis keys, metrics, one `window.<name>` per window of
 /// the base scenario, `status`, `error`, then `draw` and the sampled keys when the campaign
