@@ -453,7 +453,10 @@ fn window_columns_and_replication_means_with_student_t_intervals() {
         .collect();
     let points: Vec<csv::StringRecord> = r.records().map(|x| x.expect("row")).collect();
     assert_eq!(points.len(), 2, "one row per grid point");
-    assert!(out.join("line.png").exists(), "the window metric over the axis");
+    assert!(
+        out.join("line.png").exists(),
+        "the window metric over the axis"
+    );
     let scol = |n: &str| sh.iter().position(|x| x == n).expect(n);
     for (p, rec) in points.iter().enumerate() {
         assert_eq!(&rec[scol("runs")], "4");
