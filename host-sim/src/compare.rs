@@ -1,5 +1,6 @@
 //! `compare`: two scenarios side by side (the proposed scheme against the LAW §10 baseline),
-//! one table with settling figures next to control effort, and overlaid figures.
+//! one table with settling figures next to control effort, and overlaid figures. Each scheme is
+//! judged after its own deadline ([`metrics::deadline`]) and both after the later of the two.
 
 use std::{fmt::Write as _, path::Path};
 
@@ -13,11 +14,26 @@ use crate::{
         text::secs,
         FigureStyle,
     },
-    metrics::Summary,
+    metrics::{self, Summary, WindowKind, WindowSpec},
     report::{self, fmt_time, plots::Recorder},
     run::{run, RunOptions},
     scenario::Setup,
 };
+
+/// One scheme judged after its own deadline and after the common instant.
+#[derive(Debug, Clone, Serialize)]
+pub struct Judgement {
+    /// Which deadline the scheme promises: `2Ts` (predefined time) or `t_prescribed`.
+    pub deadline_rule: &'static str,
+    /// That deadline [s].
+    pub own_deadline: f64,
+    /// `max_{i, t_k ≥ own_deadline} |y_i − y_d|`; null without such samples.
+    pub max_error_after_own_deadline: Option<f64>,
+    /// `max_{i, t_k ≥ common_instant} |y_i − y_d|`; null without such samples.
+    pub max_error_after_common_instant: Option<f64>,
+    /// The dwell of the scheme's `settling_time` [s].
+    pub settle_dwell: f64,
+}
 
 /// Both summaries and the effort verdict (`compare.json`).
 #[derive(Debug, Clone, Serialize)]
@@ -34,6 +50,51 @@ pub struct Comparison {
     pub equal_effort: bool,
     /// One-line verdict on effort.
     pub note: String,
+    /// The later of the two deadlines [s]: both schemes are judged after it.
+    pub common_instant: f64,
+    /// The first scenario after its own deadline and after the common instant.
+    pub judged_a: Judgement,
+    /// The second scenario after its own deadline and after the common instant.
+    pub judged_b: Judgement,
+}
+
+/// Window names under which a run measures its two judgements; removed from its summary.
+const AFTER_OWN: &str = "max error after own deadline";
+const AFTER_COMMON: &str = "max error after common instant";
+
+/// `setup` with the two judgement windows appended.
+fn judged_setup(setup: &Setup, common: f64) -> Setup {
+    let mut s = setup.clone();
+    for (name, from) in [
+        (AFTER_OWN, metrics::deadline(setup).0),
+        (AFTER_COMMON, common),
+    ] {
+        s.scenario.metrics.window.push(WindowSpec {
+            name: name.into(),
+            from,
+            to: None,
+            kind: WindowKind::MaxError,
+        });
+    }
+    s
+}
+
+/// The judgement of a run of [`judged_setup`]; its summary loses the two windows again.
+fn judge(setup: &Setup, summary: &mut Summary) -> Judgement {
+    let n = summary.windows.len().saturating_sub(2);
+    let judged: Vec<_> = summary.windows.drain(n..).collect();
+    if summary.windows.is_empty() {
+        summary.units.retain(|k, _| !k.starts_with("windows."));
+    }
+    let value = |name: &str| judged.iter().find(|w| w.name == name).and_then(|w| w.value);
+    let (own_deadline, deadline_rule) = metrics::deadline(setup);
+    Judgement {
+        deadline_rule,
+        own_deadline,
+        max_error_after_own_deadline: value(AFTER_OWN),
+        max_error_after_common_instant: value(AFTER_COMMON),
+        settle_dwell: metrics::settle_dwell(setup),
+    }
 }
 
 fn ratio(b: f64, a: f64) -> Option<f64> {
@@ -65,8 +126,12 @@ pub fn compare(a: &Setup, b: &Setup, out: &Path, progress: bool) -> Result<Strin
         progress: false,
         ..opts.clone()
     };
-    let (ra, rb) = rayon::join(|| run(a, &opts), || run(b, &opts_b));
-    let (ra, rb) = (ra?, rb?);
+    let common = metrics::deadline(a).0.max(metrics::deadline(b).0);
+    let (ja, jb) = (judged_setup(a, common), judged_setup(b, common));
+    let (ra, rb) = rayon::join(|| run(&ja, &opts), || run(&jb, &opts_b));
+    let (mut ra, mut rb) = (ra?, rb?);
+    let judged_a = judge(a, &mut ra.summary);
+    let judged_b = judge(b, &mut rb.summary);
     let (sa, sb) = (&ra.summary, &rb.summary);
     let er = ratio(sb.total_u_energy, sa.total_u_energy);
     let pr = ratio(sb.max_abs_u, sa.max_abs_u);
@@ -92,7 +157,7 @@ pub fn compare(a: &Setup, b: &Setup, out: &Path, progress: bool) -> Result<Strin
         cell(&sb.scenario)
     );
     let _ = writeln!(t, "|---|---|---|");
-    let rows: [(&str, String, String); 10] = [
+    let rows: [(&str, String, String); 15] = [
         ("scheme", sa.scheme.clone(), sb.scheme.clone()),
         (
             "c1, c2",
@@ -113,6 +178,31 @@ pub fn compare(a: &Setup, b: &Setup, out: &Path, progress: bool) -> Result<Strin
             "max error after 2Ts",
             opt(sa.max_error_after_predefined_time),
             opt(sb.max_error_after_predefined_time),
+        ),
+        (
+            "own deadline [s]",
+            format!("{} = {}", judged_a.deadline_rule, judged_a.own_deadline),
+            format!("{} = {}", judged_b.deadline_rule, judged_b.own_deadline),
+        ),
+        (
+            "max error after own deadline",
+            opt(judged_a.max_error_after_own_deadline),
+            opt(judged_b.max_error_after_own_deadline),
+        ),
+        (
+            "common instant (later deadline) [s]",
+            format!("{common}"),
+            format!("{common}"),
+        ),
+        (
+            "max error after common instant",
+            opt(judged_a.max_error_after_common_instant),
+            opt(judged_b.max_error_after_common_instant),
+        ),
+        (
+            "settle dwell [s]",
+            format!("{}", judged_a.settle_dwell),
+            format!("{}", judged_b.settle_dwell),
         ),
         (
             "IAE (sum over agents)",
@@ -164,6 +254,9 @@ pub fn compare(a: &Setup, b: &Setup, out: &Path, progress: bool) -> Result<Strin
         peak_u_ratio_b_over_a: pr,
         equal_effort,
         note,
+        common_instant: common,
+        judged_a,
+        judged_b,
     };
     let json = serde_json::to_string_pretty(&cmp).map_err(|e| Error::Io(e.to_string()))?;
     report::write_atomic(&out.join("compare.json"), format!("{json}\n").as_bytes())?;
@@ -173,17 +266,32 @@ pub fn compare(a: &Setup, b: &Setup, out: &Path, progress: bool) -> Result<Strin
     Ok(t)
 }
 
+/// Each scheme's own deadline labelled with its rule and scenario; the later one is also the
+/// common instant (one line when both deadlines coincide).
+fn deadline_lines(a: &Setup, b: &Setup) -> Vec<(f64, String)> {
+    let rule = |s: &Setup| {
+        let (t, r) = metrics::deadline(s);
+        let r = if r == "2Ts" { "2Tₛ" } else { r };
+        (t, format!("{r} ({})", s.scenario.name))
+    };
+    let ((ta, la), (tb, lb)) = (rule(a), rule(b));
+    if ta == tb {
+        return vec![(ta, format!("{la} = {lb} = {}: common instant", secs(ta)))];
+    }
+    let common = ta.max(tb);
+    [(ta, la), (tb, lb)]
+        .into_iter()
+        .map(|(t, l)| {
+            let tag = if t == common { ": common instant" } else { "" };
+            (t, format!("{l} = {}{tag}", secs(t)))
+        })
+        .collect()
+}
+
 fn overlay(out: &Path, a: &Setup, ra: &Recorder, b: &Setup, rb: &Recorder) -> Result<()> {
     let (na, nb) = (&a.scenario.name, &b.scenario.name);
     let (y_unit, u_unit) = a.plant.units();
-    // Each scheme's predefined time, labelled with its scenario.
-    let vlines: Vec<(f64, String)> = [(a, na), (b, nb)]
-        .iter()
-        .map(|(s, n)| {
-            let t = s.predefined_time();
-            (t, format!("2Tₛ = {} ({n})", secs(t)))
-        })
-        .collect();
+    let vlines = deadline_lines(a, b);
     let band = a.scenario.simulation.settle_band;
     let errs = vec![
         Series::styled(na.to_string(), 0, ra.points(&ra.max_err)),

@@ -1,17 +1,57 @@
 //! The metrics of LAW §11 with the definitions of docs/SCENARIO.md, accumulated sample by sample,
-//! and the `summary.json` they fill.
+//! the `[metrics]` section that tunes them, and the `summary.json` they fill.
+
+pub mod spec;
 
 use std::collections::BTreeMap;
 
 use controller_core::Gains;
 use serde::Serialize;
 
+pub use spec::{MetricsSpec, WindowKind, WindowSpec};
+
 use crate::{
     error::Result,
     figures::{FirmwareSummary, NetworkSummary},
-    scenario::Setup,
+    scenario::{SchemeName, Setup},
     sim::{Divergence, Observer, SampleView},
 };
+
+/// The instant a scheme promises to be settled by [s], and its name: `2 T_s` for the
+/// predefined-time law (Theorem 1), `t_prescribed` (default `T_s`) for the LAW §10 baseline.
+pub fn deadline(setup: &Setup) -> (f64, &'static str) {
+    let c = &setup.scenario.controller;
+    match c.scheme {
+        SchemeName::PredefinedTime => (setup.predefined_time(), "2Ts"),
+        SchemeName::PrescribedTime => (c.t_prescribed.unwrap_or(c.ts), "t_prescribed"),
+    }
+}
+
+/// The dwell of `settling_time` [s]: `[metrics] settle_dwell`, else the scheme's deadline.
+pub fn settle_dwell(setup: &Setup) -> f64 {
+    setup
+        .scenario
+        .metrics
+        .settle_dwell
+        .unwrap_or_else(|| deadline(setup).0)
+}
+
+/// One entry of `summary.json` `windows`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct WindowValue {
+    /// The window's name.
+    pub name: String,
+    /// `max_error`, `iae` or `energy`.
+    pub kind: WindowKind,
+    /// Start [s].
+    pub from: f64,
+    /// End [s] (the horizon when the scenario leaves it open).
+    pub to: f64,
+    /// The figure; null when no sample lies in the window (or the run diverged before it).
+    pub value: Option<f64>,
+    /// Unit of `value`.
+    pub unit: &'static str,
+}
 
 /// Per-agent figures of `summary.json`.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -73,7 +113,8 @@ pub struct Summary {
     pub predefined_time: f64,
     /// Band `b`.
     pub settle_band: f64,
-    /// `t_{k+1}` of the last sample outside the band; null if the last sample is outside.
+    /// `t_{k+1}` of the last sample outside the band, provided the samples from there to the
+    /// last one span the dwell ([`settle_dwell`]); null otherwise or on divergence.
     pub settling_time: Option<f64>,
     /// `max_{i, t_k ≥ 2Ts} |y_i − y_d|`; null without such samples.
     pub max_error_after_predefined_time: Option<f64>,
@@ -97,6 +138,19 @@ pub struct Summary {
     /// Node-firmware figures per agent (`[network] kind = "pil"`); absent otherwise.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub firmware: Option<Vec<FirmwareSummary>>,
+    /// `[[metrics.window]]` figures; absent without windows.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub windows: Vec<WindowValue>,
+}
+
+impl Summary {
+    /// The figure of the window `name`.
+    pub fn window(&self, name: &str) -> Option<f64> {
+        self.windows
+            .iter()
+            .find(|w| w.name == name)
+            .and_then(|w| w.value)
+    }
 }
 
 /// Units of the numeric keys of `summary.json`: `[y]`, `[u]`, `[x]` are the units of the plant's
@@ -130,6 +184,13 @@ const UNITS: [(&str, &str); 28] = [
     ("agents.final_xi", "-"),
     ("agents.final_lambda", "-"),
     ("agents.step_faults", "count"),
+];
+
+/// Units of `windows`' numeric keys (`value`: its entry's `unit`).
+const WINDOW_UNITS: [(&str, &str); 3] = [
+    ("windows.from", "s"),
+    ("windows.to", "s"),
+    ("windows.value", "windows.unit"),
 ];
 
 /// Units of `network`'s numeric keys (CAN runs).
@@ -229,11 +290,27 @@ impl Acc {
     }
 }
 
+/// A window's sample range and running figure.
+#[derive(Debug, Clone)]
+struct WindowAcc {
+    k_from: u64,
+    k_to: u64,
+    kind: WindowKind,
+    value: Option<f64>,
+}
+
+/// The first sample index at or after `t` [s].
+fn first_at(t: f64, h: f64) -> u64 {
+    (t / h - 1e-9).ceil().max(0.0) as u64
+}
+
 /// Accumulates the metrics while the loop runs.
 #[derive(Debug, Clone)]
 pub struct Metrics {
     h: f64,
     band: f64,
+    dwell_samples: u64,
+    windows: Vec<WindowAcc>,
     k_after: u64,
     levels: bool,
     seen: u64,
@@ -248,11 +325,26 @@ impl Metrics {
     /// For the scenario of `setup`.
     pub fn new(setup: &Setup) -> Self {
         let sim = &setup.scenario.simulation;
-        let k_after = (setup.predefined_time() / sim.h - 1e-9).ceil().max(0.0) as u64;
+        let windows = setup
+            .scenario
+            .metrics
+            .window
+            .iter()
+            .map(|w| WindowAcc {
+                k_from: first_at(w.from, sim.h),
+                k_to: w
+                    .to
+                    .map_or(u64::MAX, |to| (to / sim.h + 1e-9).floor().max(0.0) as u64),
+                kind: w.kind,
+                value: None,
+            })
+            .collect();
         Self {
             h: sim.h,
             band: sim.settle_band,
-            k_after,
+            dwell_samples: first_at(settle_dwell(setup), sim.h).max(1),
+            windows,
+            k_after: first_at(setup.predefined_time(), sim.h),
             levels: setup.scenario.quantizer.enabled,
             seen: 0,
             last_outside: None,
@@ -266,12 +358,13 @@ impl Metrics {
     /// The figures of `summary.json`.
     pub fn summary(&self, setup: &Setup, gains: &Gains, divergence: Option<Divergence>) -> Summary {
         let s = &setup.scenario;
-        let settling_time = match (divergence, self.last_outside) {
-            (Some(_), _) => None,
-            (None, None) => Some(0.0),
-            (None, Some(k)) if k + 1 >= self.seen => None,
-            (None, Some(k)) => Some((k + 1) as f64 * self.h),
-        };
+        // Samples `first_inside..seen` are inside; their span `t_{seen-1} − t_{first_inside}`
+        // must reach the dwell, so the last sample's time is never a settling time.
+        let first_inside = self.last_outside.map_or(0, |k| k + 1);
+        let settling_time = (divergence.is_none()
+            && self.seen > first_inside
+            && self.seen - 1 - first_inside >= self.dwell_samples)
+            .then_some(first_inside as f64 * self.h);
         let agents: Vec<AgentSummary> = self
             .agents
             .iter()
@@ -318,9 +411,29 @@ impl Metrics {
             diverged: divergence.is_some(),
             divergence,
             agents,
-            units: BTreeMap::from(UNITS),
+            units: {
+                let mut u = BTreeMap::from(UNITS);
+                if !self.windows.is_empty() {
+                    u.extend(WINDOW_UNITS);
+                }
+                u
+            },
             network: None,
             firmware: None,
+            windows: s
+                .metrics
+                .window
+                .iter()
+                .zip(&self.windows)
+                .map(|(w, a)| WindowValue {
+                    name: w.name.clone(),
+                    kind: w.kind,
+                    from: w.from,
+                    to: w.to.unwrap_or(s.simulation.t_end),
+                    value: a.value,
+                    unit: w.kind.unit(),
+                })
+                .collect(),
         }
     }
 }
@@ -329,10 +442,12 @@ impl<const N: usize, const M: usize> Observer<N, M> for Metrics {
     fn sample(&mut self, s: &SampleView<'_, N, M>) -> Result<()> {
         let h = self.h;
         let mut worst: f64 = 0.0;
+        let (mut err_sum, mut u2_sum) = (0.0, 0.0);
         for (i, (x, o)) in s.x.iter().zip(s.out).enumerate() {
             let a = &mut self.agents[i];
             let err = (x[0] - s.yd).abs();
             worst = worst.max(err);
+            err_sum += err;
             a.iae += err * h;
             a.ise += err * err * h;
             for v in x {
@@ -343,6 +458,7 @@ impl<const N: usize, const M: usize> Observer<N, M> for Metrics {
                 let u = f64::from(u);
                 a.max_abs_u = a.max_abs_u.max(u.abs());
                 a.u_energy += u * u * h;
+                u2_sum += u * u;
                 if q != *p {
                     a.changes += 1;
                     *p = q;
@@ -363,6 +479,16 @@ impl<const N: usize, const M: usize> Observer<N, M> for Metrics {
         }
         if s.k >= self.k_after {
             self.max_after = Some(self.max_after.map_or(worst, |m| m.max(worst)));
+        }
+        for w in &mut self.windows {
+            if (w.k_from..=w.k_to).contains(&s.k) {
+                let v = w.value.unwrap_or(0.0);
+                w.value = Some(match w.kind {
+                    WindowKind::MaxError => v.max(worst),
+                    WindowKind::Iae => v + err_sum * h,
+                    WindowKind::Energy => v + u2_sum * h,
+                });
+            }
         }
         self.seen = s.k + 1;
         Ok(())
@@ -391,12 +517,19 @@ mod tests {
         }
     }
 
-    /// One agent, h = 1, Ts = 1 (2Ts = 2), band 0.5; errors 1.0, 0.2, 0.8, 0.1, 0.1.
+    /// One agent, h = 1, Ts = 1 (2Ts = 2), band 0.5, settle dwell 1 s, the given errors.
     fn feed(errors: &[f64]) -> crate::error::Result<Summary> {
-        let text = "[simulation]\nh = 1.0\nt_end = 5.0\nsettle_band = 0.5\n\
-                    [graph]\nneighbours = [[]]\npinned = [1]\n[plant]\nx0 = [[0, 0]]\n\
-                    [controller]\nts = 1.0";
-        let setup = crate::scenario::parse(text, &[])?;
+        feed_with(errors, "[metrics]\nsettle_dwell = 1.0")
+    }
+
+    /// [`feed`] with `extra` TOML appended to the scenario instead of its dwell.
+    fn feed_with(errors: &[f64], extra: &str) -> crate::error::Result<Summary> {
+        let text = format!(
+            "[simulation]\nh = 1.0\nt_end = 5.0\nsettle_band = 0.5\n\
+             [graph]\nneighbours = [[]]\npinned = [1]\n[plant]\nx0 = [[0, 0]]\n\
+             [controller]\nts = 1.0\n{extra}"
+        );
+        let setup = crate::scenario::parse(&text, &[])?;
         let mut m = Metrics::new(&setup);
         let qs = [0.0f32, 0.5, 0.5, 0.7, 0.5];
         for (k, (&e, &q)) in errors.iter().zip(&qs).enumerate() {
@@ -475,5 +608,71 @@ mod tests {
         let always = feed(&[0.1, 0.1, 0.1, 0.1, 0.1])?;
         assert_eq!(always.settling_time, Some(0.0));
         Ok(())
+    }
+
+    #[test]
+    fn settling_time_needs_the_dwell_inside_the_band_and_is_never_the_last_sample() -> Result<()> {
+        let late = [1.0, 1.0, 1.0, 0.1, 0.1];
+        assert_eq!(
+            feed(&late)?.settling_time,
+            Some(3.0),
+            "t_3 to t_4 spans 1 s"
+        );
+        let default_dwell = feed_with(&late, "")?;
+        assert_eq!(
+            default_dwell.settling_time, None,
+            "default dwell 2Ts = 2 s, only 1 s inside"
+        );
+        let last = [1.0, 1.0, 1.0, 1.0, 0.1];
+        assert_eq!(feed(&last)?.settling_time, None, "only t_4 inside");
+        let tiny = feed_with(&last, "[metrics]\nsettle_dwell = 1e-9")?;
+        assert_eq!(tiny.settling_time, None, "a single sample spans no time");
+        Ok(())
+    }
+
+    #[test]
+    fn window_figures_cover_the_samples_between_from_and_to() -> Result<()> {
+        let windows =
+            "[[metrics.window]]\nname = \"peak\"\nfrom = 1.0\nto = 3.0\nkind = \"max_error\"\n\
+                       [[metrics.window]]\nname = \"late iae\"\nfrom = 2.5\nkind = \"iae\"\n\
+                       [[metrics.window]]\nname = \"effort\"\nto = 1.0\nkind = \"energy\"\n\
+                       [[metrics.window]]\nname = \"after\"\nfrom = 9.0\nkind = \"iae\"";
+        let s = feed_with(&[1.0, 0.2, 0.8, 0.1, 0.3], windows)?;
+        assert_eq!(s.window("peak"), Some(0.8), "t = 1, 2, 3");
+        let late = s.window("late iae").unwrap_or(f64::NAN);
+        assert!((late - 0.4).abs() < 1e-12, "t = 3, 4: {late}");
+        assert_eq!(
+            s.window("effort"),
+            Some(2.0 * 4.0 * 2.0),
+            "t = 0, 1; u = 2 on two actuators"
+        );
+        assert_eq!(s.window("after"), None, "no sample after t_end");
+        assert_eq!(s.windows[1].to, 5.0, "an open window ends at t_end");
+        assert_eq!(s.units.get("windows.value"), Some(&"windows.unit"));
+        Ok(())
+    }
+
+    #[test]
+    fn bad_windows_and_dwell_name_their_key() {
+        for (extra, key) in [
+            ("[metrics]\nsettle_dwell = 0.0", "metrics.settle_dwell"),
+            (
+                "[[metrics.window]]\nname = \"a\"\nkind = \"iae\"\n[[metrics.window]]\nname = \"a\"\nkind = \"iae\"",
+                "metrics.window[2].name",
+            ),
+            (
+                "[[metrics.window]]\nname = \"a\"\nfrom = 2.0\nto = 1.0\nkind = \"iae\"",
+                "metrics.window[1].to",
+            ),
+            (
+                "[[metrics.window]]\nname = \"a\"\nfrom = -1.0\nkind = \"iae\"",
+                "metrics.window[1].from",
+            ),
+        ] {
+            match feed_with(&[0.0; 5], extra) {
+                Err(e) => assert!(e.to_string().contains(key), "{key}: {e}"),
+                Ok(_) => panic!("{key} accepted"),
+            }
+        }
     }
 }

@@ -15,6 +15,7 @@ use crate::{
     faults::{FaultSchedule, FaultsSpec},
     graph::{Graph, GraphSpec, MAX_NEIGHBOURS},
     leader::Leader,
+    metrics::spec::MetricsSpec,
     network::spec::{self as network, NetworkSpec},
     plant::{with_sizes, PlantModel, PlantSpec},
 };
@@ -46,6 +47,9 @@ pub struct Scenario {
     /// it is the default.
     #[serde(skip_serializing_if = "SafetySpec::is_default")]
     pub safety: SafetySpec,
+    /// `[metrics]` (settling dwell, window metrics); left out of `check` when absent.
+    #[serde(skip_serializing_if = "MetricsSpec::is_default")]
+    pub metrics: MetricsSpec,
 }
 
 impl Default for Scenario {
@@ -61,6 +65,7 @@ impl Default for Scenario {
             faults: FaultsSpec::default(),
             network: NetworkSpec::default(),
             safety: SafetySpec::default(),
+            metrics: MetricsSpec::default(),
         }
     }
 }
@@ -599,6 +604,7 @@ fn validate_plant(mut scenario: Scenario, plant: Option<PlantModel>) -> Result<S
         ));
     }
     let faults = scenario.faults.schedule(graph.len(), m, sim.t_end)?;
+    scenario.metrics.check()?;
     if scenario.plant.x0_drawn() {
         // Drawn from the box: the resolved scenario shows the box, not Example 1's rows.
         scenario.plant.x0.clear();

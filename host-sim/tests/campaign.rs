@@ -314,6 +314,7 @@ fn invalid_campaign_files_exit_2_naming_the_key() {
         ("draws = 0", "draws"),
         ("colour = 1", "colour"),
         ("[plot]\nmetric = \"speed\"", "plot.metric"),
+        ("[plot]\nmetric = \"window.none\"", "plot.metric"),
         ("[output]\nruns = [5]", "output.runs"),
         ("set = [\"controller.zeta=2\"]", "controller.zeta"),
     ];
@@ -383,4 +384,102 @@ fn one_axis_draws_a_line() {
     assert_eq!(rows.len(), 3);
     assert!(out.join("line.png").exists());
     assert!(!out.join("map.png").exists());
+}
+
+/// Window metrics become `window.<name>` columns equal to `summary.json`; with draws,
+/// `summary.csv` holds per grid point the mean and 95 % Student-t half-width of each metric
+/// over the valid draws (t_{0.975,3} = 3.182446 for four draws).
+#[test]
+fn window_columns_and_replication_means_with_student_t_intervals() {
+    let dir = tmp("campaign-replications");
+    let example =
+        read(&PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../scenarios/example1.toml"));
+    let scenario = dir.join("scenario.toml");
+    std::fs::write(
+        &scenario,
+        format!(
+            "{example}\n[metrics]\nsettle_dwell = 0.2\n\
+             [[metrics.window]]\nname = \"early peak\"\nto = 0.5\nkind = \"max_error\"\n\
+             [[metrics.window]]\nname = \"late iae\"\nfrom = 0.5\nkind = \"iae\"\n"
+        ),
+    )
+    .expect("scenario");
+    let file = dir.join("campaign.toml");
+    std::fs::write(
+        &file,
+        "scenario = \"scenario.toml\"\nset = [\"simulation.t_end=1\"]\n\
+         draws = 4\nseed = 5\n[plot]\nmetric = \"window.late iae\"\n[[axis]]\nkey = \"controller.ts\"\nvalues = [1.0, 2.0]\n\
+         [[sample]]\nkey = \"faults.rule[1].start\"\ndist = \"uniform\"\nlow = 0.0\nhigh = 1.0\n",
+    )
+    .expect("campaign");
+    let out = dir.join("out");
+    sweep(&file, &out, &[], "2");
+    let (h, rows) = table(&out);
+    let col = |n: &str| h.iter().position(|x| x == n).expect(n);
+    let (early, late) = (col("window.early peak"), col("window.late iae"));
+    let run0 = tmp("campaign-replications-run0");
+    let o = bin()
+        .arg("run")
+        .arg(&scenario)
+        .arg("--out")
+        .arg(&run0)
+        .args(["--set", "simulation.t_end=1"])
+        .args(["--set", "controller.ts=1", "--set"])
+        .arg(format!(
+            "faults.rule[1].start={}",
+            rows[0][col("faults.rule[1].start")]
+        ))
+        .args(["--no-plots", "--quiet"])
+        .output()
+        .expect("run");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // The cells as summary.json writes them (serde_json's parser can be one ulp off).
+    let json = read(&run0.join("summary.json"));
+    let values: Vec<&str> = json
+        .split("\"value\": ")
+        .skip(1)
+        .filter_map(|v| v.split([',', '\n']).next())
+        .collect();
+    assert_eq!(values.len(), 2, "{json}");
+    for (v, c) in values.iter().zip([early, late]) {
+        assert_eq!(&rows[0][c], v, "{}", h[c]);
+    }
+    let mut r = csv::Reader::from_path(out.join("summary.csv")).expect("summary.csv");
+    let sh: Vec<String> = r
+        .headers()
+        .expect("header")
+        .iter()
+        .map(String::from)
+        .collect();
+    let points: Vec<csv::StringRecord> = r.records().map(|x| x.expect("row")).collect();
+    assert_eq!(points.len(), 2, "one row per grid point");
+    assert!(
+        out.join("line.png").exists(),
+        "the window metric over the axis"
+    );
+    let scol = |n: &str| sh.iter().position(|x| x == n).expect(n);
+    for (p, rec) in points.iter().enumerate() {
+        assert_eq!(&rec[scol("runs")], "4");
+        let values: Vec<f64> = rows[p * 4..p * 4 + 4]
+            .iter()
+            .filter(|r| r[col("diverged")] == "false")
+            .map(|r| r[late].parse().expect("late iae"))
+            .collect();
+        assert_eq!(values.len(), 4, "Example 1 does not diverge in 1 s");
+        let mean = values.iter().sum::<f64>() / 4.0;
+        let var = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / 3.0;
+        let half = 3.182_446_305 * (var / 4.0).sqrt();
+        let got = |k: &str| {
+            rec[scol(&format!("window.late iae.{k}"))]
+                .parse::<f64>()
+                .expect(k)
+        };
+        assert!((got("mean") / mean - 1.0).abs() < 1e-12);
+        assert!(
+            (got("ci95") / half - 1.0).abs() < 1e-5,
+            "{} vs {half}",
+            got("ci95")
+        );
+        assert_eq!(&rec[scol("window.late iae.n")], "4");
+    }
 }

@@ -357,6 +357,15 @@ fn summary(file: &str, sets: &[&str]) -> Value {
     serde_json::to_value(simulate(&setup).expect("run")).expect("json")
 }
 
+/// Example 1 for 0.05 s with a `[[metrics.window]]` (the `windows` key).
+fn with_window() -> Value {
+    let example =
+        std::fs::read_to_string(common::scenario_path("example1.toml")).expect("example1");
+    let text = format!("{example}\n[[metrics.window]]\nname = \"w\"\nkind = \"iae\"\n");
+    let setup = scenario::parse(&text, &["simulation.t_end=0.05".to_string()]).expect("scenario");
+    serde_json::to_value(simulate(&setup).expect("run")).expect("json")
+}
+
 #[test]
 fn every_summary_key_is_documented_with_a_unit() {
     let doc = doc();
@@ -368,6 +377,7 @@ fn every_summary_key_is_documented_with_a_unit() {
         ),
         summary("example1-can.toml", &["simulation.t_end=0.05"]),
         summary("example2.toml", &["simulation.t_end=0.05"]),
+        with_window(),
     ];
     assert!(
         runs[0]["divergence"].is_object(),

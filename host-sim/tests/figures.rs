@@ -81,7 +81,7 @@ fn run_figures_show_band_predefined_time_units_faults_and_symbols() {
 }
 
 #[test]
-fn compare_figure_draws_both_predefined_times() {
+fn compare_figure_draws_each_schemes_own_deadline() {
     let dir = tmp("figures-compare");
     let a = scenario_path("example2.toml");
     let b = scenario_path("example2-baseline.toml");
@@ -99,8 +99,7 @@ fn compare_figure_draws_both_predefined_times() {
     assert_has(
         &svg(&dir, "compare"),
         &[
-            "2Tₛ = 1 s (example2)",
-            "2Tₛ = 2 s (example2-baseline)",
+            "2Tₛ (example2) = t_prescribed (example2-baseline) = 1 s: common instant",
             "example2-baseline: peak −27337",
             "u₁ [N·m]",
         ],

@@ -11,8 +11,9 @@ use std::{
 };
 
 /// The blocks below `scenario`: they own their spec types and must not import it.
-const BLOCKS: [&str; 6] = [
+const BLOCKS: [&str; 7] = [
     "faults.rs",
+    "metrics/spec.rs",
     "graph.rs",
     "network",
     "plant",
@@ -40,6 +41,7 @@ const LAYERS: &[(&str, &[&str])] = &[
             "network/spec.rs",
             "network/ideal.rs",
             "network/trace.rs",
+            "metrics/spec.rs",
         ],
     ),
     ("the loop", &["sim.rs"]),

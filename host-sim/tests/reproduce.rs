@@ -150,3 +150,20 @@ fn paper_scenarios_with_safety_off_meet_the_f64_reference_and_the_held_figures()
         );
     }
 }
+
+/// Example 1 with Ts = 1 leaves the 0.05 band for the last time at 9.86 s of a 10 s run and
+/// again after 10 s of a 12 s run: with the default dwell (2Ts = 2 s) neither horizon reports a
+/// settling time; a 1 ms dwell shows the instant the 10 s run would otherwise have reported.
+#[test]
+fn example1_ts1_near_the_end_of_the_horizon_is_no_settling_time() {
+    for t_end in ["simulation.t_end=10", "simulation.t_end=12"] {
+        let s = run("example1-ts1.toml", &[t_end]);
+        assert_eq!(s.settling_time, None, "{t_end}");
+    }
+    let short = run(
+        "example1-ts1.toml",
+        &["simulation.t_end=10", "metrics.settle_dwell=0.001"],
+    );
+    let last_exit = short.settling_time.expect("inside for the last 0.14 s");
+    assert!((last_exit - 9.86).abs() < 1e-9, "{last_exit}");
+}

@@ -202,7 +202,7 @@ fn compare_md_is_a_valid_table_with_consistent_times() {
     assert_eq!(out.status.code(), Some(0), "{}", stderr(&out));
     let md = std::fs::read_to_string(dir.join("compare.md")).expect("compare.md");
     let rows: Vec<&str> = md.lines().filter(|l| l.starts_with('|')).collect();
-    assert_eq!(rows.len(), 12, "{md}");
+    assert_eq!(rows.len(), 17, "{md}");
     for row in &rows {
         let bars = row
             .match_indices('|')

@@ -5,6 +5,7 @@
 //! the runs here (rayon, summaries only) → [`results`] (journal, `results.csv`) → [`plots`].
 
 pub mod plots;
+pub mod replications;
 pub mod results;
 pub mod sample;
 pub mod spec;
@@ -211,6 +212,8 @@ pub fn sweep(path: &Path, out: &Path, shard: Shard, progress: bool) -> Result<Sw
     results::write_results(out, &header, &rows)?;
     count(&header, &rows, &mut rep);
     if shard == Shard::ALL {
+        let (axes, draws) = (plan.file.axis.len(), plan.file.draws);
+        replications::write_summary(out, axes, draws, &header, &rows)?;
         rep.figures = plots::draw(&plan.file, &plan.base, &header, &rows, out)?;
     }
     Ok(rep)
@@ -381,6 +384,8 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<SweepReport> {
         ..SweepReport::default()
     };
     count(&meta.columns, &rows, &mut rep);
+    let (axes, draws) = (meta.campaign.axis.len(), meta.campaign.draws);
+    replications::write_summary(out, axes, draws, &meta.columns, &rows)?;
     rep.figures = plots::draw(&meta.campaign, &base, &meta.columns, &rows, out)?;
     Ok(rep)
 }

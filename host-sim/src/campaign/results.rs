@@ -11,7 +11,7 @@ use std::{
 };
 
 use crate::{
-    campaign::spec::{cell, json_number, Plan, RunPoint},
+    campaign::spec::{cell, json_number, Plan, RunPoint, WINDOW_PREFIX},
     error::{Error, Result},
     metrics::Summary,
     report::write_atomic,
@@ -30,18 +30,24 @@ pub const METRIC_COLUMNS: [&str; 6] = [
 /// Name of the journal in `--out`.
 pub const JOURNAL: &str = "runs.journal";
 
-/// The header of `results.csv`: `run`, axis keys, metrics, `status`, `error`, then `draw`
-/// and the sampled keys when the campaign samples.
+/// The header of `results.csv`: `run`, axis keys, metrics, one `window.<name>` per window of
+/// the base scenario, `status`, `error`, then `draw` and the sampled keys when the campaign
+/// samples.
 pub fn header(plan: &Plan) -> Vec<String> {
     let mut h = vec!["run".to_string()];
     h.extend(plan.axis_keys());
     h.extend(METRIC_COLUMNS.iter().map(|s| s.to_string()));
+    h.extend(window_names(plan).map(|n| format!("{WINDOW_PREFIX}{n}")));
     h.extend(["status".to_string(), "error".to_string()]);
     if !plan.file.sample.is_empty() {
         h.push("draw".into());
         h.extend(plan.sample_keys());
     }
     h
+}
+
+fn window_names(plan: &Plan) -> impl Iterator<Item = &str> {
+    plan.base.metrics.window.iter().map(|w| w.name.as_str())
 }
 
 fn opt(v: Option<f64>) -> String {
@@ -60,11 +66,13 @@ pub fn row(plan: &Plan, p: &RunPoint, outcome: &Result<Summary>) -> String {
             r.push(opt(s.max_error_after_predefined_time));
             r.push(json_number(s.max_abs_u));
             r.push(json_number(s.total_u_energy));
+            r.extend(window_names(plan).map(|n| opt(s.window(n))));
             r.push("ok".into());
             r.push(String::new());
         }
         Err(e) => {
-            r.extend(std::iter::repeat_n(String::new(), METRIC_COLUMNS.len()));
+            let cells = METRIC_COLUMNS.len() + window_names(plan).count();
+            r.extend(std::iter::repeat_n(String::new(), cells));
             r.push("invalid".into());
             r.push(message(e));
         }

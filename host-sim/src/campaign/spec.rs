@@ -100,7 +100,10 @@ fn default_metric() -> String {
     "max_error_after_predefined_time".into()
 }
 
-/// Metrics a figure can show (numeric columns of `results.csv`).
+/// Prefix of the `results.csv` column of a `[[metrics.window]]` of the base scenario.
+pub const WINDOW_PREFIX: &str = "window.";
+
+/// Metrics a figure can show (numeric columns of `results.csv`), besides window columns.
 pub const PLOT_METRICS: [&str; 5] = [
     "divergence_time",
     "settling_time",
@@ -200,10 +203,17 @@ impl Plan {
         if file.output.decimate == 0 {
             return Err(Error::invalid("output.decimate", "must be >= 1"));
         }
-        if !PLOT_METRICS.contains(&file.plot.metric.as_str()) {
+        let metric = file.plot.metric.as_str();
+        let window = metric
+            .strip_prefix(WINDOW_PREFIX)
+            .is_some_and(|n| base.metrics.window.iter().any(|w| w.name == n));
+        if !PLOT_METRICS.contains(&metric) && !window {
             return Err(Error::invalid(
                 "plot.metric",
-                format!("`{}` is not one of {PLOT_METRICS:?}", file.plot.metric),
+                format!(
+                    "`{metric}` is not one of {PLOT_METRICS:?} nor `{WINDOW_PREFIX}<name>` of a \
+                     [[metrics.window]] of the scenario"
+                ),
             ));
         }
         let mut grid: u64 = 1;
