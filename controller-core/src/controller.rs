@@ -362,8 +362,8 @@ mod example1;
 
 #[cfg(test)]
 mod tests {
-    //! The per-step math (this crate's kernels with `libm`, its fast approximations with
-    //! `micromath`) against the exact-math run (`libm`'s `powf`, `sqrtf`, `tanhf`) in the
+    //! The per-step math of the build's back-end (this crate's kernels with `libm`, its fast
+    //! approximations with `fast-math`, the `micromath` crate's) against the exact-math run (`libm`'s `powf`, `sqrtf`, `tanhf`) in the
     //! closed loop of Example 1 (LAW §8): four agents, RK4 plant with 4 substeps, faults and
     //! quantizer on, h = 1 ms.
     use super::example1::Example1;
@@ -384,8 +384,17 @@ mod tests {
         (worst, (sq / (4 * steps) as f64).sqrt())
     }
 
+    /// Relative drift allowed from the exact-math run (max error after 2 `T_s`, RMS), at the
+    /// measured level: 0.013 % for the accurate kernels, 0.008 % for the fast approximations,
+    /// 0.65 % for the `micromath` crate's.
+    const DRIFT: f64 = if cfg!(feature = "micromath") {
+        0.007
+    } else {
+        2e-4
+    };
+
     #[test]
-    fn example1_with_per_step_math_within_1_percent_of_exact_math() {
+    fn example1_with_per_step_math_within_its_measured_drift_of_exact_math() {
         for ts in [2.0f32, 1.0] {
             let fast = example1(ts, 10.0);
             let exact = with_exact_math(|| example1(ts, 10.0));
@@ -400,11 +409,11 @@ mod tests {
                 100.0 * (fast.1 - exact.1) / exact.1
             );
             assert!(
-                rel(fast.0, exact.0) <= 0.01,
+                rel(fast.0, exact.0) <= DRIFT,
                 "T_s = {ts}: {fast:?} vs {exact:?}"
             );
             assert!(
-                rel(fast.1, exact.1) <= 0.01,
+                rel(fast.1, exact.1) <= DRIFT,
                 "T_s = {ts}: {fast:?} vs {exact:?}"
             );
         }
