@@ -7,8 +7,8 @@ use crate::{
     consensus::{Link, LinkMemory, LinkReport},
     differentiator::DifferentiatorState,
     math,
-    quantizer::{HysteresisQuantizer, QuantizerState},
-    safety::{reenter_link, Recovery},
+    quantizer::QuantizerState,
+    safety::{reenter_link, Recovery, Safety},
     ConfigError,
 };
 
@@ -165,7 +165,7 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         // re-enter at the recovery rate, each value as the law reads it (no copy of the
         // links). More values than slots (a wiring error, counted by the law) go through as
         // given.
-        let (leader, reenter) = match &self.params.safety {
+        let (leader, reenter) = match safety(&self.params) {
             Some(safety) if neighbours.len() <= K => {
                 let s = &mut self.state;
                 if s.recovery.after_hold {
@@ -199,7 +199,7 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         // 1. e_1 from the latest neighbour / leader values, then β_j, α_j, e_{j+1}.
         let mut links = LinkReport::default();
         let mut phi1 = p.backstepping.mtn.accumulator();
-        let reentry = if reenter { p.safety.as_ref() } else { None };
+        let reentry = if reenter { safety(p) } else { None };
         let slots = &mut s.recovery.neighbours;
         let through = |k: usize, link| match (reentry, slots.get_mut(k)) {
             (Some(safety), Some(slot)) => reenter_link(safety, slot, link),
@@ -237,7 +237,7 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         );
 
         // 2. u_l (limited with safety on); its quantization follows the check below.
-        let (u_l, limited) = match &p.safety {
+        let (u_l, limited) = match safety(p) {
             None => (sig.u, false),
             Some(safety) => safety.limit(sig.u, s.u[0]),
         };
@@ -285,22 +285,23 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         // 2, continued: q_l = Q_l(u_l).
         let u = [u_l; M];
         let mut q = u;
-        if let (Some(qz), Some((first, rest)), Some((q_first, q_rest))) = (
-            &p.quantizer,
-            s.quantizers.split_first_mut(),
-            q.split_first_mut(),
-        ) {
-            // Every actuator gets the same `u`, so actuators whose quantizer state equals the
-            // first one's get its result (always the case: they start equal and are committed
-            // together); the comparison keeps this exact for any state.
-            let before = *first;
-            *q_first = qz.quantize(first, u_l);
-            for (ql, st) in q_rest.iter_mut().zip(rest.iter_mut()) {
-                *ql = if *st == before {
-                    *st = *first;
-                    *q_first
-                } else {
-                    quantize_apart(qz, st, u_l)
+        if let (Some(qz), Some(&before)) = (&p.quantizer, s.quantizers.first()) {
+            // Every actuator gets the same `u`, so an actuator whose quantizer state equals the
+            // first one's before this step gets the first one's result (always the case: they
+            // start equal and are committed together); the comparison keeps this exact for any
+            // state. One call site: the quantizer's code is in the step once.
+            let mut first: Option<(f32, QuantizerState)> = None;
+            for (ql, st) in q.iter_mut().zip(s.quantizers.iter_mut()) {
+                *ql = match first {
+                    Some((q_first, after)) if *st == before => {
+                        *st = after;
+                        q_first
+                    }
+                    _ => {
+                        let q_l = qz.quantize(st, u_l);
+                        first = first.or(Some((q_l, *st)));
+                        q_l
+                    }
                 };
             }
         }
@@ -323,12 +324,15 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
     }
 }
 
-/// An actuator whose quantizer state differs from the first one's (never, as the states are
-/// committed together): out of line, so that the common path inlines a single quantization.
-#[cold]
-#[inline(never)]
-fn quantize_apart(qz: &HysteresisQuantizer, st: &mut QuantizerState, u: f32) -> f32 {
-    qz.quantize(st, u)
+/// The safety settings in force: none without the `safety` feature, so that the step's code
+/// holds none of [`crate::safety`]'s.
+#[inline(always)]
+fn safety<const N: usize>(params: &Params<N>) -> Option<&Safety> {
+    if cfg!(feature = "safety") {
+        params.safety.as_ref()
+    } else {
+        None
+    }
 }
 
 /// The fault result: previous command held, nothing committed.

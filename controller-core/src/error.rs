@@ -67,6 +67,8 @@ pub enum ConfigError {
     /// Safety: `u_max` is at or below the quantizer's `u_min`, so every command would be
     /// quantized to 0.
     UMaxNotAboveUMin,
+    /// Safety is configured, but the crate was built without its `safety` feature.
+    SafetyNotBuilt,
 }
 
 impl fmt::Display for ConfigError {
@@ -112,6 +114,9 @@ impl fmt::Display for ConfigError {
             Self::UMaxNotAboveUMin => {
                 f.write_str("safety `u_max` must be above the quantizer's `u_min`")
             }
+            Self::SafetyNotBuilt => f.write_str(
+                "`safety` is set, but controller-core was built without its `safety` feature",
+            ),
         }
     }
 }

@@ -55,6 +55,11 @@
 //! * `fast-math`: this crate's fast approximations for the per-step functions ([`math::fast`]:
 //!   relative errors of a few 1e-6, no division in the powers and the smoothing function), and
 //!   the accurate kernels at configuration time, so no `libm` is linked.
+//! * `safety` (default): [`ControllerConfig::safety`] can be set. Without it a configuration
+//!   with safety is rejected ([`ConfigError::SafetyNotBuilt`]) and neither the step nor the
+//!   configuration links any of [`safety`]'s code: a firmware that never limits its command
+//!   builds with `default-features = false, features = ["libm"]` (Example 1's step and
+//!   configuration then fit 16 KiB of flash; `cargo xtask bench-gate` holds them to it).
 //! * `defmt`: `defmt::Format` for the configuration, errors, state and outputs.
 //!
 //! `micromath` and `fast-math` each take precedence over `libm` (on by default); enabling both
