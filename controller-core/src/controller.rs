@@ -7,7 +7,7 @@ use crate::{
     consensus::{Link, LinkMemory, LinkReport},
     differentiator::DifferentiatorState,
     math,
-    quantizer::QuantizerState,
+    quantizer::{HysteresisQuantizer, QuantizerState},
     safety::{reenter_link, Recovery, Safety},
     ConfigError,
 };
@@ -285,23 +285,22 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         // 2, continued: q_l = Q_l(u_l).
         let u = [u_l; M];
         let mut q = u;
-        if let (Some(qz), Some(&before)) = (&p.quantizer, s.quantizers.first()) {
-            // Every actuator gets the same `u`, so an actuator whose quantizer state equals the
-            // first one's before this step gets the first one's result (always the case: they
-            // start equal and are committed together); the comparison keeps this exact for any
-            // state. One call site: the quantizer's code is in the step once.
-            let mut first: Option<(f32, QuantizerState)> = None;
-            for (ql, st) in q.iter_mut().zip(s.quantizers.iter_mut()) {
-                *ql = match first {
-                    Some((q_first, after)) if *st == before => {
-                        *st = after;
-                        q_first
-                    }
-                    _ => {
-                        let q_l = qz.quantize(st, u_l);
-                        first = first.or(Some((q_l, *st)));
-                        q_l
-                    }
+        if let (Some(qz), Some((first, rest)), Some((q_first, q_rest))) = (
+            &p.quantizer,
+            s.quantizers.split_first_mut(),
+            q.split_first_mut(),
+        ) {
+            // Every actuator gets the same `u`, so actuators whose quantizer state equals the
+            // first one's get its result (always the case: they start equal and are committed
+            // together); the comparison keeps this exact for any state.
+            let before = *first;
+            *q_first = qz.quantize(first, u_l);
+            for (ql, st) in q_rest.iter_mut().zip(rest.iter_mut()) {
+                *ql = if *st == before {
+                    *st = *first;
+                    *q_first
+                } else {
+                    quantize_apart(qz, st, u_l)
                 };
             }
         }
@@ -333,6 +332,14 @@ fn safety<const N: usize>(params: &Params<N>) -> Option<&Safety> {
     } else {
         None
     }
+}
+
+/// An actuator whose quantizer state differs from the first one's (never, as the states are
+/// committed together): out of line, so that the common path inlines a single quantization.
+#[cold]
+#[inline(never)]
+fn quantize_apart(qz: &HysteresisQuantizer, st: &mut QuantizerState, u: f32) -> f32 {
+    qz.quantize(st, u)
 }
 
 /// The fault result: previous command held, nothing committed.

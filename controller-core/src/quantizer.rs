@@ -337,10 +337,26 @@ impl HysteresisQuantizer {
         }
     }
 
-    /// Moves the bracket to `u_c < b ≤ u_{c+1}`: level by level, each step computing one new
-    /// level (the other bound is the previous one), up to [`MAX_WALK`] levels.
+    /// Moves the bracket to `u_c < b ≤ u_{c+1}` (`b > u_min`). Inline only the test that `b`
+    /// is still in the bracket (most samples); a move is out of line ([`Self::relocate`]). The
+    /// placeholder state (index 0, bracket `(0, 0]`) is outside for every such `b`.
     #[inline]
     fn locate(&self, s: &mut QuantizerState, b: f32) {
+        if self.outside(s, b) {
+            self.relocate(s, b);
+        }
+    }
+
+    /// `b` lies beyond the bracket on a side that has a next level.
+    #[inline]
+    fn outside(&self, s: &QuantizerState, b: f32) -> bool {
+        (b > s.upper && s.index < self.max_index) || (b <= s.lower && s.index > 1)
+    }
+
+    /// Level by level, each step computing one new level (the other bound is the previous
+    /// one), up to [`MAX_WALK`] levels; beyond, the closed form.
+    #[inline(never)]
+    fn relocate(&self, s: &mut QuantizerState, b: f32) {
         if s.index == 0 {
             return self.jump(s, b); // a default (placeholder) state: no bracket yet
         }
@@ -357,7 +373,7 @@ impl HysteresisQuantizer {
                 return;
             }
         }
-        if (b > s.upper && s.index < self.max_index) || (b <= s.lower && s.index > 1) {
+        if self.outside(s, b) {
             self.jump(s, b);
         }
     }
