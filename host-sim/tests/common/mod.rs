@@ -66,3 +66,4 @@ pub fn python_has(modules: &str, pip_install: &str) -> bool {
     }
     ok
 }
+pub mod back_end;
