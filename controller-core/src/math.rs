@@ -191,6 +191,14 @@ pub fn ln(x: f32) -> f32 {
     }
 }
 
+/// Natural logarithm by the accurate kernel (`log₂ x · ln 2`, a few ulp) in every build: for
+/// an estimate the caller settles by comparisons (the quantizer's level index), at a fraction
+/// of `libm`'s cost.
+#[inline]
+pub fn ln_estimate(x: f32) -> f32 {
+    kernel::log2(x) * core::f32::consts::LN_2
+}
+
 /// Hyperbolic tangent.
 #[inline]
 pub fn tanh(x: f32) -> f32 {
