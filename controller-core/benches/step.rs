@@ -1,10 +1,11 @@
 //! Host view of the cost of one `Controller::step` (ns per step on the build machine), for
-//! `n = 2, m = 2` (Example 1) and `n = 3, m = 3`, 2 neighbours. The math backend is a compile-time
-//! feature, so the two backends are two runs:
+//! `n = 2, m = 2` (Example 1) and `n = 3, m = 3`, 2 neighbours. The per-step math back-end is a
+//! compile-time feature, so the three back-ends are three runs:
 //!
 //! ```sh
 //! cargo bench -p controller-core --bench step                          # libm
 //! cargo bench -p controller-core --bench step --features micromath     # micromath
+//! cargo bench -p controller-core --bench step --features fast-math     # fast-math
 //! ```
 //!
 //! The target view (instructions on a Cortex-M4F) is `cargo xtask bench-target`.
@@ -19,6 +20,8 @@ const H: f32 = 1e-3;
 
 const BACKEND: &str = if cfg!(feature = "micromath") {
     "micromath"
+} else if cfg!(feature = "fast-math") {
+    "fast-math"
 } else {
     "libm"
 };

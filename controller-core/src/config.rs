@@ -224,6 +224,9 @@ impl<const N: usize> Params<N> {
         }
         let scheme = Scheme::new(&cfg.scheme, &gains, cfg.zeta, cfg.ts)?;
         let safety = match &cfg.safety {
+            Some(_) if !cfg!(feature = "safety") => {
+                return Err(ConfigError::new(Param::SafetyEnabled, Reason::NotBuilt))
+            }
             Some(sc) => {
                 let safety = Safety::new(sc, cfg.h)?;
                 if let Some(q) = &cfg.quantizer {

@@ -8,7 +8,7 @@ use crate::{
     differentiator::DifferentiatorState,
     math,
     quantizer::{HysteresisQuantizer, QuantizerState},
-    safety::{reenter_link, Recovery},
+    safety::{reenter_link, Recovery, Safety},
     ConfigError,
 };
 
@@ -165,7 +165,7 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         // re-enter at the recovery rate, each value as the law reads it (no copy of the
         // links). More values than slots (a wiring error, counted by the law) go through as
         // given.
-        let (leader, reenter) = match &self.params.safety {
+        let (leader, reenter) = match safety(&self.params) {
             Some(safety) if neighbours.len() <= K => {
                 let s = &mut self.state;
                 if s.recovery.after_hold {
@@ -199,7 +199,7 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         // 1. e_1 from the latest neighbour / leader values, then β_j, α_j, e_{j+1}.
         let mut links = LinkReport::default();
         let mut phi1 = p.backstepping.mtn.accumulator();
-        let reentry = if reenter { p.safety.as_ref() } else { None };
+        let reentry = if reenter { safety(p) } else { None };
         let slots = &mut s.recovery.neighbours;
         let through = |k: usize, link| match (reentry, slots.get_mut(k)) {
             (Some(safety), Some(slot)) => reenter_link(safety, slot, link),
@@ -237,7 +237,7 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         );
 
         // 2. u_l (limited with safety on); its quantization follows the check below.
-        let (u_l, limited) = match &p.safety {
+        let (u_l, limited) = match safety(p) {
             None => (sig.u, false),
             Some(safety) => safety.limit(sig.u, s.u[0]),
         };
@@ -323,6 +323,17 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
     }
 }
 
+/// The safety settings in force: none without the `safety` feature, so that the step's code
+/// holds none of [`crate::safety`]'s.
+#[inline(always)]
+fn safety<const N: usize>(params: &Params<N>) -> Option<&Safety> {
+    if cfg!(feature = "safety") {
+        params.safety.as_ref()
+    } else {
+        None
+    }
+}
+
 /// An actuator whose quantizer state differs from the first one's (never, as the states are
 /// committed together): out of line, so that the common path inlines a single quantization.
 #[cold]
@@ -362,8 +373,8 @@ mod example1;
 
 #[cfg(test)]
 mod tests {
-    //! The per-step math (this crate's kernels with `libm`, its fast approximations with
-    //! `micromath`) against the exact-math run (`libm`'s `powf`, `sqrtf`, `tanhf`) in the
+    //! The per-step math of the build's back-end (this crate's kernels with `libm`, its fast
+    //! approximations with `fast-math`, the `micromath` crate's) against the exact-math run (`libm`'s `powf`, `sqrtf`, `tanhf`) in the
     //! closed loop of Example 1 (LAW §8): four agents, RK4 plant with 4 substeps, faults and
     //! quantizer on, h = 1 ms.
     use super::example1::Example1;
@@ -384,8 +395,17 @@ mod tests {
         (worst, (sq / (4 * steps) as f64).sqrt())
     }
 
+    /// Relative drift allowed from the exact-math run (max error after 2 `T_s`, RMS), at the
+    /// measured level: 0.013 % for the accurate kernels, 0.008 % for the fast approximations,
+    /// 0.65 % for the `micromath` crate's.
+    const DRIFT: f64 = if cfg!(feature = "micromath") {
+        0.007
+    } else {
+        2e-4
+    };
+
     #[test]
-    fn example1_with_per_step_math_within_1_percent_of_exact_math() {
+    fn example1_with_per_step_math_within_its_measured_drift_of_exact_math() {
         for ts in [2.0f32, 1.0] {
             let fast = example1(ts, 10.0);
             let exact = with_exact_math(|| example1(ts, 10.0));
@@ -400,11 +420,11 @@ mod tests {
                 100.0 * (fast.1 - exact.1) / exact.1
             );
             assert!(
-                rel(fast.0, exact.0) <= 0.01,
+                rel(fast.0, exact.0) <= DRIFT,
                 "T_s = {ts}: {fast:?} vs {exact:?}"
             );
             assert!(
-                rel(fast.1, exact.1) <= 0.01,
+                rel(fast.1, exact.1) <= DRIFT,
                 "T_s = {ts}: {fast:?} vs {exact:?}"
             );
         }

@@ -110,6 +110,9 @@ impl fmt::Display for ConfigError {
             Reason::Isolated => {
                 f.write_str("is empty and the agent is not pinned to the leader (A_i = 0)")
             }
+            Reason::NotBuilt => {
+                f.write_str("is set, but controller-core was built without its `safety` feature")
+            }
         }
     }
 }

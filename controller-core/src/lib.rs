@@ -46,17 +46,28 @@
 //! * `libm` (default): accurate math. Configuration-time `powf`, `expf`, `logf` from `libm`;
 //!   the per-step `x^ζ`, `√x`, `tanh` are this crate's own kernels ([`math`]), within a few ulp
 //!   of f64, because `libm`'s `powf` and software `sqrtf` dominated the step on a Cortex-M4F.
-//! * `micromath`: this crate's fast approximations for the per-step functions ([`math::fast`]:
-//!   relative errors of a few 1e-6, no division in the powers and the smoothing function),
-//!   and the accurate kernels at configuration time, so no `libm` is linked (takes precedence
-//!   over `libm`). Fewer instructions per step and less flash; the closed loop of both paper
-//!   examples stays within 1 % of the default build's (checked in CI). The name is historical:
-//!   the `micromath` crate's own functions, used before, were slower and up to 7 % off.
+//! * `micromath`: the `micromath` crate's `F32Ext` for the per-step functions ([`math::micro`]:
+//!   `e^(y ln x)` with the crate's degree-4 `ln` and `exp`, its bit-level `√`), and the accurate
+//!   kernels at configuration time, so no `libm` is linked. Relative errors against f64 of
+//!   8e-4 for `x^ζ` at `x ≥ 1` but up to 1.2 % (`ζ = 0.1`) below 1, where the crate's `ln` goes
+//!   through an 8 % reciprocal; 6 % for `√`. The closed loop of both paper examples against
+//!   the default build: `docs/REPRODUCTION.md`, "Math back-ends".
+//! * `fast-math`: this crate's fast approximations for the per-step functions ([`math::fast`]:
+//!   relative errors of a few 1e-6, no division in the powers and the smoothing function), and
+//!   the accurate kernels at configuration time, so no `libm` is linked.
+//! * `safety` (default): [`ControllerConfig::safety`] can be set. Without it a configuration
+//!   with safety is rejected (a [`ConfigError`] with [`Reason::NotBuilt`]) and neither the step nor the
+//!   configuration links any of [`safety`]'s code: a firmware that never limits its command
+//!   builds with `default-features = false, features = ["libm"]` (Example 1's step and
+//!   configuration then fit 16 KiB of flash; `cargo xtask bench-gate` holds them to it).
 //! * `defmt`: `defmt::Format` for the configuration, errors, state and outputs.
 //! * `serde`: `Serialize`/`Deserialize` of [`ControllerConfig`] and its parts (`serde` without
 //!   its default features): a node reads the same scenario file as `host-sim`
 //!   ([`sections`]: `[simulation]` `h`, `[controller]`, `[quantizer]`, `[safety]`).
 //! * `alloc`: `Vec` as the per-step values of [`ControllerSection`] (host tools).
+//!
+//! `micromath` and `fast-math` each take precedence over `libm` (on by default); enabling both
+//! is a compile error.
 //!
 //! ## Parameters
 //!

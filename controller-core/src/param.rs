@@ -489,6 +489,8 @@ pub enum Reason {
     Unpaired,
     /// A baseline parameter given for the predefined-time scheme.
     BaselineOnly,
+    /// Set, but controller-core was built without the feature that implements it (`safety`).
+    NotBuilt,
 }
 
 #[cfg(test)]

@@ -103,6 +103,10 @@ impl Default for QuantizerState {
 
 /// Level changes walked one by one before the closed form is used instead.
 const MAX_WALK: usize = 4;
+/// `squarings[FAR]` is `(1/ρ)^MAX_WALK`: a `b` that far beyond the bracket goes to the closed
+/// form without walking.
+const FAR: usize = 2;
+const _: () = assert!(1 << FAR == MAX_WALK);
 
 /// Squarings of `1/ρ` kept by the quantizer: level powers below `2^SQUARINGS` (up to
 /// `u_min ρ^−255`, 3.1e9 for the paper's `ρ`, `u_min`) take one product per set bit.
@@ -211,7 +215,7 @@ impl HysteresisQuantizer {
         if b <= self.u_min || !b.is_finite() {
             return 1;
         }
-        let x = (math::ln(b) - self.ln_u_min) * self.inv_ln_inv_rho;
+        let x = (math::ln_estimate(b) - self.ln_u_min) * self.inv_ln_inv_rho;
         let mut c = x as u32;
         if (c as f32) < x {
             c = c.saturating_add(1);
@@ -332,12 +336,32 @@ impl HysteresisQuantizer {
         }
     }
 
-    /// Moves the bracket to `u_c < b ≤ u_{c+1}`: level by level, each step computing one new
-    /// level (the other bound is the previous one), up to [`MAX_WALK`] levels.
+    /// Moves the bracket to `u_c < b ≤ u_{c+1}` (`b > u_min`). Inline only the test that `b`
+    /// is still in the bracket (most samples); a move is out of line ([`Self::relocate`]). The
+    /// placeholder state (index 0, bracket `(0, 0]`) is outside for every such `b`.
     #[inline]
     fn locate(&self, s: &mut QuantizerState, b: f32) {
-        if s.index == 0 {
-            return self.jump(s, b); // a default (placeholder) state: no bracket yet
+        if self.outside(s, b) {
+            self.relocate(s, b);
+        }
+    }
+
+    /// `b` lies beyond the bracket on a side that has a next level.
+    #[inline]
+    fn outside(&self, s: &QuantizerState, b: f32) -> bool {
+        (b > s.upper && s.index < self.max_index) || (b <= s.lower && s.index > 1)
+    }
+
+    /// Level by level, each step computing one new level (the other bound is the previous
+    /// one), up to [`MAX_WALK`] levels; beyond, the closed form.
+    #[inline(never)]
+    fn relocate(&self, s: &mut QuantizerState, b: f32) {
+        // The placeholder state has no bracket yet; beyond about MAX_WALK levels (the bracket's
+        // edge times (1/ρ)^4) the walk would end in the closed form anyway. Either path ends
+        // on the same bracket: the choice costs work, not results.
+        let far = self.squarings[FAR];
+        if s.index == 0 || b > s.upper * far || b * far <= s.lower {
+            return self.jump(s, b);
         }
         for _ in 0..MAX_WALK {
             if b > s.upper && s.index < self.max_index {
@@ -352,7 +376,7 @@ impl HysteresisQuantizer {
                 return;
             }
         }
-        if (b > s.upper && s.index < self.max_index) || (b <= s.lower && s.index > 1) {
+        if self.outside(s, b) {
             self.jump(s, b);
         }
     }
@@ -471,6 +495,33 @@ mod tests {
         for &u in &[1e6f32, 0.02, -3e30, f32::MAX, 0.5, -f32::MAX, 0.0] {
             let expect = q.quantize_reference(s.prev_u, s.prev_q, u);
             assert_eq!(q.quantize(&mut s, u), expect, "u = {u}");
+        }
+    }
+
+    #[test]
+    fn moves_walked_or_jumped_land_on_the_same_bracket() {
+        // From every bracket c0, to every bracket c within 12 levels: b at either edge of
+        // `u_c < b ≤ u_{c+1}`. Up to MAX_WALK levels walk, beyond jump: the state must be the
+        // bracket `set_index` gives, bit for bit, on both sides of that threshold.
+        for rho in [0.9f32, 0.5, 0.99] {
+            let q = HysteresisQuantizer::new(&QuantizerConfig {
+                rho,
+                ..QuantizerConfig::default()
+            })
+            .unwrap();
+            for c0 in 1..40u32 {
+                for c in c0.saturating_sub(12).max(1)..c0 + 12 {
+                    let (lo, hi) = (q.level(c), q.level(c + 1));
+                    for b in [hi, f32::from_bits(lo.to_bits() + 1)] {
+                        let mut s = q.state();
+                        q.set_index(&mut s, c0);
+                        q.locate(&mut s, b);
+                        let mut want = s;
+                        q.set_index(&mut want, c);
+                        assert_eq!(s, want, "rho {rho}: {c0} → {c}, b {b}");
+                    }
+                }
+            }
         }
     }
 

@@ -16,7 +16,8 @@
 //!   step restarts every differentiator at `χ_1 = α`, `χ_2 = 0`, as on the first sample.
 //!
 //! [`Safety`] holds the validated settings. The step applies the re-entry to the links before
-//! the law and the limits inside it; with safety off (`None`) none of this code runs.
+//! the law and the limits inside it; with safety off (`None`) none of this code runs, and
+//! without the crate's `safety` feature none of it is linked.
 
 use crate::{ConfigError, Link, Param};
 

@@ -134,7 +134,7 @@ impl Scheme {
 ///
 /// ```
 /// use controller_core::scheme::scaling;
-/// // Within the per-step power's error (a few ulp; 1e-6 with `micromath`).
+/// // Within the per-step power's error (a few ulp; 1e-6 with `fast-math`).
 /// assert!((scaling(0.0, 1.0, 2.0, 10.0) - 1.0).abs() < 1e-5);
 /// assert!((scaling(0.5, 1.0, 2.0, 10.0) - 4.0).abs() < 1e-4);
 /// assert_eq!(scaling(0.99, 1.0, 2.0, 10.0), 10.0);

@@ -41,8 +41,9 @@ pub struct Variant {
     pub n3: bool,
 }
 
-/// The benchmarked builds: default, fast kernels, the baseline, `n = 3`, and `[safety]` on.
-pub const VARIANTS: [Variant; 5] = [
+/// The benchmark variants: Example 1's agent (`n = m = 2`) per per-step math back-end, the
+/// prescribed-time baseline and `[safety]` on, and `n = m = 3`.
+pub const VARIANTS: [Variant; 6] = [
     Variant {
         name: "libm-n2m2",
         features: "libm",
@@ -51,6 +52,11 @@ pub const VARIANTS: [Variant; 5] = [
     Variant {
         name: "micromath-n2m2",
         features: "micromath",
+        n3: false,
+    },
+    Variant {
+        name: "fast-math-n2m2",
+        features: "fast-math",
         n3: false,
     },
     Variant {

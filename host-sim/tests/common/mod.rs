@@ -64,3 +64,4 @@ pub fn require_python(modules: &str, pip_install: &str) {
         .is_ok_and(|o| o.status.success());
     assert!(ok, "this check needs python3 with {modules}: {pip_install}");
 }
+pub mod back_end;
