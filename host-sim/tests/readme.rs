@@ -117,6 +117,101 @@ fn process_words(text: &str) -> Vec<String> {
     found
 }
 
+/// Every text file of the repository (sources, manifests, scripts, documents, golden files),
+/// relative to its root; build outputs, lock files and this file (whose test strings are
+/// process words on purpose) are left out.
+fn repository_texts() -> Vec<String> {
+    fn walk(dir: &std::path::Path, rel: &str, out: &mut Vec<String>) {
+        let Ok(entries) = std::fs::read_dir(dir) else {
+            return;
+        };
+        for e in entries.flatten() {
+            let name = e.file_name().to_string_lossy().into_owned();
+            let path = if rel.is_empty() {
+                name.clone()
+            } else {
+                format!("{rel}/{name}")
+            };
+            if e.file_type().is_ok_and(|t| t.is_dir()) {
+                if !matches!(name.as_str(), "target" | ".git" | "out") {
+                    walk(&e.path(), &path, out);
+                }
+            } else if [
+                ".rs", ".md", ".toml", ".py", ".fnv", ".json", ".dbc", ".x", "run",
+            ]
+            .iter()
+            .any(|ext| name.ends_with(ext))
+                && path != "host-sim/tests/readme.rs"
+            {
+                out.push(path);
+            }
+        }
+    }
+    let mut files = Vec::new();
+    walk(&root(), "", &mut files);
+    files.sort();
+    files
+}
+
+/// Process words in source and data files, where numeric literals and digests look like hashes:
+/// issue numbers, roles, and a hash named as a version (`main at 42ec565`, `commit 42ec565`).
+fn process_words_in_code(text: &str) -> Vec<String> {
+    let words: Vec<&str> = text
+        .split(|c: char| !c.is_ascii_alphanumeric())
+        .filter(|w| !w.is_empty())
+        .collect();
+    let mut found = Vec::new();
+    for (k, w) in words.iter().enumerate() {
+        let lower = w.to_ascii_lowercase();
+        let next = words.get(k + 1).copied().unwrap_or("");
+        let after = words.get(k + 2).copied().unwrap_or("");
+        let names_a_version = (lower == "main" || lower == "commit")
+            && (looks_like_a_hash(next) || (next == "at" && looks_like_a_hash(after)));
+        if ((lower == "issue" || lower == "issues")
+            && next.chars().all(|c| c.is_ascii_digit())
+            && !next.is_empty())
+            || lower == "helper"
+            || lower == "helpers"
+            || names_a_version
+        {
+            found.push(format!("{w} {next}"));
+        }
+    }
+    found
+}
+
+#[test]
+fn no_file_of_the_repository_speaks_of_issue_numbers_commit_hashes_or_roles() {
+    assert_eq!(
+        process_words_in_code("made by main at 3a8062c for issue 14 by a helper; 0x1e30f32"),
+        ["main at", "issue 14", "helper 0x1e30f32"]
+    );
+    let files = repository_texts();
+    assert!(
+        files.iter().any(|f| f == "controller-core/src/lib.rs"),
+        "{files:?}"
+    );
+    let mut offending = Vec::new();
+    for file in &files {
+        let Ok(text) = std::fs::read_to_string(root().join(file)) else {
+            continue;
+        };
+        let found = if file.ends_with(".md") {
+            process_words(&text)
+        } else {
+            process_words_in_code(&text)
+        };
+        if !found.is_empty() {
+            offending.push(format!("{file}: {found:?}"));
+        }
+    }
+    assert!(
+        offending.is_empty(),
+        "process words:\n{}",
+        offending.join("\n")
+    );
+}
+
 #[test]
 fn no_document_speaks_of_issue_numbers_commit_hashes_or_roles() {
     assert_eq!(
