@@ -142,11 +142,16 @@ impl<const N: usize> ControllerConfig<N> {
             }
             (Param::PhiLow, _, Some(j)) if j < N => {
                 let up = self.phi_up[j];
-                self.phi_low[j] = if valid(Param::PhiLow, up) && up.is_normal() {
-                    up
+                if valid(Param::PhiLow, up) && up.is_normal() {
+                    self.phi_low[j] = up;
                 } else {
-                    d(Param::PhiLow)
-                };
+                    // A φ_up that passes its own check but no φ_low fits under is raised with
+                    // it, so the replacement does not add an `exceeds` problem.
+                    self.phi_low[j] = d(Param::PhiLow);
+                    if valid(Param::PhiUp, up) {
+                        self.phi_up[j] = up.max(d(Param::PhiLow));
+                    }
+                }
             }
             (Param::PhiUp, _, Some(j)) if j < N => self.phi_up[j] = self.phi_low[j],
             (Param::EpsBar, _, Some(j)) if j < N => self.eps_bar[j] = d(Param::EpsBar),
