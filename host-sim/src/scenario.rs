@@ -323,8 +323,9 @@ pub fn parse_table(text: &str) -> Result<toml::Table> {
 /// validated with it at its default; the agent-, plant- and time-dependent checks need
 /// `[graph]`, `[plant]` and `[simulation]`, so a problem there is reported alone.
 pub fn from_table(table: toml::Table) -> Result<Setup> {
+    let written = Written::Table(written_steps(&table));
     let whole = match deserialize(toml::Value::Table(table.clone())) {
-        Ok(s) => return validate(s),
+        Ok(s) => return validate_plant(s, None, &written),
         Err(e) => e,
     };
     let mut problems = Problems::default();
@@ -347,7 +348,8 @@ pub fn from_table(table: toml::Table) -> Result<Setup> {
         return Err(whole);
     }
     if !failed.iter().any(|k| basic.contains(&k.as_str())) {
-        let rest = deserialize(toml::Value::Table(good)).and_then(validate);
+        let rest =
+            deserialize(toml::Value::Table(good)).and_then(|s| validate_plant(s, None, &written));
         if let Err(e) = rest {
             for p in e.problems() {
                 let m = p.message();
@@ -604,16 +606,45 @@ fn positive(v: f64, key: &str) -> Result<()> {
 
 /// Checks the scenario and resolves graph, plant, initial states and faults.
 pub fn validate(scenario: Scenario) -> Result<Setup> {
-    validate_plant(scenario, None)
+    validate_plant(scenario, None, &Written::Unknown)
 }
 
 /// [`validate`] for a plant given in Rust of `n` states and `m` actuators (run it with
 /// [`crate::run::run_plant`]); of `[plant]` only `x0` is read.
 pub fn validate_with_plant(scenario: Scenario, n: usize, m: usize) -> Result<Setup> {
-    validate_plant(scenario, Some(PlantModel::Library { n, m }))
+    validate_plant(
+        scenario,
+        Some(PlantModel::Library { n, m }),
+        &Written::Unknown,
+    )
 }
 
-fn validate_plant(mut scenario: Scenario, plant: Option<PlantModel>) -> Result<Setup> {
+/// Which per-step controller arrays the user wrote (the others take their default per step).
+enum Written {
+    /// Those of this list, read from the scenario table.
+    Table(Vec<Param>),
+    /// Not known (a [`Scenario`] built in code): an array equal to the default is taken as
+    /// left out.
+    Unknown,
+}
+
+/// The per-step controller parameters, whose defaults are written for n = 2.
+const PER_STEP: [Param; 4] = [Param::ACheck, Param::PhiLow, Param::PhiUp, Param::EpsBar];
+
+/// The per-step parameters the scenario table sets.
+fn written_steps(table: &toml::Table) -> Vec<Param> {
+    let controller = table.get("controller").and_then(toml::Value::as_table);
+    PER_STEP
+        .into_iter()
+        .filter(|p| controller.is_some_and(|c| c.contains_key(p.name())))
+        .collect()
+}
+
+fn validate_plant(
+    mut scenario: Scenario,
+    plant: Option<PlantModel>,
+    written: &Written,
+) -> Result<Setup> {
     scenario.graph = scenario.graph.or_example();
     let mut problems = Problems::default();
     let sim = &scenario.simulation;
@@ -628,7 +659,7 @@ fn validate_plant(mut scenario: Scenario, plant: Option<PlantModel>) -> Result<S
         None => problems.take(PlantModel::from_spec(&scenario.plant)),
     };
     if let Some(plant) = &plant {
-        fit_defaults(&mut scenario, plant.n(), plant.m());
+        fit_defaults(&mut scenario, plant.n(), plant.m(), written);
     }
     let sim = &scenario.simulation;
     let x0_default = scenario.plant.x0 == PlantSpec::default().x0
@@ -774,9 +805,9 @@ fn check_simulation(sim: &Simulation) -> Result<u64> {
 }
 
 /// Defaults written for Example 1 (n = 2, m = 2) fitted to a plant of `n` states and `m`
-/// actuators: per-step arrays left at their default get one default entry per step, and the
-/// default fault rules keep only the rules whose actuator the plant has.
-fn fit_defaults(scenario: &mut Scenario, n: usize, m: usize) {
+/// actuators: per-step arrays left out get one default entry per step, and the default fault
+/// rules keep only the rules whose actuator the plant has.
+fn fit_defaults(scenario: &mut Scenario, n: usize, m: usize, written: &Written) {
     let c = &mut scenario.controller;
     for (param, steps) in [
         (Param::ACheck, &mut c.a_check),
@@ -785,8 +816,14 @@ fn fit_defaults(scenario: &mut Scenario, n: usize, m: usize) {
         (Param::EpsBar, &mut c.eps_bar),
     ] {
         let d = param.default_f64();
-        let default_len = ControllerSpec::default().a_check.len();
-        if steps.len() != n && steps.len() == default_len && steps.iter().all(|&v| v == d) {
+        let left_out = match written {
+            Written::Table(w) => !w.contains(&param),
+            Written::Unknown => {
+                steps.len() == ControllerSpec::default().a_check.len()
+                    && steps.iter().all(|&v| v == d)
+            }
+        };
+        if left_out && steps.len() != n {
             *steps = vec![d; n];
         }
     }
