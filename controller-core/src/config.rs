@@ -136,6 +136,7 @@ impl<const N: usize> ControllerConfig<N> {
         let valid = |p: Param, v: f32| p.check(v).is_ok();
         let j = e.step().map(|s| usize::from(s).saturating_sub(1));
         match (e.param(), e.reason(), j) {
+            (Param::H, ..) => self.h = d(Param::H),
             (Param::ACheck, _, Some(j)) if j < N => self.a_check[j] = d(Param::ACheck),
             (Param::PhiLow, Reason::Exceeds(_), Some(j)) if j < N => {
                 self.phi_up[j] = self.phi_low[j];

@@ -273,6 +273,7 @@ fn errors_lists_every_problem_and_starts_with_the_error_of_new() {
     };
     cfg.a_check[1] = 0.0;
     cfg.phi_low[0] = 2.0;
+    cfg.h = f32::NAN;
     cfg.gamma = -1.0;
     cfg.varpi_min = 1.0;
     let all = cfg.errors(4);
@@ -280,6 +281,7 @@ fn errors_lists_every_problem_and_starts_with_the_error_of_new() {
     assert_eq!(
         all.as_slice(),
         [
+            E::new(Param::H, Reason::NonFinite),
             E::new(Param::Zeta, Reason::OutOfRange),
             E::new(Param::PhiLow, Reason::Exceeds(Param::PhiUp)).at_step(1),
             E::new(Param::ACheck, Reason::Zero).at_step(2),
@@ -326,6 +328,7 @@ fn every_single_mistake_gives_one_error_equal_to_that_of_new() {
         |c| c.zeta = 1e-30,
         |c| c.phi_low[1] = -1.0,
         |c| c.varpi0 = 1e-7,
+        |c| c.h = -1.0,
         |c| c.gains = GainSelection::Explicit { c1: 0.0, c2: 9.0 },
     ] {
         let mut cfg = ControllerConfig::<2>::default();

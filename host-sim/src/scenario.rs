@@ -649,7 +649,10 @@ fn validate_plant(
     let mut problems = Problems::default();
     let sim = &scenario.simulation;
     let samples = problems.take(check_simulation(sim));
-    if problems.is_empty() {
+    // The leader is checked over [0, t_end], the network and the faults also in steps of h.
+    let horizon = positive(sim.t_end, "").is_ok();
+    let timed = horizon && positive(sim.h, "").is_ok();
+    if horizon {
         problems.take(scenario.leader.check(sim.t_end));
     }
     // [controller], [quantizer] and [safety] are checked by `Controller::new` (check_controllers).
@@ -685,7 +688,7 @@ fn validate_plant(
         )),
         _ => None,
     };
-    if let Some(g) = &graph {
+    if let (Some(g), true) = (&graph, timed) {
         problems.take(network::validate(
             &scenario.network,
             g.len(),
@@ -706,7 +709,9 @@ fn validate_plant(
         }
     }
     let faults = match (&graph, &plant) {
-        (Some(g), Some(p)) => problems.take(scenario.faults.schedule(g.len(), p.m(), sim.t_end)),
+        (Some(g), Some(p)) if timed => {
+            problems.take(scenario.faults.schedule(g.len(), p.m(), sim.t_end))
+        }
         _ => None,
     };
     problems.take(scenario.metrics.check());

@@ -417,3 +417,26 @@ fn command_line_errors_are_one_line_naming_the_option() {
         assert!(!out.stdout.is_empty(), "{flag}");
     }
 }
+
+#[test]
+fn checks_that_need_a_rejected_part_are_skipped_not_reported() {
+    // Agent 7 of the fault rule cannot be judged without a usable graph; zeta can.
+    let text = "[graph]\nneighbours = [[], [1], [2, 9], [1, 3]]\n\
+                [controller]\nzeta = 2.0\n\
+                [[faults.rule]]\nagents = [7]\nactuator = 1\nkind = \"partial\"\ngain = 0.5\n";
+    let lines = rejected_lines(&check_file(text, "skipped-checks"));
+    assert_eq!(lines.len(), 2, "{lines:#?}");
+    assert!(lines[0].contains("graph.neighbours[3]"), "{lines:#?}");
+    assert!(lines[1].contains("controller.zeta"), "{lines:#?}");
+    assert!(
+        !lines[1].contains("agent 1"),
+        "no agent without a graph: {lines:#?}"
+    );
+    // simulation.h is reported once, not again by the controller.
+    let lines = rejected_lines(&check_file(
+        "[simulation]\nh = -1.0\n[quantizer]\nrho = 3.0\n",
+        "h-once",
+    ));
+    assert_eq!(lines.len(), 2, "{lines:#?}");
+    assert!(lines[0].contains("simulation.h") && lines[1].contains("quantizer.rho"));
+}
