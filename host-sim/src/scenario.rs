@@ -297,9 +297,11 @@ pub fn load(path: &Path, sets: &[String]) -> Result<Setup> {
 /// Parses scenario text with overrides and validates it.
 pub fn parse(text: &str, sets: &[String]) -> Result<Setup> {
     let mut table = parse_table(text)?;
+    let mut problems = Problems::default();
     for s in sets {
-        apply_set(&mut table, s)?;
+        problems.take(apply_set(&mut table, s));
     }
+    problems.finish(())?;
     from_table(table)
 }
 

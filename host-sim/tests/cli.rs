@@ -440,3 +440,17 @@ fn checks_that_need_a_rejected_part_are_skipped_not_reported() {
     assert_eq!(lines.len(), 2, "{lines:#?}");
     assert!(lines[0].contains("simulation.h") && lines[1].contains("quantizer.rho"));
 }
+
+#[test]
+fn every_bad_set_is_reported_in_one_run() {
+    let out = bin()
+        .arg("check")
+        .arg(scenario("example1.toml"))
+        .args(["--set", "controller.ts", "--set", "name.=1"])
+        .output()
+        .expect("run");
+    let lines = rejected_lines(&out);
+    assert_eq!(lines.len(), 2, "{lines:#?}");
+    assert!(lines[0].starts_with("host-sim: invalid option: --set controller.ts: "));
+    assert!(lines[1].starts_with("host-sim: invalid option: --set name.: "));
+}
