@@ -109,6 +109,121 @@ impl<const N: usize> Default for ControllerConfig<N> {
     }
 }
 
+/// Most problems [`ControllerConfig::errors`] reports for one configuration.
+pub const MAX_CONFIG_ERRORS: usize = 16;
+
+impl<const N: usize> ControllerConfig<N> {
+    /// Every problem of the configuration for neighbour capacity `capacity`, in the order
+    /// [`Params::new`] meets them (its error is the first); empty when it is valid.
+    ///
+    /// Each rejected value is replaced by one that passes and the check repeated, so a problem
+    /// is reported once whatever it makes of the later checks.
+    pub fn errors(&self, capacity: usize) -> crate::sections::ConfigErrors {
+        let mut found = crate::sections::ConfigErrors::new();
+        let mut cfg = *self;
+        while let Err(e) = Params::new(&cfg, capacity) {
+            if found.contains(&e) || found.push(e).is_err() || !cfg.replace_rejected(&e) {
+                break;
+            }
+        }
+        found
+    }
+
+    /// Replaces the value `e` rejects by one that passes its check and creates no new
+    /// problem; `false` when there is none.
+    fn replace_rejected(&mut self, e: &ConfigError) -> bool {
+        let d = |p: Param| p.default_f32();
+        let valid = |p: Param, v: f32| p.check(v).is_ok();
+        let j = e.step().map(|s| usize::from(s).saturating_sub(1));
+        match (e.param(), e.reason(), j) {
+            (Param::H, ..) => self.h = d(Param::H),
+            (Param::ACheck, _, Some(j)) if j < N => self.a_check[j] = d(Param::ACheck),
+            (Param::PhiLow, Reason::Exceeds(_), Some(j)) if j < N => {
+                self.phi_up[j] = self.phi_low[j];
+            }
+            (Param::PhiLow, _, Some(j)) if j < N => {
+                let up = self.phi_up[j];
+                if valid(Param::PhiLow, up) && up.is_normal() {
+                    self.phi_low[j] = up;
+                } else {
+                    // A φ_up that passes its own check but no φ_low fits under is raised with
+                    // it, so the replacement does not add an `exceeds` problem.
+                    self.phi_low[j] = d(Param::PhiLow);
+                    if valid(Param::PhiUp, up) {
+                        self.phi_up[j] = up.max(d(Param::PhiLow));
+                    }
+                }
+            }
+            (Param::PhiUp, _, Some(j)) if j < N => self.phi_up[j] = self.phi_low[j],
+            (Param::EpsBar, _, Some(j)) if j < N => self.eps_bar[j] = d(Param::EpsBar),
+            (Param::C1 | Param::C2, _, _) if self.gains != GainSelection::Auto => {
+                self.gains = GainSelection::Auto;
+            }
+            (Param::Ts, ..) => self.ts = d(Param::Ts),
+            (Param::Zeta, ..) => self.zeta = d(Param::Zeta),
+            (Param::P, ..) => self.p = d(Param::P),
+            (Param::Eta, ..) => self.eta = d(Param::Eta),
+            (Param::Tau, ..) => self.tau = d(Param::Tau),
+            (Param::Gamma, ..) => self.gamma = d(Param::Gamma),
+            (Param::MtnOrder, ..) => self.mtn_order = Param::MtnOrder.default_f64() as usize,
+            (Param::Neighbours, ..) => {
+                self.neighbour_count = 0;
+                self.pinned = true;
+            }
+            (Param::DiffL1, ..) => self.diff_l1 = d(Param::DiffL1),
+            (Param::DiffL2, ..) => self.diff_l2 = d(Param::DiffL2),
+            (Param::Varpi0, ..) => {
+                self.varpi0 = if valid(Param::Varpi0, self.varpi_min) {
+                    self.varpi_min.max(d(Param::Varpi0))
+                } else {
+                    d(Param::Varpi0)
+                };
+            }
+            (Param::VarpiDecay, ..) => self.varpi_decay = d(Param::VarpiDecay),
+            (Param::VarpiMin, ..) => self.varpi_min = self.varpi0,
+            (Param::Mu0, ..) => self.mu0 = 0.0,
+            (Param::Xi0, ..) => self.xi0 = 0.0,
+            (Param::Lambda0, ..) => self.lambda0 = 0.0,
+            (Param::EstimateMax, ..) => self.estimate_max = f32::MAX,
+            (Param::Kappa | Param::MuMax | Param::TPrescribed, ..) => match &mut self.scheme {
+                SchemeConfig::PrescribedTime(b) => {
+                    let def = crate::BaselineConfig::default();
+                    match e.param() {
+                        Param::Kappa => b.kappa = def.kappa,
+                        Param::MuMax => b.mu_max = def.mu_max,
+                        _ => b.t_prescribed = None,
+                    }
+                }
+                SchemeConfig::PredefinedTime => return false,
+            },
+            (Param::Rho | Param::UMin, ..) => match &mut self.quantizer {
+                Some(q) => {
+                    let def = QuantizerConfig::default();
+                    if e.param() == Param::Rho {
+                        q.rho = def.rho;
+                    } else {
+                        q.u_min = def.u_min;
+                    }
+                }
+                None => return false,
+            },
+            (Param::UMax | Param::DuMax | Param::RecoveryRate | Param::RecoveryJump, ..) => {
+                match &mut self.safety {
+                    Some(s) => match e.param() {
+                        Param::UMax => s.u_max = None,
+                        Param::DuMax => s.du_max = None,
+                        Param::RecoveryRate => s.recovery_rate = d(Param::RecoveryRate),
+                        _ => s.recovery_jump = d(Param::RecoveryJump),
+                    },
+                    None => return false,
+                }
+            }
+            _ => return false,
+        }
+        true
+    }
+}
+
 /// The validated, read-only settings of one controller: everything the hot path needs,
 /// precomputed, so `step` repeats no check.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -270,3 +270,110 @@ fn more_parameters_are_named() {
         .to_string()
         .contains("a_check[2]"));
 }
+
+#[test]
+fn errors_lists_every_problem_and_starts_with_the_error_of_new() {
+    use ConfigError as E;
+    let mut cfg = ControllerConfig::<2> {
+        zeta: 1.5,
+        ..ControllerConfig::default()
+    };
+    cfg.a_check[1] = 0.0;
+    cfg.phi_low[0] = 2.0;
+    cfg.h = f32::NAN;
+    cfg.gamma = -1.0;
+    cfg.varpi_min = 1.0;
+    let all = cfg.errors(4);
+    assert_eq!(all.first().copied(), C::new(&cfg).err());
+    assert_eq!(
+        all.as_slice(),
+        [
+            E::new(Param::H, Reason::NonFinite),
+            E::new(Param::Zeta, Reason::OutOfRange),
+            E::new(Param::PhiLow, Reason::Exceeds(Param::PhiUp)).at_step(1),
+            E::new(Param::ACheck, Reason::Zero).at_step(2),
+            E::new(Param::Gamma, Reason::NonPositive),
+            E::new(Param::VarpiMin, Reason::OutOfRange),
+        ]
+    );
+    assert!(ControllerConfig::<2>::default().errors(4).is_empty());
+}
+
+#[test]
+fn every_single_mistake_gives_one_error_equal_to_that_of_new() {
+    let tiny = ControllerConfig::<2> {
+        phi_low: [1e-40; 2],
+        phi_up: [1e-40; 2],
+        ..ControllerConfig::default()
+    };
+    for cfg in [
+        tiny,
+        ControllerConfig {
+            pinned: false,
+            ..ControllerConfig::default()
+        },
+        ControllerConfig {
+            mu0: 2e6,
+            ..ControllerConfig::default()
+        },
+        ControllerConfig {
+            zeta: 1e-30,
+            ..ControllerConfig::default()
+        },
+    ] {
+        let all = cfg.errors(4);
+        assert_eq!(all.first().copied(), C::new(&cfg).err(), "{all:?}");
+        assert!(
+            all.iter()
+                .all(|e| !matches!(e.reason(), Reason::Exceeds(_))),
+            "{all:?}"
+        );
+    }
+    for f in [
+        (|c: &mut ControllerConfig<2>| c.pinned = false) as fn(&mut ControllerConfig<2>),
+        |c| c.mu0 = 2e6,
+        |c| c.zeta = 1e-30,
+        |c| c.phi_low[1] = -1.0,
+        |c| c.varpi0 = 1e-7,
+        |c| c.h = -1.0,
+        |c| c.gains = GainSelection::Explicit { c1: 0.0, c2: 9.0 },
+    ] {
+        let mut cfg = ControllerConfig::<2>::default();
+        f(&mut cfg);
+        let all = cfg.errors(4);
+        assert_eq!(all.len(), 1, "{all:?}");
+        assert_eq!(all.first().copied(), C::new(&cfg).err());
+    }
+}
+
+#[test]
+fn from_sections_all_reports_every_layout_problem() {
+    let c = ControllerSection::<f32, heapless::Vec<f32, 3>> {
+        phi_low: heapless::Vec::from_slice(&[1.0]).unwrap_or_default(),
+        c1: Some(9.0),
+        kappa: Some(2.0),
+        ..ControllerSection::default()
+    };
+    let (cfg, errors) = ControllerConfig::<2>::from_sections_all(
+        Agent::default(),
+        &c,
+        &QuantizerSection::default(),
+        &SafetySection::default(),
+    );
+    let params: heapless::Vec<Param, 8> = errors.iter().map(ConfigError::param).collect();
+    assert_eq!(
+        params.as_slice(),
+        [
+            Param::C2,
+            Param::Kappa,
+            Param::ACheck,
+            Param::PhiLow,
+            Param::PhiUp,
+            Param::EpsBar
+        ]
+    );
+    assert!(
+        cfg.errors(4).is_empty(),
+        "the rejected values fall back to defaults"
+    );
+}

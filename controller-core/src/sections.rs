@@ -9,8 +9,8 @@
 use core::fmt;
 
 use crate::{
-    BaselineConfig, ConfigError, ControllerConfig, GainSelection, Param, QuantizerConfig,
-    QuantizerDirection, Reason, SafetyConfig, SchemeConfig,
+    config::MAX_CONFIG_ERRORS, BaselineConfig, ConfigError, ControllerConfig, GainSelection, Param,
+    QuantizerConfig, QuantizerDirection, Reason, SafetyConfig, SchemeConfig,
 };
 
 /// A number type a file is read in: `f32` on the target, `f64` on the host.
@@ -342,30 +342,65 @@ fn baseline_only<F>(param: Param, v: Option<F>) -> Result<(), ConfigError> {
     }
 }
 
+/// Problems of one configuration (see [`ControllerConfig::errors`]).
+pub type ConfigErrors = heapless::Vec<ConfigError, MAX_CONFIG_ERRORS>;
+
+/// The value of `r`, or `None` with its error added to `errors`.
+fn keep<T>(errors: &mut ConfigErrors, r: Result<T, ConfigError>) -> Option<T> {
+    r.map_err(|e| {
+        // Full: the first MAX_CONFIG_ERRORS problems are reported.
+        let _ = errors.push(e);
+    })
+    .ok()
+}
+
 impl<const N: usize> ControllerConfig<N> {
     /// The configuration of one agent from the scenario sections, each value `as f32`; only
     /// the layout is checked here (entries per step, `c1` with `c2`, baseline keys), the values
-    /// by [`crate::Controller::new`].
+    /// by [`crate::Controller::new`]. The error is the first of [`Self::from_sections_all`].
     pub fn from_sections<F: Number, S: PerStep<F>>(
         agent: Agent,
         c: &ControllerSection<F, S>,
         q: &QuantizerSection<F>,
         s: &SafetySection<F>,
     ) -> Result<Self, ConfigError> {
-        let gains = match (c.c1, c.c2) {
-            (None, None) => GainSelection::Auto,
-            (Some(c1), Some(c2)) => GainSelection::Explicit {
-                c1: c1.to_f32(),
-                c2: c2.to_f32(),
+        let (cfg, errors) = Self::from_sections_all(agent, c, q, s);
+        match errors.first() {
+            Some(e) => Err(*e),
+            None => Ok(cfg),
+        }
+    }
+
+    /// [`Self::from_sections`] with every layout problem, not only the first, and the
+    /// configuration with the default in place of each rejected value (to check the values
+    /// of the others with [`Self::errors`]).
+    pub fn from_sections_all<F: Number, S: PerStep<F>>(
+        agent: Agent,
+        c: &ControllerSection<F, S>,
+        q: &QuantizerSection<F>,
+        s: &SafetySection<F>,
+    ) -> (Self, ConfigErrors) {
+        let mut errors = ConfigErrors::new();
+        let gains = keep(
+            &mut errors,
+            match (c.c1, c.c2) {
+                (None, None) => Ok(GainSelection::Auto),
+                (Some(c1), Some(c2)) => Ok(GainSelection::Explicit {
+                    c1: c1.to_f32(),
+                    c2: c2.to_f32(),
+                }),
+                (Some(_), None) => Err(ConfigError::new(Param::C2, Reason::Unpaired)),
+                (None, Some(_)) => Err(ConfigError::new(Param::C1, Reason::Unpaired)),
             },
-            (Some(_), None) => return Err(ConfigError::new(Param::C2, Reason::Unpaired)),
-            (None, Some(_)) => return Err(ConfigError::new(Param::C1, Reason::Unpaired)),
-        };
+        );
         let scheme = match c.scheme {
             SchemeName::PredefinedTime => {
-                baseline_only(Param::Kappa, c.kappa)?;
-                baseline_only(Param::MuMax, c.mu_max)?;
-                baseline_only(Param::TPrescribed, c.t_prescribed)?;
+                keep(&mut errors, baseline_only(Param::Kappa, c.kappa));
+                keep(&mut errors, baseline_only(Param::MuMax, c.mu_max));
+                keep(
+                    &mut errors,
+                    baseline_only(Param::TPrescribed, c.t_prescribed),
+                );
                 SchemeConfig::PredefinedTime
             }
             SchemeName::PrescribedTime => {
@@ -377,22 +412,29 @@ impl<const N: usize> ControllerConfig<N> {
                 })
             }
         };
-        Ok(Self {
+        let mut per_step = |p: Param, v: &S| {
+            keep(&mut errors, steps(p, v.as_ref())).unwrap_or([p.default_f32(); N])
+        };
+        let a_check = per_step(Param::ACheck, &c.a_check);
+        let phi_low = per_step(Param::PhiLow, &c.phi_low);
+        let phi_up = per_step(Param::PhiUp, &c.phi_up);
+        let eps_bar = per_step(Param::EpsBar, &c.eps_bar);
+        let cfg = Self {
             h: agent.h,
             neighbour_count: agent.neighbour_count,
             pinned: agent.pinned,
             ts: c.ts.to_f32(),
             zeta: c.zeta.to_f32(),
-            gains,
-            a_check: steps(Param::ACheck, c.a_check.as_ref())?,
+            gains: gains.unwrap_or(GainSelection::Auto),
+            a_check,
             p: c.p.to_f32(),
             eta: c.eta.to_f32(),
             tau: c.tau.to_f32(),
             gamma: c.gamma.to_f32(),
             mtn_order: c.mtn_order as usize,
-            phi_low: steps(Param::PhiLow, c.phi_low.as_ref())?,
-            phi_up: steps(Param::PhiUp, c.phi_up.as_ref())?,
-            eps_bar: steps(Param::EpsBar, c.eps_bar.as_ref())?,
+            phi_low,
+            phi_up,
+            eps_bar,
             diff_l1: c.diff_l1.to_f32(),
             diff_l2: c.diff_l2.to_f32(),
             varpi0: c.varpi0.to_f32(),
@@ -405,7 +447,8 @@ impl<const N: usize> ControllerConfig<N> {
             quantizer: q.config(),
             scheme,
             safety: s.config(),
-        })
+        };
+        (cfg, errors)
     }
 }
 

@@ -10,6 +10,8 @@ pub enum Error {
     Invalid(String),
     /// Reading or writing a file failed.
     Io(String),
+    /// Several independent problems of one scenario, each reported on its own line.
+    Several(Vec<Error>),
 }
 
 impl Error {
@@ -28,6 +30,69 @@ impl Error {
         match self {
             Self::Invalid(_) => 2,
             Self::Io(_) => 1,
+            Self::Several(all) => all.iter().map(Self::exit_code).max().unwrap_or(2),
+        }
+    }
+
+    /// The message without its kind; several problems joined by `; `.
+    pub fn message(&self) -> String {
+        match self {
+            Self::Invalid(m) | Self::Io(m) => m.clone(),
+            Self::Several(all) => all.iter().map(Self::message).collect::<Vec<_>>().join("; "),
+        }
+    }
+
+    /// The single problems, in the order found.
+    pub fn problems(&self) -> Vec<&Self> {
+        match self {
+            Self::Several(all) => all.iter().flat_map(Self::problems).collect(),
+            e => vec![e],
+        }
+    }
+}
+
+/// Collects the independent problems of one validation, so that one run reports them all.
+#[derive(Debug, Default)]
+pub struct Problems(Vec<Error>);
+
+impl Problems {
+    /// The value of `r`, or `None` with its error kept (once per key).
+    pub fn take<T>(&mut self, r: Result<T>) -> Option<T> {
+        match r {
+            Ok(v) => Some(v),
+            Err(e) => {
+                for p in e.problems() {
+                    self.push(p.clone());
+                }
+                None
+            }
+        }
+    }
+
+    /// Keeps `e` unless a problem of the same key is already kept.
+    pub fn push(&mut self, e: Error) {
+        let key = |e: &Error| e.message().split(':').next().map(str::to_owned);
+        if !self.0.iter().any(|k| key(k) == key(&e)) {
+            self.0.push(e);
+        }
+    }
+
+    /// No problem so far.
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+
+    /// `Ok(v)` without problems, else the one problem or all of them.
+    pub fn finish<T>(self, v: T) -> Result<T> {
+        self.into_error().map_or(Ok(v), Err)
+    }
+
+    /// The one problem or all of them; `None` without problems.
+    pub fn into_error(mut self) -> Option<Error> {
+        match self.0.len() {
+            0 => None,
+            1 => Some(self.0.remove(0)),
+            _ => Some(Error::Several(self.0)),
         }
     }
 }
@@ -38,6 +103,15 @@ impl fmt::Display for Error {
             Self::Invalid(m) if m.starts_with("--") => write!(f, "invalid option: {}", one_line(m)),
             Self::Invalid(m) => write!(f, "invalid scenario: {}", one_line(m)),
             Self::Io(m) => write!(f, "I/O error: {}", one_line(m)),
+            Self::Several(all) => {
+                for (i, e) in all.iter().enumerate() {
+                    if i > 0 {
+                        f.write_str("\n")?;
+                    }
+                    write!(f, "{e}")?;
+                }
+                Ok(())
+            }
         }
     }
 }

@@ -67,6 +67,15 @@ impl FaultsSpec {
         Ok(faults)
     }
 
+    /// The default rules (LAW §8, for m = 2) keep only those whose actuator the plant has: a
+    /// custom plant with fewer actuators gets no rule it did not write that it cannot take.
+    pub fn fit_default_rules(&mut self, m: usize) {
+        if self.rule == default_rules() {
+            self.rule
+                .retain(|r| usize::try_from(r.actuator).is_ok_and(|a| a <= m));
+        }
+    }
+
     /// The sensor windows in force as (0-based agent, from, until); none when faults are off.
     pub fn sensor_windows(&self) -> Vec<(usize, f64, f64)> {
         if !self.enabled {

@@ -70,7 +70,13 @@ fn dispatch(cmd: Cmd) -> Result<()> {
 fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(c) => c,
-        Err(e) => e.exit(),
+        Err(e) if !e.use_stderr() => e.exit(),
+        Err(e) => {
+            for line in cli::option_errors(&e) {
+                eprintln!("host-sim: {line}");
+            }
+            return ExitCode::from(2);
+        }
     };
     if let Err(e) = report::remove_temp_files_on_interrupt() {
         eprintln!("host-sim: note: {e}; an interrupted run may leave .*.tmp.* files behind");
@@ -78,7 +84,9 @@ fn main() -> ExitCode {
     match dispatch(cli.cmd) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("host-sim: {e}");
+            for line in e.to_string().lines() {
+                eprintln!("host-sim: {line}");
+            }
             ExitCode::from(e.exit_code())
         }
     }

@@ -5,13 +5,12 @@ use std::path::Path;
 
 pub use controller_core::SchemeName;
 use controller_core::{
-    Agent, ConfigError, Controller, ControllerConfig, ControllerSection, Param, QuantizerSection,
-    SafetySection,
+    Agent, ConfigError, ControllerConfig, ControllerSection, Param, QuantizerSection, SafetySection,
 };
 use serde::{Deserialize, Serialize};
 
 use crate::{
-    error::{Error, Result},
+    error::{Error, Problems, Result},
     faults::{FaultSchedule, FaultsSpec},
     graph::{Graph, GraphSpec, MAX_NEIGHBOURS},
     leader::Leader,
@@ -152,28 +151,53 @@ impl Setup {
 
     /// Validates every agent's controller configuration (as `Controller::new` will).
     pub fn check_controllers(&self) -> Result<()> {
-        with_sizes!(self.n(), self.m(), check_controllers_of(self))
+        with_sizes!(self.n(), self.m(), check_controllers_of(self, true))
     }
 
     /// The controller configuration of agent `i` (0-based), for state order `N`.
     pub fn controller_config<const N: usize>(&self, i: usize) -> Result<ControllerConfig<N>> {
+        let mut problems = Problems::default();
+        let cfg = self.controller_layout::<N>(i, Some(i), &mut problems);
+        problems.finish(cfg)
+    }
+
+    /// Agent `i`'s configuration with the default in place of each value whose layout is
+    /// wrong, those problems added to `problems` (for `agent`; `None`: every agent).
+    fn controller_layout<const N: usize>(
+        &self,
+        i: usize,
+        agent: Option<usize>,
+        problems: &mut Problems,
+    ) -> ControllerConfig<N> {
         let s = &self.scenario;
-        let agent = Agent {
+        let a = Agent {
             h: s.simulation.h as f32,
             neighbour_count: self.graph.neighbours(i).len(),
             pinned: self.graph.pinned(i),
         };
-        ControllerConfig::from_sections(agent, &s.controller, &s.quantizer, &s.safety)
-            .map_err(|e| Error::invalid(config_error_key(&e, i, false), e.to_string()))
+        let (cfg, errors) =
+            ControllerConfig::from_sections_all(a, &s.controller, &s.quantizer, &s.safety);
+        for e in errors {
+            problems.push(Error::invalid(
+                config_error_key(&e, agent.unwrap_or(0), false),
+                e,
+            ));
+        }
+        cfg
     }
 }
 
 /// [`Setup::check_controllers`] for state order `N` and `M` actuators.
-fn check_controllers_of<const N: usize, const M: usize>(setup: &Setup) -> Result<()> {
+/// Messages name the agent when `per_agent`.
+fn check_controllers_of<const N: usize, const M: usize>(
+    setup: &Setup,
+    per_agent: bool,
+) -> Result<()> {
     let safety = &setup.scenario.safety;
+    let mut problems = Problems::default();
     for i in 0..setup.agents() {
-        let cfg = setup.controller_config::<N>(i)?;
-        check_controller::<N, M>(setup, &cfg, i)?;
+        let cfg = setup.controller_layout::<N>(i, per_agent.then_some(i), &mut problems);
+        check_controller(setup, &cfg, per_agent.then_some(i), &mut problems);
         if cfg.safety.is_none() {
             // `[safety]` is checked whether on or off, so a typo does not wait for the day it
             // is switched on.
@@ -181,31 +205,39 @@ fn check_controllers_of<const N: usize, const M: usize>(setup: &Setup) -> Result
                 safety: Some(safety.settings()),
                 ..cfg
             };
-            check_controller::<N, M>(setup, &on, i)?;
+            check_controller(setup, &on, per_agent.then_some(i), &mut problems);
         }
     }
-    Ok(())
+    problems.finish(())
 }
 
-/// `Controller::new` of agent `i` (0-based), its error named by the scenario key.
-fn check_controller<const N: usize, const M: usize>(
+/// Every problem `Controller::new` would find in agent `i`'s (0-based) configuration, each
+/// named by its scenario key; `None`: the configuration stands for every agent.
+fn check_controller<const N: usize>(
     setup: &Setup,
     cfg: &ControllerConfig<N>,
-    i: usize,
-) -> Result<()> {
-    Controller::<N, M, MAX_NEIGHBOURS>::new(cfg).map_err(|e| {
-        let auto_gains = setup.scenario.controller.c1.is_none();
-        let key = config_error_key(&e, i, auto_gains);
-        let why = if key == "controller.ts" && auto_gains {
-            " (the gains c1, c2 of LAW §3 computed from ts, zeta, p, eta, tau)".to_string()
-        } else {
-            scenario_value(&setup.scenario, e.param(), e.step())
-                .filter(|_| key.starts_with(e.param().key()))
-                .map_or_else(String::new, |v| format!(" (got {v})"))
-        };
-        Error::invalid(key, format!("{e}{why} (agent {})", i + 1))
-    })?;
-    Ok(())
+    agent: Option<usize>,
+    problems: &mut Problems,
+) {
+    for e in cfg.errors(MAX_NEIGHBOURS) {
+        problems.push(config_problem(setup, &e, agent));
+    }
+}
+
+/// A controller-core error of agent `agent` (0-based; `None`: every agent) named by its
+/// scenario key, with the value the scenario gives it.
+fn config_problem(setup: &Setup, e: &ConfigError, agent: Option<usize>) -> Error {
+    let auto_gains = setup.scenario.controller.c1.is_none();
+    let key = config_error_key(e, agent.unwrap_or(0), auto_gains);
+    let why = if key == "controller.ts" && auto_gains {
+        " (the gains c1, c2 of LAW §3 computed from ts, zeta, p, eta, tau)".to_string()
+    } else {
+        scenario_value(&setup.scenario, e.param(), e.step())
+            .filter(|_| key.starts_with(e.param().key()))
+            .map_or_else(String::new, |v| format!(" (got {v})"))
+    };
+    let whose = agent.map_or_else(String::new, |i| format!(" (agent {})", i + 1));
+    Error::invalid(key, format!("{e}{why}{whose}"))
 }
 
 /// The value the scenario gives `param` (entry `step`, 1-based, of a per-step one), as TOML.
@@ -265,9 +297,11 @@ pub fn load(path: &Path, sets: &[String]) -> Result<Setup> {
 /// Parses scenario text with overrides and validates it.
 pub fn parse(text: &str, sets: &[String]) -> Result<Setup> {
     let mut table = parse_table(text)?;
+    let mut problems = Problems::default();
     for s in sets {
-        apply_set(&mut table, s)?;
+        problems.take(apply_set(&mut table, s));
     }
+    problems.finish(())?;
     from_table(table)
 }
 
@@ -286,18 +320,64 @@ pub fn parse_table(text: &str) -> Result<toml::Table> {
 }
 
 /// A scenario table (overrides applied) deserialized and validated.
+///
+/// A section that does not deserialize is reported with the problems of the others, which are
+/// validated with it at its default; the agent-, plant- and time-dependent checks need
+/// `[graph]`, `[plant]` and `[simulation]`, so a problem there is reported alone.
 pub fn from_table(table: toml::Table) -> Result<Setup> {
-    let scenario: Scenario =
-        serde_path_to_error::deserialize(toml::Value::Table(table)).map_err(|e| {
-            let path = one_based(&e.path().to_string());
-            let msg = e.inner().message().to_string();
-            if path == "." {
-                Error::Invalid(msg)
-            } else {
-                Error::invalid(path, msg)
+    let written = Written::Table(written_steps(&table));
+    let whole = match deserialize(toml::Value::Table(table.clone())) {
+        Ok(s) => return validate_plant(s, None, &written),
+        Err(e) => e,
+    };
+    let mut problems = Problems::default();
+    let mut good = toml::Table::new();
+    let mut failed = Vec::new();
+    for (k, v) in table {
+        let one = toml::Table::from_iter([(k.clone(), v.clone())]);
+        match deserialize(toml::Value::Table(one)) {
+            Ok(_) => {
+                good.insert(k, v);
             }
-        })?;
-    validate(scenario)
+            Err(e) => {
+                problems.push(e);
+                failed.push(k);
+            }
+        }
+    }
+    let basic = ["graph", "plant", "simulation"];
+    if problems.is_empty() {
+        return Err(whole);
+    }
+    if !failed.iter().any(|k| basic.contains(&k.as_str())) {
+        let rest =
+            deserialize(toml::Value::Table(good)).and_then(|s| validate_plant(s, None, &written));
+        if let Err(e) = rest {
+            for p in e.problems() {
+                let m = p.message();
+                if !failed
+                    .iter()
+                    .any(|k| m.starts_with(&format!("{k}.")) || m.starts_with(&format!("{k}:")))
+                {
+                    problems.push(p.clone());
+                }
+            }
+        }
+    }
+    Err(problems.into_error().unwrap_or(whole))
+}
+
+/// A scenario table deserialized; the error names the key (1-based indices).
+fn deserialize(value: toml::Value) -> Result<Scenario> {
+    serde_path_to_error::deserialize(value).map_err(|e| {
+        let path = one_based(&e.path().to_string());
+        let msg = e.inner().message().to_string();
+        if path == "." {
+            Error::Invalid(msg)
+        } else {
+            Error::invalid(path, msg)
+        }
+    })
 }
 
 /// Rewrites serde's 0-based `[k]` indices as 1-based, like every other message.
@@ -528,32 +608,176 @@ fn positive(v: f64, key: &str) -> Result<()> {
 
 /// Checks the scenario and resolves graph, plant, initial states and faults.
 pub fn validate(scenario: Scenario) -> Result<Setup> {
-    validate_plant(scenario, None)
+    validate_plant(scenario, None, &Written::Unknown)
 }
 
 /// [`validate`] for a plant given in Rust of `n` states and `m` actuators (run it with
 /// [`crate::run::run_plant`]); of `[plant]` only `x0` is read.
 pub fn validate_with_plant(scenario: Scenario, n: usize, m: usize) -> Result<Setup> {
-    validate_plant(scenario, Some(PlantModel::Library { n, m }))
+    validate_plant(
+        scenario,
+        Some(PlantModel::Library { n, m }),
+        &Written::Unknown,
+    )
 }
 
-fn validate_plant(mut scenario: Scenario, plant: Option<PlantModel>) -> Result<Setup> {
+/// Which per-step controller arrays the user wrote (the others take their default per step).
+enum Written {
+    /// Those of this list, read from the scenario table.
+    Table(Vec<Param>),
+    /// Not known (a [`Scenario`] built in code): an array equal to the default is taken as
+    /// left out.
+    Unknown,
+}
+
+/// The per-step controller parameters, whose defaults are written for n = 2.
+const PER_STEP: [Param; 4] = [Param::ACheck, Param::PhiLow, Param::PhiUp, Param::EpsBar];
+
+/// The per-step parameters the scenario table sets.
+fn written_steps(table: &toml::Table) -> Vec<Param> {
+    let controller = table.get("controller").and_then(toml::Value::as_table);
+    PER_STEP
+        .into_iter()
+        .filter(|p| controller.is_some_and(|c| c.contains_key(p.name())))
+        .collect()
+}
+
+fn validate_plant(
+    mut scenario: Scenario,
+    plant: Option<PlantModel>,
+    written: &Written,
+) -> Result<Setup> {
     scenario.graph = scenario.graph.or_example();
+    let mut problems = Problems::default();
     let sim = &scenario.simulation;
-    positive(sim.h, "simulation.h")?;
-    positive(sim.t_end, "simulation.t_end")?;
+    let samples = problems.take(check_simulation(sim));
+    // The leader is checked over [0, t_end], the network and the faults also in steps of h.
+    let horizon = positive(sim.t_end, "").is_ok();
+    let timed = horizon && positive(sim.h, "").is_ok();
+    if horizon {
+        problems.take(scenario.leader.check(sim.t_end));
+    }
+    // [controller], [quantizer] and [safety] are checked by `Controller::new` (check_controllers).
+    let graph = problems.take(Graph::from_spec(&scenario.graph));
+    let plant = match plant {
+        Some(p) => Some(p),
+        None => problems.take(PlantModel::from_spec(&scenario.plant)),
+    };
+    if let Some(plant) = &plant {
+        fit_defaults(&mut scenario, plant.n(), plant.m(), written);
+    }
+    let sim = &scenario.simulation;
+    let x0_default = scenario.plant.x0 == PlantSpec::default().x0
+        && scenario.plant.x0_min.is_none()
+        && scenario.plant.x0_max.is_none();
+    let x0 = match (&graph, &plant) {
+        (Some(_), Some(p)) if x0_default && p.n() != DEFAULT_X0_ORDER => {
+            problems.push(Error::invalid(
+                "plant.x0",
+                format!(
+                    "not given, and the default (Example 1's initial states, n = \
+                     {DEFAULT_X0_ORDER}) does not fit this plant's n = {}: write plant.x0 (one \
+                     row of n values per agent) or plant.x0_min and plant.x0_max",
+                    p.n()
+                ),
+            ));
+            None
+        }
+        (Some(g), Some(p)) => problems.take(scenario.plant.initial_states(
+            g.len(),
+            p.n(),
+            sim.divergence_bound,
+        )),
+        _ => None,
+    };
+    if let (Some(g), true) = (&graph, timed) {
+        problems.take(network::validate(
+            &scenario.network,
+            g.len(),
+            sim.h,
+            sim.t_end,
+        ));
+    }
+    if let Some(p) = &plant {
+        let (n, m) = (p.n(), p.m());
+        if scenario.network.kind != network::NetworkKind::Ideal && (n, m) != (2, 2) {
+            problems.push(Error::invalid(
+                "network.kind",
+                format!(
+                    "\"{}\" runs the node firmware, built for n = 2, m = 2 (this plant: n = {n}, m = {m})",
+                    scenario.network.kind.as_str()
+                ),
+            ));
+        }
+    }
+    let faults = match (&graph, &plant) {
+        (Some(g), Some(p)) if timed => {
+            problems.take(scenario.faults.schedule(g.len(), p.m(), sim.t_end))
+        }
+        _ => None,
+    };
+    problems.take(scenario.metrics.check());
+    if scenario.plant.x0_drawn() {
+        // Drawn from the box: the resolved scenario shows the box, not Example 1's rows.
+        scenario.plant.x0.clear();
+    }
+    let Some(plant) = plant else {
+        // The controller checks need the state order n.
+        return Err(problems
+            .into_error()
+            .unwrap_or_else(|| Error::Invalid("the plant is invalid".into())));
+    };
+    // Without a usable graph the controller sections are still checked, for one agent that
+    // hears the leader: the problems that do not depend on the topology.
+    let per_agent = graph.is_some();
+    let graph = match graph {
+        Some(g) => g,
+        None => Graph::from_spec(&GraphSpec {
+            neighbours: Some(vec![Vec::new()]),
+            pinned: vec![1],
+            ..GraphSpec::default()
+        })?,
+    };
+    let faults = faults.unwrap_or_else(|| FaultSchedule::healthy(graph.len(), plant.m()));
+    let setup = Setup {
+        scenario,
+        graph,
+        plant,
+        x0: x0.unwrap_or_default(),
+        faults,
+        samples: samples.unwrap_or(1),
+    };
+    problems.take(with_sizes!(
+        setup.n(),
+        setup.m(),
+        check_controllers_of(&setup, per_agent)
+    ));
+    problems.finish(setup)
+}
+
+/// State order of the default `plant.x0` (Example 1).
+const DEFAULT_X0_ORDER: usize = 2;
+
+/// `[simulation]`: every key in its range; the number of samples `K`.
+fn check_simulation(sim: &Simulation) -> Result<u64> {
+    let mut problems = Problems::default();
+    problems.take(positive(sim.h, "simulation.h"));
+    problems.take(positive(sim.t_end, "simulation.t_end"));
     if sim.substeps == 0 || sim.substeps > 10_000 {
-        return Err(Error::invalid(
+        problems.push(Error::invalid(
             "simulation.substeps",
             format!("must lie in 1..=10000 (got {})", sim.substeps),
         ));
     }
-    positive(sim.settle_band, "simulation.settle_band")?;
-    positive(sim.divergence_bound, "simulation.divergence_bound")?;
+    problems.take(positive(sim.settle_band, "simulation.settle_band"));
+    problems.take(positive(
+        sim.divergence_bound,
+        "simulation.divergence_bound",
+    ));
     if sim.divergence_bound > f64::from(f32::MAX) {
         // Above it the controllers (f32) would see an infinite state and hold their commands
         // while the run still counted as not diverged.
-        return Err(Error::invalid(
+        problems.push(Error::invalid(
             "simulation.divergence_bound",
             format!(
                 "must not exceed f32::MAX = {:e}, the controller's range (got {:e})",
@@ -561,6 +785,9 @@ fn validate_plant(mut scenario: Scenario, plant: Option<PlantModel>) -> Result<S
                 sim.divergence_bound
             ),
         ));
+    }
+    if !problems.is_empty() {
+        return problems.finish(0);
     }
     let samples_f = (sim.t_end / sim.h).round();
     if samples_f < 1.0 {
@@ -581,44 +808,33 @@ fn validate_plant(mut scenario: Scenario, plant: Option<PlantModel>) -> Result<S
             "underflows f32 (the controller's type)",
         ));
     }
-    let samples = samples_f as u64;
-    scenario.leader.check(sim.t_end)?;
-    // [controller], [quantizer] and [safety] are checked by `Controller::new` (check_controllers).
-    let graph = Graph::from_spec(&scenario.graph)?;
-    let plant = match plant {
-        Some(p) => p,
-        None => PlantModel::from_spec(&scenario.plant)?,
-    };
-    let (n, m) = (plant.n(), plant.m());
-    let x0 = scenario
-        .plant
-        .initial_states(graph.len(), n, sim.divergence_bound)?;
-    network::validate(&scenario.network, graph.len(), sim.h, sim.t_end)?;
-    if scenario.network.kind != network::NetworkKind::Ideal && (n, m) != (2, 2) {
-        return Err(Error::invalid(
-            "network.kind",
-            format!(
-                "\"{}\" runs the node firmware, built for n = 2, m = 2 (this plant: n = {n}, m = {m})",
-                scenario.network.kind.as_str()
-            ),
-        ));
+    Ok(samples_f as u64)
+}
+
+/// Defaults written for Example 1 (n = 2, m = 2) fitted to a plant of `n` states and `m`
+/// actuators: per-step arrays left out get one default entry per step, and the default fault
+/// rules keep only the rules whose actuator the plant has.
+fn fit_defaults(scenario: &mut Scenario, n: usize, m: usize, written: &Written) {
+    let c = &mut scenario.controller;
+    for (param, steps) in [
+        (Param::ACheck, &mut c.a_check),
+        (Param::PhiLow, &mut c.phi_low),
+        (Param::PhiUp, &mut c.phi_up),
+        (Param::EpsBar, &mut c.eps_bar),
+    ] {
+        let d = param.default_f64();
+        let left_out = match written {
+            Written::Table(w) => !w.contains(&param),
+            Written::Unknown => {
+                steps.len() == ControllerSpec::default().a_check.len()
+                    && steps.iter().all(|&v| v == d)
+            }
+        };
+        if left_out && steps.len() != n {
+            *steps = vec![d; n];
+        }
     }
-    let faults = scenario.faults.schedule(graph.len(), m, sim.t_end)?;
-    scenario.metrics.check()?;
-    if scenario.plant.x0_drawn() {
-        // Drawn from the box: the resolved scenario shows the box, not Example 1's rows.
-        scenario.plant.x0.clear();
-    }
-    let setup = Setup {
-        scenario,
-        graph,
-        plant,
-        x0,
-        faults,
-        samples,
-    };
-    setup.check_controllers()?;
-    Ok(setup)
+    scenario.faults.fit_default_rules(m);
 }
 
 /// The resolved scenario as TOML (what `check` prints).

@@ -307,3 +307,150 @@ fn check_prints_the_resolved_scenario() {
     let reparsed: toml::Table = text.parse().expect("check prints valid TOML");
     assert!(reparsed.contains_key("controller"));
 }
+
+/// Exit 2, nothing on standard output, and the stderr lines.
+fn rejected_lines(out: &Output) -> Vec<String> {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "stderr: {err}");
+    assert!(out.stdout.is_empty(), "nothing is printed: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    err.lines().map(str::to_owned).collect()
+}
+
+#[test]
+fn five_mistakes_in_five_sections_give_five_lines_in_one_run() {
+    let text = "[graph]\nneighbours = [[], [1], [2, 9], [1, 3]]\npinned = [1]\n\
+                [controller]\na_check = [90.0]\nzeta = 1.5\n\
+                [[faults.rule]]\nagents = \"all\"\nactuator = 1\nkind = \"melted\"\n\
+                [network]\nbitrat = 500000\n";
+    let lines = rejected_lines(&check_file(text, "five-mistakes"));
+    assert_eq!(lines.len(), 5, "{lines:#?}");
+    for key in [
+        "graph.neighbours[3]",
+        "controller.a_check",
+        "controller.zeta",
+        "faults.rule[1].kind",
+        "network.bitrat",
+    ] {
+        let hits = lines.iter().filter(|l| l.contains(key)).count();
+        assert_eq!(hits, 1, "`{key}` once: {lines:#?}");
+    }
+    assert!(lines
+        .iter()
+        .all(|l| l.starts_with("host-sim: invalid scenario: ")));
+    let d = tmp("five-mistakes-run");
+    let f = d.join("s.toml");
+    std::fs::write(&f, text).expect("write");
+    let out = d.join("out");
+    let run = bin()
+        .arg("run")
+        .arg(&f)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .expect("run");
+    assert_eq!(rejected_lines(&run).len(), 5);
+    assert!(!out.exists(), "nothing is written");
+}
+
+const CUSTOM3: &str = "[plant]\nmodel = \"custom\"\nn = 3\nm = 1\n\
+                       dynamics = [\"x2\", \"x3\", \"u - x1\"]\n";
+
+#[test]
+fn custom_plant_of_three_states_and_one_actuator_fits_the_defaults() {
+    let x0 = "x0 = [[0.1, 0, 0], [0.2, 0, 0], [0.3, 0, 0], [0.4, 0, 0]]\n";
+    let out = check_file(&format!("{CUSTOM3}{x0}"), "custom3-defaults");
+    common::assert_ok(&out);
+    let resolved = String::from_utf8_lossy(&out.stdout);
+    for key in ["a_check", "phi_low", "phi_up", "eps_bar"] {
+        let line = resolved
+            .lines()
+            .find(|l| l.starts_with(&format!("{key} =")))
+            .unwrap_or_default();
+        assert_eq!(line.matches(',').count(), 2, "three entries: {line}");
+    }
+    // Example 1's rule on actuator 2 is not applied to a plant with m = 1.
+    assert!(resolved.contains("actuator = 1"), "{resolved}");
+    assert!(!resolved.contains("actuator = 2"), "{resolved}");
+}
+
+#[test]
+fn custom_plant_of_three_states_reports_all_its_problems_in_one_run() {
+    let text = format!("{CUSTOM3}[controller]\na_check = [1.0, 2.0]\nphi_low = [1.0]\n");
+    let lines = rejected_lines(&check_file(&text, "custom3-mistakes"));
+    assert_eq!(lines.len(), 3, "{lines:#?}");
+    assert!(lines[0].contains("plant.x0") && lines[0].contains("default"));
+    assert!(lines[1].contains("controller.a_check") && lines[1].contains("(got 2)"));
+    assert!(lines[2].contains("controller.phi_low") && lines[2].contains("(got 1)"));
+}
+
+#[test]
+fn command_line_errors_are_one_line_naming_the_option() {
+    let ex1 = scenario("example1.toml");
+    let cases: [(Vec<&str>, &str); 4] = [
+        (vec!["run", "EX1"], "host-sim: invalid option: --out: "),
+        (
+            vec!["run", "EX1", "--out", "/tmp/never", "--bogus"],
+            "host-sim: invalid option: --bogus: ",
+        ),
+        (
+            vec!["run", "EX1", "--out", "/tmp/never", "--decimate", "x"],
+            "host-sim: invalid option: --decimate: ",
+        ),
+        (vec!["frobnicate"], "host-sim: invalid option: frobnicate: "),
+    ];
+    for (args, start) in cases {
+        let out = bin()
+            .args(args.iter().map(|a| match *a {
+                "EX1" => ex1.as_os_str(),
+                a => std::ffi::OsStr::new(a),
+            }))
+            .output()
+            .expect("run");
+        let lines = rejected_lines(&out);
+        assert_eq!(lines.len(), 1, "{args:?}: {lines:#?}");
+        assert!(lines[0].starts_with(start), "{args:?}: {lines:#?}");
+    }
+    for flag in ["--help", "--version"] {
+        let out = bin().arg(flag).output().expect("run");
+        assert_eq!(out.status.code(), Some(0), "{flag}");
+        assert!(!out.stdout.is_empty(), "{flag}");
+    }
+}
+
+#[test]
+fn checks_that_need_a_rejected_part_are_skipped_not_reported() {
+    // Agent 7 of the fault rule cannot be judged without a usable graph; zeta can.
+    let text = "[graph]\nneighbours = [[], [1], [2, 9], [1, 3]]\n\
+                [controller]\nzeta = 2.0\n\
+                [[faults.rule]]\nagents = [7]\nactuator = 1\nkind = \"partial\"\ngain = 0.5\n";
+    let lines = rejected_lines(&check_file(text, "skipped-checks"));
+    assert_eq!(lines.len(), 2, "{lines:#?}");
+    assert!(lines[0].contains("graph.neighbours[3]"), "{lines:#?}");
+    assert!(lines[1].contains("controller.zeta"), "{lines:#?}");
+    assert!(
+        !lines[1].contains("agent 1"),
+        "no agent without a graph: {lines:#?}"
+    );
+    // simulation.h is reported once, not again by the controller.
+    let lines = rejected_lines(&check_file(
+        "[simulation]\nh = -1.0\n[quantizer]\nrho = 3.0\n",
+        "h-once",
+    ));
+    assert_eq!(lines.len(), 2, "{lines:#?}");
+    assert!(lines[0].contains("simulation.h") && lines[1].contains("quantizer.rho"));
+}
+
+#[test]
+fn every_bad_set_is_reported_in_one_run() {
+    let out = bin()
+        .arg("check")
+        .arg(scenario("example1.toml"))
+        .args(["--set", "controller.ts", "--set", "name.=1"])
+        .output()
+        .expect("run");
+    let lines = rejected_lines(&out);
+    assert_eq!(lines.len(), 2, "{lines:#?}");
+    assert!(lines[0].starts_with("host-sim: invalid option: --set controller.ts: "));
+    assert!(lines[1].starts_with("host-sim: invalid option: --set name.: "));
+}

@@ -84,9 +84,25 @@ fn sizes_are_checked_against_the_plant() {
         let m = invalid(&text, sets);
         assert!(m.contains(key), "{sets:?}: {m}");
     }
-    // The default fault rules name actuators 1 and 2: with m = 1 the second is out of range.
-    let m = invalid(&chain(2, 1), &["faults.enabled=true"]);
-    assert!(m.contains("actuator"), "{m}");
+    // The default fault rules name actuators 1 and 2: with m = 1 only the first applies, and
+    // a rule the user writes for an actuator the plant lacks is still rejected.
+    let setup = scenario::parse(&chain(2, 1), &["faults.enabled=true".into()]).expect("valid");
+    let actuators: Vec<i64> = setup
+        .scenario
+        .faults
+        .rule
+        .iter()
+        .map(|r| r.actuator)
+        .collect();
+    assert_eq!(actuators, [1]);
+    let m = invalid(
+        &format!(
+            "{}[[faults.rule]]\nagents = \"all\"\nactuator = 2\nkind = \"partial\"\ngain = 0.5\n",
+            chain(2, 1)
+        ),
+        &["faults.enabled=true"],
+    );
+    assert!(m.contains("faults.rule[1].actuator"), "{m}");
 }
 
 #[test]

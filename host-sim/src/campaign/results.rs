@@ -86,10 +86,7 @@ pub fn row(plan: &Plan, p: &RunPoint, outcome: &Result<Summary>) -> String {
 
 /// The reason of an invalid run, on one line.
 fn message(e: &Error) -> String {
-    let m = match e {
-        Error::Invalid(m) | Error::Io(m) => m,
-    };
-    m.split_whitespace().collect::<Vec<_>>().join(" ")
+    e.message().split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
 /// Fields as one CSV line (quoted where needed), without the newline.

@@ -113,10 +113,8 @@ pub const PLOT_METRICS: [&str; 5] = [
 ];
 
 /// The message of an error without its kind (for wrapping it in another key's message).
-fn inner(e: &Error) -> &str {
-    match e {
-        Error::Invalid(m) | Error::Io(m) => m,
-    }
+fn inner(e: &Error) -> String {
+    e.message()
 }
 
 /// A TOML value written inline (what follows `key=` in `--set`).

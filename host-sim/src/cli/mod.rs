@@ -88,3 +88,93 @@ fn print_campaign(r: &SweepReport, out: &Path, merged: bool) {
     }
     outln!("wrote {}", out.join("results.csv").display());
 }
+
+/// A command-line error of clap as the lines `invalid option: <option>: <reason>` of
+/// docs/SCENARIO.md §1 (one per missing option), instead of clap's usage block.
+pub fn option_errors(e: &clap::Error) -> Vec<String> {
+    use clap::error::{ContextKind, ContextValue, ErrorKind};
+    let ctx = |k| match e.get(k) {
+        Some(ContextValue::String(s)) => vec![s.clone()],
+        Some(ContextValue::Strings(v)) => v.clone(),
+        _ => Vec::new(),
+    };
+    let first = |k| ctx(k).into_iter().next().unwrap_or_default();
+    // `--out <OUT>` names the option `--out`; a positional `<SCENARIO>` stays as it is.
+    let name = |a: String| match a.split_once(' ') {
+        Some((opt, _)) if opt.starts_with('-') => opt.to_string(),
+        _ => a,
+    };
+    let arg = || name(first(ContextKind::InvalidArg));
+    let line = |opt: String, why: String| format!("invalid option: {opt}: {why}");
+    let suggestion = || {
+        let s = first(ContextKind::SuggestedArg);
+        let s = if s.is_empty() {
+            first(ContextKind::SuggestedSubcommand)
+        } else {
+            s
+        };
+        if s.is_empty() {
+            String::new()
+        } else {
+            format!(" (did you mean {s}?)")
+        }
+    };
+    match e.kind() {
+        ErrorKind::MissingRequiredArgument => ctx(ContextKind::InvalidArg)
+            .into_iter()
+            .map(|a| line(name(a), "missing (required)".into()))
+            .collect(),
+        ErrorKind::UnknownArgument => vec![line(arg(), format!("unknown option{}", suggestion()))],
+        ErrorKind::InvalidSubcommand => vec![line(
+            first(ContextKind::InvalidSubcommand),
+            format!("unknown command{} (see host-sim --help)", suggestion()),
+        )],
+        ErrorKind::InvalidValue => {
+            let valid = ctx(ContextKind::ValidValue);
+            let why = if valid.is_empty() {
+                "a value is required".to_string()
+            } else {
+                format!("expected one of {}", valid.join(", "))
+            };
+            vec![line(
+                arg(),
+                format!("`{}`: {why}", first(ContextKind::InvalidValue)),
+            )]
+        }
+        ErrorKind::ValueValidation => {
+            let why = std::error::Error::source(e).map_or_else(String::new, |s| s.to_string());
+            vec![line(
+                arg(),
+                format!("`{}`: {why}", first(ContextKind::InvalidValue)),
+            )]
+        }
+        ErrorKind::ArgumentConflict => vec![line(
+            arg(),
+            format!("cannot be used with {}", name(first(ContextKind::PriorArg))),
+        )],
+        ErrorKind::MissingSubcommand | ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+            vec![line(
+                "command".into(),
+                "missing (see host-sim --help)".into(),
+            )]
+        }
+        _ => {
+            let text = e.render().to_string();
+            let why = text
+                .lines()
+                .next()
+                .unwrap_or_default()
+                .trim_start_matches("error: ")
+                .to_string();
+            let opt = arg();
+            vec![line(
+                if opt.is_empty() {
+                    "command".into()
+                } else {
+                    opt
+                },
+                why,
+            )]
+        }
+    }
+}
