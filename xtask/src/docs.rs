@@ -758,7 +758,10 @@ fn bench_figure(step: &Value, variant: &str, key: &str) -> Result<String> {
 // Shipped scenarios
 
 fn settling(s: &Value) -> String {
-    opt(s, "settling_time").map_or_else(|| "never settled in 0.05".to_owned(), |t| fixed(t, 2) + " s")
+    opt(s, "settling_time").map_or_else(
+        || "never settled in 0.05".to_owned(),
+        |t| fixed(t, 2) + " s",
+    )
 }
 
 fn run_figure(s: &Value, key: &str) -> Result<String> {
