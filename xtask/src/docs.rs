@@ -569,6 +569,11 @@ impl Sources {
 
     fn pil(&mut self) -> Result<Value> {
         self.json_file("target/ci-pil/pil/summary.json", |s, file| {
+            // The firmware the emulators run is built from the current sources, never an
+            // older build's ELF (node-fw is outside the workspace: its own directory and lock).
+            run(Command::new(cargo())
+                .current_dir(workspace_root().join("node-fw"))
+                .args(["build", "--release", "--locked", "--quiet"]))?;
             let bin = s.host_sim()?;
             run(Command::new(bin)
                 .current_dir(workspace_root())
