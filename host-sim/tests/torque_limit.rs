@@ -7,7 +7,8 @@
 //! ```
 //! prints the table of `docs/RELIABILITY.md` §5 and writes `torque-limit.png` and
 //! `torque-limit.json` (the table and the smallest tracking `u_max`, which `cargo xtask docs`
-//! renders) into `TORQUE_SWEEP_OUT` (default: cargo's temporary directory).
+//! renders) into `TORQUE_SWEEP_OUT` (relative to the workspace root; default: cargo's temporary
+//! directory).
 
 mod common;
 
@@ -91,8 +92,11 @@ fn example2_settling_time_against_the_torque_limit() {
         );
     }
     println!("smallest u_max that tracks into the band: {ok:.2} (fails at {bad:.2})");
+    // A relative TORQUE_SWEEP_OUT is taken from the workspace root, where the command is typed,
+    // not from this package's directory, where cargo runs the test.
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
     let dir = std::env::var_os("TORQUE_SWEEP_OUT")
-        .map_or_else(|| common::tmp("torque-limit"), std::path::PathBuf::from);
+        .map_or_else(|| common::tmp("torque-limit"), |d| root.join(d));
     std::fs::create_dir_all(&dir).expect("output directory");
     draw_limit_sweep(&dir.join("torque-limit.png"), &points, 1.0, "Example 2").expect("figure");
     let json = serde_json::json!({
