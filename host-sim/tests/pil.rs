@@ -11,7 +11,7 @@ use std::{
     time::{Duration, Instant},
 };
 
-use common::{assert_invalid, bin, scenario_path, tmp};
+use common::{assert_invalid, assert_ok, bin, scenario_path, tmp};
 
 fn firmware() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -65,11 +65,7 @@ fn pil_matches_the_host_node_on_a_lossy_bus() {
         let mut s = set.to_vec();
         s.push(&kind);
         let out = run_with("example1-lossy.toml", dir, "1", &s);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        assert_ok(&out);
     }
     let summary = |d: &std::path::Path| -> serde_json::Value {
         serde_json::from_str(&std::fs::read_to_string(d.join("summary.json")).expect("summary"))
@@ -100,17 +96,9 @@ fn pil_commands_are_bit_identical_to_the_host_node() {
     require_pil();
     let (can, pil) = (tmp("pil-identity-can"), tmp("pil-identity-pil"));
     let out = run("example1-can.toml", &can, "1");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let out = run("example1-pil.toml", &pil, "1");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let a = std::fs::read_to_string(can.join("trajectory.csv")).expect("can csv");
     let b = std::fs::read_to_string(pil.join("trajectory.csv")).expect("pil csv");
     assert_eq!(a.lines().count(), 1001);
@@ -381,11 +369,7 @@ fn wire_dbc_decodes_every_frame_kind_of_a_pil_run() {
         .arg(&link)
         .output()
         .expect("run host-sim");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let py = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/decode_link_trace.py");
     let kinds = [
         "Config",

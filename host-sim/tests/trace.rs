@@ -7,7 +7,7 @@ mod common;
 
 use std::{path::PathBuf, process::Command};
 
-use common::{assert_invalid, bin, require_python, scenario_path, tmp};
+use common::{assert_invalid, assert_ok, bin, require_python, scenario_path, tmp};
 
 /// 0.3 s of Example 1 over CAN with `--trace`: the trajectory directory and the trace.
 fn traced_can_run(name: &str) -> (PathBuf, PathBuf) {
@@ -21,11 +21,7 @@ fn traced_can_run(name: &str) -> (PathBuf, PathBuf) {
         .arg(&trace)
         .output()
         .expect("run host-sim");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out);
     let log = std::fs::read_to_string(&trace).expect("trace written");
     let lines: Vec<&str> = log.lines().collect();
     // 5 frames per sample, the last sample's still on the bus.
