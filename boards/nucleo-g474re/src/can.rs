@@ -1,0 +1,194 @@
+//! FDCAN1 as the node's `embedded_can::nb::Can`: classic frames at 1 Mbit/s, acceptance filters
+//! for the leader and the configured neighbours only.
+//!
+//! Bit timing: the FDCAN kernel clock is the 24 MHz HSE; prescaler 1, 24 time quanta per bit
+//! (sync 1 + seg1 19 + seg2 4), sample point 83.3 %, SJW 4 → 1 Mbit/s.
+
+use core::num::{NonZeroU16, NonZeroU8};
+
+use agent_node::{wire, CanFrame, NodeConfig};
+use embedded_can::{ErrorKind, Frame as _, Id};
+use fdcan::{
+    config::{FrameTransmissionConfig, GlobalFilter, NominalBitTiming},
+    filter::{Action, FilterType, StandardFilter, StandardFilterSlot},
+    frame::{FrameFormat, TxFrameHeader},
+    id::{ExtendedId, StandardId},
+    interrupt::{Interrupt, InterruptLine},
+    ConfigMode, FdCan, NormalOperationMode, ReceiveErrorOverflow, ReceiveOverrun,
+};
+use stm32g4xx_hal::{can::Can as HalCan, stm32::FDCAN1};
+
+/// 1 Mbit/s from the 24 MHz kernel clock.
+const BIT_TIMING: NominalBitTiming = NominalBitTiming {
+    prescaler: NonZeroU16::MIN,
+    seg1: NonZeroU8::new(19).unwrap(),
+    seg2: NonZeroU8::new(4).unwrap(),
+    sync_jump_width: NonZeroU8::new(4).unwrap(),
+};
+
+/// The standard filter slots, in the order they are filled.
+const SLOTS: [StandardFilterSlot; 5] = [
+    StandardFilterSlot::_0,
+    StandardFilterSlot::_1,
+    StandardFilterSlot::_2,
+    StandardFilterSlot::_3,
+    StandardFilterSlot::_4,
+];
+
+/// Why a frame was not sent or received.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CanError {
+    /// A received frame whose identifier or length FDCAN reported out of range.
+    Malformed,
+    /// The node asked for a frame FDCAN cannot send as given (remote or empty data frame).
+    Unsendable,
+}
+
+impl embedded_can::Error for CanError {
+    fn kind(&self) -> ErrorKind {
+        match self {
+            Self::Malformed | Self::Unsendable => ErrorKind::Other,
+        }
+    }
+}
+
+/// FDCAN1 in normal operation.
+pub struct Fdcan1 {
+    can: FdCan<HalCan<FDCAN1>, NormalOperationMode>,
+    overruns: u32,
+}
+
+/// Bit timing, classic frames only, filters for the leader and `node`'s neighbours into
+/// FIFO 0 (everything else rejected), the FIFO 0 new-message interrupt on line 0 (every
+/// interrupt's line after reset); then normal
+/// operation.
+pub fn start<const K: usize>(
+    mut can: FdCan<HalCan<FDCAN1>, ConfigMode>,
+    node: &NodeConfig<K>,
+    neighbour_count: usize,
+) -> Fdcan1 {
+    can.set_protocol_exception_handling(false);
+    can.set_nominal_bit_timing(BIT_TIMING);
+    can.set_frame_transmit(FrameTransmissionConfig::ClassicCanOnly);
+    can.set_automatic_retransmit(true);
+    can.set_global_filter(GlobalFilter::reject_all());
+    let listened = core::iter::once(wire::LEADER_ID).chain(
+        node.neighbours
+            .iter()
+            .take(neighbour_count)
+            .map(|&a| wire::LEADER_ID + u16::from(a)),
+    );
+    for (slot, raw) in SLOTS.into_iter().zip(listened) {
+        if let Some(id) = StandardId::new(raw) {
+            can.set_standard_filter(
+                slot,
+                StandardFilter {
+                    filter: FilterType::DedicatedSingle(id),
+                    action: Action::StoreInFifo0,
+                },
+            );
+        }
+    }
+    can.enable_interrupt(Interrupt::RxFifo0NewMsg);
+    can.enable_interrupt_line(InterruptLine::_0, true);
+    Fdcan1 {
+        can: can.into_normal(),
+        overruns: 0,
+    }
+}
+
+impl Fdcan1 {
+    /// Acknowledge the receive interrupt (the frames are taken by the node).
+    pub fn clear_rx_interrupt(&mut self) {
+        self.can.clear_interrupt(Interrupt::RxFifo0NewMsg);
+    }
+
+    /// Transmit and receive error counters (TEC, REC).
+    pub fn error_counters(&self) -> (u8, u8) {
+        let c = self.can.error_counters();
+        let rec = match c.receive_err {
+            ReceiveErrorOverflow::Normal(n) | ReceiveErrorOverflow::Overflow(n) => n,
+        };
+        (c.transmit_err, rec)
+    }
+
+    /// Receptions that found FIFO 0 had overflowed (frames lost before them).
+    pub fn overruns(&self) -> u32 {
+        self.overruns
+    }
+}
+
+fn to_fdcan(id: Id) -> fdcan::id::Id {
+    match id {
+        Id::Standard(s) => StandardId::new(s.as_raw())
+            .unwrap_or(StandardId::ZERO)
+            .into(),
+        Id::Extended(e) => ExtendedId::new(e.as_raw())
+            .unwrap_or(ExtendedId::ZERO)
+            .into(),
+    }
+}
+
+fn from_fdcan(id: fdcan::id::Id) -> Option<Id> {
+    Some(match id {
+        fdcan::id::Id::Standard(s) => Id::Standard(embedded_can::StandardId::new(s.as_raw())?),
+        fdcan::id::Id::Extended(e) => Id::Extended(embedded_can::ExtendedId::new(e.as_raw())?),
+    })
+}
+
+impl embedded_can::nb::Can for Fdcan1 {
+    type Frame = CanFrame;
+    type Error = CanError;
+
+    fn transmit(&mut self, frame: &CanFrame) -> nb::Result<Option<CanFrame>, CanError> {
+        let len = u8::try_from(frame.dlc()).unwrap_or(u8::MAX);
+        if frame.is_remote_frame() || len == 0 || len > 8 {
+            return Err(nb::Error::Other(CanError::Unsendable));
+        }
+        let header = TxFrameHeader {
+            len,
+            frame_format: FrameFormat::Standard,
+            id: to_fdcan(frame.id()),
+            bit_rate_switching: false,
+            marker: None,
+        };
+        let mut pending = |_, h: TxFrameHeader, words: &[u32]| {
+            let mut data = [0u8; 8];
+            for (chunk, w) in data.chunks_exact_mut(4).zip(words) {
+                chunk.copy_from_slice(&w.to_le_bytes());
+            }
+            let n = usize::from(h.len).min(8);
+            from_fdcan(h.id).and_then(|id| CanFrame::new(id, &data[..n]))
+        };
+        match self
+            .can
+            .transmit_preserve(header, frame.data(), &mut pending)
+        {
+            Ok(replaced) => Ok(replaced.flatten()),
+            Err(nb::Error::WouldBlock) => Err(nb::Error::WouldBlock),
+            Err(nb::Error::Other(never)) => match never {},
+        }
+    }
+
+    fn receive(&mut self) -> nb::Result<CanFrame, CanError> {
+        let mut buf = [0u8; 8];
+        let info = match self.can.receive0(&mut buf) {
+            Ok(ReceiveOverrun::NoOverrun(i)) => i,
+            Ok(ReceiveOverrun::Overrun(i)) => {
+                self.overruns = self.overruns.saturating_add(1);
+                i
+            }
+            Err(nb::Error::WouldBlock) => return Err(nb::Error::WouldBlock),
+            Err(nb::Error::Other(never)) => match never {},
+        };
+        let n = usize::from(info.len).min(8);
+        let frame = from_fdcan(info.id).and_then(|id| {
+            if info.rtr {
+                CanFrame::new_remote(id, n)
+            } else {
+                CanFrame::new(id, &buf[..n])
+            }
+        });
+        frame.ok_or(nb::Error::Other(CanError::Malformed))
+    }
+}
