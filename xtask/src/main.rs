@@ -16,9 +16,14 @@
 //!   from the files the measuring commands write; `--check` fails naming each block that differs
 //!   (details: `docs.rs`).
 //!
+//! * `board-size`: builds the board firmware `boards/nucleo-g474re` in release and fails when
+//!   its flash (text + data) exceeds 64 KiB or its RAM (data + bss) 16 KiB (details:
+//!   `board.rs`).
+//!
 //! Nothing is installed: a missing `qemu-system-arm` or `thumbv7em-none-eabihf` target is
 //! reported with the command that installs it.
 
+mod board;
 mod docs;
 mod flash;
 mod gate;
@@ -54,6 +59,10 @@ tasks:
       commands write (reused when present; --rerun measures again); --check writes
       nothing and fails naming each block that differs; wall-clock figures (wall.*)
       are rewritten only with --wall-clock and never checked; --list names the figures
+  board-size [--no-run]
+      build boards/nucleo-g474re in release (unless --no-run: the ELF as last built), print
+      its text, data and bss, and fail if text + data exceeds 64 KiB (65,536 B) or data + bss
+      exceeds 16 KiB (16,384 B)
 ";
 
 fn main() -> ExitCode {
@@ -73,6 +82,7 @@ fn main() -> ExitCode {
         "bench-target" => target::bench_target(&opts).map(|_| ()),
         "bench-gate" => gate::bench_gate(&opts),
         "docs" => docs::docs(&opts),
+        "board-size" => board::board_size(&opts),
         "help" | "--help" | "-h" => {
             print!("{USAGE}");
             Ok(())
