@@ -7,9 +7,8 @@
 //! (`.bss`, `.uninit`: RTIC's resources, the RTT buffer). The gate: `text + data` ≤ 64 KiB
 //! (everything flash holds), `data + bss` ≤ 16 KiB (what RAM holds before the stack).
 
-use crate::{cargo, workspace_root, Options, Result};
+use crate::{firmware_build, workspace_root, Options, Result};
 use object::{elf::SHF_ALLOC, Object, ObjectSection, SectionFlags, SectionKind};
-use std::process::Command;
 
 /// The board firmware's directory under the workspace root.
 pub const BOARD_DIR: &str = "boards/nucleo-g474re";
@@ -87,14 +86,8 @@ impl Sizes {
 pub fn board_size(opts: &Options) -> Result<()> {
     let dir = workspace_root().join(BOARD_DIR);
     if !opts.no_run {
-        let status = Command::new(cargo())
-            // The board's .cargo/config.toml (target, linker scripts) is found from its directory.
-            .current_dir(&dir)
-            .args(["build", "--release", "--locked", "--target-dir", "target"])
-            .env_remove("RUSTFLAGS")
-            .env_remove("CARGO_ENCODED_RUSTFLAGS")
-            .env_remove("CARGO_BUILD_RUSTFLAGS")
-            .env_remove("CARGO_BUILD_TARGET")
+        let status = firmware_build(&dir)
+            .args(["--target-dir", "target"])
             .status()
             .map_err(|e| format!("cannot run cargo: {e}"))?;
         if !status.success() {

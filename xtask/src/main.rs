@@ -155,5 +155,19 @@ pub fn cargo() -> String {
     std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_owned())
 }
 
+/// `cargo build --release --locked` of a firmware crate outside the workspace, run from its
+/// directory so its `.cargo/config.toml` (target, linker scripts) applies, with no host
+/// flags leaking into the target build.
+pub fn firmware_build(dir: &Path) -> std::process::Command {
+    let mut c = std::process::Command::new(cargo());
+    c.current_dir(dir)
+        .args(["build", "--release", "--locked"])
+        .env_remove("RUSTFLAGS")
+        .env_remove("CARGO_ENCODED_RUSTFLAGS")
+        .env_remove("CARGO_BUILD_RUSTFLAGS")
+        .env_remove("CARGO_BUILD_TARGET");
+    c
+}
+
 /// Result type of the tasks: a message for the user.
 pub type Result<T> = std::result::Result<T, String>;
