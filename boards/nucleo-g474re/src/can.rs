@@ -1,12 +1,13 @@
 //! FDCAN1 as the node's `embedded_can::nb::Can`: classic frames at 1 Mbit/s, acceptance filters
-//! for the leader and the configured neighbours only.
+//! for the frames the node uses (leader, neighbours' values and heartbeats) and for its own
+//! identifiers (another node using them is a misconfigured peer the node counts).
 //!
 //! Bit timing: the FDCAN kernel clock is the 24 MHz HSE; prescaler 1, 24 time quanta per bit
 //! (sync 1 + seg1 19 + seg2 4), sample point 83.3 %, SJW 4 → 1 Mbit/s.
 
 use core::num::{NonZeroU16, NonZeroU8};
 
-use agent_node::{wire, CanFrame, NodeConfig};
+use agent_node::{wire::Source, CanFrame, NodeConfig};
 use embedded_can::{ErrorKind, Frame as _, Id};
 use fdcan::{
     config::{FrameTransmissionConfig, GlobalFilter, NominalBitTiming},
@@ -26,14 +27,23 @@ const BIT_TIMING: NominalBitTiming = NominalBitTiming {
     sync_jump_width: NonZeroU8::new(4).unwrap(),
 };
 
-/// The standard filter slots, in the order they are filled.
-const SLOTS: [StandardFilterSlot; 5] = [
+/// The standard filter slots, in the order they are filled: the leader, this agent, then one
+/// per neighbour (value and heartbeat identifiers in one dual-id filter each).
+const SLOTS: [StandardFilterSlot; 8] = [
     StandardFilterSlot::_0,
     StandardFilterSlot::_1,
     StandardFilterSlot::_2,
     StandardFilterSlot::_3,
     StandardFilterSlot::_4,
+    StandardFilterSlot::_5,
+    StandardFilterSlot::_6,
+    StandardFilterSlot::_7,
 ];
+
+const _: () = assert!(
+    SLOTS.len() >= 2 + crate::config::K,
+    "a filter slot per source"
+);
 
 /// Why a frame was not sent or received.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -58,36 +68,52 @@ pub struct Fdcan1 {
     overruns: u32,
 }
 
-/// Bit timing, classic frames only, filters for the leader and `node`'s neighbours into
-/// FIFO 0 (everything else rejected), the FIFO 0 new-message interrupt on line 0 (every
-/// interrupt's line after reset); then normal
-/// operation.
+/// The acceptance filter of `source`'s frames: its value identifier and, for an agent with a
+/// heartbeat identifier, that one too.
+fn filter_of<const K: usize>(node: &NodeConfig<K>, source: Source) -> Option<StandardFilter> {
+    let value = StandardId::new(node.ids.value_id(source)?)?;
+    let heartbeat = match source {
+        Source::Agent(a) => node.ids.heartbeat_id(a).and_then(StandardId::new),
+        Source::Leader => None,
+    };
+    Some(StandardFilter {
+        filter: match heartbeat {
+            Some(hb) => FilterType::DedicatedDual(value, hb),
+            None => FilterType::DedicatedSingle(value),
+        },
+        action: Action::StoreInFifo0,
+    })
+}
+
+/// Bit timing, classic frames only, the filters of [`SLOTS`] into FIFO 0 (the leader's only
+/// when the node uses it: `pinned`, or a leader timeout supervised), every other frame
+/// rejected, the FIFO 0 new-message interrupt on line 0 (every interrupt's line after
+/// reset); then normal operation.
 pub fn start<const K: usize>(
     mut can: FdCan<HalCan<FDCAN1>, ConfigMode>,
     node: &NodeConfig<K>,
     neighbour_count: usize,
+    pinned: bool,
 ) -> Fdcan1 {
     can.set_protocol_exception_handling(false);
     can.set_nominal_bit_timing(BIT_TIMING);
     can.set_frame_transmit(FrameTransmissionConfig::ClassicCanOnly);
     can.set_automatic_retransmit(true);
     can.set_global_filter(GlobalFilter::reject_all());
-    let listened = core::iter::once(wire::LEADER_ID).chain(
-        node.neighbours
-            .iter()
-            .take(neighbour_count)
-            .map(|&a| wire::LEADER_ID + u16::from(a)),
-    );
-    for (slot, raw) in SLOTS.into_iter().zip(listened) {
-        if let Some(id) = StandardId::new(raw) {
-            can.set_standard_filter(
-                slot,
-                StandardFilter {
-                    filter: FilterType::DedicatedSingle(id),
-                    action: Action::StoreInFifo0,
-                },
-            );
-        }
+    let leader = pinned || node.supervisor.leader_timeout_us.is_some();
+    let sources = leader
+        .then_some(Source::Leader)
+        .into_iter()
+        .chain(core::iter::once(Source::Agent(node.agent)))
+        .chain(
+            node.neighbours
+                .iter()
+                .take(neighbour_count)
+                .map(|&a| Source::Agent(a)),
+        );
+    let filters = sources.filter_map(|s| filter_of(node, s));
+    for (slot, filter) in SLOTS.into_iter().zip(filters) {
+        can.set_standard_filter(slot, filter);
     }
     can.enable_interrupt(Interrupt::RxFifo0NewMsg);
     can.enable_interrupt_line(InterruptLine::_0, true);
@@ -110,6 +136,11 @@ impl Fdcan1 {
             ReceiveErrorOverflow::Normal(n) | ReceiveErrorOverflow::Overflow(n) => n,
         };
         (c.transmit_err, rec)
+    }
+
+    /// The controller went bus-off (too many transmit errors) and stopped taking part.
+    pub fn bus_off(&self) -> bool {
+        self.can.get_protocol_status().bus_off_status
     }
 
     /// Receptions that found FIFO 0 had overflowed (frames lost before them).

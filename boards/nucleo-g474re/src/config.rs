@@ -9,7 +9,11 @@
 //! The values are agent 4 of the paper's Example 1 (`scenarios/example1-deploy.toml`: hears
 //! agents 1 and 3, not pinned, `[safety]` on), sampled at `h = 1 ms`.
 
-use agent_node::NodeConfig;
+use agent_node::{
+    supervisor::{NeighbourLoss, SafePolicy, SupervisorConfig},
+    wire::IdPlan,
+    NodeConfig,
+};
 use controller_core::{ControllerConfig, GainSelection, QuantizerConfig, SafetyConfig};
 
 /// State order `n` (position, velocity).
@@ -22,12 +26,25 @@ pub const K: usize = 4;
 /// Sample period `h` [µs]; the control timer's period and the controller's `h`.
 pub const SAMPLE_PERIOD_US: u32 = 1_000;
 
-/// This agent, its neighbours (identifiers `0x100 + i`) and the stale timeout (2.5 `h`, as
-/// host-sim's `[network]` default).
+/// This agent, its neighbours, the stale timeout (2.5 `h`, as host-sim's `[network]`
+/// default), the default identifier plan (leader `0x101`, agent `i` at `0x101 + i`, its
+/// heartbeat at `0x780 + i`), a heartbeat every 100 ms, and the safe state: when both
+/// neighbours or the leader fall silent for 50 ms the commands ramp to zero at 40 per s;
+/// 200 ms of every source healthy again resume the law.
 pub const NODE: NodeConfig<K> = NodeConfig {
     agent: 4,
     neighbours: [1, 3, 0, 0],
     stale_timeout_us: 2_500,
+    ids: IdPlan::DEFAULT,
+    heartbeat_period_us: 100_000,
+    supervisor: SupervisorConfig {
+        policy: SafePolicy::Ramp { rate: 40.0 },
+        leader_timeout_us: Some(50_000),
+        neighbour_timeout_us: Some(50_000),
+        neighbour_loss: NeighbourLoss::All,
+        sensor_timeout_us: None,
+        recover_dwell_us: 200_000,
+    },
 };
 
 /// Position of the encoder shaft per count (x1 units; 4,096 counts per unit).

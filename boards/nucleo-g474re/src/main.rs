@@ -56,19 +56,14 @@ struct Cycles {
     max: u32,
     sum: u64,
     count: u32,
-    overruns: u32,
 }
 
 impl Cycles {
-    /// A tick that took longer than the sample period is an overrun.
     fn record(&mut self, c: u32) {
         self.last = c;
         self.max = self.max.max(c);
         self.sum += u64::from(c);
         self.count += 1;
-        if c > config::SAMPLE_PERIOD_US * (io::SYSCLK_HZ / 1_000_000) {
-            self.overruns = self.overruns.saturating_add(1);
-        }
     }
 
     fn mean(&self) -> u32 {
@@ -157,7 +152,12 @@ mod app {
                 None
             }
             None => {
-                let bus = can::start(fdcan, &config::NODE, controller.neighbour_count);
+                let bus = can::start(
+                    fdcan,
+                    &config::NODE,
+                    controller.neighbour_count,
+                    controller.pinned,
+                );
                 agent_node::Node::new(
                     &config::NODE,
                     &controller,
@@ -188,10 +188,15 @@ mod app {
         let mut timer =
             Timer::new(dp.TIM6, &rcc.clocks).start_count_down(config::SAMPLE_PERIOD_US.micros());
         timer.listen(Event::TimeOut);
+        let agent = agent_node::wire::Source::Agent(config::NODE.agent);
         defmt::info!(
-            "agent {} (id {=u16:#x}) runs every {} us",
+            "agent {} (value id {=u16:#x}, heartbeat id {=u16:#x}) runs every {} us",
             config::NODE.agent,
-            agent_node::wire::LEADER_ID + u16::from(config::NODE.agent),
+            config::NODE.ids.value_id(agent).unwrap_or(0),
+            config::NODE
+                .ids
+                .heartbeat_id(config::NODE.agent)
+                .unwrap_or(0),
             config::SAMPLE_PERIOD_US
         );
         (
@@ -212,8 +217,9 @@ mod app {
     }
 
     /// Released by TIM6 every sample period: one `Node::tick`, timed; the watchdog is fed only
-    /// here, so a control task that stops being released resets the board.
-    #[task(binds = TIM6_DACUNDER, shared = [node], local = [timer, watchdog, cycles])]
+    /// here, so a control task that stops being released resets the board. A bus-off FDCAN
+    /// latches the node's fault state (outputs zero) until the board is reset.
+    #[task(binds = TIM6_DACUNDER, shared = [node], local = [timer, watchdog, cycles, bus_off: bool = false])]
     fn control(cx: control::Context) {
         let (Some(node), Some(timer), Some(watchdog)) =
             (cx.shared.node, cx.local.timer, cx.local.watchdog)
@@ -221,6 +227,11 @@ mod app {
             return;
         };
         timer.clear_interrupt(Event::TimeOut);
+        if !*cx.local.bus_off && node.can().bus_off() {
+            *cx.local.bus_off = true;
+            defmt::error!("FDCAN1 bus-off: node latched in its fault state");
+            node.enter_fault();
+        }
         let start = DWT::cycle_count();
         let tick = node.tick();
         let cycles = cx.local.cycles;
@@ -230,15 +241,17 @@ mod app {
             let st = node.stats();
             let (tec, rec) = node.can().error_counters();
             defmt::info!(
-                "t = {} us: step {} cycles (mean {}, max {}), overruns {}, u = {}, rx {} accepted {} stale {} missing {}, tx busy {} err {}, fifo overruns {}, TEC {} REC {}",
+                "t = {} us, {}: step {} cycles (mean {}, max {}), overruns {}, u = {}, rx {} accepted {} heartbeats {}, stale {} missing {}, tx busy {} err {}, fifo overruns {}, TEC {} REC {}",
                 tick.now_us,
+                tick.state,
                 cycles.last,
                 cycles.mean(),
                 cycles.max,
-                cycles.overruns,
+                st.overruns,
                 tick.output.u,
                 st.frames_rx,
                 st.accepted,
+                st.heartbeats_rx,
                 st.stale_samples,
                 st.missing_samples,
                 st.tx_busy,
@@ -247,10 +260,7 @@ mod app {
                 tec,
                 rec
             );
-            *cycles = Cycles {
-                overruns: cycles.overruns,
-                ..Cycles::default()
-            };
+            *cycles = Cycles::default();
         }
     }
 
