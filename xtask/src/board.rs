@@ -5,7 +5,8 @@
 //! code and read-only data (vector table, `.text`, `.rodata`), `data` = initialised RAM
 //! (`.data`, whose initial image also lies in flash), `bss` = zeroed and uninitialised RAM
 //! (`.bss`, `.uninit`: RTIC's resources, the RTT buffer). The gate: `text + data` ≤ 64 KiB
-//! (everything flash holds), `data + bss` ≤ 16 KiB (what RAM holds before the stack).
+//! (everything flash holds), `data + bss` ≤ 16 KiB (what RAM holds before the stack). The
+//! figures are also written to [`SIZE_JSON`] for `cargo xtask docs` (`board.KEY`).
 
 use crate::{firmware_build, workspace_root, Options, Result};
 use object::{elf::SHF_ALLOC, Object, ObjectSection, SectionFlags, SectionKind};
@@ -14,6 +15,10 @@ use object::{elf::SHF_ALLOC, Object, ObjectSection, SectionFlags, SectionKind};
 pub const BOARD_DIR: &str = "boards/nucleo-g474re";
 /// The ELF it builds, under its directory.
 const ELF: &str = "target/thumbv7em-none-eabihf/release/nucleo-g474re";
+/// Where the figures are written, under the workspace root.
+pub const SIZE_JSON: &str = "target/board/size.json";
+/// The keys of [`SIZE_JSON`].
+pub const KEYS: [&str; 5] = ["text", "data", "bss", "flash", "ram"];
 /// Flash of the smallest part the firmware must fit.
 pub const FLASH_LIMIT: u64 = 64 * 1024;
 /// RAM of that part.
@@ -108,6 +113,15 @@ pub fn board_size(opts: &Options) -> Result<()> {
         RAM_LIMIT,
         RAM_LIMIT.saturating_sub(s.ram())
     );
+    let json = workspace_root().join(SIZE_JSON);
+    if let Some(d) = json.parent() {
+        std::fs::create_dir_all(d).map_err(|e| format!("{}: {e}", d.display()))?;
+    }
+    let values = KEYS.iter().zip([s.text, s.data, s.bss, s.flash(), s.ram()]);
+    let map: serde_json::Map<String, serde_json::Value> =
+        values.map(|(k, v)| ((*k).to_owned(), v.into())).collect();
+    std::fs::write(&json, serde_json::Value::Object(map).to_string())
+        .map_err(|e| format!("{}: {e}", json.display()))?;
     let over = s.over_limits();
     if over.is_empty() {
         Ok(())

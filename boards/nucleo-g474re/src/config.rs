@@ -99,7 +99,8 @@ pub fn controller() -> ControllerConfig<N> {
 }
 
 /// A wiring scale that cannot work, named by its constant.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, defmt::Format)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(target_os = "none", derive(defmt::Format))]
 pub enum WiringError {
     /// `SAMPLE_PERIOD_US` is 0.
     SamplePeriod,
