@@ -133,11 +133,14 @@ mod app {
         let _encoder_a = gpioa.pa0.into_alternate::<1>();
         let _encoder_b = gpioa.pa1.into_alternate::<1>();
         let encoder = io::Encoder::new(dp.TIM2, &mut rcc);
-        let (ch1, ch2) = dp.TIM3.pwm(
+        let (mut ch1, mut ch2) = dp.TIM3.pwm(
             (gpiob.pb4.into_alternate(), gpiob.pb5.into_alternate()),
             config::PWM_HZ.Hz(),
             &mut rcc,
         );
+        // The outputs run from here (at 50 %, zero command); the driver enable gates them.
+        ch1.enable();
+        ch2.enable();
         let actuators: Actuators = io::PwmPair::new(ch1, ch2, gpioa.pa8.into_push_pull_output());
         let fdcan = dp.FDCAN1.fdcan(
             gpioa.pa12.into_alternate(),
