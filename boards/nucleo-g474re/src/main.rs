@@ -125,7 +125,16 @@ mod app {
             .RCC
             .constrain()
             .freeze(Config::pll().pll_cfg(pll).boost(true), pwr);
-        defmt::info!("sysclk {} Hz", rcc.clocks.sys_clk.raw());
+        let csr = rcc.csr().read();
+        defmt::info!(
+            "sysclk {} Hz; reset by: watchdog {}, pin {}, brown-out {}, software {}",
+            rcc.clocks.sys_clk.raw(),
+            csr.iwdgrstf().bit_is_set(),
+            csr.pinrstf().bit_is_set(),
+            csr.borrstf().bit_is_set(),
+            csr.sftrstf().bit_is_set()
+        );
+        rcc.csr().modify(|_, w| w.rmvf().set_bit());
 
         let gpioa = dp.GPIOA.split(&mut rcc);
         let gpiob = dp.GPIOB.split(&mut rcc);
