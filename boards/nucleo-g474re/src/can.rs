@@ -62,10 +62,20 @@ impl embedded_can::Error for CanError {
     }
 }
 
-/// FDCAN1 in normal operation.
+type Configuring = FdCan<HalCan<FDCAN1>, ConfigMode>;
+type Running = FdCan<HalCan<FDCAN1>, NormalOperationMode>;
+
+/// FDCAN1: configured by [`configure`], on the bus only after [`Fdcan1::join_bus`].
 pub struct Fdcan1 {
-    can: FdCan<HalCan<FDCAN1>, NormalOperationMode>,
+    mode: Mode,
     overruns: u32,
+}
+
+enum Mode {
+    Configuring(Configuring),
+    Running(Running),
+    /// Only while [`Fdcan1::join_bus`] swaps the two.
+    Switching,
 }
 
 /// The acceptance filter of `source`'s frames: its value identifier and, for an agent with a
@@ -88,8 +98,9 @@ fn filter_of<const K: usize>(node: &NodeConfig<K>, source: Source) -> Option<Sta
 /// Bit timing, classic frames only, the filters of [`SLOTS`] into FIFO 0 (the leader's only
 /// when the node uses it: `pinned`, or a leader timeout supervised), every other frame
 /// rejected, the FIFO 0 new-message interrupt on line 0 (every interrupt's line after
-/// reset); then normal operation.
-pub fn start<const K: usize>(
+/// reset). The controller stays in its configuration mode (off the bus: nothing sent,
+/// nothing acknowledged) until [`Fdcan1::join_bus`].
+pub fn configure<const K: usize>(
     mut can: FdCan<HalCan<FDCAN1>, ConfigMode>,
     node: &NodeConfig<K>,
     neighbour_count: usize,
@@ -118,20 +129,40 @@ pub fn start<const K: usize>(
     can.enable_interrupt(Interrupt::RxFifo0NewMsg);
     can.enable_interrupt_line(InterruptLine::_0, true);
     Fdcan1 {
-        can: can.into_normal(),
+        mode: Mode::Configuring(can),
         overruns: 0,
     }
 }
 
 impl Fdcan1 {
-    /// Acknowledge the receive interrupt (the frames are taken by the node).
-    pub fn clear_rx_interrupt(&mut self) {
-        self.can.clear_interrupt(Interrupt::RxFifo0NewMsg);
+    /// Normal operation: the controller takes part in the bus from now on.
+    pub fn join_bus(&mut self) {
+        self.mode = match core::mem::replace(&mut self.mode, Mode::Switching) {
+            Mode::Configuring(c) => Mode::Running(c.into_normal()),
+            other => other,
+        };
     }
 
-    /// Transmit and receive error counters (TEC, REC).
+    fn running(&mut self) -> Option<&mut Running> {
+        match &mut self.mode {
+            Mode::Running(c) => Some(c),
+            _ => None,
+        }
+    }
+
+    /// Acknowledge the receive interrupt (the frames are taken by the node).
+    pub fn clear_rx_interrupt(&mut self) {
+        if let Some(c) = self.running() {
+            c.clear_interrupt(Interrupt::RxFifo0NewMsg);
+        }
+    }
+
+    /// Transmit and receive error counters (TEC, REC); zero off the bus.
     pub fn error_counters(&self) -> (u8, u8) {
-        let c = self.can.error_counters();
+        let Mode::Running(can) = &self.mode else {
+            return (0, 0);
+        };
+        let c = can.error_counters();
         let rec = match c.receive_err {
             ReceiveErrorOverflow::Normal(n) | ReceiveErrorOverflow::Overflow(n) => n,
         };
@@ -140,7 +171,10 @@ impl Fdcan1 {
 
     /// The controller went bus-off (too many transmit errors) and stopped taking part.
     pub fn bus_off(&self) -> bool {
-        self.can.get_protocol_status().bus_off_status
+        match &self.mode {
+            Mode::Running(c) => c.get_protocol_status().bus_off_status,
+            _ => false,
+        }
     }
 
     /// Receptions that found FIFO 0 had overflowed (frames lost before them).
@@ -191,10 +225,10 @@ impl embedded_can::nb::Can for Fdcan1 {
             let n = usize::from(h.len).min(8);
             from_fdcan(h.id).and_then(|id| CanFrame::new(id, &data[..n]))
         };
-        match self
-            .can
-            .transmit_preserve(header, frame.data(), &mut pending)
-        {
+        let Some(can) = self.running() else {
+            return Err(nb::Error::WouldBlock);
+        };
+        match can.transmit_preserve(header, frame.data(), &mut pending) {
             Ok(replaced) => Ok(replaced.flatten()),
             Err(nb::Error::WouldBlock) => Err(nb::Error::WouldBlock),
             Err(nb::Error::Other(never)) => match never {},
@@ -203,7 +237,10 @@ impl embedded_can::nb::Can for Fdcan1 {
 
     fn receive(&mut self) -> nb::Result<CanFrame, CanError> {
         let mut buf = [0u8; 8];
-        let info = match self.can.receive0(&mut buf) {
+        let Some(can) = self.running() else {
+            return Err(nb::Error::WouldBlock);
+        };
+        let info = match can.receive0(&mut buf) {
             Ok(ReceiveOverrun::NoOverrun(i)) => i,
             Ok(ReceiveOverrun::Overrun(i)) => {
                 self.overruns = self.overruns.saturating_add(1);

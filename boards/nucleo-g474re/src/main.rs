@@ -164,7 +164,7 @@ mod app {
                 None
             }
             None => {
-                let bus = can::start(
+                let bus = can::configure(
                     fdcan,
                     &config::NODE,
                     controller.neighbour_count,
@@ -194,6 +194,7 @@ mod app {
             );
         };
 
+        node.can_mut().join_bus();
         node.actuator_mut().arm();
         let mut watchdog = IndependentWatchdog::new(dp.IWDG);
         watchdog.start(config::WATCHDOG_US.micros());
