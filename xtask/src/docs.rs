@@ -1463,12 +1463,15 @@ mod tests {
             parse("run.example1.max_error"),
             Some(Figure::Run("example1", "max_error"))
         );
+        assert_eq!(parse("board.flash"), Some(Figure::Board("flash")));
         for name in [
             "run.example9.max_error",
             "run.example1.nope",
             "matrix.example3",
             "sizes.x",
             "pil.x",
+            "board.x",
+            "board",
         ] {
             assert_eq!(parse(name), None, "{name}");
         }
