@@ -359,6 +359,8 @@ pub struct Node<C, Clk, S, A, const N: usize, const M: usize, const K: usize> {
     /// The command written at the last tick.
     applied: [f32; M],
     fault_pending: bool,
+    /// Some source has a loss timeout.
+    supervised: bool,
 }
 
 impl<C, Clk, S, A, const N: usize, const M: usize, const K: usize> Node<C, Clk, S, A, N, M, K>
@@ -448,6 +450,9 @@ where
             last_tick_us: None,
             applied: [0.0; M],
             fault_pending: false,
+            supervised: cfg.supervisor.leader_timeout_us.is_some()
+                || cfg.supervisor.neighbour_timeout_us.is_some()
+                || cfg.supervisor.sensor_timeout_us.is_some(),
         })
     }
 
@@ -656,20 +661,7 @@ where
             NodeState::Boot | NodeState::Operational => {
                 self.controller.step(&x, neighbours, leader)
             }
-            state => {
-                let mut frozen = self.controller;
-                let mut o = frozen.step(&x, neighbours, leader);
-                let dt = self.last_tick_us.map_or(0, |t| now.saturating_sub(t));
-                let q = match state {
-                    NodeState::Safe => {
-                        safe_command(self.supervisor.config().policy, &self.applied, dt)
-                    }
-                    _ => [0.0; M],
-                };
-                o.u = q;
-                o.q = q;
-                o
-            }
+            state => self.frozen_output(state, now, &x, neighbours, leader),
         };
         self.log_fault(output.status.fault);
 
@@ -697,6 +689,29 @@ where
         }
     }
 
+    /// `Safe` or `Fault`: the error a copy of the frozen controller computes, with the
+    /// policy's command (zero in `Fault`). Out of line, so the copy's stack is used only there.
+    #[inline(never)]
+    fn frozen_output(
+        &self,
+        state: NodeState,
+        now: u64,
+        x: &[f32; N],
+        neighbours: &[Link],
+        leader: Link,
+    ) -> StepOutput<N, M> {
+        let mut frozen = self.controller;
+        let mut o = frozen.step(x, neighbours, leader);
+        let dt = self.last_tick_us.map_or(0, |t| now.saturating_sub(t));
+        let q = match state {
+            NodeState::Safe => safe_command(self.supervisor.config().policy, &self.applied, dt),
+            _ => [0.0; M],
+        };
+        o.u = q;
+        o.q = q;
+        o
+    }
+
     /// Samples skipped since the last tick: more than 1.5 periods apart counts every whole
     /// period beyond the first.
     fn count_overruns(&mut self, now: u64) {
@@ -713,8 +728,12 @@ where
         }
     }
 
-    /// Evaluate the supervisor at `now` (first tick at `first`) and act on a transition.
+    /// Evaluate the supervisor at `now` (first tick at `first`) and act on a transition; with
+    /// nothing supervised only the first tick (`Boot → Operational`) and a fault are.
     fn supervise(&mut self, now: u64, first: u64, x: &[f32; N]) {
+        if !self.supervised && !self.fault_pending && self.supervisor.state() != NodeState::Boot {
+            return;
+        }
         let age = |slot: &Slot| now.saturating_sub(slot.value.map_or(first, |(_, t)| t));
         let mut newest: Option<u64> = None;
         let mut oldest: Option<u64> = None;
