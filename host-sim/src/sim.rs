@@ -111,7 +111,7 @@ pub trait Agents<const N: usize, const M: usize> {
         Err(unclocked())
     }
     /// Clocked runs: the leader sends `y_d` of sample `k` at `t = k h`.
-    fn lead(&mut self, _k: u64, _t: f64, _yd: f64) -> Result<()> {
+    fn leader_sends(&mut self, _k: u64, _t: f64, _yd: f64) -> Result<()> {
         Err(unclocked())
     }
     /// Clocked runs: the network runs up to `until` [s], each node's clock from `clocks`;
@@ -266,7 +266,7 @@ impl<L: LinkModel, const N: usize, const M: usize> Agents<N, M> for Linked<L, N,
         Ok(out)
     }
 
-    fn lead(&mut self, k: u64, t: f64, yd: f64) -> Result<()> {
+    fn leader_sends(&mut self, k: u64, t: f64, yd: f64) -> Result<()> {
         self.led = Some((yd as f32, t, k));
         self.unreleased = true;
         Ok(())

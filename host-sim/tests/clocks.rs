@@ -160,3 +160,30 @@ fn bad_clock_keys_are_named() {
     );
     check("example1-pil.toml", "clock.jitter_us=5", "clock");
 }
+
+#[test]
+fn a_clocked_run_still_detects_divergence() {
+    // Gains that overflow (T_s = 1 ms) make Example 1 diverge within 0.2 s, as without clocks.
+    let out = tmp("diverge");
+    let run = bin()
+        .arg("run")
+        .arg(scenario_path("example1.toml"))
+        .arg("--out")
+        .arg(&out)
+        .args(["--no-plots", "-q"])
+        .args([
+            "--set",
+            "simulation.t_end=0.2",
+            "--set",
+            "controller.ts=0.001",
+        ])
+        .args(["--set", "clock.jitter_us=100", "--set", "clock.seed=3"])
+        .output()
+        .expect("host-sim runs");
+    assert_ok(&run);
+    let s = summary(&files(&out));
+    assert_eq!(s["diverged"].as_bool(), Some(true), "{s}");
+    let t = s["divergence"]["time"].as_f64().expect("divergence time");
+    assert!(t > 0.0 && t < 0.2, "{t}");
+    assert!(s["clock"].is_object());
+}

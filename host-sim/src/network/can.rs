@@ -137,7 +137,7 @@ impl<const N: usize, const M: usize> Agents<N, M> for CanAgents<N, M> {
         Ok(tick.output)
     }
 
-    fn lead(&mut self, _k: u64, t: f64, yd: f64) -> Result<()> {
+    fn leader_sends(&mut self, _k: u64, t: f64, yd: f64) -> Result<()> {
         self.net.send_leader(ns(t), yd as f32);
         Ok(())
     }

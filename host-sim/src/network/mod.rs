@@ -124,8 +124,8 @@ impl<const N: usize, const M: usize> Agents<N, M> for BusAgents<N, M> {
         self.agents_mut().sample_at(i, t, now_us, x, ages)
     }
 
-    fn lead(&mut self, k: u64, t: f64, yd: f64) -> Result<()> {
-        self.agents_mut().lead(k, t, yd)
+    fn leader_sends(&mut self, k: u64, t: f64, yd: f64) -> Result<()> {
+        self.agents_mut().leader_sends(k, t, yd)
     }
 
     fn run_until(

@@ -5,7 +5,7 @@
 //!   its clock (`sync = "none"`) or from the next leader frame that reaches it (`"leader"`);
 //! * the plant's instant `t_k = k h`: every plant is integrated up to `t_k`, the divergence
 //!   check and the observers (metrics, CSV, plots) see the states at `t_k` with the command
-//!   each follower holds then, and the leader sends `y_d(t_k)` ([`Agents::lead`]).
+//!   each follower holds then, and the leader sends `y_d(t_k)` ([`Agents::leader_sends`]).
 //!
 //! Before each event the network runs up to it ([`Agents::run_until`]); at equal times a
 //! follower's sample goes before the plant's instant, lower agents first; the run ends at
@@ -164,7 +164,7 @@ where
             for o in observers.iter_mut() {
                 o.sample(&view)?;
             }
-            self.agents.lead(k, t_k, yd)?;
+            self.agents.leader_sends(k, t_k, yd)?;
             if k.is_multiple_of(1024) {
                 progress(k);
             }
