@@ -550,6 +550,27 @@ impl Bus {
         out
     }
 
+    /// The delivery time of the next frame to reach the receivers, if it is `≤ t`. Runs the bus
+    /// only as far as that delivery needs (no arbitration at or after it), so a node that
+    /// reacts to the frame can still submit from its delivery time on; then
+    /// [`Bus::advance_to`] that time hands the frame over.
+    pub fn next_delivery(&mut self, t: Nanos) -> Option<Nanos> {
+        let t = t.max(self.now);
+        loop {
+            let front = self.in_transit.front().map(|d| d.at_ns);
+            if let Some(at) = front.filter(|&at| at <= t) {
+                return Some(at);
+            }
+            match self.next_start(self.free_at, t) {
+                Some(s) if s < t => {
+                    self.recover(s);
+                    self.arbitrate_and_send(s);
+                }
+                _ => return None,
+            }
+        }
+    }
+
     fn arbitrate_and_send(&mut self, s: Nanos) {
         // Candidates at s: (id, node, babble?).
         let mut winner: Option<(u32, usize, bool)> = None;

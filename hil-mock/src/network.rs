@@ -51,7 +51,7 @@
 
 use controller_core::{ControllerConfig, Link};
 
-use crate::bus::{Bus, BusConfig, BusConfigError, BusStats, Nanos};
+use crate::bus::{Bus, BusConfig, BusConfigError, BusStats, Delivery, Nanos};
 use crate::mock::{MockActuator, MockCan, MockClock, MockFrame, MockNode, MockSensor};
 use agent_node::wire::{self, IdPlan, Source};
 use agent_node::{NodeConfig, NodeError, Tick};
@@ -104,6 +104,8 @@ pub struct CanNetwork<const N: usize, const M: usize, const K: usize> {
     sample_time: Vec<Vec<Option<Nanos>>>,
     leader_seq: u8,
     ids: IdPlan,
+    /// Scratch for the ages of one sample.
+    ages: Vec<Nanos>,
 }
 
 impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
@@ -141,6 +143,7 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
             sample_time: vec![vec![None; n]; n],
             leader_seq: 0,
             ids,
+            ages: Vec::new(),
         })
     }
 
@@ -178,68 +181,116 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
         states: &[[f32; N]],
         leader: Option<f32>,
     ) -> Vec<Tick<N, M>> {
-        for d in self.bus.advance_to(t_ns) {
+        self.deliver_until(t_ns, |_, at| at / 1000);
+        let mut ticks = Vec::with_capacity(self.nodes.len());
+        let t_us = t_ns / 1000;
+        for j in 0..self.nodes.len() {
+            ticks.push(self.tick_at(j, t_ns, t_us, states.get(j)));
+        }
+        self.record_ages(t_ns);
+        if let Some(yd) = leader {
+            self.send_leader(t_ns, yd);
+        }
+        ticks
+    }
+
+    /// Runs the bus up to `t_ns` and hands every frame delivered by then to the nodes that
+    /// receive it, each node's clock reading `clock(j, at)` µs at the delivery (`j`: 0-based
+    /// agent). Returns the deliveries, in order.
+    pub fn deliver_until(
+        &mut self,
+        t_ns: Nanos,
+        clock: impl Fn(usize, Nanos) -> u64,
+    ) -> Vec<Delivery> {
+        let delivered = self.bus.advance_to(t_ns);
+        for d in &delivered {
             for (j, node) in self.nodes.iter_mut().enumerate() {
                 let bus_node = j + 1;
                 if bus_node == d.from || self.bus.is_bus_off(bus_node, d.at_ns) {
                     continue;
                 }
-                node.clock_mut().set(d.at_ns / 1000);
+                node.clock_mut().set(clock(j, d.at_ns));
                 node.can_mut().push_rx(d.frame);
                 node.poll_rx();
                 self.sample_time[bus_node][d.from] = Some(d.submitted_ns);
             }
         }
+        delivered
+    }
 
-        let mut ticks = Vec::with_capacity(self.nodes.len());
-        let t_us = t_ns / 1000;
-        for (j, node) in self.nodes.iter_mut().enumerate() {
-            let bus_node = j + 1;
-            node.clock_mut().set(t_us);
-            if let Some(x) = states.get(j) {
-                node.sensor_mut().x = *x;
-            }
-            node.can_mut()
-                .set_bus_off(self.bus.is_bus_off(bus_node, t_ns));
-            let tick = node.tick();
-            while let Some(f) = node.can_mut().take_tx() {
-                // Refusals (silent, bus-off) are counted by the bus.
-                let _ = self.bus.submit(bus_node, t_ns, f);
-            }
-            ticks.push(tick);
+    /// Agent `j + 1` (0-based `j`) samples at `t_ns` with its clock at `now_us`: its sensors
+    /// read `state` (unchanged when `None`), it ticks, and its frame is submitted at `t_ns`.
+    pub fn tick_at(
+        &mut self,
+        j: usize,
+        t_ns: Nanos,
+        now_us: u64,
+        state: Option<&[f32; N]>,
+    ) -> Tick<N, M> {
+        let bus_node = j + 1;
+        let bus_off = self.bus.is_bus_off(bus_node, t_ns);
+        let node = &mut self.nodes[j];
+        node.clock_mut().set(now_us);
+        if let Some(x) = state {
+            node.sensor_mut().x = *x;
         }
-        self.record_ages(t_ns);
+        node.can_mut().set_bus_off(bus_off);
+        let tick = node.tick();
+        while let Some(f) = node.can_mut().take_tx() {
+            // Refusals (silent, bus-off) are counted by the bus.
+            let _ = self.bus.submit(bus_node, t_ns, f);
+        }
+        tick
+    }
 
-        if let Some(yd) = leader {
-            if let Some((f, _)) =
-                wire::encode_in::<MockFrame>(&self.ids, Source::Leader, yd, self.leader_seq)
-            {
-                let _ = self.bus.submit(0, t_ns, f);
-            }
-            self.leader_seq = (self.leader_seq + 1) % wire::SEQ_MODULUS;
+    /// The leader submits `y_d` at `t_ns` with its own sequence counter.
+    pub fn send_leader(&mut self, t_ns: Nanos, yd: f32) {
+        if let Some((f, _)) =
+            wire::encode_in::<MockFrame>(&self.ids, Source::Leader, yd, self.leader_seq)
+        {
+            let _ = self.bus.submit(0, t_ns, f);
         }
-        ticks
+        self.leader_seq = (self.leader_seq + 1) % wire::SEQ_MODULUS;
+    }
+
+    /// Agent `j + 1`'s ages at `t_ns` (its clock at `now_us`) of the neighbour and leader values
+    /// its controller uses: `t_ns` minus the sender's sample time. Also recorded in the bus
+    /// statistics.
+    pub fn link_ages(&mut self, j: usize, t_ns: Nanos, now_us: u64, ages: &mut Vec<Nanos>) {
+        let start = ages.len();
+        self.ages_of(j, t_ns, now_us, ages);
+        for &a in &ages[start..] {
+            self.bus.record_age(a);
+        }
+    }
+
+    fn ages_of(&self, j: usize, t_ns: Nanos, now_us: u64, ages: &mut Vec<Nanos>) {
+        let node = &self.nodes[j];
+        let receiver = j + 1;
+        let mut k = 0;
+        while let Some(link) = node.neighbour_link(k, now_us) {
+            if !matches!(link, Link::Missing) {
+                if let Some(sender) = node.neighbour_agent(k) {
+                    if let Some(ts) = self.sample_time[receiver][usize::from(sender)] {
+                        ages.push(t_ns.saturating_sub(ts));
+                    }
+                }
+            }
+            k += 1;
+        }
+        if node.is_pinned() {
+            if let Some(ts) = self.sample_time[receiver][0] {
+                ages.push(t_ns.saturating_sub(ts));
+            }
+        }
     }
 
     fn record_ages(&mut self, t_ns: Nanos) {
-        for (j, node) in self.nodes.iter().enumerate() {
-            let receiver = j + 1;
-            let mut k = 0;
-            while let Some(link) = node.neighbour_link(k, t_ns / 1000) {
-                if !matches!(link, Link::Missing) {
-                    if let Some(sender) = node.neighbour_agent(k) {
-                        if let Some(ts) = self.sample_time[receiver][usize::from(sender)] {
-                            self.bus.record_age(t_ns.saturating_sub(ts));
-                        }
-                    }
-                }
-                k += 1;
-            }
-            if node.is_pinned() {
-                if let Some(ts) = self.sample_time[receiver][0] {
-                    self.bus.record_age(t_ns.saturating_sub(ts));
-                }
-            }
+        let mut ages = std::mem::take(&mut self.ages);
+        for j in 0..self.nodes.len() {
+            ages.clear();
+            self.link_ages(j, t_ns, t_ns / 1000, &mut ages);
         }
+        self.ages = ages;
     }
 }

@@ -7,7 +7,7 @@
 //! controller `f32`.
 //!
 //! Layers: [`scenario`] (TOML, `--set`, validation) → [`graph`], [`leader`], [`plant`],
-//! [`faults`], [`network`] (every kind: `ideal`, `can`, `pil`, and the bus `trace`) → [`sim`]
+//! [`faults`], [`clock`], [`network`] (every kind: `ideal`, `can`, `pil`, and the bus `trace`) → [`sim`]
 //! (the loop) → [`metrics`], [`report`] → [`run`] (commands) → [`campaign`] (many runs: grids,
 //! Monte Carlo, shards). Every figure is drawn and written through [`figure`]. Each block owns
 //! the serde type and checks of its scenario section; [`scenario`] assembles them and no block
@@ -16,6 +16,7 @@
 #![warn(missing_docs)]
 
 pub mod campaign;
+pub mod clock;
 pub mod compare;
 pub mod error;
 pub mod faults;

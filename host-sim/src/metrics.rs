@@ -11,6 +11,7 @@ use serde::Serialize;
 pub use spec::{MetricsSpec, WindowKind, WindowSpec};
 
 use crate::{
+    clock::ClockSummary,
     error::Result,
     figures::{FirmwareSummary, NetworkSummary},
     scenario::{SchemeName, Setup},
@@ -141,6 +142,9 @@ pub struct Summary {
     /// `[[metrics.window]]` figures; absent without windows.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub windows: Vec<WindowValue>,
+    /// Clock figures (an active `[clock]`, docs/CLOCKS.md); absent otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub clock: Option<ClockSummary>,
 }
 
 impl Summary {
@@ -219,6 +223,19 @@ const NODE_UNITS: [(&str, &str); 4] = [
     ("network.nodes.heartbeats_sent", "count"),
 ];
 
+/// Units of `clock`'s numeric keys (clocked runs).
+const CLOCK_UNITS: [(&str, &str); 9] = [
+    ("clock.sample_age.median", "samples"),
+    ("clock.sample_age.p99", "samples"),
+    ("clock.sample_age.max", "samples"),
+    ("clock.sample_age.count", "count"),
+    ("clock.sampling_error.median", "samples"),
+    ("clock.sampling_error.p99", "samples"),
+    ("clock.sampling_error.max", "samples"),
+    ("clock.sampling_error.count", "count"),
+    ("clock.samples_taken", "count"),
+];
+
 /// Units of `firmware`'s numeric keys (PIL runs).
 const FIRMWARE_UNITS: [(&str, &str); 9] = [
     ("firmware.agent", "1-based index"),
@@ -245,6 +262,14 @@ impl Summary {
             }
         }
         self.network = network;
+    }
+
+    /// Sets the clock figures of a clocked run (and their units).
+    pub fn set_clock(&mut self, clock: Option<ClockSummary>) {
+        if clock.is_some() {
+            self.units.extend(CLOCK_UNITS);
+        }
+        self.clock = clock;
     }
 
     /// Sets the node-firmware figures of a PIL run (and their units).
@@ -432,6 +457,7 @@ impl Metrics {
             },
             network: None,
             firmware: None,
+            clock: None,
             windows: s
                 .metrics
                 .window

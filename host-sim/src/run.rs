@@ -7,6 +7,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
 
 use crate::{
+    clock::Clocks,
     error::{Error, Result},
     metrics::{Metrics, Summary},
     network::{
@@ -261,6 +262,10 @@ where
     let mut worst = opts.worst.then(|| WorstPerSample(Vec::new()));
     let mut spread =
         (opts.plots && report::spread::wanted(setup.agents())).then(|| Spread::new(setup));
+    let mut clocks = setup
+        .clocks
+        .as_ref()
+        .map(|plan| Clocks::new(plan, setup.samples));
     let divergence = {
         let mut obs: Vec<&mut dyn Observer<N, M>> = vec![&mut metrics];
         if let Some(w) = worst.as_mut() {
@@ -275,13 +280,17 @@ where
         if let Some(c) = csv.as_mut() {
             obs.push(c);
         }
-        sim.run(&mut obs, |k| pb.set_position(k))?
+        match clocks.as_mut() {
+            Some(c) => sim.run_clocked(c, &mut obs, |k| pb.set_position(k))?,
+            None => sim.run(&mut obs, |k| pb.set_position(k))?,
+        }
     };
     pb.finish_and_clear();
     sim.agents_mut().finish()?;
     let mut summary = metrics.summary(setup, &sim.gains(), divergence);
     summary.set_network(sim.agents().network());
     summary.set_firmware(sim.agents().firmware());
+    summary.set_clock(clocks.as_ref().map(Clocks::summary));
     if let Some(dir) = &opts.out {
         if let Some(c) = csv {
             c.finish()?;
@@ -298,6 +307,9 @@ where
             }
             sim.agents()
                 .draw(dir, setup.scenario.simulation.h, &setup.scenario.name)?;
+            if let Some(c) = &clocks {
+                report::clocks::draw(dir, c, &setup.scenario.name)?;
+            }
         }
     }
     Ok(RunResult {

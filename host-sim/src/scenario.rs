@@ -10,6 +10,7 @@ use controller_core::{
 use serde::{Deserialize, Serialize};
 
 use crate::{
+    clock::{ClockPlan, ClockSpec},
     error::{Error, Problems, Result},
     faults::{FaultSchedule, FaultsSpec},
     graph::{Graph, GraphSpec, MAX_NEIGHBOURS},
@@ -56,6 +57,9 @@ pub struct Scenario {
     /// `[metrics]` (settling dwell, window metrics); left out of `check` when absent.
     #[serde(skip_serializing_if = "MetricsSpec::is_default")]
     pub metrics: MetricsSpec,
+    /// `[clock]` (docs/CLOCKS.md); left out of `check` when absent.
+    #[serde(skip_serializing_if = "ClockSpec::is_default")]
+    pub clock: ClockSpec,
 }
 
 impl Default for Scenario {
@@ -73,6 +77,7 @@ impl Default for Scenario {
             node: NodeSpec::default(),
             safety: SafetySpec::default(),
             metrics: MetricsSpec::default(),
+            clock: ClockSpec::default(),
         }
     }
 }
@@ -127,6 +132,9 @@ pub struct Setup {
     pub faults: FaultSchedule,
     /// Number of samples `K = round(t_end / h)`.
     pub samples: u64,
+    /// The followers' clocks; `None` when every follower samples at `k h` (no `[clock]`, or
+    /// all of it zero with `sync = "none"`).
+    pub clocks: Option<ClockPlan>,
 }
 
 impl Setup {
@@ -728,6 +736,22 @@ fn validate_plant(
         _ => None,
     };
     problems.take(scenario.metrics.check());
+    let clocks = match &graph {
+        Some(g) if timed && scenario.clock.is_active() => {
+            if scenario.network.kind == network::NetworkKind::Pil {
+                problems.push(Error::invalid(
+                    "clock",
+                    "network.kind = \"pil\" paces every emulated node by the host's sample grid, \
+                     so a node cannot sample on its own clock: leave [clock] out (or all zero with \
+                     sync = \"none\"), or use kind = \"can\"",
+                ));
+                None
+            } else {
+                problems.take(scenario.clock.plan(g.len(), sim.h))
+            }
+        }
+        _ => None,
+    };
     if scenario.plant.x0_drawn() {
         // Drawn from the box: the resolved scenario shows the box, not Example 1's rows.
         scenario.plant.x0.clear();
@@ -757,6 +781,7 @@ fn validate_plant(
         x0: x0.unwrap_or_default(),
         faults,
         samples: samples.unwrap_or(1),
+        clocks,
     };
     problems.take(with_sizes!(
         setup.n(),

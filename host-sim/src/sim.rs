@@ -2,15 +2,23 @@
 //! exchange outputs over the link, step every controller, let observers record, then integrate
 //! each plant over `[t_k, t_k + h)` with the quantized commands held (faults applied per stage).
 //!
+//! With a `[clock]`, [`Sim::run_clocked`] (in `sim/clocked.rs`) runs instead: every follower
+//! samples at its own instants and the plants are integrated between them.
+//!
 //! Who computes the commands is an [`Agents`]: host-sim's own controllers fed through a
 //! [`LinkModel`] ([`Linked`]), or firmware nodes over a simulated bus
 //! ([`crate::network::BusAgents`]).
 
-use controller_core::{Controller, ControllerConfig, Gains, StepOutput};
+mod clocked;
+
+use controller_core::{Controller, ControllerConfig, Gains, Link, StepOutput};
 use rayon::prelude::*;
 use serde::Serialize;
 
+pub use clocked::Release;
+
 use crate::{
+    clock::Clocks,
     error::{Error, Result},
     faults::{ActuatorEffect, FaultSchedule},
     figures::{FirmwareSummary, NetworkSummary},
@@ -89,6 +97,35 @@ pub trait Agents<const N: usize, const M: usize> {
     ) -> Result<()>;
     /// The gains in force (agent 1's; all agents share the design values).
     fn gains(&self) -> Gains;
+    /// Clocked runs: agent `i` (0-based) samples plant state `x` at true time `t` with its
+    /// clock reading `now_us`, steps and sends; pushes the ages [s] of the neighbour and
+    /// leader values its controller used onto `ages`.
+    fn sample_at(
+        &mut self,
+        _i: usize,
+        _t: f64,
+        _now_us: u64,
+        _x: &[f64; N],
+        _ages: &mut Vec<f64>,
+    ) -> Result<StepOutput<N, M>> {
+        Err(unclocked())
+    }
+    /// Clocked runs: the leader sends `y_d` of sample `k` at `t = k h`.
+    fn leader_sends(&mut self, _k: u64, _t: f64, _yd: f64) -> Result<()> {
+        Err(unclocked())
+    }
+    /// Clocked runs: the network runs up to `until` [s], each node's clock from `clocks`;
+    /// with `sync`, it stops at the first delivery of a leader frame and pushes the releases
+    /// it gives onto `releases` (the caller plans them and calls again).
+    fn run_until(
+        &mut self,
+        _until: f64,
+        _sync: bool,
+        _clocks: &Clocks,
+        _releases: &mut Vec<Release>,
+    ) -> Result<()> {
+        Err(unclocked())
+    }
     /// Network figures for `summary.json` (none for a link model).
     fn network(&self) -> Option<NetworkSummary> {
         None
@@ -107,6 +144,10 @@ pub trait Agents<const N: usize, const M: usize> {
     }
 }
 
+fn unclocked() -> Error {
+    Error::invalid("clock", "these agents cannot sample on their own clocks")
+}
+
 /// host-sim's own controllers, one per agent, hearing each other through a [`LinkModel`].
 pub struct Linked<L, const N: usize, const M: usize> {
     graph: Graph,
@@ -114,6 +155,12 @@ pub struct Linked<L, const N: usize, const M: usize> {
     ctrls: Vec<Controller<N, M, K>>,
     y: Vec<f32>,
     inbox: Inbox,
+    /// Clocked runs: each agent's last broadcast output and its sample time [s].
+    sent: Vec<Option<(f32, f64)>>,
+    /// Clocked runs: the leader's last `y_d`, its time [s] and sample.
+    led: Option<(f32, f64, u64)>,
+    /// Clocked runs: a leader broadcast not yet handed out as releases.
+    unreleased: bool,
 }
 
 impl<L: LinkModel, const N: usize, const M: usize> Linked<L, N, M> {
@@ -132,6 +179,9 @@ impl<L: LinkModel, const N: usize, const M: usize> Linked<L, N, M> {
             link,
             ctrls,
             y: vec![0.0; n_agents],
+            sent: vec![None; n_agents],
+            led: None,
+            unreleased: false,
             graph,
         })
     }
@@ -172,6 +222,68 @@ impl<L: LinkModel, const N: usize, const M: usize> Agents<N, M> for Linked<L, N,
 
     fn gains(&self) -> Gains {
         *self.ctrls[0].params().gains()
+    }
+
+    /// The ideal link without a common sample instant: agent `i` uses the latest value each
+    /// neighbour broadcast (at its own last sample) and the leader's latest `y_d`.
+    fn sample_at(
+        &mut self,
+        i: usize,
+        t: f64,
+        _now_us: u64,
+        x: &[f64; N],
+        ages: &mut Vec<f64>,
+    ) -> Result<StepOutput<N, M>> {
+        if !self.link.is_instant() {
+            return Err(Error::invalid(
+                "clock",
+                "a clocked run over a link model needs the ideal link",
+            ));
+        }
+        let o = self.graph.offset(i);
+        for (slot, &j) in self.inbox.neighbours[o..]
+            .iter_mut()
+            .zip(self.graph.neighbours(i))
+        {
+            *slot = match self.sent[j] {
+                Some((y, at)) => {
+                    ages.push(t - at);
+                    Link::Fresh(y)
+                }
+                None => Link::Missing,
+            };
+        }
+        self.inbox.leader[i] = match self.led {
+            Some((yd, at, _)) if self.graph.pinned(i) => {
+                ages.push(t - at);
+                Link::Fresh(yd)
+            }
+            _ => Link::Missing,
+        };
+        let xs = x.map(|v| v as f32);
+        let out = self.ctrls[i].step(&xs, self.inbox.of(&self.graph, i), self.inbox.leader[i]);
+        self.sent[i] = Some((xs[0], t));
+        Ok(out)
+    }
+
+    fn leader_sends(&mut self, k: u64, t: f64, yd: f64) -> Result<()> {
+        self.led = Some((yd as f32, t, k));
+        self.unreleased = true;
+        Ok(())
+    }
+
+    fn run_until(
+        &mut self,
+        until: f64,
+        sync: bool,
+        _clocks: &Clocks,
+        releases: &mut Vec<Release>,
+    ) -> Result<()> {
+        if let Some((_, at, k)) = self.led.filter(|l| sync && self.unreleased && l.1 <= until) {
+            self.unreleased = false;
+            releases.extend((0..self.graph.len()).map(|agent| Release { agent, k, at }));
+        }
+        Ok(())
     }
 }
 

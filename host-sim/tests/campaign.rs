@@ -483,3 +483,20 @@ fn window_columns_and_replication_means_with_student_t_intervals() {
         assert_eq!(&rec[scol("window.late iae.n")], "4");
     }
 }
+
+#[test]
+fn three_axes_draw_one_map_per_value_of_the_first() {
+    let out = tmp("campaign-three-axes");
+    sweep(&campaign("three-axes.toml"), &out, &[], "2");
+    let (h, rows) = table(&out);
+    assert_eq!(
+        h[1..4],
+        ["clock.sync", "clock.drift_ppm", "clock.jitter_us"]
+    );
+    assert_eq!(rows.len(), 8);
+    // The first axis is the slowest: runs 0-3 are sync none, 4-7 leader.
+    assert!(rows[..4].iter().all(|r| r[1] == "none"), "{rows:?}");
+    assert!(rows[4..].iter().all(|r| r[1] == "leader"), "{rows:?}");
+    assert!(out.join("map-1.png").exists() && out.join("map-2.png").exists());
+    assert!(!out.join("map-3.png").exists() && !out.join("map.png").exists());
+}

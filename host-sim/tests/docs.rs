@@ -369,7 +369,7 @@ fn with_window() -> Value {
 #[test]
 fn every_summary_key_is_documented_with_a_unit() {
     let doc = doc();
-    // Diverged (divergence object), CAN (network object), ideal.
+    // Diverged (divergence object), CAN (network object), ideal, clocked (clock object).
     let runs = [
         summary(
             "example1.toml",
@@ -378,12 +378,17 @@ fn every_summary_key_is_documented_with_a_unit() {
         summary("example1-can.toml", &["simulation.t_end=0.05"]),
         summary("example2.toml", &["simulation.t_end=0.05"]),
         with_window(),
+        summary(
+            "example1-can.toml",
+            &["simulation.t_end=0.05", "clock.jitter_us=10"],
+        ),
     ];
     assert!(
         runs[0]["divergence"].is_object(),
         "the first run must diverge"
     );
     assert!(runs[1]["network"].is_object());
+    assert!(runs[4]["clock"].is_object());
     for s in &runs {
         let (mut all, mut numeric) = (BTreeSet::new(), BTreeSet::new());
         json_keys("", s, &mut all, &mut numeric);

@@ -11,8 +11,9 @@ use std::{
 };
 
 /// The blocks below `scenario`: they own their spec types and must not import it.
-const BLOCKS: [&str; 7] = [
+const BLOCKS: [&str; 8] = [
     "faults.rs",
+    "clock.rs",
     "metrics/spec.rs",
     "graph.rs",
     "network",
@@ -36,6 +37,7 @@ const LAYERS: &[(&str, &[&str])] = &[
             "graph.rs",
             "leader.rs",
             "faults.rs",
+            "clock.rs",
             "plant",
             "figures.rs",
             "network/spec.rs",
@@ -45,7 +47,7 @@ const LAYERS: &[(&str, &[&str])] = &[
             "metrics/spec.rs",
         ],
     ),
-    ("the loop", &["sim.rs"]),
+    ("the loop", &["sim.rs", "sim"]),
     ("assembly of a scenario", &["scenario.rs"]),
     (
         "agents over a bus, observers and outputs",

@@ -27,6 +27,8 @@ use std::{
     time::Instant,
 };
 
+mod clocks;
+
 const OPEN: &str = "<!-- fig:";
 const CLOSE: &str = "<!-- /fig:";
 const END: &str = " -->";
@@ -170,9 +172,13 @@ pub fn docs(opts: &Options) -> Result<()> {
     }
     let mut src = Sources::new(opts.rerun);
     let keep = |name: &str| name.starts_with("wall.") && (opts.check || !opts.wall_clock);
-    process(&workspace_root(), opts.check, keep, |name| {
-        render(name, &mut src)
-    })?;
+    process(
+        &workspace_root(),
+        opts.only.as_deref(),
+        opts.check,
+        keep,
+        |name| render(name, &mut src),
+    )?;
     if opts.check {
         println!("docs: every measured figure matches");
     }
@@ -183,12 +189,20 @@ pub fn docs(opts: &Options) -> Result<()> {
 /// names each file, line and block whose figure differs.
 fn process(
     root: &Path,
+    only: Option<&str>,
     check: bool,
     keep: impl Fn(&str) -> bool,
     mut render: impl FnMut(&str) -> Result<Option<String>>,
 ) -> Result<()> {
     let mut differ = Vec::new();
-    for file in documents(root)? {
+    let mut files = documents(root)?;
+    if let Some(only) = only {
+        files.retain(|f| f == Path::new(only));
+        if files.is_empty() {
+            return Err(format!("--only {only}: not README.md or a docs/*.md file"));
+        }
+    }
+    for file in files {
         let path = root.join(&file);
         let text = fs::read_to_string(&path).map_err(|e| format!("{}: {e}", file.display()))?;
         let r =
@@ -228,7 +242,7 @@ fn short(s: &str) -> String {
 }
 
 /// The figure names (patterns) and what they render.
-pub const CATALOGUE: [(&str, &str); 19] = [
+pub const CATALOGUE: [(&str, &str); 23] = [
     ("bench-table", "target bench table (target/bench/step.json)"),
     ("bench.VARIANT.KEY", "one number of step.json's VARIANT (KEY also flash_total)"),
     ("scenarios", "shipped scenario table (host-sim run, stable-h)"),
@@ -247,6 +261,10 @@ pub const CATALOGUE: [(&str, &str); 19] = [
     ("campaign.NAME", "Ts x h map summary per Ts (NAME: example1-ts-h, example2-ts-h; out/campaigns/NAME/results.csv)"),
     ("campaign.example1-monte-carlo.KEY", "Monte Carlo figures (KEY: runs, diverged, bounded, error-min, error-max, error-median, error-p95)"),
     ("board.KEY", "NUCLEO-G474RE firmware size in bytes (KEY: text, data, bss, flash, ram; target/board/size.json of cargo xtask board-size)"),
+    ("clocks.NAME", "clock campaign table: error after 2Ts vs synchronous per sync, drift, jitter (NAME: clock-drift, clock-drift-example2)"),
+    ("clocks.NAME.KEY", "clock campaign figures (KEY: runs, synchronous, synchronous-settling, worst-none, worst-leader, best-none, energy-max, diverged-none, diverged-leader)"),
+    ("clocks.goal", "Example 1 over CAN for 60 s: synchronous, free-running clocks, leader sync"),
+    ("clocks.goal.RUN", "error after 2Ts of a goal run vs synchronous (RUN: free, leader)"),
     ("wall.example1-run", "wall time of host-sim run example1 (date and machine; --wall-clock)"),
 ];
 
@@ -271,6 +289,10 @@ enum Figure<'a> {
     TsH(&'a str),
     MonteCarlo(&'a str),
     Board(&'a str),
+    Clocks(&'a str),
+    ClocksKey(&'a str, &'a str),
+    ClocksGoal,
+    ClocksGoalRun(&'a str),
     WallExample1,
 }
 
@@ -327,6 +349,12 @@ fn parse(name: &str) -> Option<Figure<'_>> {
             Figure::MonteCarlo(key)
         }
         ["board", key] if crate::board::KEYS.contains(key) => Figure::Board(key),
+        ["clocks", "goal"] => Figure::ClocksGoal,
+        ["clocks", "goal", run] if clocks::goal_run(run) => Figure::ClocksGoalRun(run),
+        ["clocks", name] if clocks::CAMPAIGNS.contains(name) => Figure::Clocks(name),
+        ["clocks", name, key] if clocks::CAMPAIGNS.contains(name) && clocks::KEYS.contains(key) => {
+            Figure::ClocksKey(name, key)
+        }
         ["wall", "example1-run"] => Figure::WallExample1,
         _ => return None,
     })
@@ -356,6 +384,10 @@ fn render(name: &str, src: &mut Sources) -> Result<Option<String>> {
         Figure::TsH(name) => ts_h_table(&src.campaign(name)?)?,
         Figure::MonteCarlo(key) => monte_carlo(&src.campaign("example1-monte-carlo")?, key)?,
         Figure::Board(key) => grouped(num(&src.board()?, key)?, 0),
+        Figure::Clocks(name) => clocks::table(&src.campaign(name)?)?,
+        Figure::ClocksKey(name, key) => clocks::figure(&src.campaign(name)?, key)?,
+        Figure::ClocksGoal => clocks::goal_table(src)?,
+        Figure::ClocksGoalRun(run) => clocks::goal_figure(src, run)?,
         Figure::WallExample1 => wall_example1(src)?,
     };
     Ok(Some(text))
@@ -1417,7 +1449,7 @@ mod tests {
     #[test]
     fn check_fails_naming_file_line_and_block_and_writes_nothing() {
         let root = workspace("check", "1,244");
-        let e = process(&root, true, |_| false, figures).expect_err("a stale figure");
+        let e = process(&root, None, true, |_| false, figures).expect_err("a stale figure");
         assert!(e.contains("docs/B.md:2: block `fig:a` differs"), "{e}");
         assert!(
             e.contains("document: 1,244") && e.contains("measured: 1,089"),
@@ -1425,15 +1457,15 @@ mod tests {
         );
         let doc = fs::read_to_string(root.join("docs/B.md")).expect("read");
         assert!(doc.contains("-->1,244<"), "--check must not write");
-        process(&root, false, |_| false, figures).expect("rewrite");
-        process(&root, true, |_| false, figures).expect("up to date after the rewrite");
+        process(&root, None, false, |_| false, figures).expect("rewrite");
+        process(&root, None, true, |_| false, figures).expect("up to date after the rewrite");
         let _ = fs::remove_dir_all(&root);
     }
 
     #[test]
     fn check_passes_when_every_figure_matches() {
         let root = workspace("match", "1,089");
-        process(&root, true, |_| false, figures).expect("figures match");
+        process(&root, None, true, |_| false, figures).expect("figures match");
         let _ = fs::remove_dir_all(&root);
     }
 

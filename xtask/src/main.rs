@@ -53,12 +53,13 @@ tasks:
       --update-budget writes the budget from the measured figures instead; a figure above
       the committed budget by more than its tolerance is refused unless --reason TEXT
       explains it (written next to the figure as `<figure>_reason`)
-  docs [--check] [--rerun] [--wall-clock] [--list]
+  docs [--check] [--rerun] [--wall-clock] [--list] [--only FILE]
       rewrite every measured figure of README.md and docs/*.md between its
       <!-- fig:NAME --> and <!-- /fig:NAME --> markers from the files the measuring
       commands write (reused when present; --rerun measures again); --check writes
       nothing and fails naming each block that differs; wall-clock figures (wall.*)
-      are rewritten only with --wall-clock and never checked; --list names the figures
+      are rewritten only with --wall-clock and never checked; --list names the figures;
+      --only FILE (e.g. docs/CLOCKS.md) handles that document alone
   board-size [--no-run]
       build boards/nucleo-g474re in release (unless --no-run: the ELF as last built), print
       its text, data and bss, and fail if text + data exceeds 64 KiB (65,536 B) or data + bss
@@ -112,6 +113,7 @@ pub struct Options {
     pub wall_clock: bool,
     pub list: bool,
     pub reason: Option<String>,
+    pub only: Option<String>,
 }
 
 impl Options {
@@ -127,6 +129,9 @@ impl Options {
                 "--rerun" => o.rerun = true,
                 "--wall-clock" => o.wall_clock = true,
                 "--list" => o.list = true,
+                "--only" => {
+                    o.only = Some(args.next().ok_or("--only needs a file")?.clone());
+                }
                 "--reason" => {
                     o.reason = Some(args.next().ok_or("--reason needs a text")?.clone());
                 }

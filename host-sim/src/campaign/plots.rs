@@ -135,6 +135,27 @@ impl Table {
         t
     }
 
+    /// The cells `range` (in run order), named `what` in the caption.
+    fn slice(&self, range: Range<usize>, what: &str) -> Self {
+        let take = |v: &[f64]| v.get(range.clone()).unwrap_or_default().to_vec();
+        Self {
+            metric: self.metric.clone(),
+            summary: format!("{}, {what}", self.summary),
+            cells: self.cells.get(range.clone()).unwrap_or_default().to_vec(),
+            diverged: self
+                .diverged
+                .get(range.clone())
+                .unwrap_or_default()
+                .to_vec(),
+            settling: self
+                .settling
+                .get(range.clone())
+                .unwrap_or_default()
+                .to_vec(),
+            ts: take(&self.ts),
+        }
+    }
+
     fn values(&self) -> impl Iterator<Item = f64> + '_ {
         self.cells.iter().filter_map(|c| match c {
             Cell::Value(v) if v.is_finite() => Some(*v),
@@ -216,15 +237,28 @@ pub fn draw(
         written.push(p);
     } else if file.axis.len() == 2 {
         let p = out.join("map.png");
-        let (a, b) = (&file.axis[0], &file.axis[1]);
-        let style = FigureStyle::px(
-            (300 + 100 * a.values.len()).clamp(1000, 1800) as u32,
-            (200 + 60 * b.values.len()).clamp(500, 1400) as u32,
-        );
-        figure::save(&p, &style, &CampaignFigure::Heatmap(&t, a, b))?;
-        written.push(p);
+        written.push(map(&p, &t, &file.axis[0], &file.axis[1])?);
+    } else if let [first, a, b] = &file.axis[..] {
+        // One map per value of the first (slowest) axis: its cells are consecutive.
+        let chunk = a.values.len() * b.values.len();
+        for (n, v) in first.values.iter().enumerate() {
+            let what = format!("{} = {}", first.key, axis_label(v));
+            let part = t.slice(n * chunk..(n + 1) * chunk, &what);
+            let p = out.join(format!("map-{}.png", n + 1));
+            written.push(map(&p, &part, a, b)?);
+        }
     }
     Ok(written)
+}
+
+/// The heatmap of `t` over axes `a` × `b` into `p`.
+fn map(p: &Path, t: &Table, a: &Axis, b: &Axis) -> Result<PathBuf> {
+    let style = FigureStyle::px(
+        (300 + 100 * a.values.len()).clamp(1000, 1800) as u32,
+        (200 + 60 * b.values.len()).clamp(500, 1400) as u32,
+    );
+    figure::save(p, &style, &CampaignFigure::Heatmap(t, a, b))?;
+    Ok(p.to_path_buf())
 }
 
 /// The figures of a campaign.

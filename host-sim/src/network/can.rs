@@ -11,6 +11,7 @@ use hil_mock::{
 };
 
 use crate::{
+    clock::Clocks,
     error::{Error, Result},
     figures::{NetworkSummary, NodeSummary},
     graph::Graph,
@@ -19,7 +20,7 @@ use crate::{
         spec::{bus_config, node_config, ns, NetworkKind, NetworkSpec},
         trace::{TraceWriter, INTERFACE},
     },
-    sim::{Agents, K},
+    sim::{Agents, Release, K},
 };
 
 /// Every agent an `agent-node` node on mocked hardware over the simulated CAN bus.
@@ -31,6 +32,8 @@ pub struct CanAgents<const N: usize, const M: usize> {
     trace: Option<TraceWriter>,
     /// `summary.json` `network.nodes[]` is written (a `[node]` section was given).
     report_nodes: bool,
+    h: f64,
+    ages: Vec<Nanos>,
 }
 
 impl<const N: usize, const M: usize> CanAgents<N, M> {
@@ -66,7 +69,15 @@ impl<const N: usize, const M: usize> CanAgents<N, M> {
             states: vec![[0.0; N]; graph.len()],
             trace,
             report_nodes: !node.is_default(),
+            h,
+            ages: Vec::new(),
         })
+    }
+
+    fn flush_trace(&mut self) {
+        if let Some(w) = self.trace.as_mut() {
+            w.write(INTERFACE, &self.net.bus_mut().take_wire_log());
+        }
     }
 
     /// The network (nodes, bus, statistics).
@@ -123,9 +134,68 @@ impl<const N: usize, const M: usize> Agents<N, M> for CanAgents<N, M> {
         let t_ns = k.saturating_mul(self.h_ns);
         let ticks = self.net.step(t_ns, &self.states, Some(yd as f32));
         out.extend(ticks.iter().map(|t| t.output));
-        if let Some(w) = self.trace.as_mut() {
-            w.write(INTERFACE, &self.net.bus_mut().take_wire_log());
+        self.flush_trace();
+        Ok(())
+    }
+
+    fn sample_at(
+        &mut self,
+        i: usize,
+        t: f64,
+        now_us: u64,
+        x: &[f64; N],
+        ages: &mut Vec<f64>,
+    ) -> Result<StepOutput<N, M>> {
+        let t_ns = ns(t);
+        let xs = x.map(|v| v as f32);
+        let tick = self.net.tick_at(i, t_ns, now_us, Some(&xs));
+        self.ages.clear();
+        self.net.link_ages(i, t_ns, now_us, &mut self.ages);
+        ages.extend(self.ages.iter().map(|&a| a as f64 * 1e-9));
+        Ok(tick.output)
+    }
+
+    fn leader_sends(&mut self, _k: u64, t: f64, yd: f64) -> Result<()> {
+        self.net.send_leader(ns(t), yd as f32);
+        Ok(())
+    }
+
+    /// With `sync`, the leader's frame is the release: every follower that receives it
+    /// samples its jitter later.
+    fn run_until(
+        &mut self,
+        until: f64,
+        sync: bool,
+        clocks: &Clocks,
+        releases: &mut Vec<Release>,
+    ) -> Result<()> {
+        let until = ns(until);
+        let local = |j: usize, at: Nanos| clocks.local_us(j, at as f64 * 1e-9);
+        if sync {
+            while let Some(at) = self.net.bus_mut().next_delivery(until) {
+                for d in self.net.deliver_until(at, local) {
+                    if d.from != 0 {
+                        continue;
+                    }
+                    let k = (d.submitted_ns as f64 * 1e-9 / self.h).round() as u64;
+                    for agent in 0..self.states.len() {
+                        if !self.net.bus().is_bus_off(agent + 1, d.at_ns) {
+                            releases.push(Release {
+                                agent,
+                                k,
+                                at: d.at_ns as f64 * 1e-9,
+                            });
+                        }
+                    }
+                }
+                if !releases.is_empty() {
+                    self.flush_trace();
+                    return Ok(());
+                }
+            }
         }
+        self.net.deliver_until(until, local);
+        self.flush_trace();
         Ok(())
     }
 

@@ -40,6 +40,11 @@ pub trait LinkModel {
     /// Delivers the values agents see at sample `k` (time `t`): outputs `y` (one per agent,
     /// as broadcast) and the leader's `y_d`.
     fn exchange(&mut self, k: u64, t: f64, y: &[f32], yd: f32, graph: &Graph, inbox: &mut Inbox);
+    /// Every value reaches its receivers at once (a clocked run can then use the latest
+    /// broadcast values without the model).
+    fn is_instant(&self) -> bool {
+        false
+    }
 }
 
 /// No delay, no loss.
@@ -47,6 +52,10 @@ pub trait LinkModel {
 pub struct IdealLink;
 
 impl LinkModel for IdealLink {
+    fn is_instant(&self) -> bool {
+        true
+    }
+
     #[inline]
     fn exchange(&mut self, _k: u64, _t: f64, y: &[f32], yd: f32, graph: &Graph, inbox: &mut Inbox) {
         for i in 0..graph.len() {

@@ -38,10 +38,11 @@ pub use crate::network::{
     trace::Traces,
 };
 use crate::{
+    clock::Clocks,
     error::{Error, Result},
     figures::FirmwareSummary,
     graph::Graph,
-    sim::Agents,
+    sim::{Agents, Release},
 };
 
 /// The agents of a bus network kind: node firmware over the simulated CAN bus, host-compiled
@@ -112,6 +113,31 @@ impl<const N: usize, const M: usize> Agents<N, M> for BusAgents<N, M> {
 
     fn gains(&self) -> Gains {
         self.agents().gains()
+    }
+
+    fn sample_at(
+        &mut self,
+        i: usize,
+        t: f64,
+        now_us: u64,
+        x: &[f64; N],
+        ages: &mut Vec<f64>,
+    ) -> Result<StepOutput<N, M>> {
+        self.agents_mut().sample_at(i, t, now_us, x, ages)
+    }
+
+    fn leader_sends(&mut self, k: u64, t: f64, yd: f64) -> Result<()> {
+        self.agents_mut().leader_sends(k, t, yd)
+    }
+
+    fn run_until(
+        &mut self,
+        until: f64,
+        sync: bool,
+        clocks: &Clocks,
+        releases: &mut Vec<Release>,
+    ) -> Result<()> {
+        self.agents_mut().run_until(until, sync, clocks, releases)
     }
 
     fn network(&self) -> Option<NetworkSummary> {

@@ -1,6 +1,7 @@
 //! Run outputs of docs/SCENARIO.md: `summary.json`, `trajectory.csv`, plots; every file is written
 //! under a temporary name and renamed into place.
 
+pub mod clocks;
 pub mod csv;
 pub mod plots;
 pub mod spread;
