@@ -212,7 +212,7 @@ const NETWORK_UNITS: [(&str, &str); 14] = [
 ];
 
 /// Units of `firmware`'s numeric keys (PIL runs).
-const FIRMWARE_UNITS: [(&str, &str); 8] = [
+const FIRMWARE_UNITS: [(&str, &str); 11] = [
     ("firmware.agent", "1-based index"),
     ("firmware.steps", "count"),
     ("firmware.instructions_min", "instructions per Node::tick"),
@@ -224,6 +224,9 @@ const FIRMWARE_UNITS: [(&str, &str); 8] = [
     ("firmware.instructions_max", "instructions per Node::tick"),
     ("firmware.instructions_resolution", "instructions"),
     ("firmware.stack_bytes", "B"),
+    ("firmware.overruns", "count"),
+    ("firmware.resets", "count"),
+    ("firmware.safe_state_entries", "count"),
 ];
 
 impl Summary {
