@@ -134,6 +134,16 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         self.state = Self::initial_state(&self.params);
     }
 
+    /// Resume after a pause in which no step ran (a node's safe state): `t` and `ϖ` start
+    /// again and the differentiators from rest, while the estimates `μ̂`, `ξ̂`, `λ̂`, the
+    /// quantizers and the link memory are kept.
+    pub fn resume(&mut self) {
+        let s = &mut self.state;
+        s.k = 0;
+        s.varpi = self.params.varpi.initial;
+        s.differentiators = [DifferentiatorState::default(); N];
+    }
+
     /// The validated settings.
     pub const fn params(&self) -> &Params<N> {
         &self.params

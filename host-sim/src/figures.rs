@@ -96,6 +96,6 @@ pub struct FirmwareSummary {
     pub overruns: u32,
     /// Watchdog resets during the run (each one ends with the node re-joining).
     pub resets: u32,
-    /// Times the node entered its safe state; `null` while the firmware has no safe state.
+    /// Times the node entered its safe state (from the state its reports carry).
     pub safe_state_entries: Option<u32>,
 }

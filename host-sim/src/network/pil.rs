@@ -34,6 +34,7 @@ use std::{
 use agent_node::{
     link::{self, io, CanFrame, Report, Slcan, Tick, RECORD_MAX_LINE, SLCAN_MAX_LINE},
     wire::{self, Source},
+    NodeState,
 };
 use controller_core::{
     ControllerConfig, Estimates, Gains, LinkReport, StepFault, StepOutput, StepStatus,
@@ -625,6 +626,21 @@ struct NodeEvents {
     overruns: u32,
     hangs: Vec<f64>,
     resets: Vec<f64>,
+    /// Safe-state intervals `[from, to)` [s]; `to` is `None` while the node is in it.
+    safe: Vec<(f64, Option<f64>)>,
+}
+
+impl NodeEvents {
+    /// Follows the node state a report carries ([`NodeState::code`]) at sample time `t`.
+    fn state(&mut self, code: u8, t: f64) {
+        let safe = code == NodeState::Safe.code();
+        match self.safe.last_mut() {
+            Some((_, to @ None)) if !safe => *to = Some(t),
+            Some((_, None)) => {}
+            _ if safe => self.safe.push((t, None)),
+            _ => {}
+        }
+    }
 }
 
 impl<const N: usize, const M: usize> PilAgents<N, M> {
@@ -789,7 +805,9 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
                     stack_bytes: stack,
                     overruns: self.events[i].overruns,
                     resets: u32::try_from(self.events[i].resets.len()).unwrap_or(u32::MAX),
-                    safe_state_entries: None,
+                    safe_state_entries: Some(
+                        u32::try_from(self.events[i].safe.len()).unwrap_or(u32::MAX),
+                    ),
                 }
             })
             .collect()
@@ -814,6 +832,7 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
             let f = match emu.next_answer(waiting)? {
                 Answer::Report(r) => {
                     emu.hung = false;
+                    self.events[j].state(r.state, t_ns as f64 * 1e-9);
                     let out = report_output(&r);
                     self.stale_samples += u64::from(r.stale);
                     self.costs[j].push(r.instructions);
@@ -838,7 +857,9 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
                 }
                 Some(io::BOOT) => {
                     emu.rejoin(&f)?;
-                    self.events[j].resets.push(t_ns as f64 * 1e-9);
+                    let t = t_ns as f64 * 1e-9;
+                    self.events[j].resets.push(t);
+                    self.events[j].state(NodeState::Boot.code(), t);
                     let held = &mut self.held[j];
                     held.q = [0.0; M];
                     held.u = [0.0; M];
@@ -992,6 +1013,14 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
             }
             for &t in &ev.resets {
                 vlines.push((t, format!("agent {}: watchdog reset", i + 1)));
+            }
+            for &(from, to) in &ev.safe {
+                shades.push(Shade {
+                    from,
+                    to: to.unwrap_or(end),
+                    color: RGBColor(214, 39, 40).mix(0.10),
+                    label: format!("agent {}: safe state", i + 1),
+                });
             }
         }
         let panel = Panel {

@@ -1,6 +1,6 @@
 //! The `[network]` section: its keys, their validation and the bus settings they give.
 
-use agent_node::NodeConfig;
+use agent_node::{IdPlan, NodeConfig};
 use hil_mock::bus::{BusConfig, BusEvent, EventKind, Nanos};
 use serde::{Deserialize, Serialize};
 
@@ -148,11 +148,11 @@ pub fn node_config(
         *d = u8::try_from(k + 1).unwrap_or(0);
     }
     let stale = spec.stale_timeout.unwrap_or(2.5 * h);
-    Ok(NodeConfig {
-        agent,
-        neighbours,
-        stale_timeout_us: ((stale * 1e6).round() as u64).max(1),
-    })
+    let mut cfg = NodeConfig::new(agent, neighbours, ((stale * 1e6).round() as u64).max(1));
+    let agents = u8::try_from(graph.len()).unwrap_or(u8::MAX);
+    cfg.ids = IdPlan::new(IdPlan::DEFAULT.value_base(), None, agents)
+        .map_err(|e| Error::invalid("network.kind", e))?;
+    Ok(cfg)
 }
 
 /// Seconds to nanoseconds (validated, finite and small enough, input).
