@@ -269,7 +269,9 @@ impl Control {
     }
 
     /// One released sample: the host's lines up to the tick record, then the tick, the
-    /// node's frame and the report. Returns `false` if there is no node.
+    /// node's frame and the report. Returns `false` if there is no node. Kept out of line so
+    /// that the framework's share of a sample can be told apart in an execution trace.
+    #[inline(never)]
     fn sample(&mut self, send: &mut impl FnMut(&[u8])) -> bool {
         loop {
             let (f, ts) = match self.next(send) {
