@@ -598,9 +598,12 @@ impl Sources {
     fn node_fw(&mut self) -> Result<Value> {
         self.json_file("target/docs/node-fw.json", |_, file| {
             let dir = workspace_root().join("node-fw");
-            run(Command::new(cargo())
-                .current_dir(&dir)
-                .args(["build", "--release", "--locked", "--quiet"]))?;
+            run(Command::new(cargo()).current_dir(&dir).args([
+                "build",
+                "--release",
+                "--locked",
+                "--quiet",
+            ]))?;
             let elf = dir.join("target/thumbv7em-none-eabihf/release/node-fw");
             let data = fs::read(&elf).map_err(|e| format!("{}: {e}", elf.display()))?;
             let obj = object::File::parse(&*data)
