@@ -246,7 +246,7 @@ pub const HEARTBEAT_SIGNALS: [Signal; 8] = [
 
 /// Comment of the heartbeats.
 const HEARTBEAT_COMMENT: &str =
-    "Node heartbeat: state, lost sources and counters, every heartbeat period and on each change of state";
+    "Node heartbeat: state, lost sources and counters, once per heartbeat period";
 
 /// The messages of the serial link, in the order of a run: start-up, samples, statistics.
 pub const IO_MESSAGES: [Message; 12] = [

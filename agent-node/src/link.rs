@@ -957,6 +957,8 @@ mod tests {
         }
         let d = ControllerConfig::<2>::default();
         let w = encode_config(&node, &d);
+        // docs/NETWORK.md §9: Example 1's node (n = 2, 16 neighbour slots) in 62 words.
+        assert_eq!(w.as_slice().map(<[u32]>::len), Some(62));
         assert_eq!(
             decode_config::<2, 16>(w.as_slice().expect("fits")),
             Ok((node, d))

@@ -47,8 +47,8 @@
 //! [`crate::supervisor::SafePolicy`]'s command instead of the controller's, and the controller
 //! is not advanced (the tick still reports the error the frozen controller would see). With
 //! [`NodeConfig::heartbeat_period_us`] > 0 the node sends a heartbeat
-//! ([`wire::Heartbeat`]) after its value frame at the first tick, every period after it and at
-//! every change of state. A tick that comes more than 1.5 sample periods after the previous
+//! ([`wire::Heartbeat`]) after its value frame every period, agent `i`'s `i − 1` samples after
+//! the first tick (modulo the period) so that the heartbeats of a bus are spread over samples. A tick that comes more than 1.5 sample periods after the previous
 //! one counts the samples skipped as deadline overruns ([`NodeStats::overruns`]); the board
 //! reports overruns it detects itself with [`Node::record_overrun`].
 //!
@@ -63,7 +63,7 @@ use controller_core::{ConfigError, Controller, ControllerConfig, Link, StepFault
 use embedded_can::{nb::Can, Error as _, ErrorKind};
 
 use crate::supervisor::{
-    safe_command, NodeState, Observation, Supervisor, SupervisorConfig, SupervisorError, Transition,
+    safe_command, NodeState, Observation, Supervisor, SupervisorConfig, SupervisorError,
 };
 use crate::wire::{self, DecodeStats, Decoded, Heartbeat, IdPlan, SeqCheck, Source, WireError};
 
@@ -359,6 +359,8 @@ pub struct Node<C, Clk, S, A, const N: usize, const M: usize, const K: usize> {
     /// The command written at the last tick.
     applied: [f32; M],
     fault_pending: bool,
+    /// Some source has a loss timeout.
+    supervised: bool,
 }
 
 impl<C, Clk, S, A, const N: usize, const M: usize, const K: usize> Node<C, Clk, S, A, N, M, K>
@@ -448,6 +450,9 @@ where
             last_tick_us: None,
             applied: [0.0; M],
             fault_pending: false,
+            supervised: cfg.supervisor.leader_timeout_us.is_some()
+                || cfg.supervisor.neighbour_timeout_us.is_some()
+                || cfg.supervisor.sensor_timeout_us.is_some(),
         })
     }
 
@@ -650,26 +655,13 @@ where
         } else {
             Link::Missing
         };
-        let transition = self.supervise(now, first, &x);
+        self.supervise(now, first, &x);
         let neighbours = links.get(..self.count).unwrap_or(&[]);
         let output = match self.supervisor.state() {
             NodeState::Boot | NodeState::Operational => {
                 self.controller.step(&x, neighbours, leader)
             }
-            state => {
-                let mut frozen = self.controller;
-                let mut o = frozen.step(&x, neighbours, leader);
-                let dt = self.last_tick_us.map_or(0, |t| now.saturating_sub(t));
-                let q = match state {
-                    NodeState::Safe => {
-                        safe_command(self.supervisor.config().policy, &self.applied, dt)
-                    }
-                    _ => [0.0; M],
-                };
-                o.u = q;
-                o.q = q;
-                o
-            }
+            state => self.frozen_output(state, now, &x, neighbours, leader),
         };
         self.log_fault(output.status.fault);
 
@@ -687,7 +679,7 @@ where
 
         let tx = self.broadcast(x[0]);
         self.seq = self.seq.wrapping_add(1) % wire::SEQ_MODULUS;
-        self.heartbeat(now, transition.is_some());
+        self.heartbeat(now, first);
         self.last_tick_us = Some(now);
         Tick {
             now_us: now,
@@ -695,6 +687,29 @@ where
             tx,
             state: self.supervisor.state(),
         }
+    }
+
+    /// `Safe` or `Fault`: the error a copy of the frozen controller computes, with the
+    /// policy's command (zero in `Fault`). Out of line, so the copy's stack is used only there.
+    #[inline(never)]
+    fn frozen_output(
+        &self,
+        state: NodeState,
+        now: u64,
+        x: &[f32; N],
+        neighbours: &[Link],
+        leader: Link,
+    ) -> StepOutput<N, M> {
+        let mut frozen = self.controller;
+        let mut o = frozen.step(x, neighbours, leader);
+        let dt = self.last_tick_us.map_or(0, |t| now.saturating_sub(t));
+        let q = match state {
+            NodeState::Safe => safe_command(self.supervisor.config().policy, &self.applied, dt),
+            _ => [0.0; M],
+        };
+        o.u = q;
+        o.q = q;
+        o
     }
 
     /// Samples skipped since the last tick: more than 1.5 periods apart counts every whole
@@ -713,8 +728,12 @@ where
         }
     }
 
-    /// Evaluate the supervisor at `now` (first tick at `first`) and act on a transition.
-    fn supervise(&mut self, now: u64, first: u64, x: &[f32; N]) -> Option<Transition> {
+    /// Evaluate the supervisor at `now` (first tick at `first`) and act on a transition; with
+    /// nothing supervised only the first tick (`Boot → Operational`) and a fault are.
+    fn supervise(&mut self, now: u64, first: u64, x: &[f32; N]) {
+        if !self.supervised && !self.fault_pending && self.supervisor.state() != NodeState::Boot {
+            return;
+        }
         let age = |slot: &Slot| now.saturating_sub(slot.value.map_or(first, |(_, t)| t));
         let mut newest: Option<u64> = None;
         let mut oldest: Option<u64> = None;
@@ -731,11 +750,14 @@ where
             oldest_neighbour_age_us: oldest,
             sensor_ok: x.iter().all(|v| v.is_finite()),
         };
-        let t = if core::mem::take(&mut self.fault_pending) {
+        let transition = if core::mem::take(&mut self.fault_pending) {
             self.supervisor.fault()
         } else {
             self.supervisor.update(&obs)
-        }?;
+        };
+        let Some(t) = transition else {
+            return;
+        };
         self.stats.safe_state_entries = self.supervisor.safe_entries();
         match t.to {
             NodeState::Safe => warn!(
@@ -747,7 +769,7 @@ where
             ),
             NodeState::Fault => error!("agent {}: fault, outputs off", self.agent),
             NodeState::Operational if t.from == NodeState::Safe => {
-                self.controller.resume();
+                self.controller.resume(x[0], &self.applied);
                 info!(
                     "agent {}: operational again, controller resumed",
                     self.agent
@@ -757,18 +779,23 @@ where
                 debug!("agent {}: {}", self.agent, t.to.as_str());
             }
         }
-        Some(t)
     }
 
-    /// The heartbeat, when due (first tick, every period, every change of state).
-    fn heartbeat(&mut self, now: u64, changed: bool) {
-        if self.heartbeat_period_us == 0 {
+    /// The heartbeat, when due: every period, agent `i`'s first `(i − 1)` samples after the
+    /// first tick (modulo the period), so the nodes' heartbeats do not share a sample.
+    fn heartbeat(&mut self, now: u64, first: u64) {
+        let period = self.heartbeat_period_us;
+        if period == 0 {
             return;
         }
-        if !changed && self.next_heartbeat_us.is_some_and(|t| now < t) {
+        let offset = (u64::from(self.agent.saturating_sub(1)) * self.period_us) % period;
+        let due = *self
+            .next_heartbeat_us
+            .get_or_insert(first.saturating_add(offset));
+        if now < due {
             return;
         }
-        self.next_heartbeat_us = Some(now.saturating_add(self.heartbeat_period_us));
+        self.next_heartbeat_us = Some(due.saturating_add(period).max(now.saturating_add(1)));
         let to16 = |v: u32| u16::try_from(v).unwrap_or(u16::MAX);
         let hb = Heartbeat {
             state: self.supervisor.state(),

@@ -211,6 +211,14 @@ const NETWORK_UNITS: [(&str, &str); 14] = [
     ("network.babble_frames", "count"),
 ];
 
+/// Units of `network.nodes`' numeric keys (CAN runs with a `[node]` section).
+const NODE_UNITS: [(&str, &str); 4] = [
+    ("network.nodes.agent", "1-based index"),
+    ("network.nodes.safe_state_entries", "count"),
+    ("network.nodes.overruns", "count"),
+    ("network.nodes.heartbeats_sent", "count"),
+];
+
 /// Units of `firmware`'s numeric keys (PIL runs).
 const FIRMWARE_UNITS: [(&str, &str); 11] = [
     ("firmware.agent", "1-based index"),
@@ -232,8 +240,11 @@ const FIRMWARE_UNITS: [(&str, &str); 11] = [
 impl Summary {
     /// Sets the network figures (and their units).
     pub fn set_network(&mut self, network: Option<NetworkSummary>) {
-        if network.is_some() {
+        if let Some(n) = &network {
             self.units.extend(NETWORK_UNITS);
+            if !n.nodes.is_empty() {
+                self.units.extend(NODE_UNITS);
+            }
         }
         self.network = network;
     }

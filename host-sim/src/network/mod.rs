@@ -16,6 +16,7 @@
 
 pub mod can;
 pub mod ideal;
+pub mod node;
 pub mod pil;
 pub mod spec;
 pub mod trace;
@@ -28,6 +29,7 @@ pub use crate::figures::NetworkSummary;
 pub use crate::network::{
     can::CanAgents,
     ideal::{IdealLink, Inbox, Link, LinkModel},
+    node::NodeSpec,
     pil::PilAgents,
     spec::{
         bus_config, validate, EventName, NetworkEvent, NetworkKind, NetworkSpec, MAX_BITRATE,
@@ -58,6 +60,7 @@ impl<const N: usize, const M: usize> BusAgents<N, M> {
     /// `traces` when given. The ideal kind has no bus: an error naming `network.kind`.
     pub fn new(
         spec: &NetworkSpec,
+        node: &NodeSpec,
         h: f64,
         graph: &Graph,
         configs: &[ControllerConfig<N>],
@@ -73,10 +76,9 @@ impl<const N: usize, const M: usize> BusAgents<N, M> {
                 "--link-trace",
                 "needs serial links: network.kind = \"pil\"",
             )),
-            NetworkKind::Can => {
-                CanAgents::new(spec, h, graph, configs, traces.bus).map(|a| Self::Can(Box::new(a)))
-            }
-            NetworkKind::Pil => PilAgents::new(spec, h, graph, configs, samples, traces)
+            NetworkKind::Can => CanAgents::new(spec, node, h, graph, configs, traces.bus)
+                .map(|a| Self::Can(Box::new(a))),
+            NetworkKind::Pil => PilAgents::new(spec, node, h, graph, configs, samples, traces)
                 .map(|a| Self::Pil(Box::new(a))),
         }
     }

@@ -33,7 +33,7 @@ use std::{
 
 use agent_node::{
     link::{self, io, CanFrame, Report, Slcan, Tick, RECORD_MAX_LINE, SLCAN_MAX_LINE},
-    wire::{self, Source},
+    wire::{self, IdPlan, Source},
     NodeState,
 };
 use controller_core::{
@@ -55,6 +55,7 @@ use crate::{
     figures::{FirmwareSummary, NetworkSummary},
     graph::Graph,
     network::{
+        node::NodeSpec,
         spec::{bus_config, node_config, ns, EventName, NetworkKind, NetworkSpec},
         trace::{candump_fd_line, candump_line, TraceWriter, Traces, INTERFACE},
     },
@@ -595,6 +596,7 @@ pub struct PilAgents<const N: usize, const M: usize> {
     h_ns: Nanos,
     bitrate: u32,
     leader_seq: u8,
+    ids: IdPlan,
     pinned: Vec<bool>,
     neighbours: Vec<Vec<usize>>,
     /// Acceptance filter of each node: the standard identifiers it hears.
@@ -650,6 +652,7 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
     /// everything on the links, go to the candump logs of `traces` when given.
     pub fn new(
         spec: &NetworkSpec,
+        node_spec: &NodeSpec,
         h: f64,
         graph: &Graph,
         configs: &[ControllerConfig<N>],
@@ -689,8 +692,12 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
         let mut pinned = Vec::with_capacity(agents);
         let mut neighbours = Vec::with_capacity(agents);
         let mut gains = None;
+        let mut ids = IdPlan::DEFAULT;
+        let mut watch_leader = false;
         for (i, &ctrl) in configs.iter().enumerate() {
-            let node = node_config(spec, h, graph, i)?;
+            let node = node_config(spec, node_spec, h, graph, i)?;
+            ids = node.ids;
+            watch_leader = node.supervisor.leader_timeout_us.is_some();
             let heard = graph.neighbours(i);
             if gains.is_none() {
                 let c = controller_core::Controller::<N, M, K>::new(&ctrl)
@@ -727,12 +734,12 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
             .iter()
             .zip(&pinned)
             .map(|(heard, &p): (&Vec<usize>, &bool)| {
-                let leader = p.then_some(Source::Leader);
+                let leader = (p || watch_leader).then_some(Source::Leader);
                 heard
                     .iter()
                     .map(|&a| Source::Agent(u8::try_from(a).unwrap_or(0)))
                     .chain(leader)
-                    .filter_map(|s| s.raw_id().map(u32::from))
+                    .filter_map(|s| ids.value_id(s).map(u32::from))
                     .collect()
             })
             .collect();
@@ -750,6 +757,7 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
             h_ns: ns(h),
             bitrate,
             leader_seq: 0,
+            ids,
             pinned,
             neighbours,
             accept,
@@ -805,9 +813,8 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
                     stack_bytes: stack,
                     overruns: self.events[i].overruns,
                     resets: u32::try_from(self.events[i].resets.len()).unwrap_or(u32::MAX),
-                    safe_state_entries: Some(
-                        u32::try_from(self.events[i].safe.len()).unwrap_or(u32::MAX),
-                    ),
+                    safe_state_entries: u32::try_from(self.events[i].safe.len())
+                        .unwrap_or(u32::MAX),
                 }
             })
             .collect()
@@ -934,7 +941,8 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
             out.push(self.collect(j, t_ns)?);
         }
         self.record_ages(t_ns);
-        if let Some((f, _)) = wire::encode::<MockFrame>(Source::Leader, yd as f32, self.leader_seq)
+        if let Some((f, _)) =
+            wire::encode_in::<MockFrame>(&self.ids, Source::Leader, yd as f32, self.leader_seq)
         {
             let _ = self.bus.submit(0, t_ns, f);
         }

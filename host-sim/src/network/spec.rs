@@ -1,12 +1,13 @@
 //! The `[network]` section: its keys, their validation and the bus settings they give.
 
-use agent_node::{IdPlan, NodeConfig};
+use agent_node::NodeConfig;
 use hil_mock::bus::{BusConfig, BusEvent, EventKind, Nanos};
 use serde::{Deserialize, Serialize};
 
 use crate::{
     error::{Error, Result},
     graph::{Graph, MAX_NEIGHBOURS},
+    network::node::{self, NodeSpec},
 };
 
 /// `network.kind`.
@@ -123,9 +124,11 @@ pub const MAX_BITRATE: i64 = 10_000_000;
 pub const MAX_CAN_AGENTS: usize = 255;
 
 /// Agent `i`'s (0-based) node settings on a bus: its number, the agents it hears in `graph`
-/// (1-based), and the stale timeout of `[network]` (default `2.5 h`, at least 1 µs).
+/// (1-based), the stale timeout of `[network]` (default `2.5 h`, at least 1 µs), and the
+/// identifier plan, heartbeat and supervision of `[node]`.
 pub fn node_config(
     spec: &NetworkSpec,
+    node_spec: &NodeSpec,
     h: f64,
     graph: &Graph,
     i: usize,
@@ -149,9 +152,7 @@ pub fn node_config(
     }
     let stale = spec.stale_timeout.unwrap_or(2.5 * h);
     let mut cfg = NodeConfig::new(agent, neighbours, ((stale * 1e6).round() as u64).max(1));
-    let agents = u8::try_from(graph.len()).unwrap_or(u8::MAX);
-    cfg.ids = IdPlan::new(IdPlan::DEFAULT.value_base(), None, agents)
-        .map_err(|e| Error::invalid("network.kind", e))?;
+    node::configure(node_spec, graph.len(), &mut cfg)?;
     Ok(cfg)
 }
 
