@@ -572,3 +572,32 @@ fn a_moved_identifier_base_works_over_the_serial_link() {
     assert_eq!(moved.len(), base.len());
     assert!(moved.iter().zip(&base).all(|(m, b)| b - m == 0x101 - 0x020));
 }
+
+/// `hang` stops a firmware's control task: only the emulated nodes have one.
+#[test]
+fn hang_needs_the_processor_in_the_loop() {
+    let dir = tmp("hang-on-can");
+    let out = bin()
+        .args(["run", "--quiet", "--no-plots", "--out"])
+        .arg(&dir)
+        .arg(scenario_path("example1-can.toml"))
+        .args(["--set", "simulation.t_end=0.01"])
+        .args([
+            "--set",
+            "network.event=[{kind = \"hang\", agent = 3, from = 0.005}]",
+        ])
+        .output()
+        .expect("run host-sim");
+    assert_invalid(&out, "network.event[1].kind");
+    let out = bin()
+        .args(["run", "--quiet", "--no-plots", "--out"])
+        .arg(&dir)
+        .arg(scenario_path("example1-pil.toml"))
+        .args([
+            "--set",
+            "network.event=[{kind = \"hang\", node = 3, from = 0.005}]",
+        ])
+        .output()
+        .expect("run host-sim");
+    assert_invalid(&out, "network.event[1].agent");
+}

@@ -118,16 +118,27 @@ impl UartRx {
     }
 }
 
-/// Sleeps (`wfi`) until an interrupt is pending unless `ready()` holds; interrupts are masked
-/// between the check and the sleep, so one that arrives in between wakes the core instead of
-/// being missed, and its handler runs once they are unmasked again.
+/// With interrupts masked (the control task's way of running, [`mask_interrupts`]): sleeps
+/// (`wfi`) until an interrupt is pending unless `ready()` holds, then lets the pending
+/// handlers run and masks again. Handlers thus nest on the control task only here, at a fixed
+/// depth of its stack, so the stack high-water mark does not depend on when bytes arrive.
 pub fn sleep_unless(ready: impl FnOnce() -> bool) {
-    cortex_m::interrupt::disable();
     if !ready() {
         cortex_m::asm::wfi();
     }
-    // SAFETY: re-enables what this function disabled; no critical section spans the call
-    // (RTIC's locks raise BASEPRI, not PRIMASK).
+    unmask_interrupts();
+    cortex_m::interrupt::disable();
+}
+
+/// Masks every interrupt but the NMI (PRIMASK).
+pub fn mask_interrupts() {
+    cortex_m::interrupt::disable();
+}
+
+/// Undoes [`mask_interrupts`].
+pub fn unmask_interrupts() {
+    // SAFETY: the control task masks interrupts itself and unmasks them before it returns,
+    // waits or spins; no critical section of RTIC's (which raise BASEPRI) spans this.
     unsafe { cortex_m::interrupt::enable() };
 }
 

@@ -279,7 +279,9 @@ impl Control {
                 Slcan::Timed(f, t) => (f, Some(t)),
                 Slcan::Tick(t) => {
                     if self.hang {
-                        // The stopped control task: only the watchdog ends this.
+                        // The stopped control task: only the watchdog ends this. The
+                        // release keeps running (and counting overruns).
+                        board::unmask_interrupts();
                         loop {
                             core::hint::spin_loop();
                         }
@@ -478,18 +480,25 @@ mod app {
         let ctl = cx.local.ctl;
         let mut uart = cx.shared.uart;
         let mut send = |b: &[u8]| uart.lock(|u| u.write_all(b));
+        // Interrupts wait while the task works; they run only where it waits for bytes
+        // (`board::sleep_unless`), so where they nest on its stack is always the same.
+        board::mask_interrupts();
         if ctl.node.is_none() {
             let period_us = ctl.configure(&mut send);
             let timer = SampleTimer::start(period_us);
             ctl.watchdog_counts = timer.counts().saturating_mul(WATCHDOG_PERIODS);
             let _ = Watchdog::enable();
             cx.shared.timer.lock(|t| *t = Some(timer));
+            board::unmask_interrupts();
             return;
         }
         LATE.store(false, Ordering::Relaxed);
         ctl.sample(&mut send);
-        if !LATE.load(Ordering::Relaxed) {
+        let late = LATE.load(Ordering::Relaxed)
+            || cortex_m::peripheral::NVIC::is_pending(pac::Interrupt::TIMER0);
+        if !late {
             Watchdog::park();
         }
+        board::unmask_interrupts();
     }
 }
