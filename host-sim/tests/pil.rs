@@ -41,6 +41,22 @@ fn run_with(
     t_end: &str,
     set: &[&str],
 ) -> std::process::Output {
+    command(scenario, dir, t_end, set)
+        .output()
+        .expect("run host-sim")
+}
+
+/// [`run_with`], with the bus trace in `dir/bus.log`; fails the test unless the run succeeds.
+fn run_traced(scenario: &str, dir: &std::path::Path, t_end: &str, set: &[&str]) {
+    let out = command(scenario, dir, t_end, set)
+        .arg("--trace")
+        .arg(dir.join("bus.log"))
+        .output()
+        .expect("run host-sim");
+    assert_ok(&out);
+}
+
+fn command(scenario: &str, dir: &std::path::Path, t_end: &str, set: &[&str]) -> Command {
     let mut cmd = bin();
     cmd.args(["run", "--quiet", "--no-plots", "--out"])
         .arg(dir)
@@ -49,7 +65,7 @@ fn run_with(
     for s in set {
         cmd.args(["--set", s]);
     }
-    cmd.output().expect("run host-sim")
+    cmd
 }
 
 /// Lost frames make links stale: the node's freshness decisions depend on the delivery times
@@ -498,18 +514,8 @@ fn silent_leader_puts_the_emulated_nodes_in_their_safe_state_and_back() {
         "network.event=[{node = 0, kind = \"silent\", from = 1.0, until = 1.5}]",
     ];
     let (can, pil) = (tmp("pil-safe-can"), tmp("pil-safe-pil"));
-    for (dir, scenario) in [(&can, "example1-can.toml"), (&pil, "example1-pil.toml")] {
-        let mut cmd = bin();
-        cmd.args(["run", "--quiet", "--no-plots", "--out"])
-            .arg(dir)
-            .arg(scenario_path(scenario))
-            .args(["--set", "simulation.t_end=2.5", "--trace"])
-            .arg(dir.join("bus.log"));
-        for s in sets {
-            cmd.args(["--set", s]);
-        }
-        assert_ok(&cmd.output().expect("run host-sim"));
-    }
+    run_traced("example1-can.toml", &can, "2.5", &sets);
+    run_traced("example1-pil.toml", &pil, "2.5", &sets);
     let read = |d: &std::path::Path, f: &str| std::fs::read(d.join(f)).expect(f);
     assert!(
         read(&can, "trajectory.csv") == read(&pil, "trajectory.csv"),
@@ -540,13 +546,7 @@ fn a_moved_identifier_base_works_over_the_serial_link() {
     let dir = tmp("pil-moved-base");
     let run_to = |sub: &str, scenario: &str, base: &str| {
         let out = dir.join(sub);
-        let mut cmd = bin();
-        cmd.args(["run", "--quiet", "--no-plots", "--out"])
-            .arg(&out)
-            .arg(scenario_path(scenario))
-            .args(["--set", "simulation.t_end=0.5", "--set", base, "--trace"])
-            .arg(out.join("bus.log"));
-        assert_ok(&cmd.output().expect("run host-sim"));
+        run_traced(scenario, &out, "0.5", &[base]);
         out
     };
     let pil = run_to("pil", "example1-pil.toml", "node.id_base=0x020");
@@ -577,27 +577,9 @@ fn a_moved_identifier_base_works_over_the_serial_link() {
 #[test]
 fn hang_needs_the_processor_in_the_loop() {
     let dir = tmp("hang-on-can");
-    let out = bin()
-        .args(["run", "--quiet", "--no-plots", "--out"])
-        .arg(&dir)
-        .arg(scenario_path("example1-can.toml"))
-        .args(["--set", "simulation.t_end=0.01"])
-        .args([
-            "--set",
-            "network.event=[{kind = \"hang\", agent = 3, from = 0.005}]",
-        ])
-        .output()
-        .expect("run host-sim");
+    let hang = |who: &str| format!("network.event=[{{kind = \"hang\", {who}, from = 0.005}}]");
+    let out = run_with("example1-can.toml", &dir, "0.01", &[&hang("agent = 3")]);
     assert_invalid(&out, "network.event[1].kind");
-    let out = bin()
-        .args(["run", "--quiet", "--no-plots", "--out"])
-        .arg(&dir)
-        .arg(scenario_path("example1-pil.toml"))
-        .args([
-            "--set",
-            "network.event=[{kind = \"hang\", node = 3, from = 0.005}]",
-        ])
-        .output()
-        .expect("run host-sim");
+    let out = run_with("example1-pil.toml", &dir, "0.01", &[&hang("node = 3")]);
     assert_invalid(&out, "network.event[1].agent");
 }
