@@ -68,25 +68,41 @@ fn command(scenario: &str, dir: &std::path::Path, t_end: &str, set: &[&str]) -> 
     cmd
 }
 
+/// `scenario` with `set` run for `t_end` s as `kind = "can"` and `"pil"`, into
+/// `<name>-can` and `<name>-pil`.
+fn run_can_and_pil(name: &str, scenario: &str, t_end: &str, set: &[&str]) -> (PathBuf, PathBuf) {
+    let (can, pil) = (tmp(&format!("{name}-can")), tmp(&format!("{name}-pil")));
+    for (dir, kind) in [(&can, "\"can\""), (&pil, "\"pil\"")] {
+        let kind = format!("network.kind={kind}");
+        let mut s = set.to_vec();
+        s.push(&kind);
+        assert_ok(&run_with(scenario, dir, t_end, &s));
+    }
+    (can, pil)
+}
+
+fn assert_same_trajectory(can: &std::path::Path, pil: &std::path::Path, what: &str) {
+    let ta = std::fs::read_to_string(can.join("trajectory.csv")).expect("csv");
+    let tb = std::fs::read_to_string(pil.join("trajectory.csv")).expect("csv");
+    assert!(
+        ta == tb,
+        "trajectory.csv differs between can and pil {what}"
+    );
+}
+
+fn summary(dir: &std::path::Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).expect("summary"))
+        .expect("json")
+}
+
 /// Lost frames make links stale: the node's freshness decisions depend on the delivery times
 /// the host sends as SLCAN timestamps, so they too must match the host-compiled node's.
 #[test]
 #[ignore = "needs qemu-system-arm and the node-fw build; run with --ignored"]
 fn pil_matches_the_host_node_on_a_lossy_bus() {
     require_pil();
-    let (can, pil) = (tmp("pil-lossy-can"), tmp("pil-lossy-pil"));
     let set = ["network.event=[]", "network.loss=0.3"];
-    for (dir, kind) in [(&can, "\"can\""), (&pil, "\"pil\"")] {
-        let kind = format!("network.kind={kind}");
-        let mut s = set.to_vec();
-        s.push(&kind);
-        let out = run_with("example1-lossy.toml", dir, "1", &s);
-        assert_ok(&out);
-    }
-    let summary = |d: &std::path::Path| -> serde_json::Value {
-        serde_json::from_str(&std::fs::read_to_string(d.join("summary.json")).expect("summary"))
-            .expect("json")
-    };
+    let (can, pil) = run_can_and_pil("pil-lossy", "example1-lossy.toml", "1", &set);
     let (a, b) = (summary(&can), summary(&pil));
     assert!(
         a["network"]["stale_samples"].as_u64() > Some(10),
@@ -95,12 +111,37 @@ fn pil_matches_the_host_node_on_a_lossy_bus() {
     );
     assert_eq!(a["network"]["stale_samples"], b["network"]["stale_samples"]);
     assert_eq!(a["network"]["frames_lost"], b["network"]["frames_lost"]);
-    let ta = std::fs::read_to_string(can.join("trajectory.csv")).expect("csv");
-    let tb = std::fs::read_to_string(pil.join("trajectory.csv")).expect("csv");
-    assert!(
-        ta == tb,
-        "trajectory.csv differs between can and pil on a lossy bus"
-    );
+    assert_same_trajectory(&can, &pil, "on a lossy bus");
+}
+
+/// The supervisor's configuration reaches the firmware through the link: with a silent leader,
+/// a safe state, a heartbeat and a moved identifier base, the emulated nodes command exactly
+/// what the host-compiled ones do, put the same frames on the bus, and each enters its safe
+/// state once (`firmware[].safe_state_entries` against `network.nodes[]`).
+#[test]
+#[ignore = "needs qemu-system-arm and the node-fw build; run with --ignored"]
+fn pil_supervisor_matches_the_host_node() {
+    require_pil();
+    let set = [
+        "network.event=[{node=0, kind=\"silent\", from=0.2, until=0.4}]",
+        "node.id_base=0x020",
+        "node.heartbeat_period=0.05",
+        "node.safe_state.policy=\"ramp\"",
+        "node.safe_state.ramp_rate=100",
+        "node.safe_state.leader_timeout=0.05",
+        "node.safe_state.recover_dwell=0.02",
+    ];
+    let (can, pil) = run_can_and_pil("pil-supervisor", "example1-deploy.toml", "0.6", &set);
+    let (a, b) = (summary(&can), summary(&pil));
+    let nodes = a["network"]["nodes"].as_array().expect("network.nodes");
+    let firmware = b["firmware"].as_array().expect("firmware");
+    assert_eq!(nodes.len(), 4);
+    for (n, f) in nodes.iter().zip(firmware) {
+        assert_eq!(n["safe_state_entries"].as_u64(), Some(1), "{n}");
+        assert_eq!(f["safe_state_entries"], n["safe_state_entries"], "{f}");
+    }
+    assert_eq!(a["network"]["frames_sent"], b["network"]["frames_sent"]);
+    assert_same_trajectory(&can, &pil, "with the supervisor on");
 }
 
 /// The identity check: the firmware compiled for the Cortex-M4F and run under QEMU computes

@@ -1,5 +1,5 @@
 //! The malformed-input corpus (`tests/corpus`): every scenario file through the built `host-sim`
-//! binary (`check` and a short `run`), every frame through `agent_node::wire::decode` and a node.
+//! binary (`check` and a short `run`), every frame through `agent_node::wire::decode_in` (the default identifier plan) and a node.
 //!
 //! Scenario files state their expectation on the first line, `# expect: <text>`: the one-line
 //! message on stderr must contain that text (the key at fault). Optional `# run-set: k=v` lines
@@ -10,7 +10,7 @@
 use std::{path::Path, process::Output};
 
 use agent_node::{
-    wire::{self, DecodeStats, WireError},
+    wire::{self, DecodeStats, Decoded, IdPlan, WireError},
     NodeConfig, NodeStats,
 };
 use controller_core::ControllerConfig;
@@ -243,6 +243,7 @@ fn counter(s: &NodeStats, kind: &str) -> u32 {
         "own_id" => s.own_id,
         "repeated" => s.repeated,
         "out_of_order" => s.out_of_order,
+        "heartbeat" => s.heartbeats_rx,
         k => panic!("unknown expected kind `{k}`"),
     })
 }
@@ -279,16 +280,17 @@ fn every_malformed_frame_is_rejected_and_counted_by_kind() {
         let mut node = agent4();
         for (k, c) in parse_frames(path).iter().enumerate() {
             let at = format!("{}:{}", path.display(), c.line);
-            let decoded = wire::decode(&c.frame);
+            let decoded = wire::decode_in(&IdPlan::DEFAULT, &c.frame);
             match (decoded, malformed(&DecodeStats::default(), &c.expect)) {
                 (Err(e), Some(_)) => assert_eq!(decode_kind(e), c.expect, "{at}"),
                 (Err(e), None) => panic!("{at}: rejected as {e:?}, expected {}", c.expect),
                 (Ok(m), Some(_)) => panic!("{at}: decoded as {m:?}, expected {}", c.expect),
-                (Ok(m), None) => {
+                (Ok(Decoded::Value(m)), None) => {
                     assert!(m
                         .y
                         .is_none_or(|y| y.is_finite() && (-128.0..128.0).contains(&y)))
                 }
+                (Ok(Decoded::Heartbeat { .. }), None) => assert_eq!(c.expect, "heartbeat", "{at}"),
             }
             let before = *node.stats();
             node.clock_mut().set(500 * (k as u64 + 1));

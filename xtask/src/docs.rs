@@ -229,7 +229,7 @@ fn short(s: &str) -> String {
 }
 
 /// The figure names (patterns) and what they render.
-pub const CATALOGUE: [(&str, &str); 19] = [
+pub const CATALOGUE: [(&str, &str); 20] = [
     ("bench-table", "target bench table (target/bench/step.json)"),
     ("bench.VARIANT.KEY", "one number of step.json's VARIANT (KEY also flash_total)"),
     ("scenarios", "shipped scenario table (host-sim run, stable-h)"),
@@ -248,6 +248,7 @@ pub const CATALOGUE: [(&str, &str); 19] = [
     ("sizes.KEY", "size_of in bytes (KEY: controller, params, state, controller-n3)"),
     ("campaign.NAME", "Ts x h map summary per Ts (NAME: example1-ts-h, example2-ts-h; out/campaigns/NAME/results.csv)"),
     ("campaign.example1-monte-carlo.KEY", "Monte Carlo figures (KEY: runs, diverged, bounded, error-min, error-max, error-median, error-p95)"),
+    ("board.KEY", "NUCLEO-G474RE firmware size in bytes (KEY: text, data, bss, flash, ram; target/board/size.json of cargo xtask board-size)"),
     ("wall.example1-run", "wall time of host-sim run example1 (date and machine; --wall-clock)"),
 ];
 
@@ -272,6 +273,7 @@ enum Figure<'a> {
     Size(&'a str),
     TsH(&'a str),
     MonteCarlo(&'a str),
+    Board(&'a str),
     WallExample1,
 }
 
@@ -328,6 +330,7 @@ fn parse(name: &str) -> Option<Figure<'_>> {
         ["campaign", "example1-monte-carlo", key] if MONTE_CARLO.contains(key) => {
             Figure::MonteCarlo(key)
         }
+        ["board", key] if crate::board::KEYS.contains(key) => Figure::Board(key),
         ["wall", "example1-run"] => Figure::WallExample1,
         _ => return None,
     })
@@ -357,6 +360,7 @@ fn render(name: &str, src: &mut Sources) -> Result<Option<String>> {
         Figure::Size(key) => sizes_figure(&src.sizes()?, key)?,
         Figure::TsH(name) => ts_h_table(&src.campaign(name)?)?,
         Figure::MonteCarlo(key) => monte_carlo(&src.campaign("example1-monte-carlo")?, key)?,
+        Figure::Board(key) => grouped(num(&src.board()?, key)?, 0),
         Figure::WallExample1 => wall_example1(src)?,
     };
     Ok(Some(text))
@@ -643,6 +647,12 @@ impl Sources {
         })?;
         let text = fs::read_to_string(&file).map_err(|e| format!("{path}: {e}"))?;
         rows(&text).map_err(|e| format!("{path}: {e}"))
+    }
+
+    fn board(&mut self) -> Result<Value> {
+        self.json_file(crate::board::SIZE_JSON, |_, _| {
+            crate::board::board_size(&Options::default())
+        })
     }
 
     fn sizes(&mut self) -> Result<String> {
@@ -1486,12 +1496,15 @@ mod tests {
             parse("run.example1.max_error"),
             Some(Figure::Run("example1", "max_error"))
         );
+        assert_eq!(parse("board.flash"), Some(Figure::Board("flash")));
         for name in [
             "run.example9.max_error",
             "run.example1.nope",
             "matrix.example3",
             "sizes.x",
             "pil.x",
+            "board.x",
+            "board",
         ] {
             assert_eq!(parse(name), None, "{name}");
         }

@@ -16,9 +16,14 @@
 //!   from the files the measuring commands write; `--check` fails naming each block that differs
 //!   (details: `docs.rs`).
 //!
+//! * `board-size`: builds the board firmware `boards/nucleo-g474re` in release and fails when
+//!   its flash (text + data) exceeds 64 KiB or its RAM (data + bss) 16 KiB (details:
+//!   `board.rs`).
+//!
 //! Nothing is installed: a missing `qemu-system-arm` or `thumbv7em-none-eabihf` target is
 //! reported with the command that installs it.
 
+mod board;
 mod docs;
 mod flash;
 mod gate;
@@ -54,6 +59,10 @@ tasks:
       commands write (reused when present; --rerun measures again); --check writes
       nothing and fails naming each block that differs; wall-clock figures (wall.*)
       are rewritten only with --wall-clock and never checked; --list names the figures
+  board-size [--no-run]
+      build boards/nucleo-g474re in release (unless --no-run: the ELF as last built), print
+      its text, data and bss, and fail if text + data exceeds 64 KiB (65,536 B) or data + bss
+      exceeds 16 KiB (16,384 B); writes target/board/size.json
 ";
 
 fn main() -> ExitCode {
@@ -73,6 +82,7 @@ fn main() -> ExitCode {
         "bench-target" => target::bench_target(&opts).map(|_| ()),
         "bench-gate" => gate::bench_gate(&opts),
         "docs" => docs::docs(&opts),
+        "board-size" => board::board_size(&opts),
         "help" | "--help" | "-h" => {
             print!("{USAGE}");
             Ok(())
@@ -143,6 +153,20 @@ pub fn bench_dir() -> PathBuf {
 /// The `cargo` that runs this task.
 pub fn cargo() -> String {
     std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_owned())
+}
+
+/// `cargo build --release --locked` of a firmware crate outside the workspace, run from its
+/// directory so its `.cargo/config.toml` (target, linker scripts) applies, with no host
+/// flags leaking into the target build.
+pub fn firmware_build(dir: &Path) -> std::process::Command {
+    let mut c = std::process::Command::new(cargo());
+    c.current_dir(dir)
+        .args(["build", "--release", "--locked"])
+        .env_remove("RUSTFLAGS")
+        .env_remove("CARGO_ENCODED_RUSTFLAGS")
+        .env_remove("CARGO_BUILD_RUSTFLAGS")
+        .env_remove("CARGO_BUILD_TARGET");
+    c
 }
 
 /// Result type of the tasks: a message for the user.

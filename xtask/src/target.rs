@@ -1,6 +1,6 @@
 //! `cargo xtask bench-target`: build `bench-fw` per variant, run it on QEMU, collect the figures.
 
-use crate::{bench_dir, cargo, flash, trace, workspace_root, Options, Result};
+use crate::{bench_dir, firmware_build, flash, trace, workspace_root, Options, Result};
 use serde_json::{json, Value};
 use std::{
     fs,
@@ -228,18 +228,11 @@ fn build(v: &Variant, trace: &Path, dir: &Path) -> Result<PathBuf> {
     let fw = workspace_root().join("bench-fw");
     let target_dir = dir.join("fw");
     eprintln!("building {} (features {})", v.name, v.features);
-    let status = Command::new(cargo())
-        // bench-fw's .cargo/config.toml (target, linker script) is found from its directory.
-        .current_dir(&fw)
-        .args(["build", "--release", "--locked", "--no-default-features"])
-        .args(["--features", v.features])
+    let status = firmware_build(&fw)
+        .args(["--no-default-features", "--features", v.features])
         .arg("--target-dir")
         .arg(&target_dir)
         .env("BENCH_TRACE", trace)
-        .env_remove("RUSTFLAGS")
-        .env_remove("CARGO_ENCODED_RUSTFLAGS")
-        .env_remove("CARGO_BUILD_RUSTFLAGS")
-        .env_remove("CARGO_BUILD_TARGET")
         .status()
         .map_err(|e| format!("cannot run cargo: {e}"))?;
     if !status.success() {
