@@ -249,7 +249,16 @@ const HEARTBEAT_COMMENT: &str =
     "Node heartbeat: state, lost sources and counters, once per heartbeat period";
 
 /// The messages of the serial link, in the order of a run: start-up, samples, statistics.
-pub const IO_MESSAGES: [Message; 9] = [
+pub const IO_MESSAGES: [Message; 12] = [
+    Message {
+        name: "Boot",
+        id: io::BOOT,
+        sender: "Node",
+        signals: &[Signal::unsigned("protocol", 0, 8)],
+        comment: Some(
+            "PIL link: the firmware started (power-on or watchdog reset) and waits for its configuration; the link protocol version",
+        ),
+    },
     Message {
         name: "Config",
         id: io::CONFIG,
@@ -350,6 +359,24 @@ pub const IO_MESSAGES: [Message; 9] = [
             Signal::unsigned("malformed", 32, 32),
         ],
         comment: Some("PIL link, end of a run: stack high-water mark and malformed bus frames"),
+    },
+    Message {
+        name: "Hang",
+        id: io::HANG,
+        sender: "Host",
+        signals: &[],
+        comment: Some(
+            "PIL link, network.event kind = hang: the control task stops at the next tick; only the watchdog brings the node back",
+        ),
+    },
+    Message {
+        name: "Overrun",
+        id: io::OVERRUN,
+        sender: "Node",
+        signals: &[Signal::unsigned("overruns", 0, 32)],
+        comment: Some(
+            "PIL link: the sample timer released the control task while its previous step still ran; overruns since boot",
+        ),
     },
 ];
 
@@ -587,6 +614,7 @@ mod tests {
     #[test]
     fn every_io_id_is_described_once() {
         let ids = [
+            io::BOOT,
             io::CONFIG,
             io::CONFIG_END,
             io::READY,
@@ -596,6 +624,8 @@ mod tests {
             io::REPORT,
             io::STATS_REQUEST,
             io::STATS,
+            io::HANG,
+            io::OVERRUN,
         ];
         for id in ids {
             assert_eq!(

@@ -90,7 +90,19 @@ pub mod io {
     /// node → host: stack high-water mark (bytes, `u32` LE), malformed bus frames received
     /// (`u32` LE).
     pub const STATS: u32 = 0x0001_0091;
+    /// node → host: the firmware started (power-on or watchdog reset) and waits for its
+    /// configuration; 1 byte, the link protocol's version ([`super::PROTOCOL_VERSION`]).
+    pub const BOOT: u32 = 0x0001_0001;
+    /// host → node: stop the control task at the next tick record (a firmware bug in the
+    /// emulator: it spins without feeding the watchdog); no data.
+    pub const HANG: u32 = 0x0001_00A0;
+    /// node → host: the sample timer released the control task while its previous step was
+    /// still running (a deadline overrun); the overruns so far (`u32` LE).
+    pub const OVERRUN: u32 = 0x0001_00A1;
 }
+
+/// Version of this link protocol, sent in the node's [`io::BOOT`] frame.
+pub const PROTOCOL_VERSION: u8 = 2;
 
 /// A classical CAN frame (standard or extended id, data or remote, 0..=8 bytes): the frames
 /// of SLCAN, of `hil-mock`'s mocked CAN controller and of its bus model.

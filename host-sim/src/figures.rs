@@ -111,6 +111,10 @@ pub struct FirmwareSummary {
     pub instructions_resolution: u32,
     /// Stack high-water mark of the whole firmware (painted), bytes.
     pub stack_bytes: u32,
+    /// Releases of the sample timer that found the previous step still running.
+    pub overruns: u32,
+    /// Watchdog resets during the run (each one ends with the node re-joining).
+    pub resets: u32,
     /// Times the node entered its safe state (from the state in its reports).
     pub safe_state_entries: u32,
 }

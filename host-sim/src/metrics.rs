@@ -237,7 +237,7 @@ const CLOCK_UNITS: [(&str, &str); 9] = [
 ];
 
 /// Units of `firmware`'s numeric keys (PIL runs).
-const FIRMWARE_UNITS: [(&str, &str); 9] = [
+const FIRMWARE_UNITS: [(&str, &str); 11] = [
     ("firmware.agent", "1-based index"),
     ("firmware.steps", "count"),
     ("firmware.instructions_min", "instructions per Node::tick"),
@@ -249,6 +249,8 @@ const FIRMWARE_UNITS: [(&str, &str); 9] = [
     ("firmware.instructions_max", "instructions per Node::tick"),
     ("firmware.instructions_resolution", "instructions"),
     ("firmware.stack_bytes", "B"),
+    ("firmware.overruns", "count"),
+    ("firmware.resets", "count"),
     ("firmware.safe_state_entries", "count"),
 ];
 

@@ -1,9 +1,16 @@
-//! The emulated board (QEMU `mps2-an386`): the only module with `unsafe`, all of it register
-//! or raw-memory access.
+//! The emulated board (QEMU `mps2-an386`): the only modules with `unsafe` are this one and
+//! `pac` (vector table), all of it register or raw-memory access.
 //!
 //! * **UART0** (CMSDK APB UART at `0x4000_4000`, bound to QEMU's first `-serial`): DATA `0x0`,
-//!   STATE `0x4` (bit 0 TX full, bit 1 RX full), CTRL `0x8` (bit 0 TX enable, bit 1 RX enable),
-//!   BAUDDIV `0x10` (QEMU ignores transmissions while it is below 16).
+//!   STATE `0x4` (bit 0 TX full, bit 1 RX full), CTRL `0x8` (bit 0 TX enable, bit 1 RX enable,
+//!   bit 3 RX interrupt enable), INTSTATUS `0xC`, BAUDDIV `0x10` (QEMU ignores transmissions
+//!   while it is below 16). Receive interrupt: IRQ 0.
+//! * **Sample timer**: CMSDK APB timer 0 at `0x4000_0000` (IRQ 8), clocked at 25 MHz: CTRL
+//!   `0x0` (bit 0 enable, bit 3 interrupt enable), VALUE `0x4`, RELOAD `0x8`, INTSTATUS /
+//!   INTCLEAR `0xC`.
+//! * **Watchdog**: CMSDK APB watchdog at `0x4000_8000`, 25 MHz: LOAD `0x0`, CONTROL `0x8` (bit 0
+//!   INTEN: interrupt on the first expiry, the NMI; bit 1 RESEN: QEMU resets the machine on the
+//!   second expiry without a clear in between), INTCLR `0xC`.
 //! * **Instruction counter**: SysTick from the 25 MHz core clock; with QEMU's `-icount shift=0`
 //!   one instruction is 1 ns of virtual time, so one SysTick count is [`INSN_PER_TICK`]
 //!   instructions (the method of `bench-fw`, there refined by repetition; here a closed-loop
@@ -25,60 +32,54 @@ const RX_FULL: u32 = 1 << 1;
 const CTRL_ON: u32 = 0b1011;
 /// INTSTATUS bit of the receive interrupt (write 1 to clear).
 const RX_INT: u32 = 1 << 1;
-/// NVIC set-enable and clear-pending registers of IRQs 0..31; UART0 RX is IRQ 0.
-const NVIC_ISER0: usize = 0xE000_E100;
-const NVIC_ICPR0: usize = 0xE000_E280;
-const UART0_RX_IRQ: u32 = 1 << 0;
 
+const TIMER0: usize = 0x4000_0000;
+const TIMER_CTRL: usize = 0x0;
+const TIMER_VALUE: usize = 0x4;
+const TIMER_RELOAD: usize = 0x8;
+const TIMER_INTCLEAR: usize = 0xC;
+/// Timer CTRL: enable (bit 0) and interrupt enable (bit 3).
+const TIMER_RUN: u32 = 0b1001;
+/// Timer CTRL: interrupt enabled, counter stopped.
+const TIMER_PAUSED: u32 = 0b1000;
+
+const WDOG: usize = 0x4000_8000;
+const WDOG_LOAD: usize = 0x0;
+const WDOG_CONTROL: usize = 0x8;
+const WDOG_INTCLR: usize = 0xC;
+/// Watchdog CONTROL: INTEN | RESEN.
+const WDOG_ON: u32 = 0b11;
+
+/// Timer and watchdog counts per µs (the board's 25 MHz peripheral clock).
+pub const COUNTS_PER_US: u32 = 25;
 /// Instructions per SysTick count under `-icount shift=0` (25 MHz, 1 ns per instruction).
 pub const INSN_PER_TICK: u32 = 40;
 /// Bytes painted below the stack pointer at start-up.
 pub const PAINT_BYTES: usize = 64 * 1024;
 const PATTERN: u32 = 0xA5C3_5A3C;
 
-fn read(offset: usize) -> u32 {
-    // SAFETY: an aligned UART0 register of the mps2-an386 memory map.
-    unsafe { core::ptr::read_volatile((UART0 + offset) as *const u32) }
+fn read(addr: usize) -> u32 {
+    // SAFETY: callers pass an aligned register of the mps2-an386 memory map (UART0, timer 0,
+    // watchdog), each a plain 32-bit device register.
+    unsafe { core::ptr::read_volatile(addr as *const u32) }
 }
 
-fn write(offset: usize, v: u32) {
+fn write(addr: usize, v: u32) {
     // SAFETY: as in `read`.
-    unsafe { core::ptr::write_volatile((UART0 + offset) as *mut u32, v) }
-}
-
-fn write_nvic(addr: usize, v: u32) {
-    // SAFETY: an NVIC register of the Cortex-M4 system control space; only UART0's RX
-    // interrupt is touched, and with PRIMASK set it never runs a handler.
     unsafe { core::ptr::write_volatile(addr as *mut u32, v) }
 }
 
 /// UART0, the node's SLCAN link to the host.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug)]
 pub struct Uart(());
 
 impl Uart {
-    /// Enables transmitter, receiver and the receive interrupt, which only wakes the core
-    /// from `wfi` (interrupts stay masked: no handler runs).
+    /// Enables transmitter, receiver and the receive interrupt (IRQ 0, which RTIC unmasks for
+    /// the task bound to it).
     pub fn init() -> Self {
-        cortex_m::interrupt::disable();
-        write(BAUDDIV, 16);
-        write(CTRL, CTRL_ON);
-        write_nvic(NVIC_ISER0, UART0_RX_IRQ);
+        write(UART0 + BAUDDIV, 16);
+        write(UART0 + CTRL, CTRL_ON);
         Self(())
-    }
-
-    /// Waits (asleep: `wfi`, so QEMU hands the next byte over at once instead of the core
-    /// spinning) for one received byte.
-    pub fn read_byte(&self) -> u8 {
-        loop {
-            if read(STATE) & RX_FULL != 0 {
-                let b = (read(DATA) & 0xFF) as u8;
-                write(INTSTATUS, RX_INT);
-                write_nvic(NVIC_ICPR0, UART0_RX_IRQ);
-                return b;
-            }
-            cortex_m::asm::wfi();
-        }
     }
 
     /// Sends `bytes` (one SLCAN line), waiting while the transmitter is full before the
@@ -87,13 +88,131 @@ impl Uart {
     /// per byte halves the emulated register accesses (each one a trip through QEMU's device
     /// lock), and a byte lost to a stalled host would make the host stop the run on a
     /// malformed line, never pass unnoticed.
-    pub fn write_all(&self, bytes: &[u8]) {
-        while read(STATE) & TX_FULL != 0 {}
+    pub fn write_all(&mut self, bytes: &[u8]) {
+        while read(UART0 + STATE) & TX_FULL != 0 {}
         for &b in bytes {
-            write(DATA, u32::from(b));
+            write(UART0 + DATA, u32::from(b));
         }
     }
 }
+
+/// UART0's receiver, owned by the receive interrupt.
+#[derive(Debug)]
+pub struct UartRx(());
+
+impl UartRx {
+    /// The receiver; [`Uart::init`] switches it on.
+    pub fn new() -> Self {
+        Self(())
+    }
+
+    /// The received byte, if any, and clears the receive interrupt (QEMU then hands over
+    /// the next byte).
+    pub fn take(&mut self) -> Option<u8> {
+        if read(UART0 + STATE) & RX_FULL == 0 {
+            return None;
+        }
+        let b = (read(UART0 + DATA) & 0xFF) as u8;
+        write(UART0 + INTSTATUS, RX_INT);
+        Some(b)
+    }
+}
+
+/// With interrupts masked (the control task's way of running, [`mask_interrupts`]): sleeps
+/// (`wfi`) until an interrupt is pending unless `ready()` holds, then lets the pending
+/// handlers run and masks again. Handlers thus nest on the control task only here, at a fixed
+/// depth of its stack, so the stack high-water mark does not depend on when bytes arrive.
+pub fn sleep_unless(ready: impl FnOnce() -> bool) {
+    if !ready() {
+        cortex_m::asm::wfi();
+    }
+    unmask_interrupts();
+    cortex_m::interrupt::disable();
+}
+
+/// Masks every interrupt but the NMI (PRIMASK).
+pub fn mask_interrupts() {
+    cortex_m::interrupt::disable();
+}
+
+/// Undoes [`mask_interrupts`].
+pub fn unmask_interrupts() {
+    // SAFETY: the control task masks interrupts itself and unmasks them before it returns,
+    // waits or spins; no critical section of RTIC's (which raise BASEPRI) spans this.
+    unsafe { cortex_m::interrupt::enable() };
+}
+
+/// CMSDK APB timer 0: releases the control task once per sample period.
+#[derive(Debug)]
+pub struct SampleTimer {
+    counts: u32,
+}
+
+impl SampleTimer {
+    /// Starts the periodic interrupt every `period_us` µs (at least 1).
+    pub fn start(period_us: u32) -> Self {
+        let counts = period_us.max(1).saturating_mul(COUNTS_PER_US);
+        write(TIMER0 + TIMER_CTRL, 0);
+        write(TIMER0 + TIMER_RELOAD, counts);
+        write(TIMER0 + TIMER_VALUE, counts);
+        write(TIMER0 + TIMER_INTCLEAR, 1);
+        write(TIMER0 + TIMER_CTRL, TIMER_RUN);
+        Self { counts }
+    }
+
+    /// Timer counts per period.
+    pub fn counts(&self) -> u32 {
+        self.counts
+    }
+
+    /// In the release interrupt: clears it and starts the next period now, so the period is
+    /// measured from the release the core saw (not from the nominal expiry).
+    pub fn restart(&self) {
+        write(TIMER0 + TIMER_INTCLEAR, 1);
+        write(TIMER0 + TIMER_VALUE, self.counts);
+    }
+
+    /// Stops the count where it is (the remaining part of the period is kept).
+    pub fn pause() {
+        write(TIMER0 + TIMER_CTRL, TIMER_PAUSED);
+    }
+
+    /// Counts on from where [`Self::pause`] stopped.
+    pub fn resume() {
+        write(TIMER0 + TIMER_CTRL, TIMER_RUN);
+    }
+}
+
+/// The CMSDK APB watchdog: armed with a short timeout while the control task works, parked
+/// (the longest timeout) while the node waits on the host.
+#[derive(Debug)]
+pub struct Watchdog;
+
+impl Watchdog {
+    /// Interrupt on the first expiry, machine reset on the second; starts parked.
+    pub fn enable() -> Self {
+        Self::park();
+        write(WDOG + WDOG_CONTROL, WDOG_ON);
+        Self
+    }
+
+    /// Reloads with `counts` (25 MHz counts): the reset follows `2 · counts` later unless
+    /// [`Self::park`] comes first.
+    pub fn arm(counts: u32) {
+        write(WDOG + WDOG_LOAD, counts);
+    }
+
+    /// Feeds: clears a first expiry and reloads with the longest timeout (2³² counts, 172 s).
+    pub fn park() {
+        write(WDOG + WDOG_LOAD, u32::MAX);
+        write(WDOG + WDOG_INTCLR, 1);
+    }
+}
+
+/// The watchdog's first expiry (QEMU's mps2 wires WDOGINT to the NMI): nothing to do, the
+/// second expiry resets the machine unless the control task feeds it first.
+#[cortex_m_rt::exception]
+unsafe fn NonMaskableInt() {}
 
 /// SysTick as the instruction counter of one tick: it runs only between [`Counter::start`] and
 /// [`Counter::stop`]. Stopped, it leaves QEMU no timer to move virtual time to while the core

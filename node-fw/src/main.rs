@@ -8,16 +8,25 @@
 //! `agent_node::link`; `docs/NETWORK.md` §9 describes it. One binary serves every agent: the agent
 //! number, its neighbours and the controller configuration arrive at start-up.
 //!
+//! Tasks (RTIC 2, `docs/FIRMWARE.md` §6): the UART receive interrupt (priority 3) moves each
+//! byte into a bounded queue; CMSDK timer 0 (priority 2) releases the control task once per
+//! sample period, counts a deadline overrun when the previous step is still running, and arms
+//! the watchdog; the control task (priority 1) takes the sample's lines from the queue, runs
+//! `Node::tick`, sends the node's frame and the report, and feeds the watchdog when the step
+//! ended before the next release.
+//!
 //! Measured per tick: the instructions of `Node::tick` (SysTick, 40-instruction resolution;
 //! the UART traffic before and after and the wait for the host are not counted: the tick only
-//! fills the mailbox and the actuator register), reported in the report record; the stack high-water mark of the whole
-//! firmware (painted at start-up), reported on request in `STATS`.
+//! fills the mailbox and the actuator register), reported in the report record; the stack
+//! high-water mark of the whole firmware (painted at start-up), reported on request in `STATS`.
 #![no_std]
 #![no_main]
 #![deny(unsafe_code)]
 
 #[allow(unsafe_code)]
 mod board;
+#[allow(unsafe_code)]
+mod pac;
 
 use agent_node::{
     link::{
@@ -26,10 +35,11 @@ use agent_node::{
     },
     node::{Actuator, Clock, Node, Sensor},
 };
-use board::Uart;
+use board::{SampleTimer, Watchdog};
 use controller_core::StepFault;
-use cortex_m_rt::entry;
+use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use embedded_can::Frame as _;
+use heapless::spsc::Consumer;
 use panic_semihosting as _;
 
 /// State order `n` and actuators `m` of the plants host-sim ships.
@@ -40,6 +50,17 @@ const M: usize = 2;
 const K: usize = 16;
 /// Received bus frames held between two ticks at most.
 const RX_DEPTH: usize = 64;
+/// Bytes the UART receive queue holds: a sample's input is at most 17 timestamped frames
+/// (26 bytes each) and the tick record (17), so the host never sends more ahead of the node.
+const RX_QUEUE: usize = 1024;
+/// Watchdog timeout in sample periods: a control task stopped for `2 ·` this many periods
+/// (the second expiry) resets the node.
+const WATCHDOG_PERIODS: u32 = 10;
+
+/// Bytes the receive interrupt dropped because the queue was full.
+static RX_DROPPED: AtomicU32 = AtomicU32::new(0);
+/// Set by the release when it found the previous step still running.
+static LATE: AtomicBool = AtomicBool::new(false);
 
 /// Transmit mailboxes: the value frame and the heartbeat of one tick.
 const TX_MAILBOXES: usize = 2;
@@ -104,20 +125,58 @@ impl Actuator<M> for HeldCommand {
 
 type BoardNode = Node<UartCan, NetClock, PlantSensor, HeldCommand, N, M, K>;
 
-/// Reads SLCAN lines from the UART.
-struct Link {
-    uart: Uart,
+/// The control task's state: the receive queue's consumer end, the line being read, the node
+/// once configured, the instruction counter and the network time of the last tick.
+pub struct Control {
+    rx: Consumer<'static, u8>,
     line: [u8; SLCAN_MAX_LINE],
+    node: Option<BoardNode>,
+    counter: Option<board::Counter>,
+    painted: board::Painted,
+    /// Watchdog counts while the task works; 0 until the sample timer runs.
+    watchdog_counts: u32,
+    /// Time of the last tick, the origin of timestamps [µs], and the interval before it.
+    sync_us: u64,
+    dt_us: u32,
+    /// The host asked the control task to stop at the next tick.
+    hang: bool,
 }
 
-impl Link {
-    /// The next command; malformed lines are answered with BEL (`\a`) and skipped.
-    fn next(&mut self) -> Slcan {
+impl Control {
+    /// The next received byte. While the sample timer runs, waiting for the host stops the
+    /// timer and parks the watchdog, so the wait (host time, not the node's) takes no part of
+    /// the period: everything the node can observe stays a function of its instructions.
+    fn byte(&mut self) -> u8 {
+        if let Some(b) = self.rx.dequeue() {
+            return b;
+        }
+        let frozen = self.watchdog_counts != 0;
+        if frozen {
+            SampleTimer::pause();
+            Watchdog::park();
+        }
+        let b = loop {
+            if let Some(b) = self.rx.dequeue() {
+                break b;
+            }
+            let rx = &self.rx;
+            board::sleep_unless(|| rx.ready());
+        };
+        if frozen {
+            SampleTimer::resume();
+            Watchdog::arm(self.watchdog_counts);
+        }
+        b
+    }
+
+    /// The next command; malformed lines are answered with BEL (`\a`) and skipped, as is a
+    /// receive-queue overflow.
+    fn next(&mut self, send: &mut impl FnMut(&[u8])) -> Slcan {
         loop {
             let mut n = 0;
             let mut overflow = false;
             loop {
-                match self.uart.read_byte() {
+                match self.byte() {
                     b'\r' => break,
                     b'\n' => {}
                     b => match self.line.get_mut(n) {
@@ -129,6 +188,10 @@ impl Link {
                     },
                 }
             }
+            if RX_DROPPED.swap(0, Ordering::Relaxed) != 0 {
+                send(b"\x07");
+                continue;
+            }
             if n == 0 && !overflow {
                 continue;
             }
@@ -137,92 +200,158 @@ impl Link {
                     return cmd
                 }
                 Ok(Slcan::Frame(_) | Slcan::Timed(..) | Slcan::Tick(_) | Slcan::Report(_))
-                | Err(_) => self.uart.write_all(b"\x07"),
+                | Err(_) => send(b"\x07"),
                 Ok(other) => {
-                    self.uart.write_all(b"\r");
+                    send(b"\r");
                     return other;
                 }
             }
         }
     }
 
-    fn send(&self, frame: &CanFrame) {
-        let mut buf = [0u8; SLCAN_MAX_LINE];
-        let n = link::slcan_encode(frame, &mut buf);
-        self.uart.write_all(&buf[..n]);
+    /// Waits for a complete configuration and builds the node; every rejection is reported
+    /// and the node waits for the next attempt. Returns the sample period [µs].
+    fn configure(&mut self, send: &mut impl FnMut(&[u8])) -> u32 {
+        let mut words = [0u32; MAX_CONFIG_WORDS];
+        let mut count = 0usize;
+        loop {
+            let (Slcan::Frame(f) | Slcan::Timed(f, _)) = self.next(send) else {
+                continue;
+            };
+            let reject = match f.io_id() {
+                Some(io::CONFIG) if f.data().len() % 4 == 0 => {
+                    for w in f.data().chunks_exact(4) {
+                        if let Some(slot) = words.get_mut(count) {
+                            *slot = u32::from_le_bytes([w[0], w[1], w[2], w[3]]);
+                        }
+                        count += 1;
+                    }
+                    continue;
+                }
+                Some(io::CONFIG_END) => {
+                    let sent = match *f.data() {
+                        [lo, hi] => usize::from(u16::from_le_bytes([lo, hi])),
+                        _ => usize::MAX,
+                    };
+                    let result = if sent != count || count > MAX_CONFIG_WORDS {
+                        Err(ConfigReject::WordCount)
+                    } else {
+                        link::decode_config::<N, K>(&words[..count])
+                    };
+                    count = 0;
+                    match result {
+                        Ok((node_cfg, ctrl_cfg)) => match Node::new(
+                            &node_cfg,
+                            &ctrl_cfg,
+                            UartCan::default(),
+                            NetClock::default(),
+                            PlantSensor::default(),
+                            HeldCommand::default(),
+                        ) {
+                            Ok(node) => {
+                                send_io(send, io::READY, &[node_cfg.agent]);
+                                self.node = Some(node);
+                                // `Node::new` accepted `h` (finite, > 0).
+                                return (ctrl_cfg.h * 1e6) as u32;
+                            }
+                            Err(_) => ConfigReject::Node,
+                        },
+                        Err(e) => e,
+                    }
+                }
+                _ => {
+                    count = 0;
+                    ConfigReject::Unexpected
+                }
+            };
+            send_io(send, io::REJECTED, &[reject as u8]);
+        }
     }
 
-    fn send_io(&self, id: u32, data: &[u8]) {
-        if let Some(f) = CanFrame::io(id, data) {
-            self.send(&f);
+    /// One released sample: the host's lines up to the tick record, then the tick, the
+    /// node's frame and the report. Returns `false` if there is no node. Kept out of line so
+    /// that the framework's share of a sample can be told apart in an execution trace.
+    #[inline(never)]
+    fn sample(&mut self, send: &mut impl FnMut(&[u8])) -> bool {
+        loop {
+            let (f, ts) = match self.next(send) {
+                Slcan::Frame(f) => (f, None),
+                Slcan::Timed(f, t) => (f, Some(t)),
+                Slcan::Tick(t) => {
+                    if self.hang {
+                        // The stopped control task: only the watchdog ends this. The
+                        // release keeps running (and counting overruns).
+                        board::unmask_interrupts();
+                        loop {
+                            core::hint::spin_loop();
+                        }
+                    }
+                    self.dt_us = t.dt_us.unwrap_or(self.dt_us);
+                    self.sync_us += u64::from(self.dt_us);
+                    let Some(node) = self.node.as_mut() else {
+                        return false;
+                    };
+                    node.clock_mut().0 = self.sync_us;
+                    node.sensor_mut().0 = t.x;
+                    tick(send, node, &mut self.counter);
+                    return true;
+                }
+                _ => continue,
+            };
+            let Some(node) = self.node.as_mut() else {
+                return false;
+            };
+            if let Some(t) = ts {
+                node.clock_mut().0 = self.sync_us + u64::from(t);
+            }
+            match (f.io_id(), link::unpack_u32(f.data())) {
+                (None, _) => {
+                    // A bus frame: into the receive FIFO, taken now (the receive interrupt).
+                    if node.can_mut().rx.push_back(f).is_ok() {
+                        node.poll_rx();
+                    }
+                }
+                (Some(io::CLOCK), Some(t)) => {
+                    let c = &mut node.clock_mut().0;
+                    *c = link::extend_clock(*c, t);
+                }
+                (Some(io::HANG), _) => self.hang = true,
+                (Some(io::STATS_REQUEST), _) => {
+                    let stack = board::stack_high_water(self.painted).to_le_bytes();
+                    let bad = node.stats().malformed.total().to_le_bytes();
+                    send_io(
+                        send,
+                        io::STATS,
+                        &[
+                            stack[0], stack[1], stack[2], stack[3], bad[0], bad[1], bad[2], bad[3],
+                        ],
+                    );
+                }
+                _ => send(b"\x07"),
+            }
         }
     }
 }
 
-/// Waits for a complete configuration and builds the node; every rejection is reported and
-/// the node waits for the next attempt.
-fn configure(link: &mut Link) -> BoardNode {
-    let mut words = [0u32; MAX_CONFIG_WORDS];
-    let mut count = 0usize;
-    loop {
-        let (Slcan::Frame(f) | Slcan::Timed(f, _)) = link.next() else {
-            continue;
-        };
-        let reject = match f.io_id() {
-            Some(io::CONFIG) if f.data().len() % 4 == 0 => {
-                for w in f.data().chunks_exact(4) {
-                    if let Some(slot) = words.get_mut(count) {
-                        *slot = u32::from_le_bytes([w[0], w[1], w[2], w[3]]);
-                    }
-                    count += 1;
-                }
-                continue;
-            }
-            Some(io::CONFIG_END) => {
-                let sent = match *f.data() {
-                    [lo, hi] => usize::from(u16::from_le_bytes([lo, hi])),
-                    _ => usize::MAX,
-                };
-                let result = if sent != count || count > MAX_CONFIG_WORDS {
-                    Err(ConfigReject::WordCount)
-                } else {
-                    link::decode_config::<N, K>(&words[..count])
-                };
-                count = 0;
-                match result {
-                    Ok((node_cfg, ctrl_cfg)) => match Node::new(
-                        &node_cfg,
-                        &ctrl_cfg,
-                        UartCan::default(),
-                        NetClock::default(),
-                        PlantSensor::default(),
-                        HeldCommand::default(),
-                    ) {
-                        Ok(node) => {
-                            link.send_io(io::READY, &[node_cfg.agent]);
-                            return node;
-                        }
-                        Err(_) => ConfigReject::Node,
-                    },
-                    Err(e) => e,
-                }
-            }
-            _ => {
-                count = 0;
-                ConfigReject::Unexpected
-            }
-        };
-        link.send_io(io::REJECTED, &[reject as u8]);
+fn send_frame(send: &mut impl FnMut(&[u8]), frame: &CanFrame) {
+    let mut buf = [0u8; SLCAN_MAX_LINE];
+    let n = link::slcan_encode(frame, &mut buf);
+    send(&buf[..n]);
+}
+
+fn send_io(send: &mut impl FnMut(&[u8]), id: u32, data: &[u8]) {
+    if let Some(f) = CanFrame::io(id, data) {
+        send_frame(send, &f);
     }
 }
 
-/// Runs one sample and sends the bus frame and the report.
-fn sample(link: &Link, node: &mut BoardNode, counter: &mut Option<board::Counter>) {
+/// Runs one `Node::tick` and sends the bus frame and the report.
+fn tick(send: &mut impl FnMut(&[u8]), node: &mut BoardNode, counter: &mut Option<board::Counter>) {
     let start = counter.as_mut().map_or(0, board::Counter::start);
     let tick = node.tick();
     let end = counter.as_mut().map_or(0, board::Counter::stop);
     for f in &node.can_mut().tx {
-        link.send(f);
+        send_frame(send, f);
     }
     node.can_mut().tx.clear();
     let o = &tick.output;
@@ -248,60 +377,128 @@ fn sample(link: &Link, node: &mut BoardNode, counter: &mut Option<board::Counter
     };
     let mut buf = [0u8; RECORD_MAX_LINE];
     let n = link::report_encode(&report, &mut buf);
-    link.uart.write_all(&buf[..n]);
+    send(&buf[..n]);
 }
 
-#[entry]
-fn main() -> ! {
-    let painted = board::paint_stack();
-    let mut counter = cortex_m::Peripherals::take().map(|p| board::Counter::new(p.SYST));
-    let mut link = Link {
-        uart: Uart::init(),
-        line: [0; SLCAN_MAX_LINE],
-    };
-    let mut node = configure(&mut link);
-    // Time of the last tick, the origin of timestamps [µs], and the interval before it.
-    let mut sync_us = 0u64;
-    let mut dt_us = 0u32;
-    loop {
-        let (f, ts) = match link.next() {
-            Slcan::Frame(f) => (f, None),
-            Slcan::Timed(f, t) => (f, Some(t)),
-            Slcan::Tick(t) => {
-                dt_us = t.dt_us.unwrap_or(dt_us);
-                sync_us += u64::from(dt_us);
-                node.clock_mut().0 = sync_us;
-                node.sensor_mut().0 = t.x;
-                sample(&link, &mut node, &mut counter);
-                continue;
+#[rtic::app(device = crate::pac, peripherals = false, dispatchers = [DUALTIMER])]
+mod app {
+    use super::*;
+    use heapless::spsc::{Producer, Queue};
+
+    #[shared]
+    struct Shared {
+        uart: board::Uart,
+        timer: Option<SampleTimer>,
+    }
+
+    #[local]
+    struct Local {
+        uart_rx: board::UartRx,
+        rx_in: Producer<'static, u8>,
+        ctl: Control,
+    }
+
+    #[init(local = [queue: Queue<u8, RX_QUEUE> = Queue::new()])]
+    fn init(cx: init::Context) -> (Shared, Local) {
+        let painted = board::paint_stack();
+        let counter = Some(board::Counter::new(cx.core.SYST));
+        let mut uart = board::Uart::init();
+        send_io(
+            &mut |b: &[u8]| uart.write_all(b),
+            io::BOOT,
+            &[link::PROTOCOL_VERSION],
+        );
+        let (rx_in, rx) = cx.local.queue.split();
+        // The first run configures the node (a fresh task cannot be running yet).
+        let _ = control::spawn();
+        (
+            Shared { uart, timer: None },
+            Local {
+                uart_rx: board::UartRx::new(),
+                rx_in,
+                ctl: Control {
+                    rx,
+                    line: [0; SLCAN_MAX_LINE],
+                    node: None,
+                    counter,
+                    painted,
+                    watchdog_counts: 0,
+                    sync_us: 0,
+                    dt_us: 0,
+                    hang: false,
+                },
+            },
+        )
+    }
+
+    /// Sleeps between interrupts (RTIC's default idle spins, which under `-icount` turns every
+    /// idle nanosecond into an emulated instruction).
+    #[idle]
+    fn idle(_: idle::Context) -> ! {
+        loop {
+            cortex_m::asm::wfi();
+        }
+    }
+
+    /// UART0 receive: every byte into the queue (counted and dropped when it is full).
+    #[task(binds = UART0RX, priority = 3, local = [uart_rx, rx_in])]
+    fn uart_rx(cx: uart_rx::Context) {
+        while let Some(b) = cx.local.uart_rx.take() {
+            if cx.local.rx_in.enqueue(b).is_err() {
+                RX_DROPPED.fetch_add(1, Ordering::Relaxed);
             }
-            _ => continue,
+        }
+    }
+
+    /// Timer 0, once per sample period: releases the control task and arms the watchdog, or,
+    /// with the previous step still running, counts an overrun and tells the host.
+    #[task(binds = TIMER0, priority = 2, shared = [uart, timer], local = [overruns: u32 = 0])]
+    fn release(mut cx: release::Context) {
+        let Some(counts) = cx.shared.timer.lock(|t| {
+            t.as_ref().map(|t| {
+                t.restart();
+                t.counts()
+            })
+        }) else {
+            return;
         };
-        if let Some(t) = ts {
-            node.clock_mut().0 = sync_us + u64::from(t);
+        if control::spawn().is_ok() {
+            Watchdog::arm(counts.saturating_mul(WATCHDOG_PERIODS));
+        } else {
+            LATE.store(true, Ordering::Relaxed);
+            *cx.local.overruns += 1;
+            let n = cx.local.overruns.to_le_bytes();
+            cx.shared
+                .uart
+                .lock(|u| send_io(&mut |b: &[u8]| u.write_all(b), io::OVERRUN, &n));
         }
-        match (f.io_id(), link::unpack_u32(f.data())) {
-            (None, _) => {
-                // A bus frame: into the receive FIFO, taken now (the receive interrupt).
-                if node.can_mut().rx.push_back(f).is_ok() {
-                    node.poll_rx();
-                }
-            }
-            (Some(io::CLOCK), Some(t)) => {
-                let c = &mut node.clock_mut().0;
-                *c = link::extend_clock(*c, t);
-            }
-            (Some(io::STATS_REQUEST), _) => {
-                let stack = board::stack_high_water(painted).to_le_bytes();
-                let bad = node.stats().malformed.total().to_le_bytes();
-                link.send_io(
-                    io::STATS,
-                    &[
-                        stack[0], stack[1], stack[2], stack[3], bad[0], bad[1], bad[2], bad[3],
-                    ],
-                );
-            }
-            _ => link.uart.write_all(b"\x07"),
+    }
+
+    /// The control task: configuration on its first run, then one sample per release.
+    #[task(priority = 1, local = [ctl], shared = [uart, timer])]
+    async fn control(mut cx: control::Context) {
+        let ctl = cx.local.ctl;
+        let mut uart = cx.shared.uart;
+        let mut send = |b: &[u8]| uart.lock(|u| u.write_all(b));
+        // Interrupts wait while the task works; they run only where it waits for bytes
+        // (`board::sleep_unless`), so where they nest on its stack is always the same.
+        board::mask_interrupts();
+        if ctl.node.is_none() {
+            let period_us = ctl.configure(&mut send);
+            let timer = SampleTimer::start(period_us);
+            ctl.watchdog_counts = timer.counts().saturating_mul(WATCHDOG_PERIODS);
+            let _ = Watchdog::enable();
+            cx.shared.timer.lock(|t| *t = Some(timer));
+            board::unmask_interrupts();
+            return;
         }
+        LATE.store(false, Ordering::Relaxed);
+        ctl.sample(&mut send);
+        let late = LATE.load(Ordering::Relaxed)
+            || cortex_m::peripheral::NVIC::is_pending(pac::Interrupt::TIMER0);
+        if !late {
+            Watchdog::park();
+        }
+        board::unmask_interrupts();
     }
 }

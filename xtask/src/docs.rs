@@ -16,6 +16,7 @@
 //! are skipped by `--check` and rewritten only with `--wall-clock`.
 
 use crate::{cargo, target, workspace_root, Options, Result};
+use object::{Object, ObjectSection};
 use serde_json::Value;
 use std::{
     collections::{BTreeMap, HashSet},
@@ -242,7 +243,7 @@ fn short(s: &str) -> String {
 }
 
 /// The figure names (patterns) and what they render.
-pub const CATALOGUE: [(&str, &str); 23] = [
+pub const CATALOGUE: [(&str, &str); 24] = [
     ("bench-table", "target bench table (target/bench/step.json)"),
     ("bench.VARIANT.KEY", "one number of step.json's VARIANT (KEY also flash_total)"),
     ("scenarios", "shipped scenario table (host-sim run, stable-h)"),
@@ -257,6 +258,7 @@ pub const CATALOGUE: [(&str, &str); 23] = [
     ("torque-limit.smallest", "smallest u_max that tracks into the band"),
     ("torque-limit.fails", "largest u_max found not to track"),
     ("pil", "per-agent Node::tick instructions of the 2 s PIL run (target/ci-pil/pil)"),
+    ("node-fw.KEY", "node-fw release ELF in bytes (KEY: flash = vector table, .text, .rodata, .data; ram = .data, .bss, .uninit)"),
     ("sizes.KEY", "size_of in bytes (KEY: controller, params, state, controller-n3)"),
     ("campaign.NAME", "Ts x h map summary per Ts (NAME: example1-ts-h, example2-ts-h; out/campaigns/NAME/results.csv)"),
     ("campaign.example1-monte-carlo.KEY", "Monte Carlo figures (KEY: runs, diverged, bounded, error-min, error-max, error-median, error-p95)"),
@@ -285,6 +287,7 @@ enum Figure<'a> {
     TorqueSmallest,
     TorqueFails,
     Pil,
+    NodeFw(&'a str),
     Size(&'a str),
     TsH(&'a str),
     MonteCarlo(&'a str),
@@ -343,6 +346,7 @@ fn parse(name: &str) -> Option<Figure<'_>> {
         ["torque-limit", "smallest"] => Figure::TorqueSmallest,
         ["torque-limit", "fails"] => Figure::TorqueFails,
         ["pil"] => Figure::Pil,
+        ["node-fw", key] if ["flash", "ram"].contains(key) => Figure::NodeFw(key),
         ["sizes", key] if SIZES.contains(key) => Figure::Size(key),
         ["campaign", name] if TS_H.contains(name) => Figure::TsH(name),
         ["campaign", "example1-monte-carlo", key] if MONTE_CARLO.contains(key) => {
@@ -380,6 +384,7 @@ fn render(name: &str, src: &mut Sources) -> Result<Option<String>> {
         Figure::TorqueSmallest => fixed(num(&src.torque()?, "smallest")?, 2),
         Figure::TorqueFails => fixed(num(&src.torque()?, "fails")?, 2),
         Figure::Pil => pil_table(&src.pil()?)?,
+        Figure::NodeFw(key) => grouped(num(&src.node_fw()?, key)?, 0),
         Figure::Size(key) => sizes_figure(&src.sizes()?, key)?,
         Figure::TsH(name) => ts_h_table(&src.campaign(name)?)?,
         Figure::MonteCarlo(key) => monte_carlo(&src.campaign("example1-monte-carlo")?, key)?,
@@ -622,6 +627,34 @@ impl Sources {
                 .args(["--set", "simulation.t_end=2", "--out"])
                 .arg(file.parent().unwrap_or(file)))
             .map(|_| ())
+        })
+    }
+
+    /// Flash and static RAM of the node firmware, from its release ELF's sections.
+    fn node_fw(&mut self) -> Result<Value> {
+        self.json_file("target/docs/node-fw.json", |_, file| {
+            let dir = workspace_root().join("node-fw");
+            run(Command::new(cargo()).current_dir(&dir).args([
+                "build",
+                "--release",
+                "--locked",
+                "--quiet",
+            ]))?;
+            let elf = dir.join("target/thumbv7em-none-eabihf/release/node-fw");
+            let data = fs::read(&elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+            let obj = object::File::parse(&*data)
+                .map_err(|e| format!("{}: cannot parse the ELF: {e}", elf.display()))?;
+            let size = |names: &[&str]| -> u64 {
+                obj.sections()
+                    .filter(|s| s.name().is_ok_and(|n| names.contains(&n)))
+                    .map(|s| s.size())
+                    .sum()
+            };
+            let v = serde_json::json!({
+                "flash": size(&[".vector_table", ".text", ".rodata", ".data"]),
+                "ram": size(&[".data", ".bss", ".uninit"]),
+            });
+            fs::write(file, v.to_string()).map_err(|e| format!("{}: {e}", file.display()))
         })
     }
 

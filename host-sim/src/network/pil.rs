@@ -44,18 +44,19 @@ use hil_mock::{
     bus::{Bus, Nanos},
     mock::MockFrame,
 };
+use plotters::style::{Color, RGBColor};
 
 use crate::{
     error::{Error, Result},
     figure::{
-        panel::{render, Panel, Series},
+        panel::{color, render, Panel, Series, Shade},
         FigureStyle,
     },
     figures::{FirmwareSummary, NetworkSummary},
     graph::Graph,
     network::{
         node::NodeSpec,
-        spec::{bus_config, node_config, ns, NetworkKind, NetworkSpec},
+        spec::{bus_config, node_config, ns, EventName, NetworkKind, NetworkSpec},
         trace::{candump_fd_line, candump_line, TraceWriter, Traces, INTERFACE},
     },
     sim::{Agents, K},
@@ -230,6 +231,11 @@ struct Emulator {
     tick_dt_us: Option<u32>,
     /// Candump lines of everything on the link since they were last taken (`--link-trace`).
     link_log: Option<Vec<String>>,
+    /// The configuration words, sent again when the node boots after a watchdog reset.
+    config: Vec<u32>,
+    /// The control task stopped (an `OVERRUN` came instead of the report): the host sends
+    /// nothing and takes one line per sample until the report or the boot frame.
+    hung: bool,
 }
 
 impl Emulator {
@@ -287,7 +293,61 @@ impl Emulator {
             sync_us: 0,
             tick_dt_us: None,
             link_log: log_link.then(Vec::new),
+            config: Vec::new(),
+            hung: false,
         })
+    }
+
+    /// Sends the configuration words (`CONFIG` … `CONFIG_END`).
+    fn send_config(&mut self) -> Result<()> {
+        let words = std::mem::take(&mut self.config);
+        for pair in words.chunks(2) {
+            let bytes: Vec<u8> = pair.iter().flat_map(|w| w.to_le_bytes()).collect();
+            self.queue_io(io::CONFIG, &bytes);
+        }
+        let count = u16::try_from(words.len()).unwrap_or(u16::MAX);
+        self.queue_io(io::CONFIG_END, &count.to_le_bytes());
+        self.config = words;
+        self.flush()
+    }
+
+    /// Checks a `BOOT` frame: the firmware speaks this host's link protocol.
+    fn check_boot(&self, f: &CanFrame) -> Result<()> {
+        match (f.io_id(), f.data()) {
+            (Some(io::BOOT), [v]) if *v == link::PROTOCOL_VERSION => Ok(()),
+            (Some(io::BOOT), d) => Err(self.failure(&format!(
+                "firmware speaks link protocol {d:?}, host-sim {}: rebuild node-fw (cd node-fw && \
+                 cargo build --release)",
+                link::PROTOCOL_VERSION
+            ))),
+            _ => Err(self.failure(&format!(
+                "unexpected start-up frame {f:?} (the boot frame comes first; an older node-fw? \
+                 rebuild it: cd node-fw && cargo build --release)"
+            ))),
+        }
+    }
+
+    /// Waits for `READY` (the configuration accepted).
+    fn expect_ready(&mut self) -> Result<()> {
+        let f = self.next_frame("READY")?;
+        match (f.io_id(), f.data()) {
+            (Some(io::READY), [a]) if usize::from(*a) == self.agent => Ok(()),
+            (Some(io::REJECTED), [code]) => {
+                Err(self.failure(&format!("configuration rejected (code {code})")))
+            }
+            _ => Err(self.failure(&format!("unexpected start-up answer {f:?}"))),
+        }
+    }
+
+    /// The node booted again (watchdog reset): configure it afresh; its clock restarts, so
+    /// the next tick carries the interval from 0.
+    fn rejoin(&mut self, f: &CanFrame) -> Result<()> {
+        self.check_boot(f)?;
+        self.hung = false;
+        self.sync_us = 0;
+        self.tick_dt_us = None;
+        self.send_config()?;
+        self.expect_ready()
     }
 
     /// Keeps `frame`, seen on the link at `t_us`, for the link trace.
@@ -473,6 +533,54 @@ fn read_output(mut stdout: impl Read, tx: &mpsc::Sender<Output>) {
 /// Pause of the output reader after each read.
 const READ_PAUSE: Duration = Duration::from_micros(150);
 
+/// An output before any report: no command, no estimates.
+fn blank_output<const N: usize, const M: usize>() -> StepOutput<N, M> {
+    StepOutput {
+        u: [0.0; M],
+        q: [0.0; M],
+        e: [0.0; N],
+        // Not reported over the link (no output uses them).
+        alpha: [f32::NAN; N],
+        beta: [f32::NAN; N],
+        estimates: Estimates {
+            mu: 0.0,
+            xi: 0.0,
+            lambda: 0.0,
+        },
+        varpi: f32::NAN,
+        status: StepStatus::default(),
+    }
+}
+
+/// The output a report carries (`N = M = 2`, checked when the agents start).
+fn report_output<const N: usize, const M: usize>(r: &Report) -> StepOutput<N, M> {
+    let mut out = blank_output();
+    for (dst, src) in [(&mut out.q[..], r.q), (&mut out.u[..], r.u)]
+        .into_iter()
+        .chain([(&mut out.e[..], r.e)])
+    {
+        dst.iter_mut().zip(src).for_each(|(d, s)| *d = s);
+    }
+    out.estimates = Estimates {
+        mu: r.mu,
+        xi: r.xi,
+        lambda: r.lambda,
+    };
+    out.status.fault = match r.fault {
+        0 => None,
+        1 => Some(StepFault::InvalidState),
+        _ => Some(StepFault::NonFiniteResult),
+    };
+    out.status.links = LinkReport {
+        stale_neighbours: r.stale,
+        missing_neighbours: r.missing,
+        leader_stale: r.leader & 1 != 0,
+        leader_missing: r.leader & 2 != 0,
+        ..LinkReport::default()
+    };
+    out
+}
+
 fn nearest_rank(sorted: &[u32], p: f64) -> u32 {
     if sorted.is_empty() {
         return 0;
@@ -489,8 +597,6 @@ pub struct PilAgents<const N: usize, const M: usize> {
     bitrate: u32,
     leader_seq: u8,
     ids: IdPlan,
-    /// Each node's state in its last report, and its safe-state entries seen so far.
-    states: Vec<(NodeState, u32)>,
     pinned: Vec<bool>,
     neighbours: Vec<Vec<usize>>,
     /// Acceptance filter of each node: the standard identifiers it hears.
@@ -498,6 +604,8 @@ pub struct PilAgents<const N: usize, const M: usize> {
     /// `sample_time[receiver][sender]`: sample time of the latest frame delivered.
     sample_time: Vec<Vec<Option<Nanos>>>,
     costs: Vec<Vec<u32>>,
+    /// Sample index of each entry of `costs`.
+    cost_samples: Vec<Vec<u64>>,
     resolution: u32,
     stale_samples: u64,
     stacks: Vec<u32>,
@@ -505,6 +613,36 @@ pub struct PilAgents<const N: usize, const M: usize> {
     gains: Gains,
     trace: Option<TraceWriter>,
     link_trace: Option<TraceWriter>,
+    /// Per agent, the sample times of its `hang` events not yet sent.
+    hang_at: Vec<Vec<Nanos>>,
+    /// Per agent, the output of its last report: what a hung node's actuators hold.
+    held: Vec<StepOutput<N, M>>,
+    /// Per agent, its overruns and the times of its hangs and resets (kept when the
+    /// emulators end).
+    events: Vec<NodeEvents>,
+}
+
+/// What happened to one node's control task during the run.
+#[derive(Debug, Clone, Default)]
+struct NodeEvents {
+    overruns: u32,
+    hangs: Vec<f64>,
+    resets: Vec<f64>,
+    /// Safe-state intervals `[from, to)` [s]; `to` is `None` while the node is in it.
+    safe: Vec<(f64, Option<f64>)>,
+}
+
+impl NodeEvents {
+    /// Follows the node state a report carries ([`NodeState::code`]) at sample time `t`.
+    fn state(&mut self, code: u8, t: f64) {
+        let safe = code == NodeState::Safe.code();
+        match self.safe.last_mut() {
+            Some((_, to @ None)) if !safe => *to = Some(t),
+            Some((_, None)) => {}
+            _ if safe => self.safe.push((t, None)),
+            _ => {}
+        }
+    }
 }
 
 impl<const N: usize, const M: usize> PilAgents<N, M> {
@@ -571,26 +709,25 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
             let mut emu =
                 Emulator::spawn(i + 1, &firmware, timeout, &launch, traces.link.is_some())?;
             let words = link::encode_config(&node, &ctrl);
-            let words = words.as_slice().ok_or_else(|| {
-                Error::invalid("network.kind", "configuration too large for the PIL link")
-            })?;
-            for pair in words.chunks(2) {
-                let bytes: Vec<u8> = pair.iter().flat_map(|w| w.to_le_bytes()).collect();
-                emu.queue_io(io::CONFIG, &bytes);
-            }
-            let count = u16::try_from(words.len()).unwrap_or(u16::MAX);
-            emu.queue_io(io::CONFIG_END, &count.to_le_bytes());
-            emu.flush()?;
+            emu.config = words
+                .as_slice()
+                .ok_or_else(|| {
+                    Error::invalid("network.kind", "configuration too large for the PIL link")
+                })?
+                .to_vec();
+            emu.send_config()?;
             emus.push(emu);
         }
         for emu in &mut emus {
-            let f = emu.next_frame("READY")?;
-            match (f.io_id(), f.data()) {
-                (Some(io::READY), [a]) if usize::from(*a) == emu.agent => {}
-                (Some(io::REJECTED), [code]) => {
-                    return Err(emu.failure(&format!("configuration rejected (code {code})")))
-                }
-                _ => return Err(emu.failure(&format!("unexpected start-up answer {f:?}"))),
+            let f = emu.next_frame("the boot frame")?;
+            emu.check_boot(&f)?;
+            emu.expect_ready()?;
+        }
+        let mut hang_at = vec![Vec::new(); agents];
+        for e in spec.event.iter().filter(|e| e.kind == EventName::Hang) {
+            let a = e.agent.and_then(|a| usize::try_from(a).ok()).unwrap_or(0);
+            if let Some(v) = hang_at.get_mut(a.wrapping_sub(1)) {
+                v.push(ns(e.from));
             }
         }
         let accept = neighbours
@@ -621,12 +758,12 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
             bitrate,
             leader_seq: 0,
             ids,
-            states: vec![(NodeState::Boot, 0); agents],
             pinned,
             neighbours,
             accept,
             sample_time: vec![vec![None; agents + 1]; agents + 1],
             costs: vec![Vec::with_capacity(usize::try_from(samples).unwrap_or(0)); agents],
+            cost_samples: vec![Vec::with_capacity(usize::try_from(samples).unwrap_or(0)); agents],
             resolution: 0,
             stale_samples: 0,
             stacks: vec![0; agents],
@@ -639,6 +776,9 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
             }),
             trace,
             link_trace,
+            hang_at,
+            held: vec![blank_output(); agents],
+            events: vec![NodeEvents::default(); agents],
         };
         agents.write_link_log();
         Ok(agents)
@@ -658,9 +798,8 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
         self.costs
             .iter()
             .zip(&self.stacks)
-            .zip(&self.states)
             .enumerate()
-            .map(|(i, ((c, &stack), &(_, entries)))| {
+            .map(|(i, (c, &stack))| {
                 let mut s = c.clone();
                 s.sort_unstable();
                 FirmwareSummary {
@@ -672,7 +811,10 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
                     instructions_max: s.last().copied().unwrap_or(0),
                     instructions_resolution: self.resolution,
                     stack_bytes: stack,
-                    safe_state_entries: entries,
+                    overruns: self.events[i].overruns,
+                    resets: u32::try_from(self.events[i].resets.len()).unwrap_or(u32::MAX),
+                    safe_state_entries: u32::try_from(self.events[i].safe.len())
+                        .unwrap_or(u32::MAX),
                 }
             })
             .collect()
@@ -683,70 +825,57 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
         &self.costs
     }
 
+    /// Agent `j`'s answer to the sample at `t_ns`: its report; or, when its control task is
+    /// stopped, the output its actuators hold (an `OVERRUN` frame: the timer released the task
+    /// again) or, after a watchdog reset (the boot frame), no command until it reports again.
     fn collect(&mut self, j: usize, t_ns: Nanos) -> Result<StepOutput<N, M>> {
-        let mut out = StepOutput {
-            u: [0.0; M],
-            q: [0.0; M],
-            e: [0.0; N],
-            // Not reported over the link (no output uses them).
-            alpha: [f32::NAN; N],
-            beta: [f32::NAN; N],
-            estimates: Estimates {
-                mu: 0.0,
-                xi: 0.0,
-                lambda: 0.0,
-            },
-            varpi: f32::NAN,
-            status: StepStatus::default(),
-        };
         loop {
             let emu = &mut self.emus[j];
-            let f = match emu.next_answer("the answer to a tick")? {
+            let waiting = if emu.hung {
+                "the next line of a stopped node (OVERRUN or its boot frame)"
+            } else {
+                "the answer to a tick"
+            };
+            let f = match emu.next_answer(waiting)? {
                 Answer::Report(r) => {
-                    // N = M = 2 (checked in `new`).
-                    for (dst, src) in [(&mut out.q[..], r.q), (&mut out.u[..], r.u)]
-                        .into_iter()
-                        .chain([(&mut out.e[..], r.e)])
-                    {
-                        dst.iter_mut().zip(src).for_each(|(d, s)| *d = s);
-                    }
-                    out.estimates = Estimates {
-                        mu: r.mu,
-                        xi: r.xi,
-                        lambda: r.lambda,
-                    };
-                    out.status.fault = match r.fault {
-                        0 => None,
-                        1 => Some(StepFault::InvalidState),
-                        _ => Some(StepFault::NonFiniteResult),
-                    };
-                    out.status.links = LinkReport {
-                        stale_neighbours: r.stale,
-                        missing_neighbours: r.missing,
-                        leader_stale: r.leader & 1 != 0,
-                        leader_missing: r.leader & 2 != 0,
-                        ..LinkReport::default()
-                    };
+                    emu.hung = false;
+                    self.events[j].state(r.state, t_ns as f64 * 1e-9);
+                    let out = report_output(&r);
                     self.stale_samples += u64::from(r.stale);
-                    let state = NodeState::from_code(r.state).unwrap_or(NodeState::Fault);
-                    let (last, entries) = &mut self.states[j];
-                    if state == NodeState::Safe && *last != NodeState::Safe {
-                        *entries += 1;
-                    }
-                    *last = state;
                     self.costs[j].push(r.instructions);
+                    self.cost_samples[j].push(t_ns / self.h_ns.max(1));
                     self.resolution = r.resolution;
+                    self.held[j] = out;
                     return Ok(out);
                 }
                 Answer::Frame(f) => f,
             };
-            if f.io_id().is_some() {
-                return Err(emu.failure(&format!("unexpected frame {f:?} in a tick's answer")));
+            match f.io_id() {
+                None => {
+                    let frame = MockFrame::new(f.id(), f.data())
+                        .ok_or_else(|| emu.failure("sent a frame the bus cannot carry"))?;
+                    // Refusals (silent, bus-off) are counted by the bus.
+                    let _ = self.bus.submit(j + 1, t_ns, frame);
+                }
+                Some(io::OVERRUN) => {
+                    self.events[j].overruns += 1;
+                    emu.hung = true;
+                    return Ok(self.held[j]);
+                }
+                Some(io::BOOT) => {
+                    emu.rejoin(&f)?;
+                    let t = t_ns as f64 * 1e-9;
+                    self.events[j].resets.push(t);
+                    self.events[j].state(NodeState::Boot.code(), t);
+                    let held = &mut self.held[j];
+                    held.q = [0.0; M];
+                    held.u = [0.0; M];
+                    return Ok(*held);
+                }
+                Some(_) => {
+                    return Err(emu.failure(&format!("unexpected frame {f:?} in a tick's answer")))
+                }
             }
-            let frame = MockFrame::new(f.id(), f.data())
-                .ok_or_else(|| emu.failure("sent a frame the bus cannot carry"))?;
-            // Refusals (silent, bus-off) are counted by the bus.
-            let _ = self.bus.submit(j + 1, t_ns, frame);
         }
     }
 
@@ -779,7 +908,7 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
             };
             for (j, emu) in self.emus.iter_mut().enumerate() {
                 let bus_node = j + 1;
-                if bus_node == d.from || self.bus.is_bus_off(bus_node, d.at_ns) {
+                if bus_node == d.from || emu.hung || self.bus.is_bus_off(bus_node, d.at_ns) {
                     continue;
                 }
                 if !d.frame.is_extended() && !self.accept[j].contains(&d.frame.raw_id()) {
@@ -790,7 +919,21 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
             }
         }
         let t_us = t_ns / 1000;
-        for (emu, xi) in self.emus.iter_mut().zip(x) {
+        for (((emu, xi), hangs), events) in self
+            .emus
+            .iter_mut()
+            .zip(x)
+            .zip(&mut self.hang_at)
+            .zip(&mut self.events)
+        {
+            if emu.hung {
+                continue;
+            }
+            if let Some(pos) = hangs.iter().position(|&from| from <= t_ns) {
+                hangs.swap_remove(pos);
+                events.hangs.push(t_ns as f64 * 1e-9);
+                emu.queue_io(io::HANG, &[]);
+            }
             emu.queue_tick([xi[0] as f32, xi[1] as f32], t_us)?;
             emu.flush()?;
         }
@@ -832,32 +975,70 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
     /// `firmware.png` / `.svg`: instructions of every tick against time, per agent (the
     /// largest of each 10 consecutive ticks, so no peak is lost), and the median.
     fn draw(&self, dir: &Path, h: f64, title: &str) -> Result<()> {
-        const STRIDE: usize = 10;
+        const STRIDE: u64 = 10;
         let series = self
             .costs
             .iter()
+            .zip(&self.cost_samples)
             .enumerate()
-            .map(|(i, c)| {
-                let points = c
-                    .chunks(STRIDE)
-                    .enumerate()
-                    .map(|(b, w)| {
-                        let peak = w.iter().copied().max().unwrap_or(0);
-                        ((b * STRIDE) as f64 * h, f64::from(peak))
-                    })
-                    .collect();
+            .map(|(i, (c, k))| {
+                let mut points: Vec<(f64, f64)> = Vec::new();
+                let mut bucket = None;
+                for (&k, &c) in k.iter().zip(c) {
+                    let b = k / STRIDE;
+                    match points.last_mut() {
+                        Some(p) if bucket == Some(b) => p.1 = p.1.max(f64::from(c)),
+                        _ => points.push(((b * STRIDE) as f64 * h, f64::from(c))),
+                    }
+                    bucket = Some(b);
+                }
                 Series {
                     width: 1,
                     ..Series::styled(format!("agent {}", i + 1), i, points)
                 }
             })
             .collect();
+        let end = self
+            .cost_samples
+            .iter()
+            .filter_map(|k| k.last())
+            .max()
+            .map_or(0.0, |&k| k as f64 * h);
+        let mut shades = Vec::new();
+        let mut vlines = Vec::new();
+        for (i, ev) in self.events.iter().enumerate() {
+            for (n, &from) in ev.hangs.iter().enumerate() {
+                let to = ev.resets.get(n).copied().unwrap_or(end);
+                shades.push(Shade {
+                    from,
+                    to,
+                    color: {
+                        let c = color(i);
+                        RGBColor(c.0, c.1, c.2).mix(0.15)
+                    },
+                    label: format!("agent {}: control task stopped", i + 1),
+                });
+            }
+            for &t in &ev.resets {
+                vlines.push((t, format!("agent {}: watchdog reset", i + 1)));
+            }
+            for &(from, to) in &ev.safe {
+                shades.push(Shade {
+                    from,
+                    to: to.unwrap_or(end),
+                    color: RGBColor(214, 39, 40).mix(0.10),
+                    label: format!("agent {}: safe state", i + 1),
+                });
+            }
+        }
         let panel = Panel {
             title: format!(
                 "{title}: node firmware instructions per tick (QEMU mps2-an386, Cortex-M4F)"
             ),
             y_label: "instructions per tick".into(),
             series,
+            shades,
+            vlines,
             ..Panel::default()
         };
         render(
@@ -870,11 +1051,12 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
     }
 
     fn finish(&mut self) -> Result<()> {
-        for emu in &mut self.emus {
+        // A node whose control task is stopped answers nothing (its stack stays unknown, 0).
+        for emu in self.emus.iter_mut().filter(|e| !e.hung) {
             emu.queue_io(io::STATS_REQUEST, &[]);
             emu.flush()?;
         }
-        for (j, emu) in self.emus.iter_mut().enumerate() {
+        for (j, emu) in self.emus.iter_mut().enumerate().filter(|(_, e)| !e.hung) {
             let f = emu.next_frame("STATS")?;
             match (f.io_id(), link::unpack_u32x2(f.data())) {
                 (Some(io::STATS), Some((stack, malformed))) => {

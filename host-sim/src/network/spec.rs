@@ -43,9 +43,13 @@ pub enum EventName {
     Silent,
     /// The node floods frames with identifier `id` (default 0, the highest priority).
     Babbling,
+    /// `kind = "pil"` only: the node firmware's control task stops at `from` (as a firmware
+    /// bug would) and only its watchdog brings the node back.
+    Hang,
 }
 
-/// One `[[network.event]]`: a node silent or babbling on `[from, until)`.
+/// One `[[network.event]]`: a node silent or babbling on `[from, until)`, or hanging from
+/// `from` until its watchdog resets it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct NetworkEvent {
@@ -55,7 +59,7 @@ pub struct NetworkEvent {
     /// Bus node: 0 is the leader, `i` is agent `i` (or give `agent`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub node: Option<i64>,
-    /// `silent` or `babbling`.
+    /// `silent`, `babbling` or `hang`.
     pub kind: EventName,
     /// Babbling only: 11-bit identifier of the flood (default 0).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -250,8 +254,32 @@ pub fn validate(spec: &NetworkSpec, agents: usize, h: f64, t_end: f64) -> Result
                 ))
             }
         }
+        if e.kind == EventName::Hang {
+            if spec.kind != NetworkKind::Pil {
+                return Err(Error::invalid(
+                    key("kind"),
+                    format!(
+                        "\"hang\" stops a node firmware's control task and needs network.kind = \
+                         \"pil\" (got \"{}\")",
+                        spec.kind.as_str()
+                    ),
+                ));
+            }
+            if e.agent.is_none() {
+                return Err(Error::invalid(
+                    key("agent"),
+                    "kind = \"hang\" names a follower by `agent` (the leader has no firmware)",
+                ));
+            }
+            if e.until.is_some() {
+                return Err(Error::invalid(
+                    key("until"),
+                    "not for kind = \"hang\": only the node's watchdog ends a hang",
+                ));
+            }
+        }
         match (e.kind, e.id) {
-            (EventName::Silent, Some(_)) => {
+            (EventName::Silent | EventName::Hang, Some(_)) => {
                 return Err(Error::invalid(key("id"), "only for kind = \"babbling\""))
             }
             (EventName::Babbling, Some(id)) if !(0..=0x7FF).contains(&id) => {
@@ -300,16 +328,20 @@ pub fn bus_config(spec: &NetworkSpec, h: f64) -> BusConfig {
         events: spec
             .event
             .iter()
-            .map(|e| BusEvent {
-                node: usize::try_from(e.agent.or(e.node).unwrap_or(0)).unwrap_or(0),
-                kind: match e.kind {
+            .filter_map(|e| {
+                let kind = match e.kind {
                     EventName::Silent => EventKind::Silent,
                     EventName::Babbling => EventKind::Babbling {
                         id: u16::try_from(e.id.unwrap_or(0)).unwrap_or(0),
                     },
-                },
-                from_ns: ns(e.from),
-                until_ns: e.until.map_or(Nanos::MAX, ns),
+                    EventName::Hang => return None,
+                };
+                Some(BusEvent {
+                    node: usize::try_from(e.agent.or(e.node).unwrap_or(0)).unwrap_or(0),
+                    kind,
+                    from_ns: ns(e.from),
+                    until_ns: e.until.map_or(Nanos::MAX, ns),
+                })
             })
             .collect(),
     }
