@@ -2,8 +2,10 @@
 //! under a temporary name and renamed into place.
 
 pub mod csv;
+pub mod parquet;
 pub mod plots;
 pub mod spread;
+pub mod table;
 
 use std::{
     path::{Path, PathBuf},
