@@ -28,7 +28,7 @@ def host_sim_binary() -> Path:
     pytest.skip("no host-sim binary: cargo build -p host-sim --release, or set HOST_SIM")
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def host_sim():
     binary = host_sim_binary()
 
