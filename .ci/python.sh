@@ -2,8 +2,8 @@
 # The Python package: `pip install ./python` (maturin's PEP 517 backend builds the pyo3 extension
 # with cargo, release profile), the pytest suite in python/tests (against the host-sim binary:
 # summary, trajectory, files, sweep, Controller, Parquet vs CSV with pyarrow), and the example
-# notebook executed headless with nbclient. About 6 min on a 2-core machine from a warm target/
-# (the extension's release build dominates).
+# notebook executed headless with nbclient. 11 min 40 s on the 2-core machine at load 13 (4.5 min CPU)
+# with the extension and host-sim rebuilt in release; pytest 6 s and the notebook 10 s of it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 if ! command -v pip3 >/dev/null; then
