@@ -17,7 +17,16 @@ use crate::{
         BusAgents,
     },
     plant::{with_sizes, Custom, Plant, PlantModel},
-    report::{self, csv::CsvObserver, plots::Recorder, spread::Spread},
+    report::{
+        self,
+        csv::{
+            check_size_of, default_decimate, estimated_size_of, human_bytes, parse_agents, Format,
+            Sink, TrajectoryObserver,
+        },
+        plots::Recorder,
+        spread::Spread,
+        table::Table,
+    },
     scenario::{self, Scenario, Setup},
     sim::{Agents, Linked, Observer, Sim, World},
 };
@@ -27,6 +36,10 @@ use crate::{
 pub struct RunOptions {
     /// Output directory (`None`: nothing is written).
     pub out: Option<PathBuf>,
+    /// Format of the trajectory file in `out`.
+    pub format: Format,
+    /// Keep the trajectory's columns in the result ([`RunResult::table`]).
+    pub table: bool,
     /// Every `decimate`-th sample goes to `trajectory.csv`.
     pub decimate: u64,
     /// The agents (0-based, ascending) whose columns `trajectory.csv` gets (`None`: all).
@@ -54,6 +67,89 @@ pub struct RunResult {
     pub recorder: Option<Recorder>,
     /// Per sample `(t, max error, max |u|)`, when asked for (`RunOptions::worst`).
     pub worst: Option<Vec<[f64; 3]>>,
+    /// The trajectory's columns, when asked for (`RunOptions::table`).
+    pub table: Option<Table>,
+}
+
+/// A run as a user asks for it (the options of `host-sim run`, the arguments of the Python
+/// package's `run`), before it is checked against its scenario by [`RunRequest::options`].
+#[derive(Debug, Clone, Default)]
+pub struct RunRequest {
+    /// Output directory (`None`: nothing is written).
+    pub out: Option<PathBuf>,
+    /// Format of the trajectory file.
+    pub format: Format,
+    /// `--decimate` (`None`: 1, or for a large group what keeps the file within 100 MB).
+    pub decimate: Option<u64>,
+    /// `--agents`: 1-based numbers and ranges (`None`: all).
+    pub agents: Option<String>,
+    /// Keep the trajectory in memory.
+    pub table: bool,
+    /// Draw the figures.
+    pub plots: bool,
+    /// Show a progress bar.
+    pub progress: bool,
+    /// Write a trajectory estimated above the size limit.
+    pub force: bool,
+    /// `--trace`.
+    pub trace: Option<PathBuf>,
+    /// `--link-trace`.
+    pub link_trace: Option<PathBuf>,
+}
+
+impl RunRequest {
+    /// The run options for `setup`: `--decimate` and `--agents` checked, the default
+    /// decimation of a large group chosen (with a note on standard error) and the trajectory's
+    /// size checked unless `force`.
+    pub fn options(self, setup: &Setup) -> Result<RunOptions> {
+        if self.decimate == Some(0) {
+            return Err(Error::invalid("--decimate", "must be >= 1"));
+        }
+        let agents = self
+            .agents
+            .map(|list| parse_agents(&list, setup.agents()))
+            .transpose()?;
+        let columns = agents.as_ref().map_or(setup.agents(), Vec::len);
+        let decimate = match self.decimate {
+            Some(k) => k,
+            None => {
+                let k = default_decimate(setup, columns);
+                if k > 1 {
+                    eprintln!(
+                        "host-sim: note: {} agents: trajectory.csv keeps one sample in {k} \
+                         (--decimate {k}, about {}); --decimate 1 keeps every sample, \
+                         --agents a subset of the columns",
+                        setup.agents(),
+                        human_bytes(estimated_size_of(setup, k, columns)),
+                    );
+                }
+                k
+            }
+        };
+        if !self.force {
+            check_size_of(setup, decimate, columns)?;
+        }
+        Ok(RunOptions {
+            out: self.out,
+            format: self.format,
+            table: self.table,
+            decimate,
+            agents,
+            plots: self.plots,
+            record: false,
+            progress: self.progress,
+            trace: self.trace,
+            link_trace: self.link_trace,
+            worst: false,
+        })
+    }
+}
+
+/// The text of `summary.json`.
+pub fn summary_json(summary: &Summary) -> Result<String> {
+    serde_json::to_string_pretty(summary)
+        .map(|json| json + "\n")
+        .map_err(|e| Error::Io(format!("summary.json: {e}")))
 }
 
 /// Collects the per-sample worst error and command (for fault campaigns).
@@ -237,23 +333,23 @@ where
     let mut metrics = Metrics::new(setup);
     let mut recorder = (opts.plots || opts.record)
         .then(|| Recorder::new(setup.samples, setup.agents(), setup.m()));
-    let mut csv = match &opts.out {
+    let columns = opts
+        .agents
+        .clone()
+        .unwrap_or_else(|| (0..setup.agents()).collect());
+    let trajectory = |sink| {
+        let h = setup.scenario.simulation.h;
+        TrajectoryObserver::create_for(sink, columns.clone(), (N, M), opts.decimate.max(1), h)
+    };
+    let mut file = match &opts.out {
         Some(dir) => {
             report::create_dir(dir)?;
-            let columns = opts
-                .agents
-                .clone()
-                .unwrap_or_else(|| (0..setup.agents()).collect());
-            Some(CsvObserver::create_for(
-                &dir.join("trajectory.csv"),
-                columns,
-                N,
-                M,
-                opts.decimate.max(1),
-            )?)
+            let name = format!("trajectory.{}", opts.format.extension());
+            Some(trajectory(Sink::File(opts.format, dir.join(name)))?)
         }
         None => None,
     };
+    let mut table = opts.table.then(|| trajectory(Sink::Table)).transpose()?;
     let pb = progress_bar(
         setup.samples,
         opts.progress,
@@ -277,7 +373,10 @@ where
         if let Some(s) = spread.as_mut() {
             obs.push(s);
         }
-        if let Some(c) = csv.as_mut() {
+        if let Some(c) = file.as_mut() {
+            obs.push(c);
+        }
+        if let Some(c) = table.as_mut() {
             obs.push(c);
         }
         match clocks.as_mut() {
@@ -291,13 +390,15 @@ where
     summary.set_network(sim.agents().network());
     summary.set_firmware(sim.agents().firmware());
     summary.set_clock(clocks.as_ref().map(Clocks::summary));
+    let table = table.map(TrajectoryObserver::finish).transpose()?.flatten();
     if let Some(dir) = &opts.out {
-        if let Some(c) = csv {
+        if let Some(c) = file {
             c.finish()?;
         }
-        let json = serde_json::to_string_pretty(&summary)
-            .map_err(|e| Error::Io(format!("summary.json: {e}")))?;
-        report::write_atomic(&dir.join("summary.json"), format!("{json}\n").as_bytes())?;
+        report::write_atomic(
+            &dir.join("summary.json"),
+            summary_json(&summary)?.as_bytes(),
+        )?;
         if opts.plots {
             if let Some(r) = &recorder {
                 r.draw(dir, setup, summary.settling_time)?;
@@ -316,6 +417,7 @@ where
         summary,
         recorder,
         worst: worst.map(|w| w.0),
+        table,
     })
 }
 

@@ -57,6 +57,7 @@ const LAYERS: &[(&str, &[&str])] = &[
             "network/pil.rs",
             "metrics.rs",
             "report",
+            "agent.rs",
         ],
     ),
     ("commands", &["run.rs", "compare.rs", "matrix.rs"]),

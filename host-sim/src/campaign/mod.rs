@@ -23,7 +23,7 @@ use serde::{Deserialize, Serialize};
 use crate::{
     error::{Error, Result},
     metrics::Summary,
-    report::{self, write_atomic},
+    report::{self, csv::Format, parquet, table::Results, write_atomic},
     run::{run, simulate, RunOptions},
 };
 use spec::{CampaignFile, Plan};
@@ -149,8 +149,34 @@ pub struct SweepReport {
     pub figures: Vec<PathBuf>,
 }
 
+/// How a sweep reports and what it writes besides `results.csv`.
+#[derive(Clone, Copy, Default)]
+pub struct SweepOptions<'a> {
+    /// Show a progress bar (only on a terminal).
+    pub progress: bool,
+    /// Called with (runs done, runs in the shard) as each run finishes (and once at the start).
+    pub on_run: Option<&'a (dyn Fn(u64, u64) + Sync)>,
+    /// [`Format::Parquet`]: also `results.parquet` (`results.csv` stays: resuming and `merge`
+    /// read it).
+    pub format: Format,
+}
+
 /// Runs the campaign `path` (this shard of it) into `out`; resumes from `out`'s journal.
 pub fn sweep(path: &Path, out: &Path, shard: Shard, progress: bool) -> Result<SweepReport> {
+    let opts = SweepOptions {
+        progress,
+        ..SweepOptions::default()
+    };
+    sweep_with(path, out, shard, &opts)
+}
+
+/// [`sweep`] with the reporting and outputs of `opts`.
+pub fn sweep_with(
+    path: &Path,
+    out: &Path,
+    shard: Shard,
+    opts: &SweepOptions<'_>,
+) -> Result<SweepReport> {
     let plan = Plan::load(path)?;
     let meta = CampaignJson::of(&plan)?.text()?;
     report::create_dir(out)?;
@@ -187,14 +213,23 @@ pub fn sweep(path: &Path, out: &Path, shard: Shard, progress: bool) -> Result<Sw
         ran: todo.len() as u64,
         ..SweepReport::default()
     };
-    let pb = progress_bar(rep.runs, rep.resumed, progress);
+    let pb = progress_bar(rep.runs, rep.resumed, opts.progress);
+    let report = |done| {
+        if let Some(f) = opts.on_run {
+            f(done, rep.runs);
+        }
+    };
+    report(rep.resumed);
     let mut journal = results::Journal::open(&journal_path)?;
     let (tx, rx) = mpsc::channel::<Result<String>>();
     let writer = std::thread::scope(|s| {
         let handle = s.spawn(|| -> Result<()> {
+            let mut done = rep.resumed;
             for line in rx {
                 journal.append(&line?)?;
                 pb.inc(1);
+                done += 1;
+                report(done);
             }
             journal.sync()
         });
@@ -210,6 +245,7 @@ pub fn sweep(path: &Path, out: &Path, shard: Shard, progress: bool) -> Result<Sw
     let rows = results::read_journal(&journal_path)?;
     let header = results::header(&plan);
     results::write_results(out, &header, &rows)?;
+    write_other(opts.format, out, &header, &rows)?;
     count(&header, &rows, &mut rep);
     if shard == Shard::ALL {
         let (axes, draws) = (plan.file.axis.len(), plan.file.draws);
@@ -234,6 +270,7 @@ fn run_row(plan: &Plan, out: &Path, r: u64) -> Result<String> {
                 trace: None,
                 link_trace: None,
                 worst: false,
+                ..RunOptions::default()
             };
             run(&setup, &opts).map(|x| x.summary)
         } else {
@@ -307,9 +344,27 @@ fn progress_bar(len: u64, done: u64, show: bool) -> ProgressBar {
     pb
 }
 
+/// `results.parquet` beside `results.csv` when `format` asks for it.
+fn write_other(
+    format: Format,
+    out: &Path,
+    header: &[String],
+    rows: &BTreeMap<u64, String>,
+) -> Result<()> {
+    match format {
+        Format::Csv => Ok(()),
+        Format::Parquet => parquet::write_results(out, &Results::from_csv(header, rows.values())?),
+    }
+}
+
 /// Merges complete shard directories (or one complete campaign) into `out`: the same
 /// `results.csv`, `campaign.json` and figures as one unsharded sweep.
 pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<SweepReport> {
+    merge_with(dirs, out, Format::Csv)
+}
+
+/// [`merge`], also writing `results.parquet` for [`Format::Parquet`].
+pub fn merge_with(dirs: &[PathBuf], out: &Path, format: Format) -> Result<SweepReport> {
     let first = dirs
         .first()
         .ok_or_else(|| Error::invalid("merge", "give at least one directory"))?;
@@ -377,6 +432,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<SweepReport> {
     report::create_dir(out)?;
     write_atomic(&out.join("campaign.json"), meta_text.as_bytes())?;
     results::write_results(out, &meta.columns, &rows)?;
+    write_other(format, out, &meta.columns, &rows)?;
     let base: crate::scenario::Scenario = serde_json::from_value(meta.scenario.clone())
         .map_err(|e| Error::invalid("campaign.json scenario", e))?;
     let mut rep = SweepReport {

@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use host_sim::{campaign, error::Result};
+use host_sim::{campaign, error::Result, report::csv::Format};
 
 use crate::cli::print_campaign;
 
@@ -16,11 +16,14 @@ pub struct MergeArgs {
     /// Output directory.
     #[arg(long)]
     out: PathBuf,
+    /// Also write results.parquet (same columns and values as results.csv, which stays).
+    #[arg(long, default_value = "csv", value_parser = ["csv", "parquet"])]
+    format: String,
 }
 
 /// Merges the shards and prints the counts.
 pub fn execute(a: MergeArgs) -> Result<()> {
-    let r = campaign::merge(&a.dirs, &a.out)?;
+    let r = campaign::merge_with(&a.dirs, &a.out, Format::from_name(&a.format)?)?;
     print_campaign(&r, &a.out, true);
     Ok(())
 }

@@ -5,11 +5,8 @@ use std::path::PathBuf;
 use clap::Args;
 use host_sim::{
     error::{Error, Result},
-    report::{
-        csv::{check_size_of, default_decimate, estimated_size_of, human_bytes, parse_agents},
-        fmt_time,
-    },
-    run::{run, RunOptions},
+    report::{csv::Format, fmt_time},
+    run::{run, RunRequest},
 };
 
 use crate::cli::{fmt_opt, load, Overrides};
@@ -24,6 +21,9 @@ pub struct RunArgs {
     out: PathBuf,
     #[command(flatten)]
     overrides: Overrides,
+    /// Trajectory file: trajectory.csv, or trajectory.parquet (same columns and values).
+    #[arg(long, default_value = "csv", value_parser = ["csv", "parquet"])]
+    format: String,
     /// Write every k-th sample to trajectory.csv [default: 1; above 8 agents, the smallest
     /// K that keeps the file within 100 MB].
     #[arg(long, value_name = "K", allow_negative_numbers = true)]
@@ -68,48 +68,23 @@ fn set_threads(n: usize) -> Result<()> {
 
 /// Runs the scenario; prints its summary unless `--quiet`.
 pub fn execute(a: RunArgs) -> Result<()> {
-    if a.decimate == Some(0) {
-        return Err(Error::invalid("--decimate", "must be >= 1"));
-    }
     if let Some(n) = a.threads {
         set_threads(n)?;
     }
     let setup = load(&a.scenario, &a.overrides)?;
-    let agents = a
-        .agents
-        .map(|list| parse_agents(&list, setup.agents()))
-        .transpose()?;
-    let columns = agents.as_ref().map_or(setup.agents(), Vec::len);
-    let decimate = match a.decimate {
-        Some(k) => k,
-        None => {
-            let k = default_decimate(&setup, columns);
-            if k > 1 {
-                eprintln!(
-                    "host-sim: note: {} agents: trajectory.csv keeps one sample in {k} \
-                     (--decimate {k}, about {}); --decimate 1 keeps every sample, \
-                     --agents a subset of the columns",
-                    setup.agents(),
-                    human_bytes(estimated_size_of(&setup, k, columns)),
-                );
-            }
-            k
-        }
-    };
-    if !a.force {
-        check_size_of(&setup, decimate, columns)?;
-    }
-    let opts = RunOptions {
+    let opts = RunRequest {
         out: Some(a.out.clone()),
-        decimate,
-        agents,
+        format: Format::from_name(&a.format)?,
+        decimate: a.decimate,
+        agents: a.agents,
+        table: false,
         plots: !a.no_plots,
-        record: false,
         progress: !a.quiet,
+        force: a.force,
         trace: a.trace,
         link_trace: a.link_trace,
-        worst: false,
-    };
+    }
+    .options(&setup)?;
     let r = run(&setup, &opts)?;
     if a.quiet {
         return Ok(());

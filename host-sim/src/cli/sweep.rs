@@ -4,8 +4,9 @@ use std::{path::PathBuf, time::Instant};
 
 use clap::Args;
 use host_sim::{
-    campaign::{self, Shard},
+    campaign::{self, Shard, SweepOptions},
     error::Result,
+    report::csv::Format,
 };
 
 use crate::cli::print_campaign;
@@ -18,6 +19,9 @@ pub struct SweepArgs {
     /// Output directory (results.csv, campaign.json, runs.journal, figures).
     #[arg(long)]
     out: PathBuf,
+    /// Also write results.parquet (same columns and values as results.csv, which stays).
+    #[arg(long, default_value = "csv", value_parser = ["csv", "parquet"])]
+    format: String,
     /// Run only shard k of N (runs with run mod N = k - 1); combine with `merge`.
     #[arg(long, value_name = "K/N")]
     shard: Option<String>,
@@ -30,7 +34,12 @@ pub struct SweepArgs {
 pub fn execute(a: SweepArgs) -> Result<()> {
     let shard = a.shard.as_deref().map_or(Ok(Shard::ALL), Shard::parse)?;
     let started = Instant::now();
-    let r = campaign::sweep(&a.campaign, &a.out, shard, !a.quiet)?;
+    let opts = SweepOptions {
+        progress: !a.quiet,
+        format: Format::from_name(&a.format)?,
+        ..SweepOptions::default()
+    };
+    let r = campaign::sweep_with(&a.campaign, &a.out, shard, &opts)?;
     if !a.quiet {
         print_campaign(&r, &a.out, false);
         let s = started.elapsed().as_secs_f64();

@@ -1,5 +1,6 @@
 //! `trajectory.csv` (docs/SCENARIO.md): `t`, `yd`, then per agent `y{i}`, `x{i}_{j}`, `e{i}_{j}`,
-//! `u{i}_{l}`, `q{i}_{l}`, `mu{i}`, `xi{i}`, `lambda{i}`; every `decimate`-th sample.
+//! `u{i}_{l}`, `q{i}_{l}`, `mu{i}`, `xi{i}`, `lambda{i}`; every `decimate`-th sample. The same
+//! columns go to `trajectory.parquet` ([`super::parquet`]) or stay in memory ([`Table`]).
 
 use std::{
     fs::File,
@@ -11,7 +12,12 @@ use std::{
 
 use crate::{
     error::{Error, Result},
-    report::{plots::MAX_PLOTTED_AGENTS, temp_path, TempFile},
+    report::{
+        parquet,
+        plots::MAX_PLOTTED_AGENTS,
+        table::{Block, Layout, Table},
+        temp_path, TempFile,
+    },
     scenario::Setup,
     sim::{Observer, SampleView},
 };
@@ -158,77 +164,200 @@ const BLOCK_VALUES: usize = 16_384;
 /// Blocks queued for the writer thread at most.
 const QUEUE: usize = 4;
 
-/// The raw values of whole rows, in column order, `f64` and `f32` columns apart.
-#[derive(Debug, Default)]
-struct Block {
-    wide: Vec<f64>,
-    narrow: Vec<f32>,
+/// File format of the trajectory (`--format`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum Format {
+    /// `trajectory.csv`, `results.csv`.
+    #[default]
+    Csv,
+    /// `trajectory.parquet`, `results.parquet`: the same columns and values.
+    Parquet,
 }
 
-/// Column layout: per row `t`, `yd`, then per agent `1 + n` wide (`y`, `x`) and `n + 2m + 3`
-/// narrow (`e`, `u`, `q`, estimates) values.
+impl Format {
+    /// `csv` or `parquet`; any other name is an invalid `--format`.
+    pub fn from_name(name: &str) -> Result<Self> {
+        match name {
+            "csv" => Ok(Self::Csv),
+            "parquet" => Ok(Self::Parquet),
+            other => Err(Error::invalid(
+                "--format",
+                format!("`{other}`: expected csv or parquet"),
+            )),
+        }
+    }
+
+    /// The file extension.
+    pub fn extension(self) -> &'static str {
+        match self {
+            Self::Csv => "csv",
+            Self::Parquet => "parquet",
+        }
+    }
+}
+
+/// Where the rows go.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Sink {
+    /// A file of this format.
+    File(Format, PathBuf),
+    /// A [`Table`] in memory, returned by [`TrajectoryObserver::finish`].
+    Table,
+}
+
+/// The sample times `t_k = k h` with `h` read as the decimal it is written as (its shortest
+/// text), so `t_9982 = 9.982` where the product `9982.0 * 0.001` is `9.982000000000001`.
 #[derive(Debug, Clone, Copy)]
-struct Layout {
-    agents: usize,
-    wide: usize,
-    narrow: usize,
+pub struct SampleClock {
+    /// `h = digits · 10^-scale`.
+    digits: u64,
+    scale: i32,
 }
 
-/// Streams rows to a temporary file; [`CsvObserver::finish`] renames it into place.
+/// `10^k` for `k ≤ 22`, every one exact in `f64`.
+const POW10: [f64; 23] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15, 1e16,
+    1e17, 1e18, 1e19, 1e20, 1e21, 1e22,
+];
+
+impl SampleClock {
+    /// The clock of sample period `h` (finite, > 0).
+    pub fn new(h: f64) -> Self {
+        let text = zmij::Buffer::new().format(h).to_string();
+        let (mantissa, exp) = match text.split_once(['e', 'E']) {
+            Some((m, e)) => (m, e.trim_start_matches('+').parse::<i32>().unwrap_or(0)),
+            None => (text.as_str(), 0),
+        };
+        let (int, frac) = mantissa.split_once('.').unwrap_or((mantissa, ""));
+        let frac = frac.trim_end_matches('0');
+        let digits = format!("{int}{frac}").parse::<u64>().unwrap_or(0);
+        let scale = i32::try_from(frac.len()).unwrap_or(0) - exp;
+        Self { digits, scale }
+    }
+
+    /// `t_k`: the double nearest to the exact decimal product `k · h`.
+    pub fn at(&self, k: u64) -> f64 {
+        let product = u128::from(k) * u128::from(self.digits);
+        let exact_int = product < (1 << 53);
+        match usize::try_from(self.scale) {
+            Ok(s) if exact_int && s < POW10.len() => product as f64 / POW10[s],
+            _ => format!("{product}e{}", -self.scale)
+                .parse()
+                .unwrap_or(f64::NAN),
+        }
+    }
+}
+
+/// Streams rows to a temporary file ([`TrajectoryObserver::finish`] renames it into place) or
+/// into a [`Table`].
 ///
 /// The loop only copies each kept row's values; a writer thread formats them (by hand, a
 /// number never needs CSV quoting, with `zmij`: the same text the `csv` crate wrote with `ryu`
 /// before, see [`number`]) and writes the file, so the text costs no time of the loop when a
 /// second core is free.
-pub struct CsvObserver {
+pub struct TrajectoryObserver {
     block: Block,
     rows: usize,
     rows_per_block: usize,
     tx: Option<SyncSender<Block>>,
-    writer: Option<JoinHandle<std::io::Result<()>>>,
+    writer: Option<JoinHandle<Written>>,
     decimate: u64,
     agents: Vec<usize>,
-    tmp: TempFile,
-    path: PathBuf,
+    clock: SampleClock,
+    /// The temporary file and where it goes (`None`: a table).
+    file: Option<(TempFile, PathBuf)>,
 }
 
-impl CsvObserver {
-    /// Opens `path` (via a temporary name) and writes the header: every agent's columns.
-    pub fn create(path: &Path, agents: usize, n: usize, m: usize, decimate: u64) -> Result<Self> {
-        Self::create_for(path, (0..agents).collect(), n, m, decimate)
+/// The column names of the trajectory of `agents` (0-based) with `n` states and `m` actuators.
+pub fn header(agents: &[usize], n: usize, m: usize) -> Vec<String> {
+    let mut header = vec!["t".to_string(), "yd".to_string()];
+    for i in agents.iter().map(|i| i + 1) {
+        header.push(format!("y{i}"));
+        header.extend((1..=n).map(|j| format!("x{i}_{j}")));
+        header.extend((1..=n).map(|j| format!("e{i}_{j}")));
+        header.extend((1..=m).map(|l| format!("u{i}_{l}")));
+        header.extend((1..=m).map(|l| format!("q{i}_{l}")));
+        header.extend([format!("mu{i}"), format!("xi{i}"), format!("lambda{i}")]);
     }
+    header
+}
 
-    /// As [`CsvObserver::create`] with the columns of `agents` only (0-based, ascending).
-    pub fn create_for(
+/// What the writer thread hands back: a table when the sink is [`Sink::Table`].
+type Written = std::io::Result<Option<Table>>;
+
+impl TrajectoryObserver {
+    /// Opens `path` as CSV (via a temporary name) and writes the header: every agent's
+    /// columns; times of sample period `h`.
+    pub fn create(
         path: &Path,
-        agents: Vec<usize>,
+        agents: usize,
         n: usize,
         m: usize,
         decimate: u64,
+        h: f64,
     ) -> Result<Self> {
-        let tmp = TempFile::new(temp_path(path));
-        let file = File::create(tmp.path()).map_err(|e| Error::io(tmp.path(), e))?;
-        let mut header = vec!["t".to_string(), "yd".to_string()];
-        for i in agents.iter().map(|i| i + 1) {
-            header.push(format!("y{i}"));
-            header.extend((1..=n).map(|j| format!("x{i}_{j}")));
-            header.extend((1..=n).map(|j| format!("e{i}_{j}")));
-            header.extend((1..=m).map(|l| format!("u{i}_{l}")));
-            header.extend((1..=m).map(|l| format!("q{i}_{l}")));
-            header.extend([format!("mu{i}"), format!("xi{i}"), format!("lambda{i}")]);
-        }
-        let mut out = BufWriter::with_capacity(1 << 16, file);
-        writeln!(out, "{}", header.join(",")).map_err(|e| Error::io(tmp.path(), e))?;
+        Self::create_for(
+            Sink::File(Format::Csv, path.to_path_buf()),
+            (0..agents).collect(),
+            (n, m),
+            decimate,
+            h,
+        )
+    }
+
+    /// Rows of the columns of `agents` only (0-based, ascending) of a loop of `(n, m)` to
+    /// `sink`.
+    pub fn create_for(
+        sink: Sink,
+        agents: Vec<usize>,
+        (n, m): (usize, usize),
+        decimate: u64,
+        h: f64,
+    ) -> Result<Self> {
+        let names = header(&agents, n, m);
         let layout = Layout {
             agents: agents.len(),
             wide: 1 + n,
             narrow: n + 2 * m + 3,
         };
         let (tx, rx) = sync_channel(QUEUE);
-        let writer = std::thread::Builder::new()
-            .name("trajectory.csv".into())
-            .spawn(move || write_rows(out, &rx, layout))
-            .map_err(|e| Error::io(tmp.path(), e))?;
+        let spawn = |what: &str, f: Box<dyn FnOnce() -> Written + Send>| {
+            std::thread::Builder::new()
+                .name(what.into())
+                .spawn(f)
+                .map_err(|e| Error::Io(format!("{what}: {e}")))
+        };
+        let (writer, file) = match sink {
+            Sink::File(format, path) => {
+                let tmp = TempFile::new(temp_path(&path));
+                let file = File::create(tmp.path()).map_err(|e| Error::io(tmp.path(), e))?;
+                let writer = match format {
+                    Format::Csv => {
+                        let mut out = BufWriter::with_capacity(1 << 16, file);
+                        writeln!(out, "{}", names.join(","))
+                            .map_err(|e| Error::io(tmp.path(), e))?;
+                        spawn(
+                            "trajectory.csv",
+                            Box::new(move || write_rows(out, &rx, layout).map(|()| None)),
+                        )?
+                    }
+                    Format::Parquet => spawn(
+                        "trajectory.parquet",
+                        Box::new(move || {
+                            parquet::write_trajectory(file, &names, layout, &rx).map(|()| None)
+                        }),
+                    )?,
+                };
+                (writer, Some((tmp, path)))
+            }
+            Sink::Table => (
+                spawn(
+                    "trajectory table",
+                    Box::new(move || Ok(Some(Table::from_blocks(names, layout, &rx)))),
+                )?,
+                None,
+            ),
+        };
         let per_row = 2 + layout.agents * (layout.wide + layout.narrow);
         Ok(Self {
             block: Block::default(),
@@ -238,8 +367,8 @@ impl CsvObserver {
             writer: Some(writer),
             decimate: decimate.max(1),
             agents,
-            tmp,
-            path: path.to_path_buf(),
+            clock: SampleClock::new(h),
+            file,
         })
     }
 
@@ -251,30 +380,38 @@ impl CsvObserver {
         if sent {
             Ok(())
         } else {
-            self.join()
+            self.join().map(drop)
         }
     }
 
     /// Waits for the writer: the file is complete and flushed when it returns `Ok`.
-    fn join(&mut self) -> Result<()> {
+    fn join(&mut self) -> Result<Option<Table>> {
         self.tx = None;
+        let what = || {
+            self.file.as_ref().map_or_else(
+                || "trajectory table".into(),
+                |(t, _)| t.path().display().to_string(),
+            )
+        };
         match self.writer.take().map(JoinHandle::join) {
-            Some(Ok(Ok(()))) | None => Ok(()),
-            Some(Ok(Err(e))) => Err(Error::io(self.tmp.path(), e)),
-            Some(Err(_)) => Err(Error::Io(format!(
-                "{}: the writer thread stopped",
-                self.tmp.path().display()
-            ))),
+            Some(Ok(Ok(table))) => Ok(table),
+            None => Ok(None),
+            Some(Ok(Err(e))) => Err(Error::Io(format!("{}: {e}", what()))),
+            Some(Err(_)) => Err(Error::Io(format!("{}: the writer thread stopped", what()))),
         }
     }
 
-    /// Writes the last rows, flushes and renames the file into place.
-    pub fn finish(mut self) -> Result<()> {
+    /// Writes the last rows, flushes and renames the file into place; the table of
+    /// [`Sink::Table`].
+    pub fn finish(mut self) -> Result<Option<Table>> {
         if self.rows > 0 {
             self.hand_over()?;
         }
-        self.join()?;
-        self.tmp.persist(&self.path)
+        let table = self.join()?;
+        if let Some((tmp, path)) = self.file.take() {
+            tmp.persist(&path)?;
+        }
+        Ok(table)
     }
 }
 
@@ -344,15 +481,9 @@ fn write_rows(
     layout: Layout,
 ) -> std::io::Result<()> {
     let mut line = Vec::with_capacity(1 << 12);
-    let wide_row = 2 + layout.agents * layout.wide;
-    let narrow_row = (layout.agents * layout.narrow).max(1);
-    let mut texts = Texts::new(wide_row + narrow_row);
+    let mut texts = Texts::new(layout.wide_row() + layout.narrow_row());
     for block in rx {
-        for (w, q) in block
-            .wide
-            .chunks_exact(wide_row)
-            .zip(block.narrow.chunks_exact(narrow_row))
-        {
+        for (w, q) in layout.rows(&block) {
             line.clear();
             texts.row();
             for &v in &w[..2] {
@@ -378,13 +509,13 @@ fn write_rows(
     out.flush()
 }
 
-impl<const N: usize, const M: usize> Observer<N, M> for CsvObserver {
+impl<const N: usize, const M: usize> Observer<N, M> for TrajectoryObserver {
     fn sample(&mut self, s: &SampleView<'_, N, M>) -> Result<()> {
         if !s.k.is_multiple_of(self.decimate) {
             return Ok(());
         }
         let b = &mut self.block;
-        b.wide.extend([s.t, s.yd]);
+        b.wide.extend([self.clock.at(s.k), s.yd]);
         for &i in &self.agents {
             let (x, o) = (&s.x[i], &s.out[i]);
             b.wide.push(x[0]);
@@ -512,17 +643,46 @@ mod cleanup_tests {
         }
     }
 
+    /// `t_k` is the double nearest to the decimal `k · h` (the slow path, a parsed decimal,
+    /// against the fast one, an exact division), and equals the product where that is exact.
+    #[test]
+    fn sample_times_are_the_nearest_double_to_k_times_h() {
+        assert_eq!(SampleClock::new(1e-3).at(9982), 9.982);
+        assert_eq!(SampleClock::new(0.1).at(3), 0.3);
+        assert_eq!(SampleClock::new(2e-4).at(12_345), 2.469);
+        assert_eq!(SampleClock::new(0.5).at(7), 3.5);
+        assert_eq!(SampleClock::new(2.0).at(u64::MAX), 2.0 * u64::MAX as f64);
+        for h in [1e-3, 2e-4, 2.5e-4, 1e-5, 0.01, 0.0123, 1.0 / 3.0, 7.0, 1e-7] {
+            let c = SampleClock::new(h);
+            let digits: u128 = c.digits.into();
+            for k in (0..2_000_000_u64).step_by(997).chain([1, 2, 3, 10_000]) {
+                let slow: f64 = format!("{}e{}", u128::from(k) * digits, -c.scale)
+                    .parse()
+                    .unwrap_or(f64::NAN);
+                assert_eq!(c.at(k).to_bits(), slow.to_bits(), "h = {h}, k = {k}");
+            }
+            assert_eq!(
+                format!("{}e{}", c.digits, -c.scale).parse::<f64>().ok(),
+                Some(h)
+            );
+        }
+    }
+
     #[test]
     fn an_unfinished_csv_leaves_no_file_behind() -> Result<()> {
         let dir = std::env::temp_dir().join(format!("host-sim-csv-{}", std::process::id()));
         std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
         let path = dir.join("trajectory.csv");
-        let obs = CsvObserver::create(&path, 1, 2, 2, 1)?;
-        let tmp = obs.tmp.path().to_path_buf();
+        let obs = TrajectoryObserver::create(&path, 1, 2, 2, 1, 1e-3)?;
+        let tmp = obs
+            .file
+            .as_ref()
+            .map(|(t, _)| t.path().to_path_buf())
+            .unwrap_or_default();
         assert!(tmp.exists());
         drop(obs); // the run was cut short
         assert!(!tmp.exists() && !path.exists());
-        let obs = CsvObserver::create(&path, 1, 2, 2, 1)?;
+        let obs = TrajectoryObserver::create(&path, 1, 2, 2, 1, 1e-3)?;
         obs.finish()?;
         assert!(path.exists() && !tmp.exists());
         std::fs::remove_dir_all(&dir).map_err(|e| Error::io(&dir, e))

@@ -3,8 +3,10 @@
 
 pub mod clocks;
 pub mod csv;
+pub mod parquet;
 pub mod plots;
 pub mod spread;
+pub mod table;
 
 use std::{
     path::{Path, PathBuf},
