@@ -350,5 +350,11 @@ fn overlay(out: &Path, a: &Setup, ra: &Recorder, b: &Setup, rb: &Recorder) -> Re
     }
     panels.push(u);
     panels.push(tr);
-    render(out, "compare", &panels, (2, 2), FigureStyle::px(1400, 900))
+    render(
+        out,
+        "compare",
+        &panels,
+        (2, 2),
+        FigureStyle::px(1400, 900).with(a.figures()),
+    )
 }

@@ -233,8 +233,9 @@ where
 {
     let mut sim = Sim::<_, _, N, M>::with_agents(world(setup), plant, agents)?;
     let mut metrics = Metrics::new(setup);
-    let mut recorder = (opts.plots || opts.record)
-        .then(|| Recorder::new(setup.samples, setup.agents(), setup.m()));
+    let mut recorder = (opts.plots || opts.record).then(|| {
+        Recorder::new(setup.samples, setup.agents(), setup.m()).with_faults(setup.faults.clone())
+    });
     let mut csv = match &opts.out {
         Some(dir) => {
             report::create_dir(dir)?;
@@ -242,13 +243,16 @@ where
                 .agents
                 .clone()
                 .unwrap_or_else(|| (0..setup.agents()).collect());
-            Some(CsvObserver::create_for(
-                &dir.join("trajectory.csv"),
-                columns,
-                N,
-                M,
-                opts.decimate.max(1),
-            )?)
+            Some(
+                CsvObserver::create_for(
+                    &dir.join("trajectory.csv"),
+                    columns,
+                    N,
+                    M,
+                    opts.decimate.max(1),
+                )?
+                .with_faults(setup.faults.clone()),
+            )
         }
         None => None,
     };

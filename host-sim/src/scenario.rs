@@ -12,6 +12,7 @@ use serde::{Deserialize, Serialize};
 use crate::{
     error::{Error, Problems, Result},
     faults::{FaultSchedule, FaultsSpec},
+    figure::{spec::FiguresSpec, Output},
     graph::{Graph, GraphSpec, MAX_NEIGHBOURS},
     leader::Leader,
     metrics::spec::MetricsSpec,
@@ -49,6 +50,9 @@ pub struct Scenario {
     /// `[metrics]` (settling dwell, window metrics); left out of `check` when absent.
     #[serde(skip_serializing_if = "MetricsSpec::is_default")]
     pub metrics: MetricsSpec,
+    /// `[figures]` (formats, print size, time window); left out of `check` when absent.
+    #[serde(skip_serializing_if = "FiguresSpec::is_default")]
+    pub figures: FiguresSpec,
 }
 
 impl Default for Scenario {
@@ -65,6 +69,7 @@ impl Default for Scenario {
             network: NetworkSpec::default(),
             safety: SafetySpec::default(),
             metrics: MetricsSpec::default(),
+            figures: FiguresSpec::default(),
         }
     }
 }
@@ -135,6 +140,14 @@ impl Setup {
     /// Actuators per agent `m`.
     pub fn m(&self) -> usize {
         self.plant.m()
+    }
+
+    /// How figures are written (`[figures]`, checked by [`validate`]).
+    pub fn figures(&self) -> Output {
+        self.scenario
+            .figures
+            .output(self.scenario.simulation.t_end)
+            .unwrap_or_default()
     }
 
     /// The predefined settling time `2 T_s`.
@@ -656,6 +669,7 @@ fn validate_plant(
     let timed = horizon && positive(sim.h, "").is_ok();
     if horizon {
         problems.take(scenario.leader.check(sim.t_end));
+        problems.take(scenario.figures.output(sim.t_end));
     }
     // [controller], [quantizer] and [safety] are checked by `Controller::new` (check_controllers).
     let graph = problems.take(Graph::from_spec(&scenario.graph));

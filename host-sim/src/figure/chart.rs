@@ -70,7 +70,10 @@ where
     mesh.x_desc(x_desc)
         .y_desc(y_desc)
         .label_style(style.font(label))
-        .axis_desc_style(style.font(desc));
+        .axis_desc_style(style.font(desc))
+        .bold_line_style(BLACK.mix(0.14))
+        .x_max_light_lines(0)
+        .y_max_light_lines(0);
     mesh
 }
 

@@ -1,5 +1,7 @@
 //! `trajectory.csv` (docs/SCENARIO.md): `t`, `yd`, then per agent `y{i}`, `x{i}_{j}`, `e{i}_{j}`,
-//! `u{i}_{l}`, `q{i}_{l}`, `mu{i}`, `xi{i}`, `lambda{i}`; every `decimate`-th sample.
+//! `u{i}_{l}`, `q{i}_{l}`, `mu{i}`, `xi{i}`, `lambda{i}`, then at the end of the row every
+//! agent's `qf{i}_{l}` (the actuator output after the faults, eq. (3)); every `decimate`-th
+//! sample.
 
 use std::{
     fs::File,
@@ -11,6 +13,7 @@ use std::{
 
 use crate::{
     error::{Error, Result},
+    faults::FaultSchedule,
     report::{plots::MAX_PLOTTED_AGENTS, temp_path, TempFile},
     scenario::Setup,
     sim::{Observer, SampleView},
@@ -22,7 +25,7 @@ pub const SIZE_LIMIT: u64 = 2 << 30;
 /// Estimated bytes of one row: about 20 characters per `f64` value (`t`, `yd`, `y`, `x`) and 11
 /// per `f32` value (`e`, `u`, `q`, estimates), separators included (Example 1: 676, measured 674).
 pub fn row_bytes(agents: usize, n: usize, m: usize) -> u64 {
-    let f64_columns = 2 + agents * (1 + n);
+    let f64_columns = 2 + agents * (1 + n + m);
     let f32_columns = agents * (n + 2 * m + 3);
     (20 * f64_columns + 11 * f32_columns) as u64
 }
@@ -166,12 +169,13 @@ struct Block {
 }
 
 /// Column layout: per row `t`, `yd`, then per agent `1 + n` wide (`y`, `x`) and `n + 2m + 3`
-/// narrow (`e`, `u`, `q`, estimates) values.
+/// narrow (`e`, `u`, `q`, estimates) values, then `m` wide (`qf`) per agent.
 #[derive(Debug, Clone, Copy)]
 struct Layout {
     agents: usize,
     wide: usize,
     narrow: usize,
+    m: usize,
 }
 
 /// Streams rows to a temporary file; [`CsvObserver::finish`] renames it into place.
@@ -188,6 +192,7 @@ pub struct CsvObserver {
     writer: Option<JoinHandle<std::io::Result<()>>>,
     decimate: u64,
     agents: Vec<usize>,
+    faults: FaultSchedule,
     tmp: TempFile,
     path: PathBuf,
 }
@@ -206,6 +211,7 @@ impl CsvObserver {
         m: usize,
         decimate: u64,
     ) -> Result<Self> {
+        let total = agents.iter().max().map_or(0, |a| a + 1);
         let tmp = TempFile::new(temp_path(path));
         let file = File::create(tmp.path()).map_err(|e| Error::io(tmp.path(), e))?;
         let mut header = vec!["t".to_string(), "yd".to_string()];
@@ -217,19 +223,23 @@ impl CsvObserver {
             header.extend((1..=m).map(|l| format!("q{i}_{l}")));
             header.extend([format!("mu{i}"), format!("xi{i}"), format!("lambda{i}")]);
         }
+        for i in agents.iter().map(|i| i + 1) {
+            header.extend((1..=m).map(|l| format!("qf{i}_{l}")));
+        }
         let mut out = BufWriter::with_capacity(1 << 16, file);
         writeln!(out, "{}", header.join(",")).map_err(|e| Error::io(tmp.path(), e))?;
         let layout = Layout {
             agents: agents.len(),
             wide: 1 + n,
             narrow: n + 2 * m + 3,
+            m,
         };
         let (tx, rx) = sync_channel(QUEUE);
         let writer = std::thread::Builder::new()
             .name("trajectory.csv".into())
             .spawn(move || write_rows(out, &rx, layout))
             .map_err(|e| Error::io(tmp.path(), e))?;
-        let per_row = 2 + layout.agents * (layout.wide + layout.narrow);
+        let per_row = 2 + layout.agents * (layout.wide + layout.narrow + m);
         Ok(Self {
             block: Block::default(),
             rows: 0,
@@ -238,9 +248,15 @@ impl CsvObserver {
             writer: Some(writer),
             decimate: decimate.max(1),
             agents,
+            faults: FaultSchedule::healthy(total, m),
             tmp,
             path: path.to_path_buf(),
         })
+    }
+
+    /// The `qf` columns through `faults` (without it, `qf = q`).
+    pub fn with_faults(self, faults: FaultSchedule) -> Self {
+        Self { faults, ..self }
     }
 
     /// Hands the rows kept so far to the writer; its error if it stopped.
@@ -344,7 +360,7 @@ fn write_rows(
     layout: Layout,
 ) -> std::io::Result<()> {
     let mut line = Vec::with_capacity(1 << 12);
-    let wide_row = 2 + layout.agents * layout.wide;
+    let wide_row = 2 + layout.agents * (layout.wide + layout.m);
     let narrow_row = (layout.agents * layout.narrow).max(1);
     let mut texts = Texts::new(wide_row + narrow_row);
     for block in rx {
@@ -358,7 +374,8 @@ fn write_rows(
             for &v in &w[..2] {
                 texts.field(&mut line, v, v.to_bits(), false);
             }
-            for (wa, qa) in w[2..]
+            let (per_agent, qf) = w[2..].split_at(layout.agents * layout.wide);
+            for (wa, qa) in per_agent
                 .chunks_exact(layout.wide)
                 .zip(q.chunks_exact(layout.narrow))
             {
@@ -368,6 +385,9 @@ fn write_rows(
                 for &v in qa {
                     texts.field(&mut line, v, u64::from(v.to_bits()), true);
                 }
+            }
+            for &v in qf {
+                texts.field(&mut line, v, v.to_bits(), false);
             }
             if let Some(last) = line.last_mut() {
                 *last = b'\n';
@@ -394,6 +414,11 @@ impl<const N: usize, const M: usize> Observer<N, M> for CsvObserver {
             b.narrow.extend_from_slice(&o.q);
             let e = &o.estimates;
             b.narrow.extend([e.mu, e.xi, e.lambda]);
+        }
+        for &i in &self.agents {
+            let q = &s.out[i].q;
+            b.wide
+                .extend((0..M).map(|l| self.faults.apply(i, l, s.t, f64::from(q[l]))));
         }
         self.rows += 1;
         if self.rows == self.rows_per_block {
