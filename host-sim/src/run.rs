@@ -173,7 +173,7 @@ fn run_custom<const N: usize, const M: usize>(
 pub fn world(setup: &Setup) -> World {
     let sim = &setup.scenario.simulation;
     World {
-        leader: setup.scenario.leader,
+        leader: setup.scenario.leader.clone(),
         faults: setup.faults.clone(),
         x0: setup.x0.clone(),
         h: sim.h,

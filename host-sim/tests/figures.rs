@@ -203,3 +203,40 @@ fn figures_section_writes_print_pdfs_in_the_time_window() {
     let inputs = std::fs::read_to_string(dir.join("inputs.svg")).expect("svg");
     assert_has(&inputs, &["qᶠ(u₁)", "partial loss"], "inputs.svg");
 }
+
+/// `leader.y_d = "0.6*sin(2*t)"` is Example 1's default leader: the same trajectory to the byte.
+#[test]
+fn a_leader_expression_of_the_default_sinusoid_runs_byte_identically() {
+    let (a, b) = (tmp("leader-default"), tmp("leader-expression"));
+    run_example1(&["simulation.t_end=0.5"], &["--no-plots"], &a);
+    run_example1(
+        &["simulation.t_end=0.5", "leader.y_d=\"0.6*sin(2*t)\""],
+        &["--no-plots"],
+        &b,
+    );
+    let read = |d: &Path| std::fs::read(d.join("trajectory.csv")).expect("csv");
+    assert!(read(&a) == read(&b), "trajectory.csv differs");
+}
+
+/// A custom plant's `state_units` and `input_unit` label the figures' axes.
+#[test]
+fn custom_plant_units_label_the_axes() {
+    let dir = tmp("figures-units");
+    let custom = scenario_path("example1-custom.toml");
+    run(
+        &[
+            "run",
+            custom.to_str().expect("path"),
+            "--set",
+            "simulation.t_end=0.3",
+            "--set",
+            "plant.state_units=[\"m\", \"m/s\"]",
+            "--set",
+            "plant.input_unit=\"N\"",
+            "--quiet",
+        ],
+        &dir,
+    );
+    assert_has(&svg(&dir, "tracking"), &["output y [m]"], "tracking");
+    assert_has(&svg(&dir, "inputs"), &["u, q, qᶠ [N]"], "inputs");
+}
