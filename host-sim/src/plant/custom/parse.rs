@@ -38,6 +38,20 @@ pub enum Binary {
     Pow,
 }
 
+impl Binary {
+    /// The operator as written.
+    pub const fn symbol(self) -> &'static str {
+        match self {
+            Self::Add => "+",
+            Self::Sub => "-",
+            Self::Mul => "*",
+            Self::Div => "/",
+            Self::Rem => "%",
+            Self::Pow => "^",
+        }
+    }
+}
+
 /// One step of an expression's postfix form; names are byte ranges of the text.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Token {
@@ -265,15 +279,7 @@ mod tests {
                 Token::Name(r) => text[r.clone()].to_string(),
                 Token::Call(r, n) => format!("{}({n})", &text[r.clone()]),
                 Token::Neg => "neg".into(),
-                Token::Binary(b) => match b {
-                    Binary::Add => "+",
-                    Binary::Sub => "-",
-                    Binary::Mul => "*",
-                    Binary::Div => "/",
-                    Binary::Rem => "%",
-                    Binary::Pow => "^",
-                }
-                .into(),
+                Token::Binary(b) => b.symbol().into(),
             })
             .collect::<Vec<_>>()
             .join(" ")

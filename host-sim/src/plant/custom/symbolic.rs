@@ -212,17 +212,7 @@ impl Expr {
             Num(v) => format!("{v}"),
             Var => "t".into(),
             Neg(a) => format!("-({})", a.text()),
-            Bin(op, l, r) => {
-                let o = match op {
-                    Binary::Add => "+",
-                    Binary::Sub => "-",
-                    Binary::Mul => "*",
-                    Binary::Div => "/",
-                    Binary::Rem => "%",
-                    Binary::Pow => "^",
-                };
-                format!("({} {o} {})", l.text(), r.text())
-            }
+            Bin(op, l, r) => format!("({} {} {})", l.text(), op.symbol(), r.text()),
             Call(f, args) => {
                 let name = super::function_name(*f);
                 let a: Vec<String> = args.iter().map(Self::text).collect();
