@@ -116,6 +116,17 @@ fn compare_figure_draws_each_schemes_own_deadline() {
             "u₁ [N·m]",
         ],
         "compare",
+    ); // The paper's Fig. 8: (a) the prescribed-time baseline, (b) the predefined-time scheme, each
+       // with every output and the leader.
+    assert_has(
+        &svg(&dir, "compare-outputs"),
+        &[
+            "(a) example2-baseline: outputs yᵢ and leader y_d",
+            "(b) example2: outputs yᵢ and leader y_d",
+            "y₂",
+            "common instant",
+        ],
+        "compare-outputs",
     );
 }
 
