@@ -48,12 +48,13 @@ tasks:
       --update-budget writes the budget from the measured figures instead; a figure above
       the committed budget by more than its tolerance is refused unless --reason TEXT
       explains it (written next to the figure as `<figure>_reason`)
-  docs [--check] [--rerun] [--wall-clock] [--list]
+  docs [--check] [--rerun] [--wall-clock] [--list] [--only NAME]
       rewrite every measured figure of README.md and docs/*.md between its
       <!-- fig:NAME --> and <!-- /fig:NAME --> markers from the files the measuring
       commands write (reused when present; --rerun measures again); --check writes
       nothing and fails naming each block that differs; wall-clock figures (wall.*)
-      are rewritten only with --wall-clock and never checked; --list names the figures
+      are rewritten only with --wall-clock and never checked; --list names the figures;
+      --only NAME renders (or checks) the blocks of figure NAME alone
 ";
 
 fn main() -> ExitCode {
@@ -102,6 +103,8 @@ pub struct Options {
     pub wall_clock: bool,
     pub list: bool,
     pub reason: Option<String>,
+    /// `docs --only NAME`: render only the blocks of that figure, keep every other as it is.
+    pub only: Option<String>,
 }
 
 impl Options {
@@ -117,6 +120,9 @@ impl Options {
                 "--rerun" => o.rerun = true,
                 "--wall-clock" => o.wall_clock = true,
                 "--list" => o.list = true,
+                "--only" => {
+                    o.only = Some(args.next().ok_or("--only needs a figure name")?.clone());
+                }
                 "--reason" => {
                     o.reason = Some(args.next().ok_or("--reason needs a text")?.clone());
                 }

@@ -7,7 +7,9 @@ use plotters::{
         ranged1d::{AsRangedCoord, Ranged, ValueFormatter},
         CoordTranslate, Shift,
     },
-    prelude::{Cartesian2d, DrawingArea, DrawingAreaErrorKind, DrawingBackend, BLACK, WHITE},
+    prelude::{
+        Cartesian2d, DrawingArea, DrawingAreaErrorKind, DrawingBackend, BLACK, TRANSPARENT, WHITE,
+    },
     style::Color,
 };
 
@@ -72,8 +74,7 @@ where
         .label_style(style.font(label))
         .axis_desc_style(style.font(desc))
         .bold_line_style(BLACK.mix(0.14))
-        .x_max_light_lines(0)
-        .y_max_light_lines(0);
+        .light_line_style(TRANSPARENT);
     mesh
 }
 

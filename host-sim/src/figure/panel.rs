@@ -691,7 +691,8 @@ fn draw_panel<DB: DrawingBackend>(
     let mut mesh = axes(&mut chart, page, ("time t [s]", &p.y_label), (13, 14));
     mesh.y_label_formatter(&y_fmt).x_label_formatter(&x_fmt);
     if log {
-        mesh.y_labels((span as usize + 1).min(12));
+        mesh.y_labels((span as usize + 1).min(12))
+            .y_max_light_lines(0);
     }
     mesh.draw()?;
     if log {
