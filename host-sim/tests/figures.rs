@@ -251,3 +251,19 @@ fn custom_plant_units_label_the_axes() {
     assert_has(&svg(&dir, "tracking"), &["output y [m]"], "tracking");
     assert_has(&svg(&dir, "inputs"), &["u, q, qᶠ [N]"], "inputs");
 }
+
+/// `host-sim graph` draws Fig. 1: the leader, the four followers and the five arrows of the
+/// paper's graph (four links, one pinning).
+#[test]
+fn graph_command_draws_the_communication_graph() {
+    let dir = tmp("figures-graph");
+    let e1 = scenario_path("example1.toml");
+    run(&["graph", e1.to_str().expect("path")], &dir);
+    let g = svg(&dir, "graph");
+    assert_has(&g, &["4 followers, 4 links", ">\n0\n<", ">\n4\n<"], "graph");
+    assert_eq!(
+        g.matches("<polygon").count(),
+        5,
+        "one arrow head per link and pinning"
+    );
+}

@@ -2,6 +2,7 @@
 //! under a temporary name and renamed into place.
 
 pub mod csv;
+pub mod graph;
 pub mod plots;
 pub mod spread;
 
