@@ -94,6 +94,8 @@ pub struct Series {
     /// The exact largest-magnitude sample `(t, value)` when the points are decimated (named in
     /// the note on a clipped peak).
     pub peak: Option<(f64, f64)>,
+    /// A clipped peak gets a note (off for a line whose peak another line's note names).
+    pub note: bool,
 }
 
 impl Series {
@@ -107,6 +109,7 @@ impl Series {
             marker: MARKERS[i % MARKERS.len()],
             points,
             peak: None,
+            note: true,
         }
     }
 
@@ -120,6 +123,7 @@ impl Series {
             marker: Marker::None,
             points,
             peak: None,
+            note: true,
         }
     }
 }
@@ -452,8 +456,16 @@ fn draw_title<DB: DrawingBackend>(
     title: &str,
     marks_by_hand: bool,
 ) -> Drawn<DB> {
-    let font = TextStyle::from(style.font(17));
     let (w, h) = area.dim_in_pixel();
+    // A title wider than the panel (a narrow print page) is set smaller, to 60 % at least.
+    let full = TextStyle::from(style.font(17));
+    let wide = f64::from(area.estimate_text_size(title, &full)?.0);
+    let fit = (f64::from(w) * 0.96 / wide.max(1.0)).clamp(0.6, 1.0);
+    let font = if fit < 1.0 {
+        TextStyle::from(style.font((17.0 * fit) as u32))
+    } else {
+        full
+    };
     let plain: String = title
         .chars()
         .filter(|c| !(marks_by_hand && ('\u{300}'..='\u{36f}').contains(c)))
@@ -630,7 +642,7 @@ fn draw_panel<DB: DrawingBackend>(
     // The notes on clipped peaks occupy a strip beside the peak; the legend must not hide them.
     let mut notes = Vec::new();
     if let Some(c) = clip {
-        for (s, sp) in p.series.iter().zip(&pts) {
+        for (s, sp) in p.series.iter().zip(&pts).filter(|(s, _)| s.note) {
             if let Some((t, v)) = clipped_peak(s, sp, c) {
                 let edge = v.clamp(-c, c);
                 let dir = if note_to_the_left(t, (x0, x1)) {
@@ -814,7 +826,7 @@ fn draw_panel<DB: DrawingBackend>(
                 zoom,
             }))?;
         }
-        if let Some(c) = clip {
+        if let Some(c) = clip.filter(|_| s.note) {
             // Mark the clipped peak of this series with its value.
             if let Some((t, v)) = clipped_peak(s, pts, c) {
                 let edge = v.clamp(-c, c);
@@ -835,7 +847,9 @@ fn draw_panel<DB: DrawingBackend>(
                 } else {
                     (zi(24), HPos::Left)
                 };
-                let text = page.font(12).color(&s.color).pos(Pos::new(h, VPos::Top));
+                // Black text (the marker has the line's colour): readable in grayscale and for
+                // the lighter lines.
+                let text = page.font(12).color(&BLACK).pos(Pos::new(h, VPos::Top));
                 let note = format!(
                     "{arrow} {}peak {} at t = {} (clipped)",
                     if n_series > 1 {

@@ -250,6 +250,11 @@ impl Recorder {
         )
     }
 
+    /// Whether `peak` of `q^f` is the extreme of `q` of some actuator of agent `i`.
+    fn peak_equals_q(&self, i: usize, peak: &(f64, f64)) -> bool {
+        (0..self.m).any(|l| self.extreme(i, l, 1) == Some(*peak))
+    }
+
     /// The exact extreme of `kind` (0 `u`, 1 `q`, 2 `u − q`, 3 `q^f`) of actuator `l` of
     /// agent `i`.
     pub fn extreme(&self, i: usize, l: usize, kind: usize) -> Option<(f64, f64)> {
@@ -303,6 +308,8 @@ impl Recorder {
         for mut s in self.actuator_series((&self.qf, 3), i, "qᶠ(u#)", first) {
             s.color = BLACK.to_rgba();
             s.width = 1;
+            // A peak where no fault acts is q's: q's note names it.
+            s.note = !s.peak.is_some_and(|p| self.peak_equals_q(i, &p));
             series.push(s);
         }
         Panel {
