@@ -22,8 +22,9 @@ use crate::{
 /// Largest `trajectory.csv` a run writes without `--force` [bytes] (2 GiB).
 pub const SIZE_LIMIT: u64 = 2 << 30;
 
-/// Estimated bytes of one row: about 20 characters per `f64` value (`t`, `yd`, `y`, `x`) and 11
-/// per `f32` value (`e`, `u`, `q`, estimates), separators included (Example 1: 676, measured 674).
+/// Estimated bytes of one row: about 20 characters per `f64` value (`t`, `yd`, `y`, `x`, `qf`)
+/// and 11 per `f32` value (`e`, `u`, `q`, estimates), separators included (Example 1: 836,
+/// measured 822).
 pub fn row_bytes(agents: usize, n: usize, m: usize) -> u64 {
     let f64_columns = 2 + agents * (1 + n + m);
     let f32_columns = agents * (n + 2 * m + 3);
