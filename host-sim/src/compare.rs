@@ -11,7 +11,7 @@ use crate::{
     error::{Error, Result},
     figure::{
         panel::{render, Panel, Series},
-        text::secs,
+        text::{secs, sub},
         FigureStyle,
     },
     metrics::{self, Summary, WindowKind, WindowSpec},
@@ -350,5 +350,46 @@ fn overlay(out: &Path, a: &Setup, ra: &Recorder, b: &Setup, rb: &Recorder) -> Re
     }
     panels.push(u);
     panels.push(tr);
-    render(out, "compare", &panels, (2, 2), FigureStyle::px(1400, 900))
+    render(
+        out,
+        "compare",
+        &panels,
+        (2, 2),
+        FigureStyle::px(1400, 900).with(a.figures()),
+    )?;
+    outputs(out, (a, ra), (b, rb))
+}
+
+/// `compare-outputs`, laid out like the paper's Fig. 8: every follower's output and `y_d`, one
+/// panel per scheme, (a) the second scenario (the baseline) above (b) the first, both deadlines
+/// marked in each.
+fn outputs(out: &Path, (a, ra): (&Setup, &Recorder), (b, rb): (&Setup, &Recorder)) -> Result<()> {
+    let (y_unit, _) = a.plant.units();
+    let vlines = deadline_lines(a, b);
+    let panel = |tag: &str, s: &Setup, r: &Recorder| {
+        let mut p = Panel {
+            title: format!("({tag}) {}: outputs yᵢ and leader y_d", s.scenario.name),
+            y_label: format!("output y [{y_unit}]"),
+            vlines: vlines.clone(),
+            ..Panel::default()
+        };
+        p.series.push(Series::plain(
+            "y_d (leader)".into(),
+            BLACK.mix(0.35),
+            5,
+            r.points(&r.yd),
+        ));
+        for (i, y) in r.y.iter().enumerate() {
+            p.series
+                .push(Series::styled(format!("y{}", sub(i + 1)), i, r.points(y)));
+        }
+        p
+    };
+    render(
+        out,
+        "compare-outputs",
+        &[panel("a", b, rb), panel("b", a, ra)],
+        (2, 1),
+        FigureStyle::px(1000, 900).with(a.figures()),
+    )
 }

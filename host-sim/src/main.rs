@@ -53,6 +53,8 @@ enum Cmd {
     Sweep(cli::sweep::SweepArgs),
     /// Combine the directories of all shards of a campaign into one (as an unsharded sweep).
     Merge(cli::merge::MergeArgs),
+    /// Draw the scenario's communication graph (followers, links, leader pinning) into --out.
+    Graph(cli::graph::GraphArgs),
 }
 
 fn dispatch(cmd: Cmd) -> Result<()> {
@@ -64,6 +66,7 @@ fn dispatch(cmd: Cmd) -> Result<()> {
         Cmd::Compare(a) => cli::compare::execute(a),
         Cmd::Sweep(a) => cli::sweep::execute(a),
         Cmd::Merge(a) => cli::merge::execute(a),
+        Cmd::Graph(a) => cli::graph::execute(a),
     }
 }
 

@@ -270,7 +270,7 @@ fn run_custom<const N: usize, const M: usize>(
 pub fn world(setup: &Setup) -> World {
     let sim = &setup.scenario.simulation;
     World {
-        leader: setup.scenario.leader,
+        leader: setup.scenario.leader.clone(),
         faults: setup.faults.clone(),
         x0: setup.x0.clone(),
         h: sim.h,
@@ -331,8 +331,9 @@ where
 {
     let mut sim = Sim::<_, _, N, M>::with_agents(world(setup), plant, agents)?;
     let mut metrics = Metrics::new(setup);
-    let mut recorder = (opts.plots || opts.record)
-        .then(|| Recorder::new(setup.samples, setup.agents(), setup.m()));
+    let mut recorder = (opts.plots || opts.record).then(|| {
+        Recorder::new(setup.samples, setup.agents(), setup.m()).with_faults(setup.faults.clone())
+    });
     let columns = opts
         .agents
         .clone()
@@ -340,6 +341,7 @@ where
     let trajectory = |sink| {
         let h = setup.scenario.simulation.h;
         TrajectoryObserver::create_for(sink, columns.clone(), (N, M), opts.decimate.max(1), h)
+            .map(|t| t.with_faults(setup.faults.clone()))
     };
     let mut file = match &opts.out {
         Some(dir) => {

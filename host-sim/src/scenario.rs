@@ -13,6 +13,7 @@ use crate::{
     clock::{ClockPlan, ClockSpec},
     error::{Error, Problems, Result},
     faults::{FaultSchedule, FaultsSpec},
+    figure::{spec::FiguresSpec, Output},
     graph::{Graph, GraphSpec, MAX_NEIGHBOURS},
     leader::Leader,
     metrics::spec::MetricsSpec,
@@ -60,6 +61,9 @@ pub struct Scenario {
     /// `[clock]` (docs/CLOCKS.md); left out of `check` when absent.
     #[serde(skip_serializing_if = "ClockSpec::is_default")]
     pub clock: ClockSpec,
+    /// `[figures]` (formats, print size, time window); left out of `check` when absent.
+    #[serde(skip_serializing_if = "FiguresSpec::is_default")]
+    pub figures: FiguresSpec,
 }
 
 impl Default for Scenario {
@@ -78,6 +82,7 @@ impl Default for Scenario {
             safety: SafetySpec::default(),
             metrics: MetricsSpec::default(),
             clock: ClockSpec::default(),
+            figures: FiguresSpec::default(),
         }
     }
 }
@@ -151,6 +156,14 @@ impl Setup {
     /// Actuators per agent `m`.
     pub fn m(&self) -> usize {
         self.plant.m()
+    }
+
+    /// How figures are written (`[figures]`, checked by [`validate`]).
+    pub fn figures(&self) -> Output {
+        self.scenario
+            .figures
+            .output(self.scenario.simulation.t_end)
+            .unwrap_or_default()
     }
 
     /// The predefined settling time `2 T_s`.
@@ -672,6 +685,7 @@ fn validate_plant(
     let timed = horizon && positive(sim.h, "").is_ok();
     if horizon {
         problems.take(scenario.leader.check(sim.t_end));
+        problems.take(scenario.figures.output(sim.t_end));
     }
     // [controller], [quantizer] and [safety] are checked by `Controller::new` (check_controllers).
     let graph = problems.take(Graph::from_spec(&scenario.graph));

@@ -430,7 +430,7 @@ fn every_trajectory_column_is_documented() {
     let csv = std::fs::read_to_string(dir.join("trajectory.csv")).expect("csv");
     let header = csv.lines().next().expect("header");
     let doc = doc();
-    assert_eq!(header.split(',').count(), 50, "Example 1 has 50 columns");
+    assert_eq!(header.split(',').count(), 58, "Example 1 has 58 columns");
     for col in header.split(',') {
         // x3_2 -> x{i}_{j} or x{i}_{l}
         let mut template = String::new();

@@ -17,6 +17,18 @@ fn run(args: &[&str], dir: &Path) {
     common::assert_ok(&out);
 }
 
+/// `host-sim run` of Example 1 with `--set` for each of `sets`, then `flags`, quiet.
+fn run_example1(sets: &[&str], flags: &[&str], dir: &Path) {
+    let e1 = scenario_path("example1.toml");
+    let mut args = vec!["run", e1.to_str().expect("path")];
+    for s in sets {
+        args.extend(["--set", s]);
+    }
+    args.extend(flags);
+    args.push("--quiet");
+    run(&args, dir);
+}
+
 fn svg(dir: &Path, stem: &str) -> String {
     for ext in ["png", "svg"] {
         let f = dir.join(format!("{stem}.{ext}"));
@@ -57,7 +69,7 @@ fn run_figures_show_band_predefined_time_units_faults_and_symbols() {
     assert_has(
         &inputs,
         &[
-            "u, q [N·m]",
+            "u, q, qᶠ [N·m]",
             "u − q [N·m]",
             "actuator 1 fault: partial loss",
             "actuator 2 fault: total loss",
@@ -104,5 +116,154 @@ fn compare_figure_draws_each_schemes_own_deadline() {
             "u₁ [N·m]",
         ],
         "compare",
+    ); // The paper's Fig. 8: (a) the prescribed-time baseline, (b) the predefined-time scheme, each
+       // with every output and the leader.
+    assert_has(
+        &svg(&dir, "compare-outputs"),
+        &[
+            "(a) example2-baseline: outputs yᵢ and leader y_d",
+            "(b) example2: outputs yᵢ and leader y_d",
+            "y₂",
+            "common instant",
+        ],
+        "compare-outputs",
+    );
+}
+
+/// `qf{i}_{l}` is `q{i}_{l}` outside the fault windows and what the fault makes of it inside:
+/// Example 1's actuator 1 at half gain, actuator 2 stuck at `sin t` (from `t = 2 s`).
+#[test]
+fn qf_columns_are_the_actuator_outputs_after_the_faults() {
+    let dir = tmp("figures-qf");
+    run_example1(&["simulation.t_end=2.5"], &["--no-plots"], &dir);
+    let csv = std::fs::read_to_string(dir.join("trajectory.csv")).expect("csv");
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().expect("header").split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).expect(name);
+    let (t, q1, q2, qf1, qf2) = (
+        col("t"),
+        col("q1_1"),
+        col("q1_2"),
+        col("qf1_1"),
+        col("qf1_2"),
+    );
+    assert_eq!(header.last(), Some(&"qf4_2"), "qf columns end the row");
+    let (mut inside, mut outside) = (0, 0);
+    for line in lines {
+        let v: Vec<f64> = line
+            .split(',')
+            .map(|x| x.parse().expect("number"))
+            .collect();
+        if v[t] < 2.0 {
+            // q is the controller's f32, qf the f64 the plant receives.
+            let f = |x: f64| x as f32;
+            assert_eq!(
+                (f(v[qf1]), f(v[qf2])),
+                (f(v[q1]), f(v[q2])),
+                "healthy at {}",
+                v[t]
+            );
+            outside += 1;
+        } else {
+            assert!(
+                (v[qf1] - 0.5 * v[q1]).abs() <= 1e-6 * v[q1].abs(),
+                "half gain at {}",
+                v[t]
+            );
+            assert!(
+                (v[qf2] - v[t].sin()).abs() < 1e-12,
+                "stuck at sin t at {}",
+                v[t]
+            );
+            inside += 1;
+        }
+    }
+    assert!(
+        inside > 100 && outside > 100,
+        "{inside} inside, {outside} outside"
+    );
+}
+
+/// `[figures]` for print: PDF and PNG only, the page 85 mm wide, the time window on the axis.
+#[test]
+fn figures_section_writes_print_pdfs_in_the_time_window() {
+    let dir = tmp("figures-print");
+    run_example1(
+        &[
+            "simulation.t_end=3",
+            "figures.format=[\"pdf\", \"svg\"]",
+            "figures.dpi=100",
+            "figures.t_from=1",
+            "figures.t_to=2.5",
+        ],
+        &[],
+        &dir,
+    );
+    for stem in ["tracking", "errors", "inputs", "estimates"] {
+        let pdf = std::fs::read(dir.join(format!("{stem}.pdf"))).expect("pdf");
+        assert!(pdf.starts_with(b"%PDF"), "{stem}.pdf");
+        assert!(
+            !dir.join(format!("{stem}.png")).exists(),
+            "no PNG asked for"
+        );
+    }
+    let svg = std::fs::read_to_string(dir.join("tracking.svg")).expect("svg");
+    assert!(svg.contains("width=\"85.00mm\""), "85 mm page");
+    assert_has(&svg, &[">\n1.0\n<", ">\n2.4\n<"], "tracking.svg");
+    assert!(!svg.contains(">\n2.6\n<"), "the axis ends at t_to");
+    let inputs = std::fs::read_to_string(dir.join("inputs.svg")).expect("svg");
+    assert_has(&inputs, &["qᶠ(u₁)", "partial loss"], "inputs.svg");
+}
+
+/// `leader.y_d = "0.6*sin(2*t)"` is Example 1's default leader: the same trajectory to the byte.
+#[test]
+fn a_leader_expression_of_the_default_sinusoid_runs_byte_identically() {
+    let (a, b) = (tmp("leader-default"), tmp("leader-expression"));
+    run_example1(&["simulation.t_end=0.5"], &["--no-plots"], &a);
+    run_example1(
+        &["simulation.t_end=0.5", "leader.y_d=\"0.6*sin(2*t)\""],
+        &["--no-plots"],
+        &b,
+    );
+    let read = |d: &Path| std::fs::read(d.join("trajectory.csv")).expect("csv");
+    assert!(read(&a) == read(&b), "trajectory.csv differs");
+}
+
+/// A custom plant's `state_units` and `input_unit` label the figures' axes.
+#[test]
+fn custom_plant_units_label_the_axes() {
+    let dir = tmp("figures-units");
+    let custom = scenario_path("example1-custom.toml");
+    run(
+        &[
+            "run",
+            custom.to_str().expect("path"),
+            "--set",
+            "simulation.t_end=0.3",
+            "--set",
+            "plant.state_units=[\"m\", \"m/s\"]",
+            "--set",
+            "plant.input_unit=\"N\"",
+            "--quiet",
+        ],
+        &dir,
+    );
+    assert_has(&svg(&dir, "tracking"), &["output y [m]"], "tracking");
+    assert_has(&svg(&dir, "inputs"), &["u, q, qᶠ [N]"], "inputs");
+}
+
+/// `host-sim graph` draws Fig. 1: the leader, the four followers and the five arrows of the
+/// paper's graph (four links, one pinning).
+#[test]
+fn graph_command_draws_the_communication_graph() {
+    let dir = tmp("figures-graph");
+    let e1 = scenario_path("example1.toml");
+    run(&["graph", e1.to_str().expect("path")], &dir);
+    let g = svg(&dir, "graph");
+    assert_has(&g, &["4 followers, 4 links", ">\n0\n<", ">\n4\n<"], "graph");
+    assert_eq!(
+        g.matches("<polygon").count(),
+        5,
+        "one arrow head per link and pinning"
     );
 }

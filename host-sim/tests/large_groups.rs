@@ -180,12 +180,13 @@ fn agents_select_the_columns_and_large_groups_are_decimated_by_default() {
     let text = String::from_utf8_lossy(&read(&d.join("trajectory.csv"))).into_owned();
     let header = text.lines().next().unwrap_or_default();
     assert!(header.starts_with("t,yd,y3,x3_1,"), "{header}");
-    assert_eq!(header.split(',').count(), 2 + 3 * 12, "{header}");
+    // 12 columns per agent, then its 2 qf columns at the end of the row.
+    assert_eq!(header.split(',').count(), 2 + 3 * 14, "{header}");
     assert_eq!(text.lines().count(), 1 + 200, "every sample: 3 agents fit");
 
-    // 1,000 agents: about 159 kB a row, 628 rows fit in 100 MB.
+    // 1,000 agents: about 199 kB a row (qf in f64 included), 502 rows fit in 100 MB.
     let s = scenario::load(&swarm, &[]).expect("swarm");
-    assert_eq!(default_decimate(&s, 1000), 16, "10,000 samples");
+    assert_eq!(default_decimate(&s, 1000), 20, "10,000 samples");
     assert_eq!(default_decimate(&s, 3), 1, "--agents 3,10-11 fits");
     let e1 = scenario::load(&scenario_path("example1.toml"), &[]).expect("example1");
     assert_eq!(default_decimate(&e1, 4), 1, "small groups: every sample");

@@ -53,13 +53,14 @@ tasks:
       --update-budget writes the budget from the measured figures instead; a figure above
       the committed budget by more than its tolerance is refused unless --reason TEXT
       explains it (written next to the figure as `<figure>_reason`)
-  docs [--check] [--rerun] [--wall-clock] [--list] [--only FILE]
+  docs [--check] [--rerun] [--wall-clock] [--list] [--only FILE|NAME]
       rewrite every measured figure of README.md and docs/*.md between its
       <!-- fig:NAME --> and <!-- /fig:NAME --> markers from the files the measuring
       commands write (reused when present; --rerun measures again); --check writes
       nothing and fails naming each block that differs; wall-clock figures (wall.*)
       are rewritten only with --wall-clock and never checked; --list names the figures;
-      --only FILE (e.g. docs/CLOCKS.md) handles that document alone
+      --only FILE (e.g. docs/CLOCKS.md) handles that document alone; --only NAME renders (or
+      checks) the blocks of figure NAME alone
   board-size [--no-run]
       build boards/nucleo-g474re in release (unless --no-run: the ELF as last built), print
       its text, data and bss, and fail if text + data exceeds 64 KiB (65,536 B) or data + bss
@@ -113,6 +114,7 @@ pub struct Options {
     pub wall_clock: bool,
     pub list: bool,
     pub reason: Option<String>,
+    /// `docs --only NAME`: render only the blocks of that figure, keep every other as it is.
     pub only: Option<String>,
 }
 
@@ -130,7 +132,11 @@ impl Options {
                 "--wall-clock" => o.wall_clock = true,
                 "--list" => o.list = true,
                 "--only" => {
-                    o.only = Some(args.next().ok_or("--only needs a file")?.clone());
+                    o.only = Some(
+                        args.next()
+                            .ok_or("--only needs a file or a figure name")?
+                            .clone(),
+                    );
                 }
                 "--reason" => {
                     o.reason = Some(args.next().ok_or("--reason needs a text")?.clone());

@@ -17,7 +17,7 @@ use crate::{
         self,
         chart::{axes, cartesian, legend, Frame},
         drawing_error as err, grid,
-        text::short,
+        text::{short, tick_label},
         DrawResult, Figure, FigureStyle, Format,
     },
     scenario::Scenario,
@@ -43,6 +43,8 @@ struct Table {
     diverged: Vec<(usize, usize)>,
     settling: Vec<Option<f64>>,
     ts: Vec<f64>,
+    /// Output and input units of the plant.
+    units: (String, String),
 }
 
 impl Table {
@@ -68,6 +70,7 @@ impl Table {
             diverged: Vec::new(),
             settling: Vec::new(),
             ts: Vec::new(),
+            units: ("–".into(), "–".into()),
         };
         for line in rows.values() {
             let mut rdr = csv::ReaderBuilder::new()
@@ -94,6 +97,11 @@ impl Table {
         Ok(t)
     }
 
+    /// The axis text of `key` with this plant's units.
+    fn label(&self, key: &str) -> String {
+        label(key, (&self.units.0, &self.units.1))
+    }
+
     /// One cell per grid point: the median of the metric over its `draws` runs (diverged if
     /// none has a value and one diverged; invalid if all are).
     fn per_point(&self, draws: usize) -> Self {
@@ -104,6 +112,7 @@ impl Table {
             diverged: Vec::new(),
             settling: Vec::new(),
             ts: Vec::new(),
+            units: self.units.clone(),
         };
         for (k, group) in self.cells.chunks(draws.max(1)).enumerate() {
             let mut v: Vec<f64> = group
@@ -153,6 +162,7 @@ impl Table {
                 .unwrap_or_default()
                 .to_vec(),
             ts: take(&self.ts),
+            units: self.units.clone(),
         }
     }
 
@@ -214,7 +224,8 @@ pub fn draw(
     rows: &BTreeMap<u64, String>,
     out: &Path,
 ) -> Result<Vec<PathBuf>> {
-    let t = Table::new(&file.plot.metric, base.controller.ts, header, rows)?;
+    let mut t = Table::new(&file.plot.metric, base.controller.ts, header, rows)?;
+    t.units = units(base);
     let mut written = Vec::new();
     if file.draws > 1 || (file.axis.is_empty() && !file.sample.is_empty()) {
         let p = out.join("montecarlo.png");
@@ -342,14 +353,19 @@ fn heatmap<DB: DrawingBackend>(
     };
     let xl = |v: &SegmentValue<i32>| label(a, v);
     let yl = |v: &SegmentValue<i32>| label(b, v);
-    axes(&mut chart, style, (&a.key, &b.key), (14, 16))
-        .disable_mesh()
-        .x_labels(nx)
-        .y_labels(ny)
-        .x_label_formatter(&xl)
-        .y_label_formatter(&yl)
-        .draw()
-        .map_err(err)?;
+    axes(
+        &mut chart,
+        style,
+        (&t.label(&a.key), &t.label(&b.key)),
+        (14, 16),
+    )
+    .disable_mesh()
+    .x_labels(nx)
+    .y_labels(ny)
+    .x_label_formatter(&xl)
+    .y_label_formatter(&yl)
+    .draw()
+    .map_err(err)?;
     let font = style.font(13);
     for (run, cell) in t.cells.iter().enumerate() {
         let (i, j) = ((run / ny) as i32, (run % ny) as i32);
@@ -514,8 +530,8 @@ fn line<DB: DrawingBackend>(
         style,
         &xf,
         &yf,
-        &with_scale(&a.key, xscale),
-        &with_scale(&t.metric, yscale),
+        &with_scale(&t.label(&a.key), xscale),
+        &with_scale(&t.label(&t.metric), yscale),
     )?;
     let pts: Vec<(f64, f64)> = t
         .cells
@@ -573,6 +589,44 @@ fn line<DB: DrawingBackend>(
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], grey));
     }
     legend(&mut c, style, SeriesLabelPosition::UpperRight, 13).map_err(err)
+}
+
+/// The axis text of `key` (a results.csv column or a scenario key): a name and its unit,
+/// `[y]` and `[u]` written as the plant's output and input units.
+fn label(key: &str, (y, u): (&str, &str)) -> String {
+    let (name, unit) = match key {
+        "max_error_after_predefined_time" => ("max |yᵢ − y_d| after 2Tₛ", y.to_string()),
+        "settling_time" => ("settling time", "s".into()),
+        "divergence_time" => ("divergence time", "s".into()),
+        "max_abs_u" => ("max |u|", u.to_string()),
+        "total_u_energy" => ("control energy Σ u² h", format!("({u})²·s")),
+        "controller.ts" => ("Tₛ", "s".into()),
+        "simulation.h" => ("sample period h", "s".into()),
+        "controller.t_prescribed" => ("t_prescribed", "s".into()),
+        "controller.c1" => ("c₁", "–".into()),
+        "controller.c2" => ("c₂", "–".into()),
+        "quantizer.rho" => ("quantizer ρ", "–".into()),
+        "quantizer.u_min" => ("quantizer u_min", u.to_string()),
+        "simulation.settle_band" => ("band b", y.to_string()),
+        _ => return key.to_string(),
+    };
+    format!("{name} [{unit}]")
+}
+
+/// The output and input units of the campaign's plant (as on the run figures).
+fn units(base: &Scenario) -> (String, String) {
+    let p = &base.plant;
+    match p.model.as_str() {
+        "manipulator" => ("rad".into(), "N·m".into()),
+        "custom" => (
+            p.state_units
+                .as_ref()
+                .and_then(|s| s.first().cloned())
+                .unwrap_or_else(|| "–".into()),
+            p.input_unit.clone().unwrap_or_else(|| "–".into()),
+        ),
+        _ => ("–".into(), "–".into()),
+    }
 }
 
 fn with_scale(name: &str, s: Scale) -> String {
@@ -636,7 +690,14 @@ fn monte_carlo<DB: DrawingBackend>(
     }
     let ymax = f64::from(counts.iter().copied().max().unwrap_or(1)).max(1.0) * 1.1;
     let xf = move |v: &f64| short(scale.from(*v));
-    let yf = |v: &f64| format!("{v:.0}");
+    // Counts are whole: a tick between two whole numbers stays unlabelled.
+    let yf = |v: &f64| {
+        if (v - v.round()).abs() < 1e-9 {
+            format!("{v:.0}")
+        } else {
+            String::new()
+        }
+    };
     let caption = format!(
         "{}: {} of {n} runs ({diverged} diverged, {invalid} invalid)",
         t.metric,
@@ -649,7 +710,7 @@ fn monte_carlo<DB: DrawingBackend>(
         style,
         &xf,
         &yf,
-        &with_scale(&t.metric, scale),
+        &with_scale(&t.label(&t.metric), scale),
         "runs",
     )?;
     let blue = RGBColor(31, 119, 180);
@@ -693,13 +754,13 @@ fn monte_carlo<DB: DrawingBackend>(
     let mut c =
         cartesian(&panels[1], style, &caption, frame, (0.0..tmax, 0.0..1.02)).map_err(err)?;
     let xf = |v: &f64| short(*v);
-    let yf = |v: &f64| format!("{v:.1}");
+    let yf = |v: &f64| tick_label(*v, (0.0, 1.02));
     mesh(
         &mut c,
         style,
         &xf,
         &yf,
-        "settling_time [s]",
+        &t.label("settling_time"),
         "share of runs settled (empirical CDF)",
     )?;
     let mut step = vec![(0.0, 0.0)];

@@ -31,6 +31,7 @@ macro_rules! out {
 pub mod check;
 pub mod compare;
 pub mod fault_matrix;
+pub mod graph;
 pub mod merge;
 pub mod run;
 pub mod stable_h;

@@ -7,7 +7,9 @@ use plotters::{
         ranged1d::{AsRangedCoord, Ranged, ValueFormatter},
         CoordTranslate, Shift,
     },
-    prelude::{Cartesian2d, DrawingArea, DrawingAreaErrorKind, DrawingBackend, BLACK, WHITE},
+    prelude::{
+        Cartesian2d, DrawingArea, DrawingAreaErrorKind, DrawingBackend, BLACK, TRANSPARENT, WHITE,
+    },
     style::Color,
 };
 
@@ -70,7 +72,9 @@ where
     mesh.x_desc(x_desc)
         .y_desc(y_desc)
         .label_style(style.font(label))
-        .axis_desc_style(style.font(desc));
+        .axis_desc_style(style.font(desc))
+        .bold_line_style(BLACK.mix(0.14))
+        .light_line_style(TRANSPARENT);
     mesh
 }
 

@@ -94,6 +94,8 @@ pub struct Series {
     /// The exact largest-magnitude sample `(t, value)` when the points are decimated (named in
     /// the note on a clipped peak).
     pub peak: Option<(f64, f64)>,
+    /// A clipped peak gets a note (off for a line whose peak another line's note names).
+    pub note: bool,
 }
 
 impl Series {
@@ -107,6 +109,7 @@ impl Series {
             marker: MARKERS[i % MARKERS.len()],
             points,
             peak: None,
+            note: true,
         }
     }
 
@@ -120,6 +123,7 @@ impl Series {
             marker: Marker::None,
             points,
             peak: None,
+            note: true,
         }
     }
 }
@@ -135,6 +139,8 @@ pub struct Shade {
     pub color: RGBAColor,
     /// Legend text (one entry per distinct text).
     pub label: String,
+    /// Diagonal hatching over the fill, so that two kinds of window differ in grayscale too.
+    pub hatch: bool,
 }
 
 /// One chart.
@@ -156,6 +162,8 @@ pub struct Panel {
     pub shades: Vec<Shade>,
     /// Show only `t ≥` this.
     pub x_from: Option<f64>,
+    /// Show only `t ≤` this.
+    pub x_to: Option<f64>,
     /// Logarithmic y axis (non-positive values are left out).
     pub log_y: bool,
     /// Clip isolated spikes (the y range follows the bulk of the data) and mark each clipped
@@ -212,22 +220,45 @@ impl Figure for Panels<'_> {
         style: &FigureStyle,
         format: Format,
     ) -> DrawResult {
+        let mut named: Vec<String> = Vec::new();
         for (area, p) in grid(root, self.layout).iter().zip(self.panels) {
             if p.series.is_empty() {
                 continue;
             }
-            let drawn = if format.is_bitmap() {
-                draw_panel(area, style, &for_bitmap(p))
+            let mut p = if format.is_bitmap() {
+                for_bitmap(p)
             } else {
-                draw_panel(area, style, p)
+                p.clone()
             };
-            drawn.map_err(drawing_error)?;
+            // One legend per figure: a panel shows one only for lines no panel before named.
+            let entries = legend_entries(&p);
+            if entries.iter().all(|e| named.contains(e)) {
+                p.legend = Legend::Hidden;
+            }
+            if p.legend == Legend::Corner {
+                named.extend(entries);
+            }
+            draw_panel(area, style, &p).map_err(drawing_error)?;
         }
         Ok(())
     }
 }
 
-/// Draws `panels` on a `layout` grid into `dir/stem.png` and `dir/stem.svg`.
+/// The legend texts of `p`.
+fn legend_entries(p: &Panel) -> Vec<String> {
+    p.series
+        .iter()
+        .map(|s| s.label.clone())
+        .filter(|l| !l.is_empty())
+        .chain(p.vlines.iter().chain(&p.hlines).map(|l| l.1.clone()))
+        .chain(p.band.iter().map(|b| b.1.clone()))
+        .chain(p.shades.iter().map(|s| s.label.clone()))
+        .collect()
+}
+
+/// Draws `panels` on a `layout` grid into `dir/stem.<ext>` for each format of `style`. A print
+/// style with a chart height stacks the panels in one column, each that high; the time window
+/// of the style's output applies to every panel.
 pub fn render(
     dir: &Path,
     stem: &str,
@@ -235,7 +266,33 @@ pub fn render(
     layout: (usize, usize),
     style: FigureStyle,
 ) -> Result<()> {
-    save_png_and_svg(dir, stem, &style, &Panels { panels, layout })
+    let out = *style.output();
+    let mut panels: Vec<Panel> = panels.to_vec();
+    for p in &mut panels {
+        if let Some(from) = out.window.0 {
+            p.x_from = Some(p.x_from.map_or(from, |f| f.max(from)));
+        }
+        if let Some(to) = out.window.1 {
+            p.x_to = Some(p.x_to.map_or(to, |t| t.min(to)));
+        }
+    }
+    let (mut layout, mut style) = (layout, style);
+    if out.print.is_some_and(|p| p.chart_mm.is_some()) {
+        panels.retain(|p| !p.series.is_empty());
+        layout = (panels.len().max(1), 1);
+        let (w, h) = style.size();
+        let chart = (w / layout.1.max(1) as u32, h / layout.0.max(1) as u32);
+        style = style.stacked(chart, panels.len());
+    }
+    save_png_and_svg(
+        dir,
+        stem,
+        &style,
+        &Panels {
+            panels: &panels,
+            layout,
+        },
+    )
 }
 
 fn for_bitmap(p: &Panel) -> Panel {
@@ -287,6 +344,8 @@ struct Glyph<C> {
     dash: Option<Dash>,
     color: RGBAColor,
     width: u32,
+    /// Sizes of the sample and marker are multiplied by this (print canvases).
+    zoom: f64,
 }
 
 impl<'b, C: 'b> PointCollection<'b, C> for &'b Glyph<C> {
@@ -307,30 +366,82 @@ impl<C, DB: DrawingBackend> Drawable<DB> for Glyph<C> {
         let Some((mut x, y)) = pos.next() else {
             return Ok(());
         };
-        let line = self.color.stroke_width(self.width.min(3));
+        let (z, ink) = (self.zoom, self.zoom.sqrt());
+        let k = |px: i32| (f64::from(px) * ink).round() as i32;
+        let line = self
+            .color
+            .stroke_width(self.width.min(3) * ink.round() as u32);
         if let Some(dash) = self.dash {
-            let (d, g) = dash.pattern().unwrap_or((24, 0));
+            let span = (24.0 * z).round() as i32;
+            let (d, g) = dash
+                .pattern()
+                .map_or((span, 0), |(d, g)| (k(d as i32), k(g as i32)));
             let mut s = 0;
-            while s < 24 {
-                b.draw_line((x + s, y), (x + (s + d as i32).min(24), y), &line)?;
-                s += (d + g) as i32;
+            while s < span {
+                b.draw_line((x + s, y), (x + (s + d).min(span), y), &line)?;
+                s += d + g;
             }
-            x += 12;
+            x += span / 2;
         }
-        let thin = self.color.stroke_width(1);
+        let thin = self.color.stroke_width(ink.round() as u32);
         let fill = self.color.filled();
         match self.marker {
             Marker::None => {}
-            Marker::Circle => b.draw_circle((x, y), 4, &thin, false)?,
-            Marker::Disc => b.draw_circle((x, y), 3, &fill, true)?,
-            Marker::Triangle => {
-                b.fill_polygon([(x, y - 5), (x - 5, y + 4), (x + 5, y + 4)], &fill)?
-            }
+            Marker::Circle => b.draw_circle((x, y), k(4) as u32, &thin, false)?,
+            Marker::Disc => b.draw_circle((x, y), k(3) as u32, &fill, true)?,
+            Marker::Triangle => b.fill_polygon(
+                [(x, y - k(5)), (x - k(5), y + k(4)), (x + k(5), y + k(4))],
+                &fill,
+            )?,
             Marker::Cross => {
-                let bold = self.color.stroke_width(2);
-                b.draw_line((x - 4, y - 4), (x + 4, y + 4), &bold)?;
-                b.draw_line((x - 4, y + 4), (x + 4, y - 4), &bold)?;
+                let bold = self.color.stroke_width(k(2) as u32);
+                b.draw_line((x - k(4), y - k(4)), (x + k(4), y + k(4)), &bold)?;
+                b.draw_line((x - k(4), y + k(4)), (x + k(4), y - k(4)), &bold)?;
             }
+        }
+        Ok(())
+    }
+}
+
+/// Diagonal lines 7 px apart across the rectangle between two corners (top left, bottom right).
+struct Hatch<C> {
+    corners: [C; 2],
+    color: RGBAColor,
+}
+
+impl<'b, C: 'b> PointCollection<'b, C> for &'b Hatch<C> {
+    type Point = &'b C;
+    type IntoIter = std::slice::Iter<'b, C>;
+    fn point_iter(self) -> Self::IntoIter {
+        self.corners.iter()
+    }
+}
+
+impl<C, DB: DrawingBackend> Drawable<DB> for Hatch<C> {
+    fn draw<I: Iterator<Item = BackendCoord>>(
+        &self,
+        mut pos: I,
+        b: &mut DB,
+        _: (u32, u32),
+    ) -> std::result::Result<(), DrawingErrorKind<DB::ErrorType>> {
+        let (Some((x0, y0)), Some((x1, y1))) = (pos.next(), pos.next()) else {
+            return Ok(());
+        };
+        let (l, r, t, bt) = (x0.min(x1), x0.max(x1), y0.min(y1), y0.max(y1));
+        let line = self.color.stroke_width(1);
+        // Lines x - y = c, clipped to the rectangle.
+        let mut c = l - bt;
+        while c <= r - t {
+            let (xa, ya) = if c + bt <= r {
+                (c + bt, bt)
+            } else {
+                (r, r - c)
+            };
+            let (xb, yb) = if c + t >= l { (c + t, t) } else { (l, l - c) };
+            if xa >= l && xb <= r {
+                b.draw_line((xa, ya), (xb, yb), &line)?;
+            }
+            c += 7;
         }
         Ok(())
     }
@@ -345,8 +456,16 @@ fn draw_title<DB: DrawingBackend>(
     title: &str,
     marks_by_hand: bool,
 ) -> Drawn<DB> {
-    let font = TextStyle::from(style.font(17));
     let (w, h) = area.dim_in_pixel();
+    // A title wider than the panel (a narrow print page) is set smaller, to 60 % at least.
+    let full = TextStyle::from(style.font(17));
+    let wide = f64::from(area.estimate_text_size(title, &full)?.0);
+    let fit = (f64::from(w) * 0.96 / wide.max(1.0)).clamp(0.6, 1.0);
+    let font = if fit < 1.0 {
+        TextStyle::from(style.font((17.0 * fit) as u32))
+    } else {
+        full
+    };
     let plain: String = title
         .chars()
         .filter(|c| !(marks_by_hand && ('\u{300}'..='\u{36f}').contains(c)))
@@ -441,11 +560,12 @@ fn draw_panel<DB: DrawingBackend>(
     p: &Panel,
 ) -> Drawn<DB> {
     let from = p.x_from.unwrap_or(f64::NEG_INFINITY);
+    let to = p.x_to.unwrap_or(f64::INFINITY);
     let visible = |s: &Series| -> Vec<(f64, f64)> {
         s.points
             .iter()
             .copied()
-            .filter(|(x, y)| *x >= from && y.is_finite() && (!p.log_y || *y > 0.0))
+            .filter(|(x, y)| (from..=to).contains(x) && y.is_finite() && (!p.log_y || *y > 0.0))
             .map(|(x, y)| if p.log_y { (x, y.log10()) } else { (x, y) })
             .collect()
     };
@@ -456,6 +576,7 @@ fn draw_panel<DB: DrawingBackend>(
     } else {
         x0.max(0.0)
     };
+    let x1 = x1.min(to);
     let all_y: Vec<f64> = pts.iter().flatten().map(|p| p.1).collect();
     let clip = if p.clip_spikes {
         spike_limit(&all_y)
@@ -521,7 +642,7 @@ fn draw_panel<DB: DrawingBackend>(
     // The notes on clipped peaks occupy a strip beside the peak; the legend must not hide them.
     let mut notes = Vec::new();
     if let Some(c) = clip {
-        for (s, sp) in p.series.iter().zip(&pts) {
+        for (s, sp) in p.series.iter().zip(&pts).filter(|(s, _)| s.note) {
             if let Some((t, v)) = clipped_peak(s, sp, c) {
                 let edge = v.clamp(-c, c);
                 let dir = if note_to_the_left(t, (x0, x1)) {
@@ -536,19 +657,34 @@ fn draw_panel<DB: DrawingBackend>(
         }
     }
     let (mut corner, covered) = legend_corner(&pts, &notes, (x0, x1), (y0, y1), legend_box);
-    if p.legend == Legend::Corner && covered > 0 && legend_box.1 < 0.35 && clip.is_none() {
+    // For print the legend is a strip above the plot, never over the data.
+    let strip = page.is_print() && p.legend == Legend::Corner;
+    if !strip && p.legend == Legend::Corner && covered > 0 && legend_box.1 < 0.35 && clip.is_none()
+    {
         let grow = (y1 - y0) * legend_box.1 / (1.0 - legend_box.1);
         y1 += if p.log_y { grow.ceil() } else { grow };
         corner = SeriesLabelPosition::UpperRight;
     }
     let span = y1 - y0;
-    let (title_area, area) = area.split_vertically(28);
+    let z = |px: u32| page.scaled(px);
+    let (title_area, area) = area.split_vertically(z(28));
     draw_title(&title_area, page, &p.title, p.marks_by_hand)?;
+    let area = if strip {
+        let samples = legend_samples(p);
+        let (w, _) = area.dim_in_pixel();
+        let rows = strip_rows(page, &samples, w);
+        let (top, rest) = area.split_vertically(z(18) * rows as u32 + z(4));
+        draw_strip(&top, page, &samples)?;
+        rest
+    } else {
+        area
+    };
+    let y_labels = if page.is_print() { 64 } else { 78 };
     let mut chart = ChartBuilder::on(&area)
-        .margin(8)
-        .margin_top(4)
-        .x_label_area_size(34)
-        .y_label_area_size(78)
+        .margin(z(8))
+        .margin_top(z(4))
+        .x_label_area_size(z(34))
+        .y_label_area_size(z(y_labels))
         .build_cartesian_2d(x0..x1, y0..y1)?;
     let log = p.log_y;
     let y_fmt = move |v: &f64| -> String {
@@ -586,11 +722,24 @@ fn draw_panel<DB: DrawingBackend>(
             continue;
         }
         let anno = chart.draw_series([Rectangle::new([(a, y0), (b, y1)], sh.color.filled())])?;
+        let ink = BLACK.mix(0.45);
         if !labelled.contains(&sh.label) {
             labelled.push(sh.label.clone());
-            let c = sh.color.mix(2.5);
-            anno.label(sh.label.as_str())
-                .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 24, y + 5)], c.filled()));
+            let (c, hatch) = (sh.color.mix(2.5), sh.hatch);
+            anno.label(sh.label.as_str()).legend(move |(x, y)| {
+                EmptyElement::at((x, y))
+                    + Rectangle::new([(0, -5), (24, 5)], c.filled())
+                    + Hatch {
+                        corners: [(0, -5), (if hatch { 24 } else { 0 }, 5)],
+                        color: ink,
+                    }
+            });
+        }
+        if sh.hatch {
+            chart.draw_series([Hatch {
+                corners: [(a, y1), (b, y0)],
+                color: ink,
+            }])?;
         }
     }
     if let Some((b, label)) = &p.band {
@@ -606,28 +755,34 @@ fn draw_panel<DB: DrawingBackend>(
     }
     for (v, label) in &p.hlines {
         let v = if log { v.log10() } else { *v };
-        let style = RGBColor(44, 160, 44).stroke_width(2);
+        let style = RGBColor(44, 160, 44).stroke_width(page.ink(2));
+        let (d, g) = (page.ink(8), page.ink(5));
         chart
-            .draw_series(DashedLineSeries::new([(x0, v), (x1, v)], 8, 5, style))?
+            .draw_series(DashedLineSeries::new([(x0, v), (x1, v)], d, g, style))?
             .label(label.as_str())
-            .legend(move |(x, y)| DashedPathElement::new(vec![(x, y), (x + 24, y)], 8, 5, style));
+            .legend(move |(x, y)| DashedPathElement::new(vec![(x, y), (x + 24, y)], d, g, style));
     }
     for (k, (t, label)) in p.vlines.iter().enumerate() {
         if *t < x0 || *t > x1 {
             continue;
         }
         let style = if k == 0 {
-            BLACK.mix(0.6).stroke_width(2)
+            BLACK.mix(0.6).stroke_width(page.ink(2))
         } else {
-            color(4 + k).stroke_width(2)
+            color(4 + k).stroke_width(page.ink(2))
         };
-        let (d, g) = if k == 0 { (1000, 1) } else { (6, 4) };
+        let (d, g) = if k == 0 {
+            (1000, 1)
+        } else {
+            (page.ink(6), page.ink(4))
+        };
         chart
             .draw_series(DashedLineSeries::new([(*t, y0), (*t, y1)], d, g, style))?
             .label(label.as_str())
             .legend(move |(x, y)| DashedPathElement::new(vec![(x, y), (x + 24, y)], d, g, style));
     }
     let n_series = p.series.len().max(1);
+    let zoom = page.zoom();
     let mut notes_drawn = 0;
     for (k, (s, pts)) in p.series.iter().zip(&pts).enumerate() {
         if pts.is_empty() {
@@ -637,12 +792,15 @@ fn draw_panel<DB: DrawingBackend>(
             Some(c) => pts.iter().map(|&(x, y)| (x, y.clamp(-c, c))).collect(),
             None => pts.clone(),
         };
-        let style = s.color.stroke_width(s.width);
+        let style = s.color.stroke_width(page.ink(s.width));
         let anno = match s.dash.pattern() {
             None => chart.draw_series(LineSeries::new(shown.iter().copied(), style))?,
-            Some((d, g)) => {
-                chart.draw_series(DashedLineSeries::new(shown.iter().copied(), d, g, style))?
-            }
+            Some((d, g)) => chart.draw_series(DashedLineSeries::new(
+                shown.iter().copied(),
+                page.ink(d),
+                page.ink(g),
+                style,
+            ))?,
         };
         let (marker, dash, color, width) = (s.marker, s.dash, s.color, s.width);
         if !s.label.is_empty() {
@@ -653,6 +811,7 @@ fn draw_panel<DB: DrawingBackend>(
                 dash: Some(dash),
                 color,
                 width,
+                zoom,
             });
         }
         let step = (shown.len() / MARKERS_PER_SERIES).max(1);
@@ -664,9 +823,10 @@ fn draw_panel<DB: DrawingBackend>(
                 dash: None,
                 color: s.color,
                 width: s.width,
+                zoom,
             }))?;
         }
-        if let Some(c) = clip {
+        if let Some(c) = clip.filter(|_| s.note) {
             // Mark the clipped peak of this series with its value.
             if let Some((t, v)) = clipped_peak(s, pts, c) {
                 let edge = v.clamp(-c, c);
@@ -674,19 +834,22 @@ fn draw_panel<DB: DrawingBackend>(
                 // Notes stack into the plot: downwards from the top edge, upwards from the bottom.
                 let rank = notes_drawn;
                 notes_drawn += 1;
+                let zi = |px: i32| (f64::from(px) * zoom).round() as i32;
                 let dy = if v > 0.0 {
-                    4 + 16 * rank
+                    zi(4 + 16 * rank)
                 } else {
-                    -18 - 16 * rank
+                    zi(-18 - 16 * rank)
                 };
                 // The note runs to the right of the peak, or to its left near the right edge.
                 let left = note_to_the_left(t, (x0, x1));
                 let (dx, h) = if left {
-                    (-24, HPos::Right)
+                    (zi(-24), HPos::Right)
                 } else {
-                    (24, HPos::Left)
+                    (zi(24), HPos::Left)
                 };
-                let text = page.font(12).color(&s.color).pos(Pos::new(h, VPos::Top));
+                // Black text (the marker has the line's colour): readable in grayscale and for
+                // the lighter lines.
+                let text = page.font(12).color(&BLACK).pos(Pos::new(h, VPos::Top));
                 let note = format!(
                     "{arrow} {}peak {} at t = {} (clipped)",
                     if n_series > 1 {
@@ -698,23 +861,148 @@ fn draw_panel<DB: DrawingBackend>(
                     secs(t)
                 );
                 // A light backing keeps the note readable across grid and marker lines.
-                let w = (note.chars().count() as f64 * 6.4) as i32 + 4;
+                let w = (note.chars().count() as f64 * 6.4 * zoom) as i32 + zi(4);
                 let (a, b) = if left {
-                    (dx - w, dx + 2)
+                    (dx - w, dx + zi(2))
                 } else {
-                    (dx - 2, dx + w)
+                    (dx - zi(2), dx + w)
                 };
                 chart.draw_series([EmptyElement::at((t, edge))
-                    + Rectangle::new([(a, dy - 1), (b, dy + 14)], WHITE.mix(0.8).filled())
-                    + TriangleMarker::new((0, 0), 6, s.color.filled())
+                    + Rectangle::new(
+                        [(a, dy - zi(1)), (b, dy + zi(14))],
+                        WHITE.mix(0.8).filled(),
+                    )
+                    + TriangleMarker::new((0, 0), zi(6) as u32, s.color.filled())
                     + Text::new(note, (dx, dy), text)])?;
             }
         }
     }
     match p.legend {
-        Legend::Corner => legend(&mut chart, page, corner, 12),
-        Legend::Hidden => Ok(()),
+        Legend::Corner if !strip => legend(&mut chart, page, corner, 12),
+        _ => Ok(()),
     }
+}
+
+/// What a legend entry shows before its text.
+#[derive(Debug, Clone, Copy)]
+enum Sample {
+    /// A line with its dash pattern and marker.
+    Line(Dash, Marker, RGBAColor, u32),
+    /// A dashed line of `(dash, gap)`.
+    Dashed((u32, u32), RGBAColor),
+    /// A filled box, hatched or not.
+    Fill(RGBAColor, bool),
+}
+
+/// The legend entries of `p` in the order the corner legend lists them.
+fn legend_samples(p: &Panel) -> Vec<(Sample, String)> {
+    let mut out: Vec<(Sample, String)> = Vec::new();
+    for sh in &p.shades {
+        if !out.iter().any(|(_, l)| *l == sh.label) {
+            out.push((Sample::Fill(sh.color.mix(2.5), sh.hatch), sh.label.clone()));
+        }
+    }
+    if let Some((_, label)) = &p.band {
+        out.push((
+            Sample::Fill(RGBColor(44, 160, 44).mix(0.3), false),
+            label.clone(),
+        ));
+    }
+    for (_, label) in &p.hlines {
+        out.push((
+            Sample::Dashed((8, 5), RGBColor(44, 160, 44).to_rgba()),
+            label.clone(),
+        ));
+    }
+    for (k, (_, label)) in p.vlines.iter().enumerate() {
+        let sample = if k == 0 {
+            Sample::Line(Dash::Solid, Marker::None, BLACK.mix(0.6), 2)
+        } else {
+            Sample::Dashed((6, 4), color(4 + k))
+        };
+        out.push((sample, label.clone()));
+    }
+    for s in p.series.iter().filter(|s| !s.label.is_empty()) {
+        out.push((
+            Sample::Line(s.dash, s.marker, s.color, s.width),
+            s.label.clone(),
+        ));
+    }
+    out
+}
+
+/// Width of one strip entry [px]: the sample, a gap and the text.
+fn strip_entry_width(page: &FigureStyle, label: &str) -> u32 {
+    page.scaled(34) + (label.chars().count() as f64 * 7.0 * page.zoom()) as u32 + page.scaled(14)
+}
+
+/// Rows of the legend strip of `samples` over `width` px (entries wrap onto new rows).
+fn strip_rows(page: &FigureStyle, samples: &[(Sample, String)], width: u32) -> usize {
+    let (mut rows, mut x) = (1, page.scaled(8));
+    for (_, label) in samples {
+        let w = strip_entry_width(page, label);
+        if x + w > width && x > page.scaled(8) {
+            rows += 1;
+            x = page.scaled(8);
+        }
+        x += w;
+    }
+    rows
+}
+
+/// The legend as rows of entries across `area`.
+fn draw_strip<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    page: &FigureStyle,
+    samples: &[(Sample, String)],
+) -> Drawn<DB> {
+    let (w, _) = area.dim_in_pixel();
+    let z = |px: u32| page.scaled(px) as i32;
+    let font = page.font(12);
+    let (mut x, mut y) = (z(8), z(11));
+    for (sample, label) in samples {
+        let ew = strip_entry_width(page, label) as i32;
+        if x + ew > w as i32 && x > z(8) {
+            x = z(8);
+            y += z(18);
+        }
+        let line = z(24);
+        match *sample {
+            Sample::Line(dash, marker, color, width) => area.draw(&Glyph {
+                at: (x, y),
+                marker,
+                dash: Some(dash),
+                color,
+                width,
+                zoom: page.zoom(),
+            })?,
+            Sample::Dashed((d, g), color) => area.draw(&DashedPathElement::new(
+                vec![(x, y), (x + line, y)],
+                page.ink(d),
+                page.ink(g),
+                color.stroke_width(page.ink(2)),
+            ))?,
+            Sample::Fill(color, hatch) => {
+                area.draw(&Rectangle::new(
+                    [(x, y - z(5)), (x + line, y + z(5))],
+                    color.filled(),
+                ))?;
+                if hatch {
+                    area.draw(&Hatch {
+                        corners: [(x, y - z(5)), (x + line, y + z(5))],
+                        color: BLACK.mix(0.45),
+                    })?;
+                }
+            }
+        }
+        area.draw(&Text::new(
+            label.clone(),
+            (x + z(30), y),
+            TextStyle::from(font.clone()).pos(Pos::new(HPos::Left, VPos::Center)),
+        ))?;
+        x += ew;
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -722,7 +1010,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_hidden_legend_leaves_one_legend_per_figure() {
+    fn a_figure_names_each_line_in_one_legend() {
         let dir = std::env::temp_dir().join(format!("host-sim-legend-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("dir");
         let line = |legend| Panel {
@@ -740,8 +1028,25 @@ mod tests {
             let svg = std::fs::read_to_string(dir.join("legend.svg")).expect("svg");
             svg.matches("agent 7").count()
         };
-        assert_eq!(legends(&[line(Legend::Corner), line(Legend::Corner)]), 2);
+        // Panels naming the same lines share the first one's legend.
+        assert_eq!(legends(&[line(Legend::Corner), line(Legend::Corner)]), 1);
         assert_eq!(legends(&[line(Legend::Corner), line(Legend::Hidden)]), 1);
+        let mut other = line(Legend::Corner);
+        other.series[0].label = "agent 8".into();
+        render(
+            &dir,
+            "legend",
+            &[line(Legend::Corner), other],
+            (2, 1),
+            style,
+        )
+        .expect("figure");
+        let svg = std::fs::read_to_string(dir.join("legend.svg")).expect("svg");
+        assert_eq!(
+            svg.matches("agent 8").count(),
+            1,
+            "a new line gets its legend"
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 

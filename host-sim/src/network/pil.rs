@@ -1017,6 +1017,7 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
                         RGBColor(c.0, c.1, c.2).mix(0.15)
                     },
                     label: format!("agent {}: control task stopped", i + 1),
+                    hatch: true,
                 });
             }
             for &t in &ev.resets {
@@ -1028,6 +1029,7 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
                     to: to.unwrap_or(end),
                     color: RGBColor(214, 39, 40).mix(0.10),
                     label: format!("agent {}: safe state", i + 1),
+                    hatch: false,
                 });
             }
         }

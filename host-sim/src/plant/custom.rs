@@ -6,6 +6,7 @@
 //! evaluate the programs with a small fixed stack, without name look-ups or allocation.
 
 mod parse;
+mod symbolic;
 
 use std::collections::BTreeMap;
 
@@ -22,7 +23,7 @@ const MAX_DEPTH: usize = 32;
 
 /// The functions an expression may call.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Func {
+pub(crate) enum Func {
     Sin,
     Cos,
     Tan,
@@ -31,9 +32,18 @@ enum Func {
     Sqrt,
     Abs,
     Tanh,
+    /// `−1`, `0`, `1` by the sign of the argument.
+    Sign,
+    /// The argument clamped to `[−1, 1]`.
+    Sat,
+    /// The smaller of two.
+    Min,
+    /// The larger of two.
+    Max,
 }
 
-const FUNCTIONS: [(&str, Func); 8] = [
+/// The functions of one argument.
+const FUNCTIONS: [(&str, Func); 10] = [
     ("sin", Func::Sin),
     ("cos", Func::Cos),
     ("tan", Func::Tan),
@@ -42,9 +52,34 @@ const FUNCTIONS: [(&str, Func); 8] = [
     ("sqrt", Func::Sqrt),
     ("abs", Func::Abs),
     ("tanh", Func::Tanh),
+    ("sign", Func::Sign),
+    ("sat", Func::Sat),
 ];
 
+/// The functions of two arguments.
+const FUNCTIONS2: [(&str, Func); 2] = [("min", Func::Min), ("max", Func::Max)];
+
+/// Every function name, for error messages.
+const FUNCTION_NAMES: &str = "sin cos tan exp ln sqrt abs tanh sign sat min max";
+
 impl Func {
+    /// The function called `name`.
+    fn named(name: &str) -> Option<Self> {
+        FUNCTIONS
+            .iter()
+            .chain(&FUNCTIONS2)
+            .find(|(f, _)| *f == name)
+            .map(|(_, f)| *f)
+    }
+
+    /// How many arguments it takes.
+    const fn arity(self) -> usize {
+        match self {
+            Self::Min | Self::Max => 2,
+            _ => 1,
+        }
+    }
+
     #[inline]
     fn apply(self, x: f64) -> f64 {
         match self {
@@ -56,8 +91,41 @@ impl Func {
             Self::Sqrt => x.sqrt(),
             Self::Abs => x.abs(),
             Self::Tanh => x.tanh(),
+            Self::Sign => {
+                if x > 0.0 {
+                    1.0
+                } else if x < 0.0 {
+                    -1.0
+                } else {
+                    x * 0.0
+                }
+            }
+            Self::Sat => x.clamp(-1.0, 1.0),
+            Self::Min | Self::Max => self.apply2(x, x),
         }
     }
+
+    /// A function of two arguments (NaN in, NaN out).
+    #[inline]
+    fn apply2(self, a: f64, b: f64) -> f64 {
+        if a.is_nan() || b.is_nan() {
+            return f64::NAN;
+        }
+        match self {
+            Self::Min => a.min(b),
+            Self::Max => a.max(b),
+            _ => self.apply(a),
+        }
+    }
+}
+
+/// The name of `f` in expressions.
+fn function_name(f: Func) -> &'static str {
+    FUNCTIONS
+        .iter()
+        .chain(&FUNCTIONS2)
+        .find(|(_, g)| *g == f)
+        .map_or("?", |(n, _)| n)
 }
 
 /// Named constants besides `[plant.params]`.
@@ -106,6 +174,10 @@ impl Program {
                     }
                     stack[sp - 1] = r;
                 }
+                Op::Call(f) if f.arity() == 2 => {
+                    sp -= 1;
+                    stack[sp - 1] = f.apply2(stack[sp - 1], stack[sp]);
+                }
                 Op::Call(f) => stack[sp - 1] = f.apply(stack[sp - 1]),
                 Op::Bin(bin) => {
                     sp -= 1;
@@ -150,6 +222,11 @@ impl Program {
                         r
                     });
                 }
+                Op::Call(f) if f.arity() == 2 => {
+                    sp -= 1;
+                    let (l, r) = (stack[sp - 1], stack[sp]);
+                    stack[sp - 1] = std::array::from_fn(|b| f.apply2(l[b], r[b]));
+                }
                 Op::Call(f) => stack[sp - 1] = stack[sp - 1].map(|x| f.apply(x)),
                 Op::Bin(bin) => {
                     sp -= 1;
@@ -176,6 +253,8 @@ pub struct Custom {
     n: usize,
     m: usize,
     dynamics: Vec<Program>,
+    /// Units of the output `x_1` and of the inputs (`–` when not named).
+    units: (String, String),
 }
 
 impl Custom {
@@ -252,7 +331,44 @@ impl Custom {
                     .map_err(|why| Error::invalid(format!("plant.dynamics[{}]", j + 1), why))
             })
             .collect::<Result<Vec<_>>>()?;
-        Ok(Self { n, m, dynamics })
+        Ok(Self {
+            n,
+            m,
+            dynamics,
+            units: ("–".into(), "–".into()),
+        })
+    }
+
+    /// With `plant.state_units` (one per state) and `plant.input_unit`, shown on the figures'
+    /// axes.
+    pub fn with_units(self, states: Option<&[String]>, input: Option<&str>) -> Result<Self> {
+        let mut units = self.units.clone();
+        if let Some(s) = states {
+            if s.len() != self.n {
+                return Err(Error::invalid(
+                    "plant.state_units",
+                    format!("expected n = {} units, got {}", self.n, s.len()),
+                ));
+            }
+            units.0 = s[0].clone();
+        }
+        if let Some(u) = input {
+            units.1 = u.into();
+        }
+        for (key, u) in [
+            ("plant.state_units", &units.0),
+            ("plant.input_unit", &units.1),
+        ] {
+            if u.trim().is_empty() || u.chars().count() > 16 {
+                return Err(Error::invalid(key, "a unit is 1 to 16 characters"));
+            }
+        }
+        Ok(Self { units, ..self })
+    }
+
+    /// Units of the output and of the inputs.
+    pub fn units(&self) -> (&str, &str) {
+        (&self.units.0, &self.units.1)
     }
 
     /// State order `n`.
@@ -316,6 +432,93 @@ impl<const N: usize, const M: usize> Plant<N, M> for Custom {
     }
 }
 
+/// A function of time written as an expression in `t` (the leader's `y_d`): its value compiled
+/// as the plants' expressions are, and its derivatives `1..=order` as simplified trees
+/// ([`symbolic`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TimeFunction {
+    value: Program,
+    derivatives: Vec<symbolic::Expr>,
+}
+
+/// Slot of `t` in a [`TimeFunction`]'s program.
+const T_SLOT: usize = 0;
+
+impl TimeFunction {
+    /// `text` in `t` (with `pi`, `e` and every function) and its first `order` derivatives;
+    /// `Err` says why not, with the column.
+    pub fn new(text: &str, order: usize) -> std::result::Result<Self, String> {
+        let mut names: BTreeMap<String, Op> = BTreeMap::new();
+        names.insert("t".into(), Op::Slot(T_SLOT));
+        for (c, v) in CONSTANTS {
+            names.insert(c.into(), Op::Const(v));
+        }
+        if text.trim().is_empty() {
+            return Err("empty expression".into());
+        }
+        let value = compile_with(text, &names, "t, pi, e")?;
+        let mut tree = tree(text).ok_or("not one expression")?;
+        let mut derivatives = Vec::with_capacity(order);
+        for k in 1..=order {
+            tree = tree
+                .derivative()
+                .map_err(|why| format!("derivative {k}: {why}"))?;
+            derivatives.push(tree.clone());
+        }
+        Ok(Self { value, derivatives })
+    }
+
+    /// The value at `t`.
+    #[inline]
+    pub fn value(&self, t: f64) -> f64 {
+        let mut v = [0.0; SLOTS];
+        v[T_SLOT] = t;
+        self.value.eval(&v)
+    }
+
+    /// The `k`-th derivative at `t` (`k = 0`: the value; beyond the order asked for: NaN).
+    pub fn derivative(&self, k: usize, t: f64) -> f64 {
+        match k {
+            0 => self.value(t),
+            _ => self.derivatives.get(k - 1).map_or(f64::NAN, |d| d.eval(t)),
+        }
+    }
+
+    /// The `k`-th derivative (`k ≥ 1`) written out.
+    pub fn derivative_text(&self, k: usize) -> Option<String> {
+        k.checked_sub(1)
+            .and_then(|k| self.derivatives.get(k))
+            .map(symbolic::Expr::text)
+    }
+}
+
+/// The tree of an expression in `t` that [`compile_with`] accepted.
+fn tree(text: &str) -> Option<symbolic::Expr> {
+    use symbolic::Expr;
+    let mut stack: Vec<Expr> = Vec::new();
+    for token in parse::postfix(text).ok()? {
+        let e = match token {
+            Token::Number(v) => Expr::Num(v),
+            Token::Name(span) => match text.get(span)? {
+                "t" => Expr::Var,
+                name => Expr::Num(CONSTANTS.iter().find(|(c, _)| *c == name)?.1),
+            },
+            Token::Neg => Expr::Neg(Box::new(stack.pop()?)),
+            Token::Binary(op) => {
+                let r = stack.pop()?;
+                Expr::Bin(op, Box::new(stack.pop()?), Box::new(r))
+            }
+            Token::Call(span, n) => {
+                let f = Func::named(text.get(span)?)?;
+                let args = stack.split_off(stack.len().checked_sub(n)?);
+                Expr::Call(f, args)
+            }
+        };
+        stack.push(e);
+    }
+    (stack.len() == 1).then(|| stack.pop()).flatten()
+}
+
 /// 1-based column (in characters) of byte `offset` in `text`.
 fn column(text: &str, offset: usize) -> usize {
     text.char_indices().take_while(|&(i, _)| i < offset).count() + 1
@@ -323,6 +526,19 @@ fn column(text: &str, offset: usize) -> usize {
 
 /// `text` as a [`Program`] over `names`, or why not (with the column).
 fn compile(text: &str, names: &BTreeMap<String, Op>) -> std::result::Result<Program, String> {
+    compile_with(
+        text,
+        names,
+        "x1..xn, u1..um, u, t, pi, e and [plant.params]",
+    )
+}
+
+/// [`compile`] naming `known` variables in its errors.
+fn compile_with(
+    text: &str,
+    names: &BTreeMap<String, Op>,
+    known: &str,
+) -> std::result::Result<Program, String> {
     let at = |offset: usize| format!("at column {}", column(text, offset));
     if text.trim().is_empty() {
         return Err("empty expression".into());
@@ -339,25 +555,29 @@ fn compile(text: &str, names: &BTreeMap<String, Op>) -> std::result::Result<Prog
                 let name = text.get(span.clone()).unwrap_or_default();
                 *names.get(name).ok_or_else(|| {
                     format!(
-                        "unknown variable `{name}` {} (known: x1..xn, u1..um, u, t, pi, e and [plant.params])",
+                        "unknown variable `{name}` {} (known: {known})",
                         at(span.start)
                     )
                 })?
             }
             Token::Binary(b) => Op::Bin(b),
             Token::Neg => Op::Neg,
-            Token::Call(span) => {
+            Token::Call(span, args) => {
                 let name = text.get(span.clone()).unwrap_or_default();
-                let f = FUNCTIONS
-                    .iter()
-                    .find(|(f, _)| *f == name)
-                    .map(|(_, f)| *f)
-                    .ok_or_else(|| {
-                        format!(
-                            "unknown function `{name}` {} (known: sin cos tan exp ln sqrt abs tanh)",
-                            at(span.start)
-                        )
-                    })?;
+                let f = Func::named(name).ok_or_else(|| {
+                    format!(
+                        "unknown function `{name}` {} (known: {FUNCTION_NAMES})",
+                        at(span.start)
+                    )
+                })?;
+                if args != f.arity() {
+                    return Err(format!(
+                        "`{name}` {} takes {} argument{} (got {args})",
+                        at(span.start),
+                        f.arity(),
+                        if f.arity() == 1 { "" } else { "s" }
+                    ));
+                }
                 Op::Call(f)
             }
         };
@@ -365,7 +585,8 @@ fn compile(text: &str, names: &BTreeMap<String, Op>) -> std::result::Result<Prog
         // the evaluation stack can never underflow.
         let needs = match op {
             Op::Const(_) | Op::Slot(_) => 0,
-            Op::Neg | Op::Call(_) | Op::PowI(_) => 1,
+            Op::Call(f) => f.arity(),
+            Op::Neg | Op::PowI(_) => 1,
             Op::Bin(_) => 2,
         };
         if depth < needs {

@@ -7,7 +7,7 @@
 //! [`crate::run::run_plant`] (`host-sim/examples/pendulum.rs`). To make a Rust plant a
 //! scenario model, add a [`PlantModel`] variant.
 
-mod custom;
+pub mod custom;
 mod example1;
 mod manipulator;
 
@@ -63,6 +63,12 @@ pub struct PlantSpec {
     /// Custom: named constants of the expressions (`[plant.params]`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub params: Option<BTreeMap<String, f64>>,
+    /// Custom: the unit of each state `x_1..x_n` (`x_1`'s is the output's, on the figures' axes).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub state_units: Option<Vec<String>>,
+    /// Custom: the unit of the inputs `u_1..u_m`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub input_unit: Option<String>,
 }
 
 impl Default for PlantSpec {
@@ -86,6 +92,8 @@ impl Default for PlantSpec {
             m: None,
             dynamics: None,
             params: None,
+            state_units: None,
+            input_unit: None,
         }
     }
 }
@@ -341,6 +349,8 @@ impl PlantModel {
             ("m", spec.m.is_some()),
             ("dynamics", spec.dynamics.is_some()),
             ("params", spec.params.is_some()),
+            ("state_units", spec.state_units.is_some()),
+            ("input_unit", spec.input_unit.is_some()),
         ];
         if spec.model != "custom" {
             if let Some((k, _)) = custom.iter().find(|(_, set)| *set) {
@@ -406,7 +416,9 @@ impl PlantModel {
                     Error::invalid("plant.dynamics", "required for model = \"custom\"")
                 })?;
                 let params = spec.params.clone().unwrap_or_default();
-                Ok(Self::Custom(Arc::new(Custom::new(n, m, dynamics, &params)?)))
+                let custom = Custom::new(n, m, dynamics, &params)?
+                    .with_units(spec.state_units.as_deref(), spec.input_unit.as_deref())?;
+                Ok(Self::Custom(Arc::new(custom)))
             }
             other => Err(Error::invalid(
                 "plant.model",
@@ -436,9 +448,10 @@ impl PlantModel {
     }
 
     /// Units of the output `y` and of the actuator commands `u` (for the figures).
-    pub fn units(&self) -> (&'static str, &'static str) {
+    pub fn units(&self) -> (&str, &str) {
         match self {
-            Self::Example1(_) | Self::Custom(_) | Self::Library { .. } => ("–", "–"),
+            Self::Custom(c) => c.units(),
+            Self::Example1(_) | Self::Library { .. } => ("–", "–"),
             Self::Manipulator(_) => ("rad", "N·m"),
         }
     }

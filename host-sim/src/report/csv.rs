@@ -1,6 +1,8 @@
 //! `trajectory.csv` (docs/SCENARIO.md): `t`, `yd`, then per agent `y{i}`, `x{i}_{j}`, `e{i}_{j}`,
-//! `u{i}_{l}`, `q{i}_{l}`, `mu{i}`, `xi{i}`, `lambda{i}`; every `decimate`-th sample. The same
-//! columns go to `trajectory.parquet` ([`super::parquet`]) or stay in memory ([`Table`]).
+//! `u{i}_{l}`, `q{i}_{l}`, `mu{i}`, `xi{i}`, `lambda{i}`, then at the end of the row every
+//! agent's `qf{i}_{l}` (the actuator output after the faults, eq. (3)); every `decimate`-th
+//! sample. The same columns go to `trajectory.parquet` ([`super::parquet`]) or stay in memory
+//! ([`Table`]).
 
 use std::{
     fs::File,
@@ -12,6 +14,7 @@ use std::{
 
 use crate::{
     error::{Error, Result},
+    faults::FaultSchedule,
     report::{
         parquet,
         plots::MAX_PLOTTED_AGENTS,
@@ -25,10 +28,11 @@ use crate::{
 /// Largest `trajectory.csv` a run writes without `--force` [bytes] (2 GiB).
 pub const SIZE_LIMIT: u64 = 2 << 30;
 
-/// Estimated bytes of one row: about 20 characters per `f64` value (`t`, `yd`, `y`, `x`) and 11
-/// per `f32` value (`e`, `u`, `q`, estimates), separators included (Example 1: 676, measured 674).
+/// Estimated bytes of one row: about 20 characters per `f64` value (`t`, `yd`, `y`, `x`, `qf`)
+/// and 11 per `f32` value (`e`, `u`, `q`, estimates), separators included (Example 1: 836,
+/// measured 822).
 pub fn row_bytes(agents: usize, n: usize, m: usize) -> u64 {
-    let f64_columns = 2 + agents * (1 + n);
+    let f64_columns = 2 + agents * (1 + n + m);
     let f32_columns = agents * (n + 2 * m + 3);
     (20 * f64_columns + 11 * f32_columns) as u64
 }
@@ -264,6 +268,7 @@ pub struct TrajectoryObserver {
     decimate: u64,
     agents: Vec<usize>,
     clock: SampleClock,
+    faults: FaultSchedule,
     /// The temporary file and where it goes (`None`: a table).
     file: Option<(TempFile, PathBuf)>,
 }
@@ -278,6 +283,9 @@ pub fn header(agents: &[usize], n: usize, m: usize) -> Vec<String> {
         header.extend((1..=m).map(|l| format!("u{i}_{l}")));
         header.extend((1..=m).map(|l| format!("q{i}_{l}")));
         header.extend([format!("mu{i}"), format!("xi{i}"), format!("lambda{i}")]);
+    }
+    for i in agents.iter().map(|i| i + 1) {
+        header.extend((1..=m).map(|l| format!("qf{i}_{l}")));
     }
     header
 }
@@ -314,11 +322,13 @@ impl TrajectoryObserver {
         decimate: u64,
         h: f64,
     ) -> Result<Self> {
+        let total = agents.iter().max().map_or(0, |a| a + 1);
         let names = header(&agents, n, m);
         let layout = Layout {
             agents: agents.len(),
             wide: 1 + n,
             narrow: n + 2 * m + 3,
+            m,
         };
         let (tx, rx) = sync_channel(QUEUE);
         let spawn = |what: &str, f: Box<dyn FnOnce() -> Written + Send>| {
@@ -358,7 +368,7 @@ impl TrajectoryObserver {
                 None,
             ),
         };
-        let per_row = 2 + layout.agents * (layout.wide + layout.narrow);
+        let per_row = layout.wide_row() + layout.narrow_row();
         Ok(Self {
             block: Block::default(),
             rows: 0,
@@ -368,8 +378,14 @@ impl TrajectoryObserver {
             decimate: decimate.max(1),
             agents,
             clock: SampleClock::new(h),
+            faults: FaultSchedule::healthy(total, m),
             file,
         })
+    }
+
+    /// The `qf` columns through `faults` (without it, `qf = q`).
+    pub fn with_faults(self, faults: FaultSchedule) -> Self {
+        Self { faults, ..self }
     }
 
     /// Hands the rows kept so far to the writer; its error if it stopped.
@@ -489,7 +505,8 @@ fn write_rows(
             for &v in &w[..2] {
                 texts.field(&mut line, v, v.to_bits(), false);
             }
-            for (wa, qa) in w[2..]
+            let (per_agent, qf) = w[2..].split_at(layout.agents * layout.wide);
+            for (wa, qa) in per_agent
                 .chunks_exact(layout.wide)
                 .zip(q.chunks_exact(layout.narrow))
             {
@@ -499,6 +516,9 @@ fn write_rows(
                 for &v in qa {
                     texts.field(&mut line, v, u64::from(v.to_bits()), true);
                 }
+            }
+            for &v in qf {
+                texts.field(&mut line, v, v.to_bits(), false);
             }
             if let Some(last) = line.last_mut() {
                 *last = b'\n';
@@ -525,6 +545,11 @@ impl<const N: usize, const M: usize> Observer<N, M> for TrajectoryObserver {
             b.narrow.extend_from_slice(&o.q);
             let e = &o.estimates;
             b.narrow.extend([e.mu, e.xi, e.lambda]);
+        }
+        for &i in &self.agents {
+            let q = &s.out[i].q;
+            b.wide
+                .extend((0..M).map(|l| self.faults.apply(i, l, s.t, f64::from(q[l]))));
         }
         self.rows += 1;
         if self.rows == self.rows_per_block {

@@ -3,6 +3,7 @@
 
 pub mod clocks;
 pub mod csv;
+pub mod graph;
 pub mod parquet;
 pub mod plots;
 pub mod spread;

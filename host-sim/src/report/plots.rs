@@ -5,10 +5,11 @@
 
 use std::path::Path;
 
-use plotters::style::{Color, RGBColor, BLACK};
+use plotters::style::{Color, BLACK};
 
 use crate::{
     error::Result,
+    faults::FaultSchedule,
     figure::{
         panel::{color, render, Marker, Panel, Series, Shade},
         text::{secs, sub, trim_number},
@@ -45,6 +46,10 @@ pub struct Recorder {
     pub q: Vec<Vec<f64>>,
     /// `u_{i,l} − q_{i,l}` likewise (the quantization error).
     pub uq: Vec<Vec<f64>>,
+    /// `q^f(u_{i,l})`, the actuator output after the faults (eq. (3)), likewise.
+    pub qf: Vec<Vec<f64>>,
+    /// The fault schedule `q^f` is computed with.
+    faults: Option<FaultSchedule>,
     /// `μ̂`, `ξ̂`, `λ̂` per plotted agent.
     pub est: [Vec<Vec<f64>>; 3],
     /// The exact `(t, value)` of the largest-magnitude `u`, `q`, `u − q` of each agent and
@@ -76,14 +81,23 @@ impl Recorder {
             u: vec![Vec::new(); a * m],
             q: vec![Vec::new(); a * m],
             uq: vec![Vec::new(); a * m],
+            qf: vec![Vec::new(); a * m],
             est: [
                 vec![Vec::new(); a],
                 vec![Vec::new(); a],
                 vec![Vec::new(); a],
             ],
-            peaks: vec![0.0; 3 * a * m],
-            extremes: vec![(0.0, 0.0); 3 * a * m],
+            peaks: vec![0.0; 4 * a * m],
+            extremes: vec![(0.0, 0.0); 4 * a * m],
             ..Self::default()
+        }
+    }
+
+    /// `q^f` through `faults` (without it, `q^f = q`).
+    pub fn with_faults(self, faults: FaultSchedule) -> Self {
+        Self {
+            faults: Some(faults),
+            ..self
         }
     }
 
@@ -132,7 +146,7 @@ impl Recorder {
             "tracking",
             &[tracking],
             (1, 1),
-            FigureStyle::px(1000, 560),
+            FigureStyle::px(1000, 560).with(setup.figures()),
         )?;
 
         let errs: Vec<Series> = self
@@ -179,7 +193,7 @@ impl Recorder {
             "errors",
             &[full, log],
             (2, 1),
-            FigureStyle::px(1000, 800),
+            FigureStyle::px(1000, 800).with(setup.figures()),
         )?;
 
         let mut inputs = Vec::new();
@@ -205,7 +219,7 @@ impl Recorder {
             "inputs",
             &inputs,
             (rows, cols),
-            FigureStyle::px(1400, 270 * rows as u32),
+            FigureStyle::px(1400, 270 * rows as u32).with(setup.figures()),
         )?;
 
         let names = ["μ̂", "ξ̂", "λ̂"];
@@ -232,14 +246,19 @@ impl Recorder {
             "estimates",
             &panels,
             (3, 1),
-            FigureStyle::px(1000, 900),
+            FigureStyle::px(1000, 900).with(setup.figures()),
         )
     }
 
-    /// The series of actuators `0..m` of agent `i` from `data`, one series when all are equal.
-    /// The exact extreme of `kind` (0 `u`, 1 `q`, 2 `u − q`) of actuator `l` of agent `i`.
+    /// Whether `peak` of `q^f` is the extreme of `q` of some actuator of agent `i`.
+    fn peak_equals_q(&self, i: usize, peak: &(f64, f64)) -> bool {
+        (0..self.m).any(|l| self.extreme(i, l, 1) == Some(*peak))
+    }
+
+    /// The exact extreme of `kind` (0 `u`, 1 `q`, 2 `u − q`, 3 `q^f`) of actuator `l` of
+    /// agent `i`.
     pub fn extreme(&self, i: usize, l: usize, kind: usize) -> Option<(f64, f64)> {
-        self.extremes.get(3 * (i * self.m + l) + kind).copied()
+        self.extremes.get(4 * (i * self.m + l) + kind).copied()
     }
 
     /// The series of `kind` (as in [`Recorder::extreme`]) of actuators `0..m` of agent `i` from
@@ -285,12 +304,20 @@ impl Recorder {
             s.marker = Marker::None;
             series.push(s);
         }
+        let first = series.len();
+        for mut s in self.actuator_series((&self.qf, 3), i, "qᶠ(u#)", first) {
+            s.color = BLACK.to_rgba();
+            s.width = 1;
+            // A peak where no fault acts is q's: q's note names it.
+            s.note = !s.peak.is_some_and(|p| self.peak_equals_q(i, &p));
+            series.push(s);
+        }
         Panel {
             title: format!(
-                "agent {}: command u and quantized q (shaded: fault windows)",
+                "agent {}: command u, quantized q, actuator output qᶠ (shaded: faults)",
                 i + 1
             ),
-            y_label: format!("u, q [{u_unit}]"),
+            y_label: format!("u, q, qᶠ [{u_unit}]"),
             series,
             vlines: vec![vline.clone()],
             shades: fault_shades(setup, i, self.m),
@@ -321,16 +348,18 @@ fn fault_shades(setup: &Setup, i: usize, m: usize) -> Vec<Shade> {
     let mut shades = Vec::new();
     for l in 0..m {
         for (from, to, total) in setup.faults.windows(i, l, t_end) {
+            // Gray levels and hatching tell the kinds apart in grayscale print.
             let (c, kind) = if total {
-                (RGBColor(214, 39, 40).mix(0.10), "total loss")
+                (BLACK.mix(0.16), "total loss")
             } else {
-                (RGBColor(255, 127, 14).mix(0.12), "partial loss")
+                (BLACK.mix(0.05), "partial loss")
             };
             shades.push(Shade {
                 from,
                 to,
                 color: c,
                 label: format!("actuator {} fault: {kind}", l + 1),
+                hatch: !total,
             });
         }
     }
@@ -343,9 +372,10 @@ impl<const N: usize, const M: usize> Observer<N, M> for Recorder {
         for i in 0..self.agents {
             let o = &s.out[i];
             for l in 0..M.min(self.m) {
-                let j = 3 * (i * self.m + l);
+                let j = 4 * (i * self.m + l);
                 let (u, q) = (f64::from(o.u[l]), f64::from(o.q[l]));
-                for (d, v) in [u, q, u - q].into_iter().enumerate() {
+                let qf = self.faults.as_ref().map_or(q, |f| f.apply(i, l, s.t, q));
+                for (d, v) in [u, q, u - q, qf].into_iter().enumerate() {
                     peak(&mut self.peaks[j + d], v);
                     if v.abs() > self.extremes[j + d].1.abs() {
                         self.extremes[j + d] = (s.t, v);
@@ -366,9 +396,10 @@ impl<const N: usize, const M: usize> Observer<N, M> for Recorder {
             let o = &s.out[i];
             for l in 0..self.m {
                 let j = i * self.m + l;
-                self.u[j].push(std::mem::take(&mut self.peaks[3 * j]));
-                self.q[j].push(std::mem::take(&mut self.peaks[3 * j + 1]));
-                self.uq[j].push(std::mem::take(&mut self.peaks[3 * j + 2]));
+                self.u[j].push(std::mem::take(&mut self.peaks[4 * j]));
+                self.q[j].push(std::mem::take(&mut self.peaks[4 * j + 1]));
+                self.uq[j].push(std::mem::take(&mut self.peaks[4 * j + 2]));
+                self.qf[j].push(std::mem::take(&mut self.peaks[4 * j + 3]));
             }
             self.est[0][i].push(f64::from(o.estimates.mu));
             self.est[1][i].push(f64::from(o.estimates.xi));

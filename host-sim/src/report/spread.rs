@@ -148,7 +148,7 @@ impl Spread {
             "spread",
             &[errors, inputs],
             (2, 1),
-            FigureStyle::px(1200, 800),
+            FigureStyle::px(1200, 800).with(setup.figures()),
         )
     }
 }

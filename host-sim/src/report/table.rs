@@ -59,12 +59,13 @@ pub(crate) struct Block {
 }
 
 /// Column layout: per row `t`, `yd`, then per agent `1 + n` wide (`y`, `x`) and `n + 2m + 3`
-/// narrow (`e`, `u`, `q`, estimates) values.
+/// narrow (`e`, `u`, `q`, estimates) values, then `m` wide (`qf`) per agent.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Layout {
     pub(crate) agents: usize,
     pub(crate) wide: usize,
     pub(crate) narrow: usize,
+    pub(crate) m: usize,
 }
 
 /// Where a column's values are in a row of a [`Block`].
@@ -79,7 +80,7 @@ pub(crate) enum Field {
 impl Layout {
     /// `f64` values per row.
     pub(crate) fn wide_row(&self) -> usize {
-        2 + self.agents * self.wide
+        2 + self.agents * (self.wide + self.m)
     }
 
     /// `f32` values per row (at least one, so that empty rows still chunk).
@@ -94,6 +95,8 @@ impl Layout {
             f.extend((0..self.wide).map(|j| Field::Wide(2 + a * self.wide + j)));
             f.extend((0..self.narrow).map(|j| Field::Narrow(a * self.narrow + j)));
         }
+        let qf = 2 + self.agents * self.wide;
+        f.extend((0..self.agents * self.m).map(|j| Field::Wide(qf + j)));
         f
     }
 

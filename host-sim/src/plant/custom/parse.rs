@@ -6,7 +6,7 @@
 //! product = unary (("*" | "/" | "%") unary)*    left-associative
 //! unary   = ("-" | "+") unary | power           a sign binds looser than "^": -x^2 = -(x^2)
 //! power   = atom ("^" unary)?                   right-associative: 2^3^2 = 2^9; x^-2 allowed
-//! atom    = number | name "(" sum ")" | name | "(" sum ")"
+//! atom    = number | name "(" sum ("," sum)* ")" | name | "(" sum ")"
 //! number  = digits ["." digits] [("e" | "E") ["+" | "-"] digits]   (also ".5")
 //! name    = (letter | "_") (letter | digit | "_")*                  ASCII
 //! ```
@@ -38,6 +38,20 @@ pub enum Binary {
     Pow,
 }
 
+impl Binary {
+    /// The operator as written.
+    pub const fn symbol(self) -> &'static str {
+        match self {
+            Self::Add => "+",
+            Self::Sub => "-",
+            Self::Mul => "*",
+            Self::Div => "/",
+            Self::Rem => "%",
+            Self::Pow => "^",
+        }
+    }
+}
+
 /// One step of an expression's postfix form; names are byte ranges of the text.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Token {
@@ -45,8 +59,8 @@ pub enum Token {
     Name(Range<usize>),
     Neg,
     Binary(Binary),
-    /// A one-argument function applied to the value before it.
-    Call(Range<usize>),
+    /// A function applied to the values before it (the count of arguments).
+    Call(Range<usize>, usize),
 }
 
 /// Where (byte offset) and why a text is not an expression.
@@ -140,15 +154,15 @@ impl Postfix {
             skip_space(i);
             let open = i.current_token_start();
             if eat(i, '(').is_some() {
-                self.group(i, depth, open, true)?;
-                self.0.push(Token::Call(name));
+                let args = self.group(i, depth, open, true)?;
+                self.0.push(Token::Call(name, args));
             } else {
                 self.0.push(Token::Name(name));
             }
             return Ok(());
         }
         if eat(i, '(').is_some() {
-            return self.group(i, depth, start, false);
+            return self.group(i, depth, start, false).map(|_| ());
         }
         Err(match next_char(i) {
             None => here(i, "the expression ends where an operand is expected"),
@@ -157,21 +171,37 @@ impl Postfix {
         })
     }
 
-    /// The rest of a parenthesis opened at byte `open`, a function's argument if `call`.
-    fn group(&mut self, i: &mut Input<'_>, depth: usize, open: usize, call: bool) -> Parsed {
+    /// The rest of a parenthesis opened at byte `open`, a function's arguments (separated by
+    /// `,`) if `call`; how many expressions it held.
+    fn group(
+        &mut self,
+        i: &mut Input<'_>,
+        depth: usize,
+        open: usize,
+        call: bool,
+    ) -> Result<usize, SyntaxError> {
+        let mut args = 1;
         self.sum(i, deeper(depth, open)?)?;
-        skip_space(i);
-        match next_char(i) {
-            Some(')') => {
-                let _ = eat(i, ')');
-                Ok(())
+        loop {
+            skip_space(i);
+            match next_char(i) {
+                Some(')') => {
+                    let _ = eat(i, ')');
+                    return Ok(args);
+                }
+                None => {
+                    return Err(SyntaxError {
+                        offset: open,
+                        why: "this parenthesis is never closed",
+                    })
+                }
+                Some(',') if call => {
+                    let _ = eat(i, ',');
+                    self.sum(i, deeper(depth, open)?)?;
+                    args += 1;
+                }
+                Some(_) => return Err(here(i, "expected an operator or `)`")),
             }
-            None => Err(SyntaxError {
-                offset: open,
-                why: "this parenthesis is never closed",
-            }),
-            Some(',') if call => Err(here(i, "a function takes one argument")),
-            Some(_) => Err(here(i, "expected an operator or `)`")),
         }
     }
 }
@@ -247,17 +277,9 @@ mod tests {
             .map(|t| match t {
                 Token::Number(v) => format!("{v}"),
                 Token::Name(r) => text[r.clone()].to_string(),
-                Token::Call(r) => format!("{}()", &text[r.clone()]),
+                Token::Call(r, n) => format!("{}({n})", &text[r.clone()]),
                 Token::Neg => "neg".into(),
-                Token::Binary(b) => match b {
-                    Binary::Add => "+",
-                    Binary::Sub => "-",
-                    Binary::Mul => "*",
-                    Binary::Div => "/",
-                    Binary::Rem => "%",
-                    Binary::Pow => "^",
-                }
-                .into(),
+                Token::Binary(b) => b.symbol().into(),
             })
             .collect::<Vec<_>>()
             .join(" ")
@@ -276,7 +298,8 @@ mod tests {
             ("a / b * c % d", "a b / c * d %"),
             ("a + b * c ^ d", "a b c d ^ * +"),
             ("--x1 + +x2", "x1 neg neg x2 +"),
-            (" sin ( x1 ) * k\n", "x1 sin() k *"),
+            (" sin ( x1 ) * k\n", "x1 sin(1) k *"),
+            ("min(x1, 2 * t)", "x1 2 t * min(2)"),
             ("0.8*x1^3", "0.8 x1 3 ^ *"),
         ] {
             assert_eq!(rpn(text), expect, "{text}");
@@ -298,7 +321,8 @@ mod tests {
             ("u - x1)", 6, "this parenthesis closes nothing"),
             ("x1 x2", 3, "unexpected input (an operator is missing?)"),
             ("2(x1)", 1, "unexpected input (an operator is missing?)"),
-            ("sin(1, 2)", 5, "a function takes one argument"),
+            ("sin(1, 2", 3, "this parenthesis is never closed"),
+            ("min(1 2)", 6, "expected an operator or `)`"),
             ("(x1 x2)", 4, "expected an operator or `)`"),
             ("1e999", 0, "number out of range"),
             ("x1 + é", 5, "expected a number, a name or `(`"),
