@@ -16,14 +16,19 @@
 //!   from the files the measuring commands write; `--check` fails naming each block that differs
 //!   (details: `docs.rs`).
 //!
-//! Nothing is installed: a missing `qemu-system-arm` or `thumbv7em-none-eabihf` target is
-//! reported with the command that installs it.
+//! * `vm`: runs a command in a Linux guest that has CAN (`vcan0`, optional SJA1000
+//!   controllers) with the repository at the same path (details: `vm.rs`).
+//!
+//! Nothing is installed system-wide (`vm` unpacks its packages under `target/vm/`): a missing
+//! `qemu-system-arm` or `thumbv7em-none-eabihf` target is reported with the command that
+//! installs it.
 
 mod docs;
 mod flash;
 mod gate;
 mod target;
 mod trace;
+mod vm;
 
 use std::{
     path::{Path, PathBuf},
@@ -54,6 +59,11 @@ tasks:
       commands write (reused when present; --rerun measures again); --check writes
       nothing and fails naming each block that differs; wall-clock figures (wall.*)
       are rewritten only with --wall-clock and never checked; --list names the figures
+  vm [--can N] [--bitrate B] [--mem MIB] [--smp N] [--timeout S] [--verbose] -- <command…>
+      boot a QEMU x86_64 Linux guest (Debian kernel, busybox initramfs, cached under
+      target/vm/) with vcan0 up (and can0..canN-1 on emulated Kvaser PCI SJA1000
+      controllers with --can N), the host root read-only and this repository writable at
+      the same path; run the command there and exit with its status
 ";
 
 fn main() -> ExitCode {
@@ -62,6 +72,12 @@ fn main() -> ExitCode {
         eprint!("{USAGE}");
         return ExitCode::from(2);
     };
+    if task == "vm" {
+        return vm::vm(&args[1..]).unwrap_or_else(|e| {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        });
+    }
     let opts = match Options::parse(&args[1..]) {
         Ok(o) => o,
         Err(e) => {
