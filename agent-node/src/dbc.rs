@@ -3,7 +3,8 @@
 //! cantools, SavvyCAN or a bus analyser decode traces without a second copy of the layout.
 //!
 //! * Bus: one value frame ([`VALUE_SIGNALS`], [`crate::wire`]) per sender, the leader and
-//!   agents `1..=`[`MAX_AGENT`].
+//!   agents `1..=`[`MAX_AGENT`]; and per agent the sensor, command and state frames of a
+//!   host that simulates the plants on the bus ([`PLANT_MESSAGES`], [`crate::plant_bus`]).
 //! * Link ([`crate::link`]): the process-I/O frames of [`crate::link::io`] and the payloads of the
 //!   tick and report records ([`IO_MESSAGES`]). The records are not CAN frames; the DBC gives
 //!   their base64-decoded payload an id ([`crate::link::io::SYNC`], [`crate::link::io::REPORT`]) so the same
@@ -279,6 +280,59 @@ pub const IO_MESSAGES: [Message; 9] = [
     },
 ];
 
+/// The per-agent frames of [`crate::plant_bus`], one message per agent each (`name` is
+/// followed by the agent number; `sender` `Agent` means that agent's node).
+pub const PLANT_MESSAGES: [Message; 3] = [
+    Message {
+        name: "Sensor",
+        id: crate::plant_bus::SENSOR_BASE as u32,
+        sender: "Host",
+        signals: &[Signal::float("x1", 0), Signal::float("x2", 32)],
+        comment: Some("Plant on the bus: the agent's state x_i at the host's sample"),
+    },
+    Message {
+        name: "Command",
+        id: crate::plant_bus::COMMAND_BASE as u32,
+        sender: "Agent",
+        signals: &[Signal::float("q1", 0), Signal::float("q2", 32)],
+        comment: Some("Plant on the bus: the node's quantized commands q_i, one per node sample"),
+    },
+    Message {
+        name: "State",
+        id: crate::plant_bus::STATE_BASE as u32,
+        sender: "Agent",
+        signals: &[
+            Signal {
+                max: Some(3),
+                comment: Some("0 waiting for the host, 1 running, 2 host lost, 3 stopping"),
+                ..Signal::unsigned("mode", 0, 8)
+            },
+            Signal {
+                comment: Some("neighbour and leader links not fresh at the last sample"),
+                ..Signal::unsigned("degraded_links", 8, 8)
+            },
+            Signal {
+                comment: Some("samples the node's timer woke more than h/2 late (saturating)"),
+                ..Signal::unsigned("late_ticks", 16, 16)
+            },
+        ],
+        comment: Some("Plant on the bus: the node's heartbeat, every 100 ms and on a change"),
+    },
+];
+
+fn write_plant_message(out: &mut impl Write, m: &Message, agent: u8) -> fmt::Result {
+    let id = m.id + u32::from(agent);
+    write!(out, "BO_ {id} {}{agent}: {} ", m.name, m.len())?;
+    match m.sender {
+        "Agent" => writeln!(out, "Agent{agent}")?,
+        other => writeln!(out, "{other}")?,
+    }
+    for s in m.signals {
+        write_signal(out, s)?;
+    }
+    out.write_char('\n')
+}
+
 /// A DBC message id of a 29-bit identifier (bit 31 set).
 const EXTENDED: u32 = 0x8000_0000;
 
@@ -308,7 +362,8 @@ fn write_value_message(out: &mut impl Write, source: Source, id: u16) -> fmt::Re
     out.write_char('\n')
 }
 
-/// `docs/wire.dbc`: nodes, every value frame, every link message, comments, and the `f32`
+/// `docs/wire.dbc`: nodes, every value frame, the plant-bus frames of every agent, every link
+/// message, comments, and the `f32`
 /// signal types, in that order.
 pub fn write_dbc(out: &mut impl Write) -> fmt::Result {
     out.write_str("VERSION \"\"\n\nNS_ :\n\nBS_:\n\nBU_: Host Node Leader")?;
@@ -320,6 +375,11 @@ pub fn write_dbc(out: &mut impl Write) -> fmt::Result {
     for source in senders {
         if let Some(id) = source.raw_id() {
             write_value_message(out, source, id)?;
+        }
+    }
+    for m in &PLANT_MESSAGES {
+        for agent in 1..=MAX_AGENT {
+            write_plant_message(out, m, agent)?;
         }
     }
     for m in &IO_MESSAGES {
@@ -342,9 +402,32 @@ pub fn write_dbc(out: &mut impl Write) -> fmt::Result {
             writeln!(out, "CM_ SG_ {LEADER_ID} {} \"{c}\";", s.name)?;
         }
     }
+    for m in &PLANT_MESSAGES {
+        let first = m.id + 1;
+        if let Some(c) = m.comment {
+            writeln!(out, "CM_ BO_ {first} \"{c}\";")?;
+        }
+        for s in m.signals {
+            if let Some(c) = s.comment {
+                writeln!(out, "CM_ SG_ {first} {} \"{c}\";", s.name)?;
+            }
+        }
+    }
     for m in &IO_MESSAGES {
         if let Some(c) = m.comment {
             writeln!(out, "CM_ BO_ {} \"{c}\";", m.id | EXTENDED)?;
+        }
+    }
+    for m in &PLANT_MESSAGES {
+        for agent in 1..=MAX_AGENT {
+            for s in m.signals.iter().filter(|s| s.encoding == Encoding::Float) {
+                writeln!(
+                    out,
+                    "SIG_VALTYPE_ {} {} : 1;",
+                    m.id + u32::from(agent),
+                    s.name
+                )?;
+            }
         }
     }
     for m in &IO_MESSAGES {
