@@ -94,7 +94,7 @@ pub fn run(setup: &Setup, opts: &RunOptions) -> Result<RunResult> {
             "needs serial links: network.kind = \"pil\"",
         )),
         NetworkKind::Ideal => run_with_link(setup, opts, IdealLink),
-        NetworkKind::Can | NetworkKind::Pil => match &setup.plant {
+        NetworkKind::Can | NetworkKind::Pil | NetworkKind::Socketcan => match &setup.plant {
             PlantModel::Example1(p) => {
                 run_with::<_, _, 2, 2>(setup, *p, bus_agents(setup, trace)?, opts)
             }
@@ -281,6 +281,7 @@ where
     let mut summary = metrics.summary(setup, &sim.gains(), divergence);
     summary.set_network(sim.agents().network());
     summary.set_firmware(sim.agents().firmware());
+    summary.set_socketcan(sim.agents().socketcan());
     if let Some(dir) = &opts.out {
         if let Some(c) = csv {
             c.finish()?;

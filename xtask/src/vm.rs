@@ -173,9 +173,11 @@ fn command_script(root: &Path, opts: &VmOptions) -> String {
         );
     }
     s += &format!("cd {}\nset +e\n", quote(&root.display().to_string()));
+    // Output through a pipe, not the console's tty: no progress bars or colours in the log.
+    s += "out=/tmp/xtask-vm-out\nmkfifo \"$out\"\ncat \"$out\" &\nexec >\"$out\" 2>&1 </dev/null\n";
     let cmd: Vec<String> = opts.command.iter().map(|a| quote(a)).collect();
     s += &cmd.join(" ");
-    s += "\n";
+    s += "\nstatus=$?\nexec >&- 2>&-\nwait\nexit $status\n";
     s
 }
 

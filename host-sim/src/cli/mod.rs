@@ -32,6 +32,7 @@ pub mod check;
 pub mod compare;
 pub mod fault_matrix;
 pub mod merge;
+pub mod monitor;
 pub mod run;
 pub mod stable_h;
 pub mod sweep;

@@ -35,9 +35,7 @@ use agent_node::{
     link::{self, io, CanFrame, Report, Slcan, Tick, RECORD_MAX_LINE, SLCAN_MAX_LINE},
     wire::{self, Source},
 };
-use controller_core::{
-    ControllerConfig, Estimates, Gains, LinkReport, StepFault, StepOutput, StepStatus,
-};
+use controller_core::{ControllerConfig, Estimates, Gains, LinkReport, StepFault, StepOutput};
 use embedded_can::Frame;
 use hil_mock::{
     bus::{Bus, Nanos},
@@ -670,21 +668,7 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
     }
 
     fn collect(&mut self, j: usize, t_ns: Nanos) -> Result<StepOutput<N, M>> {
-        let mut out = StepOutput {
-            u: [0.0; M],
-            q: [0.0; M],
-            e: [0.0; N],
-            // Not reported over the link (no output uses them).
-            alpha: [f32::NAN; N],
-            beta: [f32::NAN; N],
-            estimates: Estimates {
-                mu: 0.0,
-                xi: 0.0,
-                lambda: 0.0,
-            },
-            varpi: f32::NAN,
-            status: StepStatus::default(),
-        };
+        let mut out = super::unreported_output();
         loop {
             let emu = &mut self.emus[j];
             let f = match emu.next_answer("the answer to a tick")? {
