@@ -2,9 +2,11 @@
 //! DBC file written from that description ([`write_dbc`], committed as `docs/wire.dbc`), so
 //! cantools, SavvyCAN or a bus analyser decode traces without a second copy of the layout.
 //!
-//! * Bus: one value frame ([`VALUE_SIGNALS`], [`crate::wire`]) per sender, the leader and
-//!   agents `1..=`[`MAX_AGENT`]; and per agent the sensor, command and state frames of a
-//!   host that simulates the plants on the bus ([`PLANT_MESSAGES`], [`crate::plant_bus`]).
+//! * Bus, in the default identifier plan ([`IdPlan::DEFAULT`]): one value frame
+//!   ([`VALUE_SIGNALS`], [`crate::wire`]) per sender, the leader and every agent of the plan,
+//!   and one heartbeat ([`HEARTBEAT_SIGNALS`]) per agent; and per agent the sensor, command and
+//!   state frames of a host that simulates the plants on the bus ([`PLANT_MESSAGES`],
+//!   [`crate::plant_bus`]).
 //! * Link ([`crate::link`]): the process-I/O frames of [`crate::link::io`] and the payloads of the
 //!   tick and report records ([`IO_MESSAGES`]). The records are not CAN frames; the DBC gives
 //!   their base64-decoded payload an id ([`crate::link::io::SYNC`], [`crate::link::io::REPORT`]) so the same
@@ -17,7 +19,7 @@ use core::fmt::{self, Write};
 
 use crate::{
     link::io,
-    wire::{Source, LEADER_ID, MAX_AGENT, PAYLOAD_LEN},
+    wire::{IdPlan, Source, HEARTBEAT_LEN, PAYLOAD_LEN},
 };
 
 /// How a signal's raw bits become a value.
@@ -176,6 +178,78 @@ pub const VALUE_SIGNALS: [Signal; 4] = [
 /// Comment of the leader's value frame.
 const LEADER_COMMENT: &str = "Leader reference y_d, one frame per sample";
 
+/// The signals of every heartbeat: [`crate::wire::Heartbeat`].
+pub const HEARTBEAT_SIGNALS: [Signal; 8] = [
+    Signal {
+        name: "state",
+        start: 0,
+        len: 8,
+        encoding: Encoding::Unsigned,
+        max: Some(3),
+        comment: Some("0 operational, 1 boot, 2 safe, 3 fault"),
+    },
+    Signal {
+        name: "lost_leader",
+        start: 8,
+        len: 1,
+        encoding: Encoding::Unsigned,
+        max: Some(1),
+        comment: Some("the leader is lost (silent beyond its timeout)"),
+    },
+    Signal {
+        name: "lost_neighbours",
+        start: 9,
+        len: 1,
+        encoding: Encoding::Unsigned,
+        max: Some(1),
+        comment: Some("the neighbours are lost (all or any, as configured)"),
+    },
+    Signal {
+        name: "lost_sensor",
+        start: 10,
+        len: 1,
+        encoding: Encoding::Unsigned,
+        max: Some(1),
+        comment: Some("the sensor is lost (invalid beyond its timeout)"),
+    },
+    Signal {
+        name: "reserved",
+        start: 11,
+        len: 5,
+        encoding: Encoding::Unsigned,
+        max: Some(0),
+        comment: None,
+    },
+    Signal {
+        name: "boot_count",
+        start: 16,
+        len: 16,
+        encoding: Encoding::Unsigned,
+        max: None,
+        comment: Some("resets or boots counted by the board, 0 if none"),
+    },
+    Signal {
+        name: "overruns",
+        start: 32,
+        len: 16,
+        encoding: Encoding::Unsigned,
+        max: None,
+        comment: Some("deadline overruns since start, saturating"),
+    },
+    Signal {
+        name: "safe_entries",
+        start: 48,
+        len: 16,
+        encoding: Encoding::Unsigned,
+        max: None,
+        comment: Some("safe-state entries since start, saturating"),
+    },
+];
+
+/// Comment of the heartbeats.
+const HEARTBEAT_COMMENT: &str =
+    "Node heartbeat: state, lost sources and counters, once per heartbeat period";
+
 /// The messages of the serial link, in the order of a run: start-up, samples, statistics.
 pub const IO_MESSAGES: [Message; 9] = [
     Message {
@@ -254,6 +328,7 @@ pub const IO_MESSAGES: [Message; 9] = [
             Signal::unsigned("missing", 304, 8),
             Signal::unsigned("leader_stale", 312, 1),
             Signal::unsigned("leader_missing", 313, 1),
+            Signal::unsigned("state", 316, 2),
             Signal::unsigned("instructions", 320, 32),
             Signal::unsigned("resolution", 352, 32),
         ],
@@ -362,23 +437,33 @@ fn write_value_message(out: &mut impl Write, source: Source, id: u16) -> fmt::Re
     out.write_char('\n')
 }
 
-/// `docs/wire.dbc`: nodes, every value frame, the plant-bus frames of every agent, every link
-/// message, comments, and the `f32`
+/// `docs/wire.dbc`: nodes, every value frame and heartbeat of the default identifier plan, the
+/// plant-bus frames of every agent of the plan, every link message, comments, and the `f32`
 /// signal types, in that order.
 pub fn write_dbc(out: &mut impl Write) -> fmt::Result {
+    let plan = IdPlan::DEFAULT;
     out.write_str("VERSION \"\"\n\nNS_ :\n\nBS_:\n\nBU_: Host Node Leader")?;
-    for i in 1..=MAX_AGENT {
+    for i in 1..=plan.agents() {
         write!(out, " Agent{i}")?;
     }
     out.write_str("\n\n")?;
-    let senders = core::iter::once(Source::Leader).chain((1..=MAX_AGENT).map(Source::Agent));
+    let senders = core::iter::once(Source::Leader).chain((1..=plan.agents()).map(Source::Agent));
     for source in senders {
-        if let Some(id) = source.raw_id() {
+        if let Some(id) = plan.value_id(source) {
             write_value_message(out, source, id)?;
         }
     }
+    for i in 1..=plan.agents() {
+        if let Some(id) = plan.heartbeat_id(i) {
+            writeln!(out, "BO_ {id} Heartbeat{i}: {HEARTBEAT_LEN} Agent{i}")?;
+            for s in &HEARTBEAT_SIGNALS {
+                write_signal(out, s)?;
+            }
+            out.write_char('\n')?;
+        }
+    }
     for m in &PLANT_MESSAGES {
-        for agent in 1..=MAX_AGENT {
+        for agent in 1..=plan.agents() {
             write_plant_message(out, m, agent)?;
         }
     }
@@ -396,10 +481,19 @@ pub fn write_dbc(out: &mut impl Write) -> fmt::Result {
         }
         out.write_char('\n')?;
     }
-    writeln!(out, "CM_ BO_ {LEADER_ID} \"{LEADER_COMMENT}\";")?;
+    let leader = plan.value_base();
+    writeln!(out, "CM_ BO_ {leader} \"{LEADER_COMMENT}\";")?;
     for s in &VALUE_SIGNALS {
         if let Some(c) = s.comment {
-            writeln!(out, "CM_ SG_ {LEADER_ID} {} \"{c}\";", s.name)?;
+            writeln!(out, "CM_ SG_ {leader} {} \"{c}\";", s.name)?;
+        }
+    }
+    if let Some(hb) = plan.heartbeat_id(1) {
+        writeln!(out, "CM_ BO_ {hb} \"{HEARTBEAT_COMMENT}\";")?;
+        for s in &HEARTBEAT_SIGNALS {
+            if let Some(c) = s.comment {
+                writeln!(out, "CM_ SG_ {hb} {} \"{c}\";", s.name)?;
+            }
         }
     }
     for m in &PLANT_MESSAGES {
@@ -419,7 +513,7 @@ pub fn write_dbc(out: &mut impl Write) -> fmt::Result {
         }
     }
     for m in &PLANT_MESSAGES {
-        for agent in 1..=MAX_AGENT {
+        for agent in 1..=plan.agents() {
             for s in m.signals.iter().filter(|s| s.encoding == Encoding::Float) {
                 writeln!(
                     out,
@@ -500,6 +594,7 @@ mod tests {
             stale: 3,
             missing: 4,
             leader: 2,
+            state: 2,
             instructions: 1_600,
             resolution: 40,
         };
@@ -521,6 +616,7 @@ mod tests {
             ("missing", 4.0),
             ("leader_stale", 0.0),
             ("leader_missing", 1.0),
+            ("state", 2.0),
             ("instructions", 1600.0),
             ("resolution", 40.0),
         ];
@@ -537,6 +633,39 @@ mod tests {
         assert_eq!(value_of(m, "x1", &b), 0.5);
         assert_eq!(value_of(m, "x2", &b), -1.0);
         assert_eq!(value_of(m, "dt_us", &b), 1000.0);
+    }
+
+    #[test]
+    fn heartbeat_signals_read_what_the_codec_wrote() {
+        use crate::supervisor::{Lost, NodeState};
+        let hb = crate::wire::Heartbeat {
+            state: NodeState::Safe,
+            lost: Lost::from_bits(Lost::NEIGHBOURS | Lost::SENSOR),
+            boot_count: 3,
+            overruns: 40_000,
+            safe_entries: 12,
+        };
+        let m = Message {
+            name: "hb",
+            id: 0,
+            sender: "",
+            signals: &HEARTBEAT_SIGNALS,
+            comment: None,
+        };
+        let b = hb.to_bytes();
+        assert_eq!(usize::from(m.len()), HEARTBEAT_LEN);
+        for (name, v) in [
+            ("state", 2.0),
+            ("lost_leader", 0.0),
+            ("lost_neighbours", 1.0),
+            ("lost_sensor", 1.0),
+            ("reserved", 0.0),
+            ("boot_count", 3.0),
+            ("overruns", 40_000.0),
+            ("safe_entries", 12.0),
+        ] {
+            assert_eq!(value_of(&m, name, &b), v, "{name}");
+        }
     }
 
     #[test]

@@ -9,8 +9,10 @@
 //! * [`node`]: [`Node`], one follower's firmware — sample, drain received frames, freshness,
 //!   `controller_core::Controller::step`, actuate, broadcast — generic over the `embedded-can`
 //!   controller and small [`Clock`], [`Sensor`], [`Actuator`] traits.
-//! * [`wire`]: the bus codec — identifiers, the `fixed` Q7.16 payload, sequence counters,
-//!   decoding that rejects malformed frames without panicking.
+//! * [`supervisor`]: the node's states (`Boot`, `Operational`, `Safe`, `Fault`), when it enters
+//!   and leaves its safe state and what it commands there.
+//! * [`wire`]: the bus codec — the identifier plan, the `fixed` Q7.16 payload, sequence
+//!   counters, the heartbeat, decoding that rejects malformed frames without panicking.
 //! * [`link`]: the serial link between a node and the host that owns its plant: SLCAN lines,
 //!   the tick and report records, process-I/O frames, configuration words; and [`CanFrame`],
 //!   the classical CAN frame of the link, of `hil-mock`'s mocks and of its bus model.
@@ -39,7 +41,10 @@ pub mod dbc;
 pub mod link;
 pub mod node;
 pub mod plant_bus;
+pub mod supervisor;
 pub mod wire;
 
 pub use link::CanFrame;
 pub use node::{Actuator, Clock, Node, NodeConfig, NodeError, NodeStats, Sensor, Tick, TxOutcome};
+pub use supervisor::{NeighbourLoss, NodeState, SafePolicy, SupervisorConfig};
+pub use wire::IdPlan;

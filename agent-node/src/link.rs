@@ -62,6 +62,8 @@ use controller_core::{
 use embedded_can::{ExtendedId, Frame, Id, StandardId};
 
 use crate::node::NodeConfig;
+use crate::supervisor::{NeighbourLoss, SafePolicy, SupervisorConfig};
+use crate::wire::IdPlan;
 
 /// 29-bit identifiers of the process-I/O frames.
 pub mod io {
@@ -236,6 +238,9 @@ pub struct Report {
     pub missing: u8,
     /// Leader flags: bit 0 stale, bit 1 missing.
     pub leader: u8,
+    /// The node's state after the tick ([`crate::NodeState::code`]; 0 operational), sent in
+    /// bits 4..5 of the leader flags' byte.
+    pub state: u8,
     /// Instructions of the tick.
     pub instructions: u32,
     /// Instructions per count of the tick's counter.
@@ -264,7 +269,8 @@ impl Report {
         for (chunk, v) in b.chunks_exact_mut(4).zip(floats) {
             chunk.copy_from_slice(&v.to_le_bytes());
         }
-        b[36..40].copy_from_slice(&[self.fault, self.stale, self.missing, self.leader]);
+        let flags = (self.leader & 0x0F) | ((self.state & 0x03) << 4);
+        b[36..40].copy_from_slice(&[self.fault, self.stale, self.missing, flags]);
         b[40..44].copy_from_slice(&self.instructions.to_le_bytes());
         b[44..48].copy_from_slice(&self.resolution.to_le_bytes());
         b
@@ -288,7 +294,8 @@ impl Report {
             fault: b[36],
             stale: b[37],
             missing: b[38],
-            leader: b[39],
+            leader: b[39] & 0x0F,
+            state: (b[39] >> 4) & 0x03,
             instructions: w[10],
             resolution: w[11],
         })
@@ -543,7 +550,7 @@ pub fn extend_clock(last: u64, low: u32) -> u64 {
 }
 
 /// Configuration words at most (`N` ≤ 4, `K` ≤ 16).
-pub const MAX_CONFIG_WORDS: usize = 64;
+pub const MAX_CONFIG_WORDS: usize = 80;
 
 /// The configuration of one node as 32-bit words: node settings, then every field of the
 /// controller configuration (`f32` as bit patterns, options and enums as tags), in the order
@@ -565,6 +572,11 @@ impl ConfigWords {
         for x in v {
             self.push(x.to_bits());
         }
+    }
+
+    fn u64(&mut self, v: u64) {
+        self.push(v as u32);
+        self.push((v >> 32) as u32);
     }
 
     /// The words; `None` when they did not fit [`MAX_CONFIG_WORDS`].
@@ -604,8 +616,31 @@ pub fn encode_config<const N: usize, const K: usize>(
         b[..chunk.len()].copy_from_slice(chunk);
         w.push(u32::from_le_bytes(b));
     }
-    w.push(node.stale_timeout_us as u32);
-    w.push((node.stale_timeout_us >> 32) as u32);
+    w.u64(node.stale_timeout_us);
+    // Identifier plan: value base | heartbeat base << 16 (0xFFFF: none), agents.
+    let ids = &node.ids;
+    w.push(u32::from(ids.value_base()) | (u32::from(ids.heartbeat_base().unwrap_or(0xFFFF)) << 16));
+    w.push(u32::from(ids.agents()));
+    w.u64(node.heartbeat_period_us);
+    // Supervision: policy tag and ramp rate, timeouts (0: not supervised), loss tag, dwell.
+    let sup = &node.supervisor;
+    match sup.policy {
+        SafePolicy::Hold => w.f32s(&[0.0, 0.0]),
+        SafePolicy::Ramp { rate } => w.f32s(&[1.0, rate]),
+        SafePolicy::Off => w.f32s(&[2.0, 0.0]),
+    }
+    for t in [
+        sup.leader_timeout_us,
+        sup.neighbour_timeout_us,
+        sup.sensor_timeout_us,
+    ] {
+        w.u64(t.unwrap_or(0));
+    }
+    w.f32s(&[match sup.neighbour_loss {
+        NeighbourLoss::All => 0.0,
+        NeighbourLoss::Any => 1.0,
+    }]);
+    w.u64(sup.recover_dwell_us);
     w.f32s(&[ctrl.h, ctrl.ts, ctrl.zeta]);
     match ctrl.gains {
         GainSelection::Auto => w.f32s(&[0.0, 0.0, 0.0]),
@@ -670,6 +705,10 @@ impl Reader<'_> {
         Ok(w)
     }
 
+    fn u64(&mut self) -> Result<u64, ConfigReject> {
+        Ok(u64::from(self.u32()?) | (u64::from(self.u32()?) << 32))
+    }
+
     fn f32(&mut self) -> Result<f32, ConfigReject> {
         self.u32().map(f32::from_bits)
     }
@@ -703,7 +742,43 @@ pub fn decode_config<const N: usize, const K: usize>(
         let b = r.u32()?.to_le_bytes();
         chunk.copy_from_slice(&b[..chunk.len()]);
     }
-    let stale_timeout_us = u64::from(r.u32()?) | (u64::from(r.u32()?) << 32);
+    let stale_timeout_us = r.u64()?;
+    let bases = r.u32()?;
+    let agents = u8::try_from(r.u32()?).map_err(|_| ConfigReject::BadTag)?;
+    let hb = (bases >> 16) as u16;
+    let ids = IdPlan::new(
+        (bases & 0xFFFF) as u16,
+        (hb != 0xFFFF).then_some(hb),
+        agents,
+    )
+    .map_err(|_| ConfigReject::BadTag)?;
+    let heartbeat_period_us = r.u64()?;
+    let policy = match r.tag(2)? {
+        0 => {
+            r.f32()?;
+            SafePolicy::Hold
+        }
+        1 => SafePolicy::Ramp { rate: r.f32()? },
+        _ => {
+            r.f32()?;
+            SafePolicy::Off
+        }
+    };
+    let mut timeout = || r.u64().map(|t| (t != 0).then_some(t));
+    let (leader_timeout_us, neighbour_timeout_us, sensor_timeout_us) =
+        (timeout()?, timeout()?, timeout()?);
+    let neighbour_loss = match r.tag(1)? {
+        0 => NeighbourLoss::All,
+        _ => NeighbourLoss::Any,
+    };
+    let supervisor = SupervisorConfig {
+        policy,
+        leader_timeout_us,
+        neighbour_timeout_us,
+        neighbour_loss,
+        sensor_timeout_us,
+        recover_dwell_us: r.u64()?,
+    };
     let [h, ts, zeta] = r.f32s()?;
     let gains = match r.tag(1)? {
         0 => {
@@ -777,6 +852,9 @@ pub fn decode_config<const N: usize, const K: usize>(
         agent: (head & 0xFF) as u8,
         neighbours,
         stale_timeout_us,
+        ids,
+        heartbeat_period_us,
+        supervisor,
     };
     let ctrl = ControllerConfig {
         h,
@@ -816,11 +894,11 @@ mod tests {
 
     #[test]
     fn config_round_trips() {
-        let node = NodeConfig::<16> {
-            agent: 4,
-            neighbours: [1, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 9],
-            stale_timeout_us: (7 << 32) | 2500,
-        };
+        let mut node = NodeConfig::<16>::new(
+            4,
+            [1, 3, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 9],
+            (7 << 32) | 2500,
+        );
         let mut ctrl = ControllerConfig::<2> {
             neighbour_count: 2,
             pinned: false,
@@ -867,10 +945,45 @@ mod tests {
         }
         let d = ControllerConfig::<2>::default();
         let w = encode_config(&node, &d);
+        // docs/NETWORK.md §9: Example 1's node (n = 2, 16 neighbour slots) in 62 words.
+        assert_eq!(w.as_slice().map(<[u32]>::len), Some(62));
         assert_eq!(
             decode_config::<2, 16>(w.as_slice().expect("fits")),
             Ok((node, d))
         );
+        for (ids, policy, loss) in [
+            (
+                IdPlan::new(0x020, None, 30),
+                SafePolicy::Off,
+                NeighbourLoss::Any,
+            ),
+            (
+                IdPlan::new(0x101, Some(0x780), 99),
+                SafePolicy::Ramp { rate: 12.5 },
+                NeighbourLoss::All,
+            ),
+        ] {
+            node.ids = ids.expect("valid plan");
+            node.heartbeat_period_us = (1 << 33) | 100_000;
+            node.supervisor = SupervisorConfig {
+                policy,
+                leader_timeout_us: Some(100_000),
+                neighbour_timeout_us: None,
+                neighbour_loss: loss,
+                sensor_timeout_us: Some(u64::MAX),
+                recover_dwell_us: 50_000,
+            };
+            let big = ControllerConfig::<4> {
+                neighbour_count: 2,
+                pinned: false,
+                ..ControllerConfig::default()
+            };
+            let w = encode_config(&node, &big);
+            assert_eq!(
+                decode_config::<4, 16>(w.as_slice().expect("fits")),
+                Ok((node, big))
+            );
+        }
     }
 
     #[test]
@@ -944,6 +1057,7 @@ mod tests {
             stale: 3,
             missing: 4,
             leader: 3,
+            state: 2,
             instructions: 1_600,
             resolution: 40,
         };

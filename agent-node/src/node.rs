@@ -39,6 +39,19 @@
 //! counters skipped between two accepted frames are counted in [`NodeStats::seq_gaps`] (frames
 //! this node never saw: lost on the bus, or replaced at the sender before they were sent).
 //!
+//! ## Supervision, heartbeat, overruns
+//!
+//! A [`Supervisor`] ([`crate::supervisor`]) watches the leader, the neighbours and the sensor
+//! against the timeouts of [`NodeConfig::supervisor`] and moves the node between `Boot`,
+//! `Operational`, `Safe` and `Fault`; while `Safe` the actuators get the configured
+//! [`crate::supervisor::SafePolicy`]'s command instead of the controller's, and the controller
+//! is not advanced (the tick still reports the error the frozen controller would see). With
+//! [`NodeConfig::heartbeat_period_us`] > 0 the node sends a heartbeat
+//! ([`wire::Heartbeat`]) after its value frame every period, agent `i`'s `i − 1` samples after
+//! the first tick (modulo the period) so that the heartbeats of a bus are spread over samples. A tick that comes more than 1.5 sample periods after the previous
+//! one counts the samples skipped as deadline overruns ([`NodeStats::overruns`]); the board
+//! reports overruns it detects itself with [`Node::record_overrun`].
+//!
 //! ## Faults and errors
 //!
 //! Nothing on the runtime path panics or allocates. A sensor error passes a NaN state to the
@@ -49,7 +62,10 @@
 use controller_core::{ConfigError, Controller, ControllerConfig, Link, StepFault, StepOutput};
 use embedded_can::{nb::Can, Error as _, ErrorKind};
 
-use crate::wire::{self, DecodeStats, SeqCheck, Source, WireError};
+use crate::supervisor::{
+    safe_command, NodeState, Observation, Supervisor, SupervisorConfig, SupervisorError,
+};
+use crate::wire::{self, DecodeStats, Decoded, Heartbeat, IdPlan, SeqCheck, Source, WireError};
 
 /// Frames drained per call of [`Node::poll_rx`] at most, so a flooded bus cannot keep the
 /// sample interrupt busy forever.
@@ -78,16 +94,38 @@ pub trait Actuator<const M: usize> {
 }
 
 /// The node's settings apart from the controller's.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct NodeConfig<const K: usize> {
-    /// This agent's number `i` (1..=255); its frames carry identifier `0x100 + i`.
+    /// This agent's number `i`, its node id (`1..=ids.agents()`); its value frames carry
+    /// identifier `ids.value_base() + i`.
     pub agent: u8,
     /// The agents this one hears (`a_ik = 1`), in the order the controller expects; the first
     /// `neighbour_count` entries are used (the controller config's `neighbour_count`).
     pub neighbours: [u8; K],
     /// A value older than this is passed to the controller as `Stale` (µs, > 0).
     pub stale_timeout_us: u64,
+    /// Where the value frames and heartbeats sit ([`IdPlan::DEFAULT`] unless moved).
+    pub ids: IdPlan,
+    /// Heartbeat period (µs); 0: no heartbeat. Needs heartbeat identifiers in `ids`.
+    pub heartbeat_period_us: u64,
+    /// Safe-state supervision ([`SupervisorConfig::OFF`]: none).
+    pub supervisor: SupervisorConfig,
+}
+
+impl<const K: usize> NodeConfig<K> {
+    /// Agent `agent` hearing `neighbours` with the stale timeout (µs), in the default
+    /// identifier plan, without heartbeat or supervision.
+    pub const fn new(agent: u8, neighbours: [u8; K], stale_timeout_us: u64) -> Self {
+        Self {
+            agent,
+            neighbours,
+            stale_timeout_us,
+            ids: IdPlan::DEFAULT,
+            heartbeat_period_us: 0,
+            supervisor: SupervisorConfig::OFF,
+        }
+    }
 }
 
 /// Why a node could not be built.
@@ -105,6 +143,18 @@ pub enum NodeError {
     BadNeighbour(u8),
     /// The stale timeout is 0.
     ZeroTimeout,
+    /// The agent number is beyond the identifier plan's agents.
+    AgentOutsidePlan(u8),
+    /// A heartbeat period without heartbeat identifiers in the plan.
+    NoHeartbeatIds,
+    /// A supervision setting.
+    Supervisor(SupervisorError),
+}
+
+impl From<SupervisorError> for NodeError {
+    fn from(e: SupervisorError) -> Self {
+        Self::Supervisor(e)
+    }
 }
 
 impl From<ConfigError> for NodeError {
@@ -123,6 +173,13 @@ impl core::fmt::Display for NodeError {
                 write!(f, "neighbour {a} is 0, the agent itself, or a duplicate")
             }
             Self::ZeroTimeout => f.write_str("stale timeout must be > 0"),
+            Self::AgentOutsidePlan(a) => {
+                write!(f, "agent {a} has no identifier in the identifier plan")
+            }
+            Self::NoHeartbeatIds => {
+                f.write_str("a heartbeat period needs heartbeat identifiers in the plan")
+            }
+            Self::Supervisor(e) => write!(f, "{e}"),
         }
     }
 }
@@ -179,6 +236,14 @@ pub struct NodeStats {
     pub tx_busy: u32,
     /// Transmissions refused with an error (e.g. bus-off).
     pub tx_errors: u32,
+    /// Deadline overruns: samples skipped between ticks, and those the board reported.
+    pub overruns: u32,
+    /// Times the node entered its safe state.
+    pub safe_state_entries: u32,
+    /// Heartbeats handed to the CAN controller.
+    pub heartbeats_tx: u32,
+    /// Well-formed heartbeats of other nodes received.
+    pub heartbeats_rx: u32,
 }
 
 /// What happened to this sample's frame.
@@ -205,6 +270,8 @@ pub struct Tick<const N: usize, const M: usize> {
     pub output: StepOutput<N, M>,
     /// The fate of the broadcast frame.
     pub tx: TxOutcome,
+    /// The node's state after the tick.
+    pub state: NodeState,
 }
 
 /// Latest value of one link.
@@ -280,6 +347,20 @@ pub struct Node<C, Clk, S, A, const N: usize, const M: usize, const K: usize> {
     sensor_failed: bool,
     actuator_failed: bool,
     tx_failed: bool,
+    ids: IdPlan,
+    supervisor: Supervisor,
+    heartbeat_period_us: u64,
+    next_heartbeat_us: Option<u64>,
+    boot_count: u16,
+    /// Sample period `h` (µs), for overruns.
+    period_us: u64,
+    first_tick_us: Option<u64>,
+    last_tick_us: Option<u64>,
+    /// The command written at the last tick.
+    applied: [f32; M],
+    fault_pending: bool,
+    /// Some source has a loss timeout.
+    supervised: bool,
 }
 
 impl<C, Clk, S, A, const N: usize, const M: usize, const K: usize> Node<C, Clk, S, A, N, M, K>
@@ -319,6 +400,13 @@ where
         if cfg.stale_timeout_us == 0 {
             return Err(NodeError::ZeroTimeout);
         }
+        if cfg.agent > cfg.ids.agents() {
+            return Err(NodeError::AgentOutsidePlan(cfg.agent));
+        }
+        if cfg.heartbeat_period_us > 0 && cfg.ids.heartbeat_base().is_none() {
+            return Err(NodeError::NoHeartbeatIds);
+        }
+        let supervisor = Supervisor::new(&cfg.supervisor)?;
         let count = controller.neighbour_count;
         let listed = cfg
             .neighbours
@@ -326,12 +414,13 @@ where
             .ok_or(NodeError::TooManyNeighbours)?;
         let mut slots = [Slot::default(); K];
         for (k, (&a, slot)) in listed.iter().zip(slots.iter_mut()).enumerate() {
-            if a == 0 || a == cfg.agent || listed[..k].contains(&a) {
+            if a == 0 || a == cfg.agent || a > cfg.ids.agents() || listed[..k].contains(&a) {
                 return Err(NodeError::BadNeighbour(a));
             }
             slot.agent = a;
         }
         let cfg_pinned = controller.pinned;
+        let period_us = (f64::from(controller.h) * 1e6 + 0.5) as u64;
         let controller = Controller::new(controller)?;
         Ok(Self {
             can,
@@ -351,7 +440,51 @@ where
             sensor_failed: false,
             actuator_failed: false,
             tx_failed: false,
+            ids: cfg.ids,
+            supervisor,
+            heartbeat_period_us: cfg.heartbeat_period_us,
+            next_heartbeat_us: None,
+            boot_count: 0,
+            period_us,
+            first_tick_us: None,
+            last_tick_us: None,
+            applied: [0.0; M],
+            fault_pending: false,
+            supervised: cfg.supervisor.leader_timeout_us.is_some()
+                || cfg.supervisor.neighbour_timeout_us.is_some()
+                || cfg.supervisor.sensor_timeout_us.is_some(),
         })
+    }
+
+    /// The node's state.
+    pub fn state(&self) -> NodeState {
+        self.supervisor.state()
+    }
+
+    /// The supervisor (state, lost sources, entries).
+    pub fn supervisor(&self) -> &Supervisor {
+        &self.supervisor
+    }
+
+    /// The identifier plan.
+    pub fn ids(&self) -> &IdPlan {
+        &self.ids
+    }
+
+    /// The board's reset or boot counter, sent in the heartbeat.
+    pub fn set_boot_count(&mut self, count: u16) {
+        self.boot_count = count;
+    }
+
+    /// The board saw a sample miss its slot (a timer that fired before the last tick ended).
+    pub fn record_overrun(&mut self) {
+        self.stats.overruns = self.stats.overruns.saturating_add(1);
+    }
+
+    /// The board found a fault it cannot recover from: the node latches `Fault` at the next
+    /// tick (outputs zero, heartbeat `fault`) until it is restarted.
+    pub fn enter_fault(&mut self) {
+        self.fault_pending = true;
     }
 
     /// This agent's number.
@@ -446,8 +579,17 @@ where
     }
 
     fn on_frame(&mut self, frame: &C::Frame, now: u64) {
-        let m = match wire::decode(frame) {
-            Ok(m) => m,
+        let m = match wire::decode_in(&self.ids, frame) {
+            Ok(Decoded::Value(m)) => m,
+            Ok(Decoded::Heartbeat { agent, .. }) if agent == self.agent => {
+                self.stats.own_id = self.stats.own_id.saturating_add(1);
+                warn!("agent {}: received a heartbeat with its own id", agent);
+                return;
+            }
+            Ok(Decoded::Heartbeat { .. }) => {
+                self.stats.heartbeats_rx = self.stats.heartbeats_rx.saturating_add(1);
+                return;
+            }
             Err(e) => {
                 self.stats.malformed.record(e);
                 if let WireError::UnknownId(id) = e {
@@ -460,7 +602,9 @@ where
         };
         let timeout = self.timeout_us;
         let slot = match m.source {
-            Source::Leader if self.pinned => Some(&mut self.leader),
+            Source::Leader if self.pinned || self.supervisor.watches_leader() => {
+                Some(&mut self.leader)
+            }
             Source::Leader => None,
             Source::Agent(a) if a == self.agent => {
                 self.stats.own_id = self.stats.own_id.saturating_add(1);
@@ -477,10 +621,13 @@ where
         }
     }
 
-    /// One sample: sense, drain, freshness, step, actuate, broadcast (see the module docs).
+    /// One sample: sense, drain, freshness, supervise, step, actuate, broadcast (see the
+    /// module docs).
     pub fn tick(&mut self) -> Tick<N, M> {
         let now = self.clock.now_us();
         self.stats.ticks = self.stats.ticks.saturating_add(1);
+        self.count_overruns(now);
+        let first = *self.first_tick_us.get_or_insert(now);
         let x = match self.sensor.read() {
             Ok(x) => {
                 if self.sensor_failed {
@@ -508,9 +655,14 @@ where
         } else {
             Link::Missing
         };
-        let output = self
-            .controller
-            .step(&x, links.get(..self.count).unwrap_or(&[]), leader);
+        self.supervise(now, first, &x);
+        let neighbours = links.get(..self.count).unwrap_or(&[]);
+        let output = match self.supervisor.state() {
+            NodeState::Boot | NodeState::Operational => {
+                self.controller.step(&x, neighbours, leader)
+            }
+            state => self.frozen_output(state, now, &x, neighbours, leader),
+        };
         self.log_fault(output.status.fault);
 
         match self.actuator.write(&output.q) {
@@ -523,13 +675,146 @@ where
                 self.actuator_failed = true;
             }
         }
+        self.applied = output.q;
 
         let tx = self.broadcast(x[0]);
         self.seq = self.seq.wrapping_add(1) % wire::SEQ_MODULUS;
+        self.heartbeat(now, first);
+        self.last_tick_us = Some(now);
         Tick {
             now_us: now,
             output,
             tx,
+            state: self.supervisor.state(),
+        }
+    }
+
+    /// `Safe` or `Fault`: the error a copy of the frozen controller computes, with the
+    /// policy's command (zero in `Fault`). Out of line, so the copy's stack is used only there.
+    #[inline(never)]
+    fn frozen_output(
+        &self,
+        state: NodeState,
+        now: u64,
+        x: &[f32; N],
+        neighbours: &[Link],
+        leader: Link,
+    ) -> StepOutput<N, M> {
+        let mut frozen = self.controller;
+        let mut o = frozen.step(x, neighbours, leader);
+        let dt = self.last_tick_us.map_or(0, |t| now.saturating_sub(t));
+        let q = match state {
+            NodeState::Safe => safe_command(self.supervisor.config().policy, &self.applied, dt),
+            _ => [0.0; M],
+        };
+        o.u = q;
+        o.q = q;
+        o
+    }
+
+    /// Samples skipped since the last tick: more than 1.5 periods apart counts every whole
+    /// period beyond the first.
+    fn count_overruns(&mut self, now: u64) {
+        let (Some(last), p) = (self.last_tick_us, self.period_us) else {
+            return;
+        };
+        let gap = now.saturating_sub(last);
+        if p > 0 && gap > p + p / 2 {
+            let missed = (gap + p / 2) / p - 1;
+            self.stats.overruns = self
+                .stats
+                .overruns
+                .saturating_add(u32::try_from(missed).unwrap_or(u32::MAX));
+        }
+    }
+
+    /// Evaluate the supervisor at `now` (first tick at `first`) and act on a transition; with
+    /// nothing supervised only the first tick (`Boot → Operational`) and a fault are.
+    fn supervise(&mut self, now: u64, first: u64, x: &[f32; N]) {
+        if !self.supervised && !self.fault_pending && self.supervisor.state() != NodeState::Boot {
+            return;
+        }
+        let age = |slot: &Slot| now.saturating_sub(slot.value.map_or(first, |(_, t)| t));
+        let mut newest: Option<u64> = None;
+        let mut oldest: Option<u64> = None;
+        for s in self.slots.iter().take(self.count) {
+            let a = age(s);
+            newest = Some(newest.map_or(a, |n| n.min(a)));
+            oldest = Some(oldest.map_or(a, |o| o.max(a)));
+        }
+        let obs = Observation {
+            now_us: now,
+            stale_timeout_us: self.timeout_us,
+            leader_age_us: age(&self.leader),
+            newest_neighbour_age_us: newest,
+            oldest_neighbour_age_us: oldest,
+            sensor_ok: x.iter().all(|v| v.is_finite()),
+        };
+        let transition = if core::mem::take(&mut self.fault_pending) {
+            self.supervisor.fault()
+        } else {
+            self.supervisor.update(&obs)
+        };
+        let Some(t) = transition else {
+            return;
+        };
+        self.stats.safe_state_entries = self.supervisor.safe_entries();
+        match t.to {
+            NodeState::Safe => warn!(
+                "agent {}: safe state (lost: leader {}, neighbours {}, sensor {})",
+                self.agent,
+                t.lost.leader(),
+                t.lost.neighbours(),
+                t.lost.sensor()
+            ),
+            NodeState::Fault => error!("agent {}: fault, outputs off", self.agent),
+            NodeState::Operational if t.from == NodeState::Safe => {
+                self.controller.resume(x[0], &self.applied);
+                info!(
+                    "agent {}: operational again, controller resumed",
+                    self.agent
+                );
+            }
+            NodeState::Operational | NodeState::Boot => {
+                debug!("agent {}: {}", self.agent, t.to.as_str());
+            }
+        }
+    }
+
+    /// The heartbeat, when due: every period, agent `i`'s first `(i − 1)` samples after the
+    /// first tick (modulo the period), so the nodes' heartbeats do not share a sample.
+    fn heartbeat(&mut self, now: u64, first: u64) {
+        let period = self.heartbeat_period_us;
+        if period == 0 {
+            return;
+        }
+        let offset = (u64::from(self.agent.saturating_sub(1)) * self.period_us) % period;
+        let due = *self
+            .next_heartbeat_us
+            .get_or_insert(first.saturating_add(offset));
+        if now < due {
+            return;
+        }
+        self.next_heartbeat_us = Some(due.saturating_add(period).max(now.saturating_add(1)));
+        let to16 = |v: u32| u16::try_from(v).unwrap_or(u16::MAX);
+        let hb = Heartbeat {
+            state: self.supervisor.state(),
+            lost: self.supervisor.lost(),
+            boot_count: self.boot_count,
+            overruns: to16(self.stats.overruns),
+            safe_entries: to16(self.stats.safe_state_entries),
+        };
+        let Some(frame) = wire::encode_heartbeat::<C::Frame>(&self.ids, self.agent, &hb) else {
+            return;
+        };
+        match self.can.transmit(&frame) {
+            Ok(_) => self.stats.heartbeats_tx = self.stats.heartbeats_tx.saturating_add(1),
+            Err(nb::Error::WouldBlock) => {
+                self.stats.tx_busy = self.stats.tx_busy.saturating_add(1);
+            }
+            Err(nb::Error::Other(_)) => {
+                self.stats.tx_errors = self.stats.tx_errors.saturating_add(1);
+            }
         }
     }
 
@@ -595,7 +880,8 @@ where
     }
 
     fn broadcast(&mut self, y: f32) -> TxOutcome {
-        let Some((frame, enc)) = wire::encode::<C::Frame>(Source::Agent(self.agent), y, self.seq)
+        let Some((frame, enc)) =
+            wire::encode_in::<C::Frame>(&self.ids, Source::Agent(self.agent), y, self.seq)
         else {
             return TxOutcome::EncodeFailed;
         };

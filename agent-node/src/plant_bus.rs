@@ -6,12 +6,15 @@
 //! |----------|-------------------|------------------------|---------|
 //! | sensor   | host → node `i`   | [`SENSOR_BASE`] `+ i` = `0x201..=0x2FF`  | `x_{i,1}`, `x_{i,2}`: `f32` LE each (8 bytes) |
 //! | command  | node `i` → host   | [`COMMAND_BASE`] `+ i` = `0x301..=0x3FF` | `q_{i,1}`, `q_{i,2}`: `f32` LE each (8 bytes) |
-//! | state    | node `i` → all    | [`STATE_BASE`] `+ i` = `0x701..=0x7FF`   | [`NodeState`] (4 bytes) |
+//! | state    | node `i` → all    | [`STATE_BASE`] `+ i` = `0x401..=0x4FF`   | [`NodeState`] (4 bytes) |
 //!
 //! The value frames of [`crate::wire`] (`0x100..=0x1FF`) win arbitration against all of them;
 //! sensor frames against commands, so a sample's state is on the bus before the commands it
 //! causes. The `f32` payloads carry exactly the values the simulated nodes of `kind = "can"`
-//! read and write. The state frame sits where CANopen puts its heartbeat (`0x700 + node`).
+//! read and write. The state frame says what the process does (waiting for the host, running,
+//! stopping); the node's heartbeat of `crate::wire` (supervisor state) is sent besides it when
+//! configured. An identifier plan (`crate::wire::IdPlan`) must keep its blocks clear of
+//! `0x200..=0x4FF`.
 
 use embedded_can::{Frame, Id, StandardId};
 
@@ -20,7 +23,7 @@ pub const SENSOR_BASE: u16 = 0x200;
 /// Identifier of agent `i`'s command frame: `COMMAND_BASE + i`.
 pub const COMMAND_BASE: u16 = 0x300;
 /// Identifier of agent `i`'s state frame: `STATE_BASE + i`.
-pub const STATE_BASE: u16 = 0x700;
+pub const STATE_BASE: u16 = 0x400;
 /// Data length of sensor and command frames.
 pub const PAIR_LEN: usize = 8;
 /// Data length of a state frame.
@@ -202,7 +205,7 @@ mod tests {
             }
             assert_eq!(kind.id(0), None);
         }
-        for raw in [0x100, 0x101, 0x1FF, 0x200, 0x300, 0x400, 0x700, 0x0] {
+        for raw in [0x100, 0x101, 0x1FF, 0x200, 0x300, 0x400, 0x500, 0x701, 0x0] {
             assert_eq!(Kind::classify(raw), None, "{raw:#x}");
         }
     }

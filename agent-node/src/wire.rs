@@ -1,16 +1,21 @@
-//! The frame codec: identifiers, the `fixed` payload, sequence counters.
+//! The frame codec: identifiers, the `fixed` payload, sequence counters, the heartbeat.
 //!
 //! ## Identifiers (11-bit standard ids; lower id = higher arbitration priority)
 //!
-//! | sender            | identifier                 |
-//! |-------------------|----------------------------|
-//! | leader (`y_d`)    | [`LEADER_ID`] = `0x100`    |
-//! | agent `i` (1..=255) | `0x100 + i` (`0x101..=0x1FF`) |
+//! An [`IdPlan`] places two blocks of identifiers; [`IdPlan::DEFAULT`]:
 //!
-//! The leader, the root of the spanning tree, wins arbitration against every agent; agent 1
-//! against agents 2.., and so on. Every other identifier is *unknown* and rejected by
-//! [`decode`]; ids below `0x100` stay free for higher-priority traffic (a babbling node in the
-//! bus tests uses `0x000`).
+//! | sender                  | identifier                                   |
+//! |-------------------------|----------------------------------------------|
+//! | leader (`y_d`)          | `value_base` = `0x101`                       |
+//! | agent `i` (value)       | `value_base + i` (`0x102..=0x164`)           |
+//! | agent `i` (heartbeat)   | `heartbeat_base + i` (`0x781..=0x7E3`)       |
+//!
+//! for up to 99 agents. The leader, the root of the spanning tree, wins arbitration against
+//! every agent; agent 1 against agents 2.., and so on; heartbeats lose against every value
+//! frame. Both blocks lie in CAN-ID ranges that CiA 301 restricts (no CANopen device may put a
+//! PDO, SYNC, TIME or EMCY there) and that the predefined connection set leaves unused:
+//! `docs/NETWORK.md` §2 gives the whole map. Every other identifier is *unknown* and rejected
+//! by [`decode`].
 //!
 //! ## Payload (DLC = [`PAYLOAD_LEN`] = 4 bytes)
 //!
@@ -45,12 +50,18 @@
 use embedded_can::{Frame, Id, StandardId};
 use fixed::types::I16F16;
 
-/// Identifier of the leader's frames.
-pub const LEADER_ID: u16 = 0x100;
-/// Identifier of agent 1; agent `i` uses `AGENT_ID_BASE + i - 1`.
-pub const AGENT_ID_BASE: u16 = 0x101;
-/// Highest agent number that has an identifier.
+use crate::supervisor::{Lost, NodeState};
+
+/// Identifier of the leader's frames in the default plan.
+pub const LEADER_ID: u16 = IdPlan::DEFAULT.value_base();
+/// Identifier of agent 1 in the default plan; agent `i` uses `AGENT_ID_BASE + i - 1`.
+pub const AGENT_ID_BASE: u16 = LEADER_ID + 1;
+/// Highest agent number any plan can carry.
 pub const MAX_AGENT: u8 = 255;
+/// Data length of a heartbeat frame.
+pub const HEARTBEAT_LEN: usize = 8;
+/// Highest standard identifier.
+pub const MAX_STD_ID: u16 = 0x7FF;
 /// Data length of every frame of this protocol.
 pub const PAYLOAD_LEN: usize = 4;
 /// The sequence counter counts modulo this.
@@ -77,29 +88,165 @@ pub enum Source {
 }
 
 impl Source {
-    /// The raw 11-bit identifier; `None` for `Agent(0)`.
+    /// The raw 11-bit identifier of its value frames in the default plan; `None` for
+    /// `Agent(0)` and agents beyond the plan.
     pub const fn raw_id(self) -> Option<u16> {
-        match self {
-            Self::Leader => Some(LEADER_ID),
-            Self::Agent(0) => None,
-            Self::Agent(i) => Some(AGENT_ID_BASE + i as u16 - 1),
-        }
+        IdPlan::DEFAULT.value_id(self)
     }
 
-    /// The standard identifier; `None` for `Agent(0)`.
+    /// The standard identifier in the default plan.
     pub fn id(self) -> Option<StandardId> {
         self.raw_id().and_then(StandardId::new)
     }
 
-    /// The sender of a raw 11-bit identifier, `None` when the id is not ours.
+    /// The sender of a raw 11-bit value-frame identifier of the default plan, `None` when the
+    /// id is not one.
     pub const fn from_raw_id(raw: u16) -> Option<Self> {
-        if raw == LEADER_ID {
-            Some(Self::Leader)
-        } else if raw >= AGENT_ID_BASE && raw < AGENT_ID_BASE + MAX_AGENT as u16 {
-            Some(Self::Agent((raw - AGENT_ID_BASE + 1) as u8))
-        } else {
-            None
+        match IdPlan::DEFAULT.classify(raw) {
+            Some(FrameKind::Value(s)) => Some(s),
+            _ => None,
         }
+    }
+}
+
+/// What an identifier of a plan carries.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum FrameKind {
+    /// A value frame of the leader or an agent.
+    Value(Source),
+    /// The heartbeat of agent `i`.
+    Heartbeat(u8),
+}
+
+/// Where the protocol's identifiers sit: value frames at `value_base` (leader) and
+/// `value_base + i` (agent `i`), heartbeats at `heartbeat_base + i`, for agents `1..=agents`.
+/// Built only by [`IdPlan::new`], which checks that both blocks are 11-bit and disjoint.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct IdPlan {
+    value_base: u16,
+    heartbeat_base: Option<u16>,
+    agents: u8,
+}
+
+/// Why an identifier plan was refused.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum IdPlanError {
+    /// A plan for no agent.
+    NoAgents,
+    /// `value_base + agents` exceeds `0x7FF`.
+    ValueRange,
+    /// `heartbeat_base + agents` exceeds `0x7FF`.
+    HeartbeatRange,
+    /// The value and heartbeat blocks share an identifier.
+    Overlap,
+}
+
+impl core::fmt::Display for IdPlanError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::NoAgents => "an identifier plan needs at least one agent",
+            Self::ValueRange => "value identifiers (base + agent) run beyond 0x7FF",
+            Self::HeartbeatRange => "heartbeat identifiers (base + agent) run beyond 0x7FF",
+            Self::Overlap => "value and heartbeat identifiers overlap",
+        })
+    }
+}
+
+impl IdPlan {
+    /// Leader `0x101`, agents `0x102..=0x164`, heartbeats `0x781..=0x7E3`: 99 agents, clear of
+    /// every CANopen predefined identifier and of LSS (`0x7E4`, `0x7E5`).
+    pub const DEFAULT: Self = Self {
+        value_base: 0x101,
+        heartbeat_base: Some(0x780),
+        agents: 99,
+    };
+
+    /// A plan for agents `1..=agents`; `heartbeat_base` `None`: no heartbeat identifiers.
+    pub const fn new(
+        value_base: u16,
+        heartbeat_base: Option<u16>,
+        agents: u8,
+    ) -> Result<Self, IdPlanError> {
+        if agents == 0 {
+            return Err(IdPlanError::NoAgents);
+        }
+        let n = agents as u16;
+        if value_base > MAX_STD_ID - n {
+            return Err(IdPlanError::ValueRange);
+        }
+        if let Some(hb) = heartbeat_base {
+            if hb > MAX_STD_ID - n {
+                return Err(IdPlanError::HeartbeatRange);
+            }
+            // [value_base, value_base + n] against [hb + 1, hb + n].
+            if hb < value_base + n && value_base <= hb + n {
+                return Err(IdPlanError::Overlap);
+            }
+        }
+        Ok(Self {
+            value_base,
+            heartbeat_base,
+            agents,
+        })
+    }
+
+    /// The leader's identifier.
+    pub const fn value_base(&self) -> u16 {
+        self.value_base
+    }
+
+    /// Agent `i`'s heartbeat is at this plus `i`; `None`: no heartbeats.
+    pub const fn heartbeat_base(&self) -> Option<u16> {
+        self.heartbeat_base
+    }
+
+    /// Agents `1..=agents()` have identifiers.
+    pub const fn agents(&self) -> u8 {
+        self.agents
+    }
+
+    /// The value-frame identifier of `source`; `None` for agent 0 or beyond the plan.
+    pub const fn value_id(&self, source: Source) -> Option<u16> {
+        match source {
+            Source::Leader => Some(self.value_base),
+            Source::Agent(0) => None,
+            Source::Agent(i) if i > self.agents => None,
+            Source::Agent(i) => Some(self.value_base + i as u16),
+        }
+    }
+
+    /// Agent `agent`'s heartbeat identifier; `None` without heartbeats, for agent 0 or
+    /// beyond the plan.
+    pub const fn heartbeat_id(&self, agent: u8) -> Option<u16> {
+        match self.heartbeat_base {
+            Some(hb) if agent != 0 && agent <= self.agents => Some(hb + agent as u16),
+            _ => None,
+        }
+    }
+
+    /// What `raw` carries in this plan; `None`: not one of its identifiers.
+    pub const fn classify(&self, raw: u16) -> Option<FrameKind> {
+        let n = self.agents as u16;
+        if raw >= self.value_base && raw <= self.value_base + n {
+            return Some(FrameKind::Value(if raw == self.value_base {
+                Source::Leader
+            } else {
+                Source::Agent((raw - self.value_base) as u8)
+            }));
+        }
+        match self.heartbeat_base {
+            Some(hb) if raw > hb && raw <= hb + n => Some(FrameKind::Heartbeat((raw - hb) as u8)),
+            _ => None,
+        }
+    }
+}
+
+impl Default for IdPlan {
+    fn default() -> Self {
+        Self::DEFAULT
     }
 }
 
@@ -125,11 +272,11 @@ pub enum WireError {
     ExtendedId,
     /// Remote transmission request: this protocol sends data frames only.
     Remote,
-    /// A standard id that is neither the leader's nor an agent's.
+    /// A standard id that is none of the plan's.
     UnknownId(u16),
     /// Data length other than [`PAYLOAD_LEN`].
     WrongLength(u8),
-    /// `NO_VALUE` set with non-zero value bytes.
+    /// `NO_VALUE` set with non-zero value bytes; a heartbeat with an unknown state or lost bit.
     BadPayload,
 }
 
@@ -230,13 +377,11 @@ pub fn encode_payload(y: f32, seq: u8) -> Encoded {
     }
 }
 
-/// A frame from `source` carrying `y` and `seq`, built through the `embedded-can` [`Frame`]
-/// constructor of the caller's frame type. `None` if `source` has no id (agent 0) or the frame
-/// type refuses a 4-byte data frame.
+/// A frame from `source` carrying `y` and `seq` under the default plan, built through the
+/// `embedded-can` [`Frame`] constructor of the caller's frame type. `None` if `source` has no
+/// id (agent 0, or beyond the plan) or the frame type refuses a 4-byte data frame.
 pub fn encode<F: Frame>(source: Source, y: f32, seq: u8) -> Option<(F, Encoded)> {
-    let id = source.id()?;
-    let enc = encode_payload(y, seq);
-    F::new(id, &enc.data).map(|f| (f, enc))
+    encode_in(&IdPlan::DEFAULT, source, y, seq)
 }
 
 /// Decode a payload (after the identifier was checked).
@@ -265,23 +410,125 @@ pub fn decode_payload(source: Source, data: &[u8]) -> Result<Message, WireError>
     })
 }
 
-/// Decode any `embedded-can` frame. Never panics.
+/// Decode a value frame of the default plan ([`IdPlan::DEFAULT`]; its heartbeats are
+/// [`WireError::UnknownId`] here, see [`decode_in`]). Never panics.
 pub fn decode<F: Frame>(frame: &F) -> Result<Message, WireError> {
-    let raw = match frame.id() {
-        Id::Standard(s) => s.as_raw(),
-        Id::Extended(_) => return Err(WireError::ExtendedId),
-    };
+    if let Some(raw) = raw_std_id(frame) {
+        if let Some(FrameKind::Heartbeat(_)) = IdPlan::DEFAULT.classify(raw) {
+            return Err(WireError::UnknownId(raw));
+        }
+    }
+    match decode_in(&IdPlan::DEFAULT, frame)? {
+        Decoded::Value(m) => Ok(m),
+        Decoded::Heartbeat { .. } => Err(WireError::UnknownId(raw_std_id(frame).unwrap_or(0))),
+    }
+}
+
+fn raw_std_id<F: Frame>(frame: &F) -> Option<u16> {
+    match frame.id() {
+        Id::Standard(s) => Some(s.as_raw()),
+        Id::Extended(_) => None,
+    }
+}
+
+/// A frame of the protocol, decoded.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Decoded {
+    /// A value frame.
+    Value(Message),
+    /// A heartbeat.
+    Heartbeat {
+        /// Sender.
+        agent: u8,
+        /// Its content.
+        heartbeat: Heartbeat,
+    },
+}
+
+/// Decode any `embedded-can` frame under `plan`. Never panics.
+pub fn decode_in<F: Frame>(plan: &IdPlan, frame: &F) -> Result<Decoded, WireError> {
+    let raw = raw_std_id(frame).ok_or(WireError::ExtendedId)?;
     if frame.is_remote_frame() {
         return Err(WireError::Remote);
     }
-    let source = Source::from_raw_id(raw).ok_or(WireError::UnknownId(raw))?;
     let data = frame.data();
-    if data.len() != PAYLOAD_LEN {
-        return Err(WireError::WrongLength(
-            u8::try_from(data.len()).unwrap_or(u8::MAX),
-        ));
+    let wrong_length = || WireError::WrongLength(u8::try_from(data.len()).unwrap_or(u8::MAX));
+    match plan.classify(raw).ok_or(WireError::UnknownId(raw))? {
+        FrameKind::Value(source) => {
+            if data.len() != PAYLOAD_LEN {
+                return Err(wrong_length());
+            }
+            decode_payload(source, data).map(Decoded::Value)
+        }
+        FrameKind::Heartbeat(agent) => {
+            let b: &[u8; HEARTBEAT_LEN] = data.try_into().map_err(|_| wrong_length())?;
+            Heartbeat::from_bytes(b).map(|heartbeat| Decoded::Heartbeat { agent, heartbeat })
+        }
     }
-    decode_payload(source, data)
+}
+
+/// A value frame from `source` under `plan` (see [`encode`]).
+pub fn encode_in<F: Frame>(plan: &IdPlan, source: Source, y: f32, seq: u8) -> Option<(F, Encoded)> {
+    let id = StandardId::new(plan.value_id(source)?)?;
+    let enc = encode_payload(y, seq);
+    F::new(id, &enc.data).map(|f| (f, enc))
+}
+
+/// What a node says about itself in its heartbeat (DLC 8, little-endian):
+///
+/// ```text
+/// byte 0     state: 0 operational, 1 boot, 2 safe, 3 fault (NodeState::code)
+/// byte 1     lost sources: bit 0 leader, bit 1 neighbours, bit 2 sensor; bits 3..7 zero
+/// byte 2..3  boot counter (0 when the board keeps none)
+/// byte 4..5  deadline overruns since start (saturating)
+/// byte 6..7  safe-state entries since start (saturating)
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Heartbeat {
+    /// The node's state.
+    pub state: NodeState,
+    /// Supervised sources lost.
+    pub lost: Lost,
+    /// Resets or boots counted by the board.
+    pub boot_count: u16,
+    /// Deadline overruns.
+    pub overruns: u16,
+    /// Safe-state entries.
+    pub safe_entries: u16,
+}
+
+impl Heartbeat {
+    /// The payload.
+    pub fn to_bytes(&self) -> [u8; HEARTBEAT_LEN] {
+        let [b0, b1] = self.boot_count.to_le_bytes();
+        let [o0, o1] = self.overruns.to_le_bytes();
+        let [s0, s1] = self.safe_entries.to_le_bytes();
+        [self.state.code(), self.lost.bits(), b0, b1, o0, o1, s0, s1]
+    }
+
+    /// The heartbeat of a payload; [`WireError::BadPayload`] for an unknown state or lost bit.
+    pub fn from_bytes(b: &[u8; HEARTBEAT_LEN]) -> Result<Self, WireError> {
+        let state = NodeState::from_code(b[0]).ok_or(WireError::BadPayload)?;
+        let lost = Lost::from_bits(b[1]);
+        if lost.bits() != b[1] {
+            return Err(WireError::BadPayload);
+        }
+        let u16_at = |k: usize| u16::from_le_bytes([b[k], b[k + 1]]);
+        Ok(Self {
+            state,
+            lost,
+            boot_count: u16_at(2),
+            overruns: u16_at(4),
+            safe_entries: u16_at(6),
+        })
+    }
+}
+
+/// Agent `agent`'s heartbeat frame under `plan`; `None` when the plan has no heartbeat id for it.
+pub fn encode_heartbeat<F: Frame>(plan: &IdPlan, agent: u8, hb: &Heartbeat) -> Option<F> {
+    F::new(StandardId::new(plan.heartbeat_id(agent)?)?, &hb.to_bytes())
 }
 
 /// How a received sequence counter relates to the last accepted one of a fresh link.
@@ -324,16 +571,112 @@ mod tests {
 
     #[test]
     fn ids_round_trip() {
-        assert_eq!(Source::from_raw_id(0x100), Some(Source::Leader));
-        assert_eq!(Source::from_raw_id(0x101), Some(Source::Agent(1)));
-        assert_eq!(Source::from_raw_id(0x1FF), Some(Source::Agent(255)));
-        assert_eq!(Source::from_raw_id(0x200), None);
-        assert_eq!(Source::from_raw_id(0x0FF), None);
+        assert_eq!(Source::from_raw_id(0x101), Some(Source::Leader));
+        assert_eq!(Source::from_raw_id(0x102), Some(Source::Agent(1)));
+        assert_eq!(Source::from_raw_id(0x164), Some(Source::Agent(99)));
+        assert_eq!(Source::from_raw_id(0x165), None);
+        assert_eq!(Source::from_raw_id(0x100), None);
+        assert_eq!(Source::from_raw_id(0x781), None);
         assert_eq!(Source::Agent(0).raw_id(), None);
-        for i in 1..=255u8 {
-            let raw = Source::Agent(i).raw_id();
-            assert_eq!(raw.and_then(Source::from_raw_id), Some(Source::Agent(i)));
+        assert_eq!(Source::Agent(100).raw_id(), None);
+        let legacy = IdPlan::new(0x100, None, 255).expect("valid");
+        for plan in [IdPlan::DEFAULT, legacy] {
+            for i in 1..=plan.agents() {
+                let raw = plan.value_id(Source::Agent(i)).expect("in plan");
+                assert_eq!(plan.classify(raw), Some(FrameKind::Value(Source::Agent(i))));
+                if let Some(hb) = plan.heartbeat_id(i) {
+                    assert_eq!(plan.classify(hb), Some(FrameKind::Heartbeat(i)));
+                }
+            }
         }
+        assert_eq!(legacy.value_id(Source::Agent(255)), Some(0x1FF));
+        assert_eq!(legacy.heartbeat_id(1), None);
+        assert_eq!(IdPlan::DEFAULT.heartbeat_id(99), Some(0x7E3));
+        assert_eq!(IdPlan::DEFAULT.heartbeat_id(100), None);
+    }
+
+    #[test]
+    fn plans_outside_11_bits_or_overlapping_are_refused() {
+        assert_eq!(IdPlan::new(0x101, None, 0), Err(IdPlanError::NoAgents));
+        assert_eq!(IdPlan::new(0x701, None, 255), Err(IdPlanError::ValueRange));
+        assert!(IdPlan::new(0x700, None, 255)
+            .is_ok_and(|p| p.value_id(Source::Agent(255)) == Some(0x7FF)));
+        assert_eq!(
+            IdPlan::new(0x101, Some(0x780), 128),
+            Err(IdPlanError::HeartbeatRange)
+        );
+        assert!(IdPlan::new(0x101, Some(0x780), 127).is_ok());
+        assert_eq!(
+            IdPlan::new(0x101, Some(0x100), 4),
+            Err(IdPlanError::Overlap)
+        );
+        assert_eq!(
+            IdPlan::new(0x101, Some(0x104), 4),
+            Err(IdPlanError::Overlap)
+        );
+        assert!(IdPlan::new(0x101, Some(0x105), 4).is_ok());
+        assert!(IdPlan::new(0x106, Some(0x101), 4).is_ok());
+        assert_eq!(
+            IdPlan::new(0x105, Some(0x101), 4),
+            Err(IdPlanError::Overlap)
+        );
+    }
+
+    #[test]
+    fn heartbeats_round_trip_and_bad_ones_are_refused() {
+        let hb = Heartbeat {
+            state: NodeState::Safe,
+            lost: Lost::from_bits(Lost::LEADER | Lost::SENSOR),
+            boot_count: 513,
+            overruns: 7,
+            safe_entries: 65535,
+        };
+        let plan = IdPlan::DEFAULT;
+        let f: crate::CanFrame = encode_heartbeat(&plan, 3, &hb).expect("in plan");
+        assert_eq!(f.raw_id(), 0x783);
+        assert_eq!(f.data(), &[2, 5, 1, 2, 7, 0, 255, 255]);
+        assert_eq!(
+            decode_in(&plan, &f),
+            Ok(Decoded::Heartbeat {
+                agent: 3,
+                heartbeat: hb
+            })
+        );
+        assert_eq!(decode(&f), Err(WireError::UnknownId(0x783)));
+        let mut bad = hb.to_bytes();
+        bad[0] = 4;
+        assert_eq!(Heartbeat::from_bytes(&bad), Err(WireError::BadPayload));
+        let mut bad = hb.to_bytes();
+        bad[1] = 8;
+        assert_eq!(Heartbeat::from_bytes(&bad), Err(WireError::BadPayload));
+        let short =
+            crate::CanFrame::new(StandardId::new(0x783).expect("id"), &[0; 4]).expect("frame");
+        assert_eq!(decode_in(&plan, &short), Err(WireError::WrongLength(4)));
+        assert_eq!(
+            encode_heartbeat::<crate::CanFrame>(
+                &IdPlan::new(0x101, None, 4).expect("valid"),
+                3,
+                &hb
+            ),
+            None
+        );
+    }
+
+    #[test]
+    fn a_moved_plan_carries_the_same_payload() {
+        let moved = IdPlan::new(0x020, Some(0x680), 8).expect("valid");
+        let (f, _): (crate::CanFrame, _) =
+            encode_in(&moved, Source::Agent(2), 0.5, 9).expect("frame");
+        let (g, _): (crate::CanFrame, _) = encode(Source::Agent(2), 0.5, 9).expect("frame");
+        assert_eq!(f.raw_id(), 0x022);
+        assert_eq!(f.data(), g.data());
+        assert!(
+            matches!(decode_in(&moved, &f), Ok(Decoded::Value(m)) if m.source == Source::Agent(2))
+        );
+        assert_eq!(
+            decode_in(&IdPlan::DEFAULT, &f),
+            Err(WireError::UnknownId(0x022))
+        );
     }
 
     #[test]

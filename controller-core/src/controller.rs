@@ -134,6 +134,24 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         self.state = Self::initial_state(&self.params);
     }
 
+    /// Resume after a pause in which no step ran (a node's safe state), with the agent's
+    /// output `y` and the command `applied` meanwhile: `t` and `ϖ` start again, the
+    /// differentiators from rest, and the last command is `applied` (the rate limit starts
+    /// there). With safety on, every link re-enters from `y` at the recovery rate, so the
+    /// consensus error starts near zero instead of jumping (a bumpless transfer). The
+    /// estimates `μ̂`, `ξ̂`, `λ̂` and the quantizers are kept.
+    pub fn resume(&mut self, y: f32, applied: &[f32; M]) {
+        let s = &mut self.state;
+        s.k = 0;
+        s.varpi = self.params.varpi.initial;
+        s.differentiators = [DifferentiatorState::default(); N];
+        s.u = *applied;
+        s.q = *applied;
+        if y.is_finite() && safety(&self.params).is_some() {
+            s.recovery.restart_from(y);
+        }
+    }
+
     /// The validated settings.
     pub const fn params(&self) -> &Params<N> {
         &self.params

@@ -105,6 +105,28 @@ pub struct Recovery<const K: usize> {
     pub(crate) after_hold: bool,
 }
 
+impl Reentry {
+    /// Re-enter from `y`: the next fresh value is blended in from it.
+    fn restart_from(&mut self, y: f32) {
+        *self = Self {
+            used: y,
+            offset: 0.0,
+            degraded: true,
+            seen: true,
+        };
+    }
+}
+
+impl<const K: usize> Recovery<K> {
+    /// Every link re-enters from `y` (see [`crate::Controller::resume`]).
+    pub(crate) fn restart_from(&mut self, y: f32) {
+        for r in self.neighbours.iter_mut() {
+            r.restart_from(y);
+        }
+        self.leader.restart_from(y);
+    }
+}
+
 /// One link through [`Safety::reenter`], keeping its kind; invalid and missing values go
 /// through unchanged (the consensus policy replaces them by the last value used).
 #[inline(never)]

@@ -8,7 +8,8 @@
 //!   3-bit intermission. A standard frame with 4 data bytes is 95 bits; with 8, 135 bits.
 //! * **Arbitration.** When the bus is idle and frames are pending, the lowest identifier
 //!   among the frames pending at that instant wins (ties, which CAN forbids, go to the lower
-//!   node index); the others wait for the bus to be idle again. A node has one pending frame:
+//!   node index); the others wait for the bus to be idle again. A node has one mailbox per
+//!   identifier (its own frame of lowest identifier arbitrates first); per identifier:
 //!   submitting a new one while the previous is still waiting *replaces* it and counts a
 //!   **deadline miss** (the old sample never made it onto the wire).
 //! * **Latency.** Receivers get a frame `latency` after its end-of-frame (driver/ISR delay);
@@ -334,9 +335,28 @@ struct Pending {
 
 #[derive(Debug, Clone, Default)]
 struct Port {
-    pending: Option<Pending>,
+    /// One mailbox per identifier, in submission order.
+    pending: Vec<Pending>,
     stats: NodeBusStats,
     bus_off_until: Nanos,
+}
+
+impl Port {
+    /// The node's frame that arbitrates at `s`: the lowest identifier submitted by then.
+    fn first_pending(&self, s: Nanos) -> Option<Pending> {
+        self.pending
+            .iter()
+            .filter(|p| p.submitted <= s)
+            .min_by_key(|p| p.frame.raw_id())
+            .copied()
+    }
+
+    fn remove_first(&mut self, s: Nanos) {
+        if let Some(p) = self.first_pending(s) {
+            self.pending
+                .retain(|q| q.frame.raw_id() != p.frame.raw_id());
+        }
+    }
 }
 
 /// The bus: nodes `0..nodes` share it.
@@ -461,15 +481,23 @@ impl Bus {
             self.stats.refused_bus_off += 1;
             return Err(SubmitError::BusOff);
         }
-        if port.pending.is_some() {
-            port.stats.deadline_misses += 1;
-            self.stats.replaced += 1;
-            self.stats.deadline_misses += 1;
-        }
-        port.pending = Some(Pending {
+        let new = Pending {
             frame,
             submitted: t,
-        });
+        };
+        match port
+            .pending
+            .iter_mut()
+            .find(|p| p.frame.raw_id() == frame.raw_id())
+        {
+            Some(old) => {
+                *old = new;
+                port.stats.deadline_misses += 1;
+                self.stats.replaced += 1;
+                self.stats.deadline_misses += 1;
+            }
+            None => port.pending.push(new),
+        }
         Ok(())
     }
 
@@ -478,7 +506,7 @@ impl Bus {
     fn next_start(&self, from: Nanos, until: Nanos) -> Option<Nanos> {
         let mut best: Option<Nanos> = None;
         for (i, p) in self.ports.iter().enumerate() {
-            if let Some(pe) = &p.pending {
+            for pe in &p.pending {
                 let mut s = pe.submitted.max(from);
                 if p.stats.state == ErrorState::BusOff {
                     s = s.max(p.bus_off_until);
@@ -538,11 +566,12 @@ impl Bus {
             }
             let silent = matches!(ev, Some(EventKind::Silent));
             let port = &mut self.ports[i];
-            if silent && port.pending.take().is_some() {
-                self.stats.suppressed += 1;
+            if silent && !port.pending.is_empty() {
+                self.stats.suppressed += port.pending.len() as u64;
+                port.pending.clear();
                 continue;
             }
-            if let Some(p) = port.pending.filter(|p| p.submitted <= s) {
+            if let Some(p) = port.first_pending(s) {
                 let c = (p.frame.raw_id(), i, false);
                 if winner.is_none_or(|w| (c.0, c.1) < (w.0, w.1)) {
                     winner = Some(c);
@@ -564,7 +593,7 @@ impl Bus {
             }
             (f, s)
         } else {
-            match self.ports[node].pending {
+            match self.ports[node].first_pending(s) {
                 Some(p) => (p.frame, p.submitted),
                 None => return,
             }
@@ -581,7 +610,7 @@ impl Bus {
             self.free_at = s + dur;
             self.busy_until = s + dur;
             self.stats.frames_corrupted += 1;
-            self.on_error(node, s + dur, babble);
+            self.on_error(node, s, s + dur, babble);
             return;
         }
         let dur = self.bit_time_ns(bits);
@@ -589,7 +618,7 @@ impl Bus {
         self.free_at = s + dur;
         self.busy_until = s + dur;
         self.stats.frames_sent += 1;
-        self.on_success(node, babble);
+        self.on_success(node, s, babble);
         // End of frame is before the intermission.
         let end = s + self.bit_time_ns(bits - 3);
         if let Some(log) = self.wire_log.as_mut() {
@@ -623,13 +652,13 @@ impl Bus {
         (self.rng.next_u64() >> 11) as f64 / (1u64 << 53) as f64
     }
 
-    fn on_success(&mut self, node: usize, babble: bool) {
+    fn on_success(&mut self, node: usize, s: Nanos, babble: bool) {
         for (i, p) in self.ports.iter_mut().enumerate() {
             if i == node {
                 p.stats.tec = p.stats.tec.saturating_sub(1);
                 p.stats.sent += 1;
                 if !babble {
-                    p.pending = None;
+                    p.remove_first(s);
                 }
             } else if p.stats.state != ErrorState::BusOff {
                 p.stats.rec = p.stats.rec.saturating_sub(1);
@@ -638,7 +667,7 @@ impl Bus {
         }
     }
 
-    fn on_error(&mut self, node: usize, end: Nanos, babble: bool) {
+    fn on_error(&mut self, node: usize, start: Nanos, end: Nanos, babble: bool) {
         let recovery = self.bit_time_ns(BUS_OFF_RECOVERY_BITS);
         let retransmit = self.cfg.auto_retransmit;
         for (i, p) in self.ports.iter_mut().enumerate() {
@@ -646,7 +675,7 @@ impl Bus {
                 p.stats.tec = p.stats.tec.saturating_add(8);
                 p.stats.max_tec = p.stats.max_tec.max(p.stats.tec);
                 if !babble && !retransmit {
-                    p.pending = None;
+                    p.remove_first(start);
                     self.stats.frames_dropped += 1;
                 }
                 if p.stats.tec > BUS_OFF_LIMIT {
@@ -654,9 +683,8 @@ impl Bus {
                     p.stats.bus_off_events += 1;
                     self.stats.bus_off_events += 1;
                     p.bus_off_until = end + recovery;
-                    if p.pending.take().is_some() {
-                        self.stats.frames_dropped += 1;
-                    }
+                    self.stats.frames_dropped += p.pending.len() as u64;
+                    p.pending.clear();
                     continue;
                 }
             } else if p.stats.state != ErrorState::BusOff {

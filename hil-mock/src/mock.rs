@@ -25,18 +25,23 @@ impl embedded_can::Error for MockCanError {
     }
 }
 
-/// An in-memory CAN controller: a receive FIFO and one transmit mailbox.
+/// Transmit mailboxes of [`MockCan`] (as bxCAN's three).
+pub const TX_MAILBOXES: usize = 3;
+
+/// An in-memory CAN controller: a receive FIFO and [`TX_MAILBOXES`] transmit mailboxes.
 ///
-/// `transmit` puts the frame in the mailbox; if a frame is still there with an equal or
-/// lower priority (identifier ≥ the new one), it is replaced and returned (`Ok(Some(old))`),
-/// otherwise `WouldBlock`. While [`MockCan::set_bus_off`] is on, `transmit` fails with
-/// [`MockCanError::BusOff`]. The harness empties the mailbox with [`MockCan::take_tx`] and
-/// fills the FIFO with [`MockCan::push_rx`]; a full FIFO drops the new frame (an overrun).
+/// `transmit` replaces a frame with the same identifier still in a mailbox and returns it
+/// (`Ok(Some(old))`); otherwise it takes a free mailbox; with all full, it replaces the
+/// pending frame of lowest priority if that one's identifier is higher than the new one's,
+/// else `WouldBlock`. While [`MockCan::set_bus_off`] is on, `transmit` fails with
+/// [`MockCanError::BusOff`]. The harness empties the mailboxes with [`MockCan::take_tx`]
+/// (highest priority first) and fills the FIFO with [`MockCan::push_rx`]; a full FIFO drops
+/// the new frame (an overrun).
 #[derive(Debug, Clone)]
 pub struct MockCan {
     rx: VecDeque<MockFrame>,
     rx_capacity: usize,
-    tx: Option<MockFrame>,
+    tx: Vec<MockFrame>,
     bus_off: bool,
     overruns: u32,
 }
@@ -53,7 +58,7 @@ impl MockCan {
         Self {
             rx: VecDeque::with_capacity(rx_capacity),
             rx_capacity,
-            tx: None,
+            tx: Vec::with_capacity(TX_MAILBOXES),
             bus_off: false,
             overruns: 0,
         }
@@ -69,9 +74,11 @@ impl MockCan {
         true
     }
 
-    /// The frame waiting in the transmit mailbox, if any (the harness puts it on the bus).
+    /// The frame of highest priority waiting in a transmit mailbox, if any (the harness puts
+    /// it on the bus).
     pub fn take_tx(&mut self) -> Option<MockFrame> {
-        self.tx.take()
+        let k = (0..self.tx.len()).min_by_key(|&k| self.tx[k].raw_id())?;
+        Some(self.tx.remove(k))
     }
 
     /// Mirror the bus's error state: a bus-off controller refuses to transmit.
@@ -98,12 +105,17 @@ impl embedded_can::nb::Can for MockCan {
         if self.bus_off {
             return Err(nb::Error::Other(MockCanError::BusOff));
         }
-        match self.tx {
-            Some(old) if old.raw_id() < frame.raw_id() => Err(nb::Error::WouldBlock),
-            old => {
-                self.tx = Some(*frame);
-                Ok(old)
-            }
+        let id = frame.raw_id();
+        if let Some(slot) = self.tx.iter_mut().find(|f| f.raw_id() == id) {
+            return Ok(Some(std::mem::replace(slot, *frame)));
+        }
+        if self.tx.len() < TX_MAILBOXES {
+            self.tx.push(*frame);
+            return Ok(None);
+        }
+        match self.tx.iter_mut().max_by_key(|f| f.raw_id()) {
+            Some(lowest) if lowest.raw_id() > id => Ok(Some(std::mem::replace(lowest, *frame))),
+            _ => Err(nb::Error::WouldBlock),
         }
     }
 
@@ -217,12 +229,19 @@ mod tests {
     }
 
     #[test]
-    fn mailbox_replaces_equal_or_lower_priority() {
+    fn mailboxes_replace_the_same_id_then_the_lowest_priority() {
         let mut c = MockCan::default();
         assert_eq!(c.transmit(&frame(0x105)), Ok(None));
         assert_eq!(c.transmit(&frame(0x105)), Ok(Some(frame(0x105))));
-        assert_eq!(c.transmit(&frame(0x106)), Err(nb::Error::WouldBlock));
+        assert_eq!(c.transmit(&frame(0x785)), Ok(None));
+        assert_eq!(c.transmit(&frame(0x106)), Ok(None));
+        // Full: a higher-priority frame displaces the lowest-priority one, a lower one waits.
+        assert_eq!(c.transmit(&frame(0x104)), Ok(Some(frame(0x785))));
+        assert_eq!(c.transmit(&frame(0x107)), Err(nb::Error::WouldBlock));
+        assert_eq!(c.take_tx(), Some(frame(0x104)));
         assert_eq!(c.take_tx(), Some(frame(0x105)));
+        assert_eq!(c.take_tx(), Some(frame(0x106)));
+        assert_eq!(c.take_tx(), None);
         c.set_bus_off(true);
         assert_eq!(
             c.transmit(&frame(0x105)),

@@ -1,7 +1,8 @@
 //! [`CanNetwork`]: follower nodes on mocked hardware, a leader, and the [`Bus`] between them,
 //! advanced one sample at a time by a host loop that owns the plant.
 //!
-//! Bus node `0` is the leader (identifier `0x100`), bus node `i` is agent `i` (`0x100 + i`).
+//! Bus node `0` is the leader, bus node `i` is agent `i`; their identifiers are those of the
+//! agents' identifier plan ([`agent_node::IdPlan`], `0x101` and `0x101 + i` by default).
 //! Per sample at time `t` ([`CanNetwork::step`]):
 //!
 //! 1. the bus runs up to `t`; each delivered frame is pushed, at its delivery time, into the
@@ -9,7 +10,8 @@
 //!    [`agent_node::Node::poll_rx`] runs then (the CAN receive interrupt), so values are
 //!    time-stamped at arrival;
 //! 2. every node gets the agent's state on its sensors and runs [`agent_node::Node::tick`] with its
-//!    clock at `t`; its frame goes on the bus, submitted at `t` (computation time neglected);
+//!    clock at `t`; its frames (the value frame, and a heartbeat when due) go on the bus,
+//!    submitted at `t` (computation time neglected);
 //! 3. the leader submits `y_d(t)` (when given) with its own sequence counter;
 //! 4. the age of every neighbour (and leader) value each controller used, `t` minus the
 //!    sample time at which the sender produced it, is recorded in the bus statistics.
@@ -25,7 +27,7 @@
 //!
 //! // Two agents: agent 1 pinned, agent 2 hears agent 1.
 //! let agent = |i: u8| AgentSetup {
-//!     node: NodeConfig { agent: i, neighbours: [1, 0], stale_timeout_us: 2_500 },
+//!     node: NodeConfig::new(i, [1, 0], 2_500),
 //!     controller: ControllerConfig::<2> {
 //!         neighbour_count: usize::from(i - 1),
 //!         pinned: i == 1,
@@ -51,7 +53,7 @@ use controller_core::{ControllerConfig, Link};
 
 use crate::bus::{Bus, BusConfig, BusConfigError, BusStats, Nanos};
 use crate::mock::{MockActuator, MockCan, MockClock, MockFrame, MockNode, MockSensor};
-use agent_node::wire::{self, Source};
+use agent_node::wire::{self, IdPlan, Source};
 use agent_node::{NodeConfig, NodeError, Tick};
 
 /// Why a network could not be built.
@@ -68,6 +70,8 @@ pub enum NetworkError {
     },
     /// Agents must be numbered 1, 2, ... in order.
     AgentOrder(u8),
+    /// Agent `0` uses another identifier plan than agent 1.
+    MixedPlans(u8),
 }
 
 impl std::fmt::Display for NetworkError {
@@ -76,6 +80,7 @@ impl std::fmt::Display for NetworkError {
             Self::Bus(e) => write!(f, "{e}"),
             Self::Node { agent, error } => write!(f, "agent {agent}: {error}"),
             Self::AgentOrder(a) => write!(f, "agent {a} out of order: number agents 1, 2, ..."),
+            Self::MixedPlans(a) => write!(f, "agent {a}: another identifier plan than agent 1's"),
         }
     }
 }
@@ -98,6 +103,7 @@ pub struct CanNetwork<const N: usize, const M: usize, const K: usize> {
     /// `sample_time[receiver][sender]`: sample time of the latest frame delivered.
     sample_time: Vec<Vec<Option<Nanos>>>,
     leader_seq: u8,
+    ids: IdPlan,
 }
 
 impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
@@ -106,9 +112,13 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
     pub fn new(bus: BusConfig, agents: &[AgentSetup<N, K>]) -> Result<Self, NetworkError> {
         let bus = Bus::new(bus, agents.len() + 1).map_err(NetworkError::Bus)?;
         let mut nodes = Vec::with_capacity(agents.len());
+        let ids = agents.first().map_or(IdPlan::DEFAULT, |a| a.node.ids);
         for (i, a) in agents.iter().enumerate() {
             if usize::from(a.node.agent) != i + 1 {
                 return Err(NetworkError::AgentOrder(a.node.agent));
+            }
+            if a.node.ids != ids {
+                return Err(NetworkError::MixedPlans(a.node.agent));
             }
             let node = MockNode::new(
                 &a.node,
@@ -130,6 +140,7 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
             nodes,
             sample_time: vec![vec![None; n]; n],
             leader_seq: 0,
+            ids,
         })
     }
 
@@ -191,7 +202,7 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
             node.can_mut()
                 .set_bus_off(self.bus.is_bus_off(bus_node, t_ns));
             let tick = node.tick();
-            if let Some(f) = node.can_mut().take_tx() {
+            while let Some(f) = node.can_mut().take_tx() {
                 // Refusals (silent, bus-off) are counted by the bus.
                 let _ = self.bus.submit(bus_node, t_ns, f);
             }
@@ -200,7 +211,9 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
         self.record_ages(t_ns);
 
         if let Some(yd) = leader {
-            if let Some((f, _)) = wire::encode::<MockFrame>(Source::Leader, yd, self.leader_seq) {
+            if let Some((f, _)) =
+                wire::encode_in::<MockFrame>(&self.ids, Source::Leader, yd, self.leader_seq)
+            {
                 let _ = self.bus.submit(0, t_ns, f);
             }
             self.leader_seq = (self.leader_seq + 1) % wire::SEQ_MODULUS;

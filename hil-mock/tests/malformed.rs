@@ -19,11 +19,7 @@ fn node(
     let mut n = [0u8; 4];
     n[..neighbours.len()].copy_from_slice(neighbours);
     MockNode::new(
-        &NodeConfig {
-            agent,
-            neighbours: n,
-            stale_timeout_us: 2_500,
-        },
+        &NodeConfig::new(agent, n, 2_500),
         cfg,
         MockCan::new(1024),
         MockClock::default(),
@@ -52,7 +48,7 @@ fn arb_frame() -> impl Strategy<Value = MockFrame> {
                     .map_or(Id::Standard(StandardId::ZERO), Id::Extended)
             } else if ours {
                 // Bias towards this protocol's ids so payload checks get exercised.
-                let raw = 0x100 + (raw % 8) as u16;
+                let raw = 0x100 + (raw % 8) as u16 + if raw % 3 == 0 { 0x680 } else { 0 };
                 Id::Standard(StandardId::new(raw).unwrap_or(StandardId::ZERO))
             } else {
                 Id::Standard(StandardId::new((raw & 0x7FF) as u16).unwrap_or(StandardId::ZERO))

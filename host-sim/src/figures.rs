@@ -42,6 +42,24 @@ pub struct NetworkSummary {
     pub suppressed: u64,
     /// Frames of babbling nodes on the bus.
     pub babble_frames: u64,
+    /// Per agent, the node's supervision figures (`kind = "can"` with a `[node]` section).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub nodes: Vec<NodeSummary>,
+}
+
+/// `summary.json` `network.nodes[]`: one agent's node supervisor over the run.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct NodeSummary {
+    /// 1-based agent.
+    pub agent: usize,
+    /// The node's state at the end: `"operational"`, `"boot"`, `"safe"` or `"fault"`.
+    pub state: &'static str,
+    /// Times the node entered its safe state.
+    pub safe_state_entries: u32,
+    /// Deadline overruns the node counted.
+    pub overruns: u32,
+    /// Heartbeats the node handed to its CAN controller.
+    pub heartbeats_sent: u32,
 }
 
 impl NetworkSummary {
@@ -70,6 +88,7 @@ impl NetworkSummary {
             stale_samples,
             suppressed: s.suppressed,
             babble_frames: s.babble_frames,
+            nodes: Vec::new(),
         }
     }
 }
@@ -93,6 +112,8 @@ pub struct FirmwareSummary {
     pub instructions_resolution: u32,
     /// Stack high-water mark of the whole firmware (painted), bytes.
     pub stack_bytes: u32,
+    /// Times the node entered its safe state (from the state in its reports).
+    pub safe_state_entries: u32,
 }
 
 /// `summary.json` `socketcan`: one agent's commands.

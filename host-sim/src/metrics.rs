@@ -215,8 +215,16 @@ const NETWORK_UNITS: [(&str, &str); 14] = [
     ("network.babble_frames", "count"),
 ];
 
+/// Units of `network.nodes`' numeric keys (CAN runs with a `[node]` section).
+const NODE_UNITS: [(&str, &str); 4] = [
+    ("network.nodes.agent", "1-based index"),
+    ("network.nodes.safe_state_entries", "count"),
+    ("network.nodes.overruns", "count"),
+    ("network.nodes.heartbeats_sent", "count"),
+];
+
 /// Units of `firmware`'s numeric keys (PIL runs).
-const FIRMWARE_UNITS: [(&str, &str); 8] = [
+const FIRMWARE_UNITS: [(&str, &str); 9] = [
     ("firmware.agent", "1-based index"),
     ("firmware.steps", "count"),
     ("firmware.instructions_min", "instructions per Node::tick"),
@@ -228,13 +236,17 @@ const FIRMWARE_UNITS: [(&str, &str); 8] = [
     ("firmware.instructions_max", "instructions per Node::tick"),
     ("firmware.instructions_resolution", "instructions"),
     ("firmware.stack_bytes", "B"),
+    ("firmware.safe_state_entries", "count"),
 ];
 
 impl Summary {
     /// Sets the network figures (and their units).
     pub fn set_network(&mut self, network: Option<NetworkSummary>) {
-        if network.is_some() {
+        if let Some(n) = &network {
             self.units.extend(NETWORK_UNITS);
+            if !n.nodes.is_empty() {
+                self.units.extend(NODE_UNITS);
+            }
         }
         self.network = network;
     }

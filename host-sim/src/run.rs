@@ -201,6 +201,7 @@ fn bus_agents<const N: usize, const M: usize>(
     let s = &setup.scenario;
     BusAgents::new(
         &s.network,
+        &s.node,
         s.simulation.h,
         &setup.graph,
         &setup.controller_configs::<N>()?,

@@ -15,7 +15,10 @@ use crate::{
     graph::{Graph, GraphSpec, MAX_NEIGHBOURS},
     leader::Leader,
     metrics::spec::MetricsSpec,
-    network::spec::{self as network, NetworkSpec},
+    network::{
+        node::{self as node_section, NodeSpec},
+        spec::{self as network, NetworkSpec},
+    },
     plant::{with_sizes, PlantModel, PlantSpec},
 };
 
@@ -42,6 +45,10 @@ pub struct Scenario {
     /// `[network]` (added by this project: `docs/NETWORK.md`); left out of `check` when ideal.
     #[serde(skip_serializing_if = "NetworkSpec::is_default")]
     pub network: NetworkSpec,
+    /// `[node]` (the firmware nodes' identifiers, heartbeat, safe state: `docs/NETWORK.md`);
+    /// left out of `check` when it is the default.
+    #[serde(skip_serializing_if = "NodeSpec::is_default")]
+    pub node: NodeSpec,
     /// `[safety]` (SCENARIO.md additions; `docs/DEVIATIONS.md` §3); left out of `check` when
     /// it is the default.
     #[serde(skip_serializing_if = "SafetySpec::is_default")]
@@ -63,6 +70,7 @@ impl Default for Scenario {
             quantizer: QuantizerSpec::default(),
             faults: FaultsSpec::default(),
             network: NetworkSpec::default(),
+            node: NodeSpec::default(),
             safety: SafetySpec::default(),
             metrics: MetricsSpec::default(),
         }
@@ -697,6 +705,9 @@ fn validate_plant(
             sim.h,
             sim.t_end,
         ));
+    }
+    if let Some(g) = &graph {
+        problems.take(node_section::validate(&scenario.node, g.len()));
     }
     if let Some(p) = &plant {
         let (n, m) = (p.n(), p.m());

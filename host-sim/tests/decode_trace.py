@@ -8,7 +8,6 @@ import sys
 import can
 import cantools
 
-LEADER_ID = 0x100
 RESOLUTION = 2.0 ** -16
 
 
@@ -16,6 +15,7 @@ def main():
     dbc, log, traj, h, agents = sys.argv[1:6]
     h, agents = float(h), int(agents)
     db = cantools.database.load_file(dbc)
+    leader_id = db.get_message_by_name("Leader").frame_id
     with open(traj, newline="") as f:
         rows = list(csv.DictReader(f))
     checked, worst, samples = 0, 0.0, set()
@@ -23,7 +23,7 @@ def main():
         decoded = db.decode_message(msg.arbitration_id, msg.data)
         # A frame ends within the sample it was submitted in (no deadline miss in the run).
         k = int(msg.timestamp / h)
-        source = msg.arbitration_id - LEADER_ID
+        source = msg.arbitration_id - leader_id
         column = "yd" if source == 0 else f"y{source}"
         if not 0 <= source <= agents:
             sys.exit(f"frame with unexpected id {msg.arbitration_id:#x}")

@@ -39,6 +39,7 @@ const LAYERS: &[(&str, &[&str])] = &[
             "plant",
             "figures.rs",
             "network/spec.rs",
+            "network/node.rs",
             "network/ideal.rs",
             "network/trace.rs",
             "metrics/spec.rs",

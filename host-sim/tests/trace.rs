@@ -26,8 +26,8 @@ fn traced_can_run(name: &str) -> (PathBuf, PathBuf) {
     let lines: Vec<&str> = log.lines().collect();
     // 5 frames per sample, the last sample's still on the bus.
     assert_eq!(lines.len(), 299 * 5);
-    assert_eq!(lines[0], "(0.000092) can0 100#00000000");
-    assert!(lines[1].starts_with("(0.000187) can0 101#"), "{}", lines[1]);
+    assert_eq!(lines[0], "(0.000092) can0 101#00000000");
+    assert!(lines[1].starts_with("(0.000187) can0 102#"), "{}", lines[1]);
     (dir, trace)
 }
 

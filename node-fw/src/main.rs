@@ -41,12 +41,15 @@ const K: usize = 16;
 /// Received bus frames held between two ticks at most.
 const RX_DEPTH: usize = 64;
 
-/// The CAN controller: a receive FIFO filled from the SLCAN link, one transmit mailbox that
+/// Transmit mailboxes: the value frame and the heartbeat of one tick.
+const TX_MAILBOXES: usize = 2;
+
+/// The CAN controller: a receive FIFO filled from the SLCAN link, two transmit mailboxes that
 /// the main loop empties onto the link after the tick.
 #[derive(Default)]
 struct UartCan {
     rx: heapless::Deque<CanFrame, RX_DEPTH>,
-    tx: Option<CanFrame>,
+    tx: heapless::Vec<CanFrame, TX_MAILBOXES>,
 }
 
 impl embedded_can::nb::Can for UartCan {
@@ -54,7 +57,11 @@ impl embedded_can::nb::Can for UartCan {
     type Error = core::convert::Infallible;
 
     fn transmit(&mut self, frame: &CanFrame) -> nb::Result<Option<CanFrame>, Self::Error> {
-        Ok(self.tx.replace(*frame))
+        if let Some(old) = self.tx.iter_mut().find(|f| f.raw_id() == frame.raw_id()) {
+            return Ok(Some(core::mem::replace(old, *frame)));
+        }
+        self.tx.push(*frame).map_err(|_| nb::Error::WouldBlock)?;
+        Ok(None)
     }
 
     fn receive(&mut self) -> nb::Result<CanFrame, Self::Error> {
@@ -214,9 +221,10 @@ fn sample(link: &Link, node: &mut BoardNode, counter: &mut Option<board::Counter
     let start = counter.as_mut().map_or(0, board::Counter::start);
     let tick = node.tick();
     let end = counter.as_mut().map_or(0, board::Counter::stop);
-    if let Some(f) = node.can_mut().tx.take() {
-        link.send(&f);
+    for f in &node.can_mut().tx {
+        link.send(f);
     }
+    node.can_mut().tx.clear();
     let o = &tick.output;
     let l = &o.status.links;
     let report = Report {
@@ -234,6 +242,7 @@ fn sample(link: &Link, node: &mut BoardNode, counter: &mut Option<board::Counter
         stale: l.stale_neighbours,
         missing: l.missing_neighbours,
         leader: u8::from(l.leader_stale) | (u8::from(l.leader_missing) << 1),
+        state: tick.state.code(),
         instructions: board::instructions(start, end),
         resolution: board::INSN_PER_TICK,
     };

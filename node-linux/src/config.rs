@@ -4,7 +4,7 @@
 //!
 //! ```toml
 //! [node]
-//! agent = 4                # this agent's number i (its frames: 0x100 + i, 0x300 + i, 0x700 + i)
+//! agent = 4                # this agent's number i (its frames: value, 0x300 + i, 0x400 + i)
 //! neighbours = [1, 3]      # the agents it hears, in the controller's order
 //! interface = "vcan0"      # SocketCAN interface
 //! stale_timeout = 0.0025   # a neighbour value older than this is stale [s]
@@ -23,7 +23,7 @@
 
 use std::{fmt, path::Path};
 
-use agent_node::NodeConfig;
+use agent_node::{IdPlan, NeighbourLoss, NodeConfig, SafePolicy, SupervisorConfig};
 use controller_core::{ConfigFile, ControllerConfig};
 use serde::{Deserialize, Serialize};
 
@@ -54,6 +54,111 @@ pub struct NodeSection {
     /// unchanged.
     #[serde(default = "default_time_scale")]
     pub time_scale: f64,
+    /// Identifier plan, heartbeat and safe state (`[node.supervision]`); absent: the default
+    /// plan, no heartbeat, no supervision.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub supervision: Option<Supervision>,
+}
+
+/// `[node.supervision]`: the node supervisor's settings as resolved numbers (host-sim writes
+/// them from a scenario's `[node]` section, docs/SCENARIO.md).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Supervision {
+    /// Identifier of the leader's value frame; agent `i` sends at `id_base + i`.
+    pub id_base: u16,
+    /// Agent `i`'s heartbeat at `heartbeat_id_base + i`; absent: no heartbeat identifiers.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub heartbeat_id_base: Option<u16>,
+    /// Agents of the identifier plan.
+    pub agents: u8,
+    /// Heartbeat period [µs]; 0: none.
+    pub heartbeat_period_us: u64,
+    /// `"off"`, `"hold"`, `"ramp"` (with `ramp_rate`); absent: no supervision.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub policy: Option<String>,
+    /// Command units per second of `"ramp"`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ramp_rate: Option<f32>,
+    /// Leader silence that enters the safe state [µs].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub leader_timeout_us: Option<u64>,
+    /// Neighbour silence that counts as a loss [µs].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub neighbour_timeout_us: Option<u64>,
+    /// `true`: any one neighbour silent is a loss; `false`: all of them.
+    #[serde(default)]
+    pub any_neighbour: bool,
+    /// Sensor silence that enters the safe state [µs].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensor_timeout_us: Option<u64>,
+    /// Time everything must be healthy again before leaving the safe state [µs].
+    #[serde(default)]
+    pub recover_dwell_us: u64,
+}
+
+impl Supervision {
+    /// The settings of a node configuration.
+    pub fn of<const K: usize>(c: &NodeConfig<K>) -> Self {
+        let s = c.supervisor;
+        let (policy, ramp_rate) = match s.policy {
+            _ if s == SupervisorConfig::OFF => (None, None),
+            SafePolicy::Hold => (Some("hold"), None),
+            SafePolicy::Ramp { rate } => (Some("ramp"), Some(rate)),
+            SafePolicy::Off => (Some("off"), None),
+        };
+        Self {
+            id_base: c.ids.value_base(),
+            heartbeat_id_base: c.ids.heartbeat_base(),
+            agents: c.ids.agents(),
+            heartbeat_period_us: c.heartbeat_period_us,
+            policy: policy.map(str::to_owned),
+            ramp_rate,
+            leader_timeout_us: s.leader_timeout_us,
+            neighbour_timeout_us: s.neighbour_timeout_us,
+            any_neighbour: s.neighbour_loss == NeighbourLoss::Any,
+            sensor_timeout_us: s.sensor_timeout_us,
+            recover_dwell_us: s.recover_dwell_us,
+        }
+    }
+
+    /// Writes these settings into `cfg`.
+    fn apply<const K: usize>(&self, cfg: &mut NodeConfig<K>) -> Result<(), ConfigError> {
+        let key = |k: &str| format!("node.supervision.{k}");
+        cfg.ids = IdPlan::new(self.id_base, self.heartbeat_id_base, self.agents)
+            .map_err(|e| ConfigError::new(key("id_base"), e))?;
+        cfg.heartbeat_period_us = self.heartbeat_period_us;
+        let policy = match (self.policy.as_deref(), self.ramp_rate) {
+            (None, _) => return Ok(()),
+            (Some("hold"), _) => SafePolicy::Hold,
+            (Some("off"), _) => SafePolicy::Off,
+            (Some("ramp"), Some(rate)) => SafePolicy::Ramp { rate },
+            (Some("ramp"), None) => {
+                return Err(ConfigError::new(key("ramp_rate"), "needed by \"ramp\""))
+            }
+            (Some(other), _) => {
+                return Err(ConfigError::new(
+                    key("policy"),
+                    format!("\"{other}\" is not \"off\", \"hold\" or \"ramp\""),
+                ))
+            }
+        };
+        cfg.supervisor = SupervisorConfig {
+            policy,
+            leader_timeout_us: self.leader_timeout_us,
+            neighbour_timeout_us: self.neighbour_timeout_us,
+            neighbour_loss: if self.any_neighbour {
+                NeighbourLoss::Any
+            } else {
+                NeighbourLoss::All
+            },
+            sensor_timeout_us: self.sensor_timeout_us,
+            recover_dwell_us: self.recover_dwell_us,
+        };
+        cfg.supervisor
+            .validate()
+            .map_err(|e| ConfigError::new(key("policy"), format!("{e:?}")))
+    }
 }
 
 fn default_time_scale() -> f64 {
@@ -190,12 +295,13 @@ impl NodeFile {
         if let Some(e) = controller.errors(MAX_NEIGHBOURS).first() {
             return Err(ConfigError::new(e.param().key(), e));
         }
+        let mut node_config =
+            NodeConfig::new(agent, neighbours, ((stale * 1e6).round() as u64).max(1));
+        if let Some(s) = &node.supervision {
+            s.apply(&mut node_config)?;
+        }
         Ok(Self {
-            node_config: NodeConfig {
-                agent,
-                neighbours,
-                stale_timeout_us: ((stale * 1e6).round() as u64).max(1),
-            },
+            node_config,
             node,
             controller,
         })
@@ -234,6 +340,7 @@ mod tests {
             stale_timeout: Some(0.0025),
             host_timeout: 0.25,
             time_scale: 1.0,
+            supervision: None,
         }
     }
 

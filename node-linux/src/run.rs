@@ -1,8 +1,8 @@
 //! The node process: `agent_node::Node` over two SocketCAN sockets on one interface, paced by
 //! its own timer.
 //!
-//! * The *bus* socket, owned by the `Node`, receives only value frames (`0x100..=0x1FF`, a
-//!   kernel filter) and sends this agent's value frame.
+//! * The *bus* socket, owned by the `Node`, receives every frame but the plant-bus ones
+//!   (`0x200..=0x4FF`, kernel filters) and sends this agent's value frame (and heartbeat).
 //! * The *plant* socket receives only this agent's sensor frame and sends its command and
 //!   state frames (`agent_node::plant_bus`); the `Sensor` and `Actuator` of the node share it.
 //!
@@ -26,7 +26,6 @@ use std::{
 
 use agent_node::{
     plant_bus::{self, Kind, Mode, NodeState, PlantFrame},
-    wire::LEADER_ID,
     Actuator, Clock, Node, Sensor,
 };
 use socketcan::{CanFilter, CanFrame, CanSocket, Socket, SocketOptions};
@@ -165,8 +164,15 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
     let agent = cfg.node_config.agent;
     let iface = cfg.node.interface.as_str();
     let bus = open(iface)?;
-    let value_ids = u32::from(LEADER_ID);
-    bus.set_filters(&[CanFilter::new(value_ids, 0x700)])?;
+    // Everything but the plant-bus frames (0x200..=0x4FF): value frames and heartbeats of
+    // whatever identifier plan.
+    let plant_block = |base: u16| CanFilter::new_inverted(u32::from(base), 0x700);
+    bus.set_filters(&[
+        plant_block(plant_bus::SENSOR_BASE),
+        plant_block(plant_bus::COMMAND_BASE),
+        plant_block(plant_bus::STATE_BASE),
+    ])?;
+    bus.set_join_filters(true)?;
     bus.set_nonblocking(true)?;
     let plant = open(iface)?;
     let sensor_id = Kind::Sensor

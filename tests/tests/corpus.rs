@@ -255,11 +255,7 @@ fn agent4() -> MockNode<2, 2, 4> {
         ..Default::default()
     };
     let r = MockNode::new(
-        &NodeConfig {
-            agent: 4,
-            neighbours: [1, 3, 0, 0],
-            stale_timeout_us: 2_500,
-        },
+        &NodeConfig::new(4, [1, 3, 0, 0], 2_500),
         &cfg,
         MockCan::new(64),
         MockClock::default(),

@@ -126,11 +126,7 @@ pub fn run_can(
                 *slot = k as u8 + 1;
             }
             AgentSetup {
-                node: NodeConfig {
-                    agent: i as u8 + 1,
-                    neighbours,
-                    stale_timeout_us,
-                },
+                node: NodeConfig::new(i as u8 + 1, neighbours, stale_timeout_us),
                 controller: controller_config(i),
             }
         })

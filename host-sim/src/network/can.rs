@@ -12,9 +12,10 @@ use hil_mock::{
 
 use crate::{
     error::{Error, Result},
-    figures::NetworkSummary,
+    figures::{NetworkSummary, NodeSummary},
     graph::Graph,
     network::{
+        node::NodeSpec,
         spec::{bus_config, node_config, ns, NetworkKind, NetworkSpec},
         trace::{TraceWriter, INTERFACE},
     },
@@ -28,6 +29,8 @@ pub struct CanAgents<const N: usize, const M: usize> {
     bitrate: u32,
     states: Vec<[f32; N]>,
     trace: Option<TraceWriter>,
+    /// `summary.json` `network.nodes[]` is written (a `[node]` section was given).
+    report_nodes: bool,
 }
 
 impl<const N: usize, const M: usize> CanAgents<N, M> {
@@ -36,6 +39,7 @@ impl<const N: usize, const M: usize> CanAgents<N, M> {
     /// period `h`); every frame on the bus goes to `trace` (candump log) when given.
     pub fn new(
         spec: &NetworkSpec,
+        node: &NodeSpec,
         h: f64,
         graph: &Graph,
         configs: &[ControllerConfig<N>],
@@ -44,7 +48,7 @@ impl<const N: usize, const M: usize> CanAgents<N, M> {
         let mut agents = Vec::with_capacity(graph.len());
         for (i, controller) in configs.iter().enumerate() {
             agents.push(AgentSetup {
-                node: node_config(spec, h, graph, i)?,
+                node: node_config(spec, node, h, graph, i)?,
                 controller: *controller,
             });
         }
@@ -61,6 +65,7 @@ impl<const N: usize, const M: usize> CanAgents<N, M> {
             bitrate,
             states: vec![[0.0; N]; graph.len()],
             trace,
+            report_nodes: !node.is_default(),
         })
     }
 
@@ -72,7 +77,7 @@ impl<const N: usize, const M: usize> CanAgents<N, M> {
     /// The figures of `summary.json` `network`.
     pub fn summary(&self) -> NetworkSummary {
         let nodes = self.net.nodes();
-        NetworkSummary::new(
+        let mut summary = NetworkSummary::new(
             NetworkKind::Can,
             self.bitrate,
             &self.net.stats(),
@@ -84,7 +89,20 @@ impl<const N: usize, const M: usize> CanAgents<N, M> {
                 .iter()
                 .map(|n| u64::from(n.stats().stale_samples))
                 .sum(),
-        )
+        );
+        if self.report_nodes {
+            summary.nodes = nodes
+                .iter()
+                .map(|n| NodeSummary {
+                    agent: usize::from(n.agent()),
+                    state: n.state().as_str(),
+                    safe_state_entries: n.stats().safe_state_entries,
+                    overruns: n.stats().overruns,
+                    heartbeats_sent: n.stats().heartbeats_tx,
+                })
+                .collect();
+        }
+        summary
     }
 }
 

@@ -17,6 +17,7 @@
 
 pub mod can;
 pub mod ideal;
+pub mod node;
 pub mod pil;
 pub mod socketcan;
 pub mod spec;
@@ -30,6 +31,7 @@ pub use crate::figures::NetworkSummary;
 pub use crate::network::{
     can::CanAgents,
     ideal::{IdealLink, Inbox, Link, LinkModel},
+    node::NodeSpec,
     pil::PilAgents,
     socketcan::SocketcanAgents,
     spec::{
@@ -82,6 +84,7 @@ impl<const N: usize, const M: usize> BusAgents<N, M> {
     /// `traces` when given. The ideal kind has no bus: an error naming `network.kind`.
     pub fn new(
         spec: &NetworkSpec,
+        node: &NodeSpec,
         h: f64,
         graph: &Graph,
         configs: &[ControllerConfig<N>],
@@ -97,17 +100,18 @@ impl<const N: usize, const M: usize> BusAgents<N, M> {
                 "--link-trace",
                 "needs serial links: network.kind = \"pil\"",
             )),
-            NetworkKind::Can => {
-                CanAgents::new(spec, h, graph, configs, traces.bus).map(|a| Self::Can(Box::new(a)))
-            }
-            NetworkKind::Pil => PilAgents::new(spec, h, graph, configs, samples, traces)
+            NetworkKind::Can => CanAgents::new(spec, node, h, graph, configs, traces.bus)
+                .map(|a| Self::Can(Box::new(a))),
+            NetworkKind::Pil => PilAgents::new(spec, node, h, graph, configs, samples, traces)
                 .map(|a| Self::Pil(Box::new(a))),
             NetworkKind::Socketcan if traces.link.is_some() => Err(Error::invalid(
                 "--link-trace",
                 "needs serial links: network.kind = \"pil\"",
             )),
-            NetworkKind::Socketcan => SocketcanAgents::new(spec, h, graph, configs, traces.bus)
-                .map(|a| Self::Socketcan(Box::new(a))),
+            NetworkKind::Socketcan => {
+                SocketcanAgents::new(spec, node, h, graph, configs, traces.bus)
+                    .map(|a| Self::Socketcan(Box::new(a)))
+            }
         }
     }
 

@@ -33,7 +33,8 @@ use std::{
 
 use agent_node::{
     link::{self, io, CanFrame, Report, Slcan, Tick, RECORD_MAX_LINE, SLCAN_MAX_LINE},
-    wire::{self, Source},
+    wire::{self, IdPlan, Source},
+    NodeState,
 };
 use controller_core::{ControllerConfig, Estimates, Gains, LinkReport, StepFault, StepOutput};
 use embedded_can::Frame;
@@ -51,6 +52,7 @@ use crate::{
     figures::{FirmwareSummary, NetworkSummary},
     graph::Graph,
     network::{
+        node::NodeSpec,
         spec::{bus_config, node_config, ns, NetworkKind, NetworkSpec},
         trace::{candump_fd_line, candump_line, TraceWriter, Traces, INTERFACE},
     },
@@ -484,6 +486,9 @@ pub struct PilAgents<const N: usize, const M: usize> {
     h_ns: Nanos,
     bitrate: u32,
     leader_seq: u8,
+    ids: IdPlan,
+    /// Each node's state in its last report, and its safe-state entries seen so far.
+    states: Vec<(NodeState, u32)>,
     pinned: Vec<bool>,
     neighbours: Vec<Vec<usize>>,
     /// Acceptance filter of each node: the standard identifiers it hears.
@@ -507,6 +512,7 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
     /// everything on the links, go to the candump logs of `traces` when given.
     pub fn new(
         spec: &NetworkSpec,
+        node_spec: &NodeSpec,
         h: f64,
         graph: &Graph,
         configs: &[ControllerConfig<N>],
@@ -546,8 +552,12 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
         let mut pinned = Vec::with_capacity(agents);
         let mut neighbours = Vec::with_capacity(agents);
         let mut gains = None;
+        let mut ids = IdPlan::DEFAULT;
+        let mut watch_leader = false;
         for (i, &ctrl) in configs.iter().enumerate() {
-            let node = node_config(spec, h, graph, i)?;
+            let node = node_config(spec, node_spec, h, graph, i)?;
+            ids = node.ids;
+            watch_leader = node.supervisor.leader_timeout_us.is_some();
             let heard = graph.neighbours(i);
             if gains.is_none() {
                 let c = controller_core::Controller::<N, M, K>::new(&ctrl)
@@ -585,12 +595,12 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
             .iter()
             .zip(&pinned)
             .map(|(heard, &p): (&Vec<usize>, &bool)| {
-                let leader = p.then_some(Source::Leader);
+                let leader = (p || watch_leader).then_some(Source::Leader);
                 heard
                     .iter()
                     .map(|&a| Source::Agent(u8::try_from(a).unwrap_or(0)))
                     .chain(leader)
-                    .filter_map(|s| s.raw_id().map(u32::from))
+                    .filter_map(|s| ids.value_id(s).map(u32::from))
                     .collect()
             })
             .collect();
@@ -608,6 +618,8 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
             h_ns: ns(h),
             bitrate,
             leader_seq: 0,
+            ids,
+            states: vec![(NodeState::Boot, 0); agents],
             pinned,
             neighbours,
             accept,
@@ -644,8 +656,9 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
         self.costs
             .iter()
             .zip(&self.stacks)
+            .zip(&self.states)
             .enumerate()
-            .map(|(i, (c, &stack))| {
+            .map(|(i, ((c, &stack), &(_, entries)))| {
                 let mut s = c.clone();
                 s.sort_unstable();
                 FirmwareSummary {
@@ -657,6 +670,7 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
                     instructions_max: s.last().copied().unwrap_or(0),
                     instructions_resolution: self.resolution,
                     stack_bytes: stack,
+                    safe_state_entries: entries,
                 }
             })
             .collect()
@@ -698,6 +712,12 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
                         ..LinkReport::default()
                     };
                     self.stale_samples += u64::from(r.stale);
+                    let state = NodeState::from_code(r.state).unwrap_or(NodeState::Fault);
+                    let (last, entries) = &mut self.states[j];
+                    if state == NodeState::Safe && *last != NodeState::Safe {
+                        *entries += 1;
+                    }
+                    *last = state;
                     self.costs[j].push(r.instructions);
                     self.resolution = r.resolution;
                     return Ok(out);
@@ -762,7 +782,8 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
             out.push(self.collect(j, t_ns)?);
         }
         self.record_ages(t_ns);
-        if let Some((f, _)) = wire::encode::<MockFrame>(Source::Leader, yd as f32, self.leader_seq)
+        if let Some((f, _)) =
+            wire::encode_in::<MockFrame>(&self.ids, Source::Leader, yd as f32, self.leader_seq)
         {
             let _ = self.bus.submit(0, t_ns, f);
         }

@@ -30,7 +30,10 @@ use agent_node::{
     wire::{self, Source},
 };
 use controller_core::{ControllerConfig, Gains, Params, StepOutput};
-use node_linux::{config::NodeSection, NodeFile};
+use node_linux::{
+    config::{NodeSection, Supervision},
+    NodeFile,
+};
 use socketcan::{CanFilter, CanFrame, CanSocket, Socket, SocketOptions};
 
 use crate::{
@@ -159,11 +162,13 @@ fn open(interface: &str) -> Result<CanSocket> {
 }
 
 impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
-    /// Opens the interface of `spec`, writes one node configuration per agent of `graph`
-    /// (controller configurations `configs`, sample period `h`), starts the nodes
+    /// Opens the interface of `spec`, writes one node configuration per agent of `graph` (with
+    /// the identifier plan, heartbeat and safe state of `[node]`, `node_spec`; controller
+    /// configurations `configs`, sample period `h`), starts the nodes
     /// (`nodes = "spawn"`), and records every frame on the interface to `trace` when given.
     pub fn new(
         spec: &NetworkSpec,
+        node_spec: &crate::network::node::NodeSpec,
         h: f64,
         graph: &Graph,
         configs: &[ControllerConfig<N>],
@@ -208,7 +213,22 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
         };
         let mut files = Vec::with_capacity(configs.len());
         for (i, c) in configs.iter().enumerate() {
-            let nc = node_config(spec, h, graph, i)?;
+            let nc = node_config(spec, node_spec, h, graph, i)?;
+            let plan = nc.ids;
+            let blocks = [
+                Some((plan.value_base(), "node.id_base")),
+                plan.heartbeat_base().map(|b| (b, "node.heartbeat_id_base")),
+            ];
+            for (base, key) in blocks.into_iter().flatten() {
+                let end = base + u16::from(plan.agents());
+                if base <= 0x4FF && end >= plan_bus_first() {
+                    return Err(Error::invalid(
+                        key,
+                        "with network.kind = \"socketcan\" the identifiers must stay clear of \
+                         0x200..=0x4FF (sensor, command and state frames)",
+                    ));
+                }
+            }
             let section = NodeSection {
                 agent: i64::from(nc.agent),
                 neighbours: graph.neighbours(i).iter().map(|&k| k as i64 + 1).collect(),
@@ -221,6 +241,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                 stale_timeout: Some(nc.stale_timeout_us as f64 * 1e-6),
                 host_timeout: node_timeout,
                 time_scale: spec.time_scale(),
+                supervision: Some(Supervision::of(&nc)),
             };
             let text = NodeFile::to_toml(&section, *c)
                 .map_err(|e| Error::Io(format!("node configuration of agent {}: {e}", i + 1)))?;
@@ -447,6 +468,11 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                 .collect(),
         }
     }
+}
+
+/// The first identifier of the plant-bus frames.
+fn plan_bus_first() -> u16 {
+    plant_bus::SENSOR_BASE
 }
 
 /// The node program: `network.node_program`, else `node-linux` beside this executable, else

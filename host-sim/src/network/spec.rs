@@ -7,6 +7,7 @@ use serde::{Deserialize, Serialize};
 use crate::{
     error::{Error, Result},
     graph::{Graph, MAX_NEIGHBOURS},
+    network::node::{self, NodeSpec},
 };
 
 /// `network.kind`.
@@ -204,9 +205,11 @@ pub const MAX_BITRATE: i64 = 10_000_000;
 pub const MAX_CAN_AGENTS: usize = 255;
 
 /// Agent `i`'s (0-based) node settings on a bus: its number, the agents it hears in `graph`
-/// (1-based), and the stale timeout of `[network]` (default `2.5 h`, at least 1 µs).
+/// (1-based), the stale timeout of `[network]` (default `2.5 h`, at least 1 µs), and the
+/// identifier plan, heartbeat and supervision of `[node]`.
 pub fn node_config(
     spec: &NetworkSpec,
+    node_spec: &NodeSpec,
     h: f64,
     graph: &Graph,
     i: usize,
@@ -229,11 +232,9 @@ pub fn node_config(
         *d = u8::try_from(k + 1).unwrap_or(0);
     }
     let stale = spec.stale_timeout.unwrap_or(2.5 * h);
-    Ok(NodeConfig {
-        agent,
-        neighbours,
-        stale_timeout_us: ((stale * 1e6).round() as u64).max(1),
-    })
+    let mut cfg = NodeConfig::new(agent, neighbours, ((stale * 1e6).round() as u64).max(1));
+    node::configure(node_spec, graph.len(), &mut cfg)?;
+    Ok(cfg)
 }
 
 /// Seconds to nanoseconds (validated, finite and small enough, input).

@@ -1,0 +1,665 @@
+//! The node's supervisor: its state (`Boot → Operational ↔ Safe`, `Fault`), when it enters and
+//! leaves its safe state, and what it commands there.
+//!
+//! ## States
+//!
+//! | state | entered | the actuators get | the controller |
+//! |---|---|---|---|
+//! | `Boot` | at start | the controller's command | steps |
+//! | `Operational` | from `Boot` once every supervised source is healthy; from `Safe` after the recovery dwell | the controller's command | steps |
+//! | `Safe` | from `Boot` or `Operational` when a supervised source is lost | the [`SafePolicy`]'s command | frozen (see below) |
+//! | `Fault` | [`crate::Node::enter_fault`] (the board found a fault it cannot recover from) | zero | frozen; left only by a restart (a new `Node`) |
+//!
+//! ## Sources, loss and health
+//!
+//! A source is *lost* when it has been silent (or invalid) for longer than its loss timeout,
+//! and *healthy* when it is fresh in the sense of the freshness policy (`docs/NETWORK.md` §3).
+//! Before a source was ever heard, its silence is counted from the node's first tick.
+//!
+//! | source | lost when | healthy when |
+//! |---|---|---|
+//! | leader (`leader_timeout`) | no valid leader value for longer than the timeout; every node that has the timeout watches the leader's frames, pinned or not (the bus is shared), only pinned agents use the value | a leader value within the stale timeout |
+//! | neighbours (`neighbour_timeout`), [`NeighbourLoss::All`] (default) | *every* neighbour silent for longer than the timeout: the node has lost its network | at least one neighbour fresh |
+//! | neighbours, [`NeighbourLoss::Any`] | *any* neighbour silent for longer than the timeout | every neighbour fresh |
+//! | sensor (`sensor_timeout`) | read errors or non-finite states for longer than the timeout | a finite read |
+//!
+//! A source without a timeout is not supervised. `All` is the default because one silent
+//! neighbour is already handled by the freshness policy (its value is held); a node that hears
+//! none of its neighbours has nothing left to agree with.
+//!
+//! ## Leaving the safe state
+//!
+//! Only when every supervised source has been healthy without interruption for
+//! `recover_dwell`; a loss during the dwell restarts it. On the way back the controller
+//! resumes ([`controller_core::Controller::resume`]): its estimates `μ̂`, `ξ̂`, `λ̂` are kept
+//! (they bound the plant's uncertainty, which did not change), while its time, `ϖ` and
+//! differentiators restart, so the predefined-time transient starts again from the state the
+//! plant is in rather than continuing one that the safe state interrupted. While `Safe`, the
+//! controller is not advanced: nothing is integrated against commands that were not applied.
+
+/// The node's state; [`NodeState::code`] is what the heartbeat and the PIL report carry.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum NodeState {
+    /// Controlling, every supervised source healthy or not yet timed out.
+    Operational,
+    /// Started, not every supervised source heard yet; controlling.
+    Boot,
+    /// A supervised source was lost: the [`SafePolicy`] drives the actuators.
+    Safe,
+    /// A fault the node cannot recover from: outputs zero until restarted.
+    Fault,
+}
+
+impl NodeState {
+    /// Code on the wire: 0 operational, 1 boot, 2 safe, 3 fault (0 so a healthy node's PIL
+    /// report reads as before).
+    pub const fn code(self) -> u8 {
+        match self {
+            Self::Operational => 0,
+            Self::Boot => 1,
+            Self::Safe => 2,
+            Self::Fault => 3,
+        }
+    }
+
+    /// The state of a code; `None` above 3.
+    pub const fn from_code(code: u8) -> Option<Self> {
+        match code {
+            0 => Some(Self::Operational),
+            1 => Some(Self::Boot),
+            2 => Some(Self::Safe),
+            3 => Some(Self::Fault),
+            _ => None,
+        }
+    }
+
+    /// The lower-case name.
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            Self::Operational => "operational",
+            Self::Boot => "boot",
+            Self::Safe => "safe",
+            Self::Fault => "fault",
+        }
+    }
+}
+
+/// What the actuators get while the node is `Safe`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SafePolicy {
+    /// Keep the last command applied before entering.
+    Hold,
+    /// From the last command, each actuator moves towards zero at `rate` (command units per
+    /// second, > 0, finite) and stays there.
+    Ramp {
+        /// Command units per second.
+        rate: f32,
+    },
+    /// Zero.
+    Off,
+}
+
+/// Which neighbour silence is a loss.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum NeighbourLoss {
+    /// Every neighbour silent (the node has lost its network).
+    #[default]
+    All,
+    /// Any one neighbour silent.
+    Any,
+}
+
+/// When the node enters and leaves its safe state, and what it commands there.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct SupervisorConfig {
+    /// The safe-state command.
+    pub policy: SafePolicy,
+    /// Leader silent longer than this (µs, > 0) is a loss; `None`: not supervised.
+    pub leader_timeout_us: Option<u64>,
+    /// Neighbour silence longer than this (µs, > 0) is a loss (see `neighbour_loss`); `None`:
+    /// not supervised.
+    pub neighbour_timeout_us: Option<u64>,
+    /// Every neighbour or any neighbour.
+    pub neighbour_loss: NeighbourLoss,
+    /// Sensor invalid longer than this (µs, > 0) is a loss; `None`: not supervised.
+    pub sensor_timeout_us: Option<u64>,
+    /// Every supervised source healthy this long (µs) before leaving `Safe`.
+    pub recover_dwell_us: u64,
+}
+
+impl SupervisorConfig {
+    /// Nothing supervised: the node never enters `Safe` (the default).
+    pub const OFF: Self = Self {
+        policy: SafePolicy::Hold,
+        leader_timeout_us: None,
+        neighbour_timeout_us: None,
+        neighbour_loss: NeighbourLoss::All,
+        sensor_timeout_us: None,
+        recover_dwell_us: 0,
+    };
+
+    /// Check every field once.
+    pub fn validate(&self) -> Result<(), SupervisorError> {
+        if let SafePolicy::Ramp { rate } = self.policy {
+            if !(rate.is_finite() && rate > 0.0) {
+                return Err(SupervisorError::RampRate);
+            }
+        }
+        for (t, e) in [
+            (self.leader_timeout_us, SupervisorError::LeaderTimeout),
+            (self.neighbour_timeout_us, SupervisorError::NeighbourTimeout),
+            (self.sensor_timeout_us, SupervisorError::SensorTimeout),
+        ] {
+            if t == Some(0) {
+                return Err(e);
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Default for SupervisorConfig {
+    fn default() -> Self {
+        Self::OFF
+    }
+}
+
+/// Which [`SupervisorConfig`] field is invalid.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum SupervisorError {
+    /// `policy = Ramp { rate }` with a rate that is not finite and > 0.
+    RampRate,
+    /// `leader_timeout_us = Some(0)`.
+    LeaderTimeout,
+    /// `neighbour_timeout_us = Some(0)`.
+    NeighbourTimeout,
+    /// `sensor_timeout_us = Some(0)`.
+    SensorTimeout,
+}
+
+impl core::fmt::Display for SupervisorError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::RampRate => "safe-state ramp rate must be finite and > 0",
+            Self::LeaderTimeout => "leader timeout must be > 0",
+            Self::NeighbourTimeout => "neighbour timeout must be > 0",
+            Self::SensorTimeout => "sensor timeout must be > 0",
+        })
+    }
+}
+
+/// Supervised sources that are lost, as bits (heartbeat byte 1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Lost(u8);
+
+impl Lost {
+    /// Bit of the leader.
+    pub const LEADER: u8 = 1;
+    /// Bit of the neighbours.
+    pub const NEIGHBOURS: u8 = 2;
+    /// Bit of the sensor.
+    pub const SENSOR: u8 = 4;
+
+    /// From bits (unknown bits dropped).
+    pub const fn from_bits(bits: u8) -> Self {
+        Self(bits & (Self::LEADER | Self::NEIGHBOURS | Self::SENSOR))
+    }
+
+    /// The bits.
+    pub const fn bits(self) -> u8 {
+        self.0
+    }
+
+    /// No source lost.
+    pub const fn is_empty(self) -> bool {
+        self.0 == 0
+    }
+
+    /// The leader is lost.
+    pub const fn leader(self) -> bool {
+        self.0 & Self::LEADER != 0
+    }
+
+    /// The neighbours are lost.
+    pub const fn neighbours(self) -> bool {
+        self.0 & Self::NEIGHBOURS != 0
+    }
+
+    /// The sensor is lost.
+    pub const fn sensor(self) -> bool {
+        self.0 & Self::SENSOR != 0
+    }
+}
+
+/// What the node observed at one tick, for [`Supervisor::update`]. Ages are µs since the last
+/// valid value (since the first tick for a source never heard).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Observation {
+    /// Clock at the tick (µs).
+    pub now_us: u64,
+    /// The freshness timeout (µs): a source within it is healthy.
+    pub stale_timeout_us: u64,
+    /// Age of the leader's value.
+    pub leader_age_us: u64,
+    /// Age of the freshest neighbour value; `None` without neighbours.
+    pub newest_neighbour_age_us: Option<u64>,
+    /// Age of the stalest neighbour value; `None` without neighbours.
+    pub oldest_neighbour_age_us: Option<u64>,
+    /// The sensor read gave a finite state.
+    pub sensor_ok: bool,
+}
+
+/// A change of state.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Transition {
+    /// Before.
+    pub from: NodeState,
+    /// After.
+    pub to: NodeState,
+    /// Sources lost at the time.
+    pub lost: Lost,
+}
+
+/// The state machine of the module docs; pure, no I/O.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Supervisor {
+    cfg: SupervisorConfig,
+    state: NodeState,
+    lost: Lost,
+    sensor_bad_since: Option<u64>,
+    healthy_since: Option<u64>,
+    entries: u32,
+}
+
+impl Supervisor {
+    /// A supervisor in `Boot`; the configuration is checked once.
+    pub fn new(cfg: &SupervisorConfig) -> Result<Self, SupervisorError> {
+        cfg.validate()?;
+        Ok(Self {
+            cfg: *cfg,
+            state: NodeState::Boot,
+            lost: Lost::default(),
+            sensor_bad_since: None,
+            healthy_since: None,
+            entries: 0,
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &SupervisorConfig {
+        &self.cfg
+    }
+
+    /// The current state.
+    pub fn state(&self) -> NodeState {
+        self.state
+    }
+
+    /// Sources lost at the last update.
+    pub fn lost(&self) -> Lost {
+        self.lost
+    }
+
+    /// Times the node entered `Safe`.
+    pub fn safe_entries(&self) -> u32 {
+        self.entries
+    }
+
+    /// The leader is supervised.
+    pub fn watches_leader(&self) -> bool {
+        self.cfg.leader_timeout_us.is_some()
+    }
+
+    /// Latch `Fault`.
+    pub fn fault(&mut self) -> Option<Transition> {
+        self.go(NodeState::Fault)
+    }
+
+    fn go(&mut self, to: NodeState) -> Option<Transition> {
+        let from = self.state;
+        if from == to {
+            return None;
+        }
+        if to == NodeState::Safe {
+            self.entries = self.entries.saturating_add(1);
+        }
+        self.state = to;
+        self.healthy_since = None;
+        Some(Transition {
+            from,
+            to,
+            lost: self.lost,
+        })
+    }
+
+    /// One tick's observation: evaluate loss and health, and change state if due.
+    pub fn update(&mut self, o: &Observation) -> Option<Transition> {
+        let c = &self.cfg;
+        let lost_after = |timeout: Option<u64>, age: Option<u64>| match (timeout, age) {
+            (Some(t), Some(a)) => a > t,
+            _ => false,
+        };
+        let fresh = |age: Option<u64>| age.is_none_or(|a| a <= o.stale_timeout_us);
+        let neighbour_age = match c.neighbour_loss {
+            NeighbourLoss::All => o.newest_neighbour_age_us,
+            NeighbourLoss::Any => o.oldest_neighbour_age_us,
+        };
+        if o.sensor_ok {
+            self.sensor_bad_since = None;
+        } else if self.sensor_bad_since.is_none() {
+            self.sensor_bad_since = Some(o.now_us);
+        }
+        let sensor_bad_for = self.sensor_bad_since.map(|t| o.now_us.saturating_sub(t));
+
+        let mut lost = 0;
+        if lost_after(c.leader_timeout_us, Some(o.leader_age_us)) {
+            lost |= Lost::LEADER;
+        }
+        if lost_after(c.neighbour_timeout_us, neighbour_age) {
+            lost |= Lost::NEIGHBOURS;
+        }
+        if lost_after(c.sensor_timeout_us, sensor_bad_for) {
+            lost |= Lost::SENSOR;
+        }
+        self.lost = Lost(lost);
+        let healthy = (c.leader_timeout_us.is_none() || fresh(Some(o.leader_age_us)))
+            && (c.neighbour_timeout_us.is_none() || fresh(neighbour_age))
+            && (c.sensor_timeout_us.is_none() || o.sensor_ok);
+
+        match self.state {
+            NodeState::Fault => None,
+            NodeState::Boot | NodeState::Operational if lost != 0 => self.go(NodeState::Safe),
+            NodeState::Boot if healthy => self.go(NodeState::Operational),
+            NodeState::Boot | NodeState::Operational => None,
+            NodeState::Safe => {
+                if lost != 0 || !healthy {
+                    self.healthy_since = None;
+                    return None;
+                }
+                let since = *self.healthy_since.get_or_insert(o.now_us);
+                if o.now_us.saturating_sub(since) >= c.recover_dwell_us {
+                    self.go(NodeState::Operational)
+                } else {
+                    None
+                }
+            }
+        }
+    }
+}
+
+/// The safe-state command after `dt_us` at `policy`, from the `last` one.
+pub fn safe_command<const M: usize>(policy: SafePolicy, last: &[f32; M], dt_us: u64) -> [f32; M] {
+    match policy {
+        SafePolicy::Hold => *last,
+        SafePolicy::Off => [0.0; M],
+        SafePolicy::Ramp { rate } => {
+            let step = rate * (dt_us as f32 * 1e-6);
+            last.map(|q| {
+                if !q.is_finite() || q.abs() <= step {
+                    0.0
+                } else {
+                    q - step.copysign(q)
+                }
+            })
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const STALE: u64 = 2_500;
+
+    fn obs(
+        now_us: u64,
+        leader: u64,
+        neighbours: Option<(u64, u64)>,
+        sensor_ok: bool,
+    ) -> Observation {
+        Observation {
+            now_us,
+            stale_timeout_us: STALE,
+            leader_age_us: leader,
+            newest_neighbour_age_us: neighbours.map(|n| n.0),
+            oldest_neighbour_age_us: neighbours.map(|n| n.1),
+            sensor_ok,
+        }
+    }
+
+    fn watching(cfg: SupervisorConfig) -> Supervisor {
+        Supervisor::new(&cfg).expect("valid")
+    }
+
+    #[test]
+    fn boot_goes_operational_at_once_when_nothing_is_supervised() {
+        let mut s = watching(SupervisorConfig::OFF);
+        assert_eq!(s.state(), NodeState::Boot);
+        let t = s.update(&obs(0, u64::MAX, None, false));
+        assert_eq!(t.map(|t| t.to), Some(NodeState::Operational));
+        for k in 1..100 {
+            assert_eq!(
+                s.update(&obs(k * 1000, u64::MAX, Some((u64::MAX, u64::MAX)), false)),
+                None
+            );
+        }
+        assert_eq!(s.safe_entries(), 0);
+    }
+
+    #[test]
+    fn boot_waits_for_the_leader_then_goes_operational() {
+        let mut s = watching(SupervisorConfig {
+            leader_timeout_us: Some(100_000),
+            ..SupervisorConfig::OFF
+        });
+        assert_eq!(
+            s.update(&obs(0, 0, None, true)).map(|t| t.to),
+            Some(NodeState::Operational)
+        );
+        let mut s = watching(SupervisorConfig {
+            leader_timeout_us: Some(100_000),
+            ..SupervisorConfig::OFF
+        });
+        assert_eq!(s.update(&obs(0, 50_000, None, true)), None);
+        assert_eq!(s.state(), NodeState::Boot);
+    }
+
+    #[test]
+    fn boot_goes_safe_when_the_leader_is_never_heard() {
+        let mut s = watching(SupervisorConfig {
+            leader_timeout_us: Some(100_000),
+            ..SupervisorConfig::OFF
+        });
+        assert_eq!(s.update(&obs(100_000, 100_000, None, true)), None);
+        let t = s
+            .update(&obs(100_001, 100_001, None, true))
+            .expect("transition");
+        assert_eq!((t.from, t.to), (NodeState::Boot, NodeState::Safe));
+        assert!(t.lost.leader() && !t.lost.neighbours() && !t.lost.sensor());
+        assert_eq!(s.safe_entries(), 1);
+    }
+
+    #[test]
+    fn leader_loss_enters_safe_after_the_timeout_and_leaves_after_the_dwell() {
+        let mut s = watching(SupervisorConfig {
+            leader_timeout_us: Some(10_000),
+            recover_dwell_us: 5_000,
+            ..SupervisorConfig::OFF
+        });
+        s.update(&obs(0, 0, None, true));
+        assert_eq!(s.state(), NodeState::Operational);
+        assert_eq!(s.update(&obs(20_000, 10_000, None, true)), None);
+        let t = s.update(&obs(20_001, 10_001, None, true)).expect("enters");
+        assert_eq!(t.to, NodeState::Safe);
+        // Back, but not yet for the dwell; a relapse restarts the dwell.
+        assert_eq!(s.update(&obs(30_000, 0, None, true)), None);
+        assert_eq!(s.update(&obs(34_000, STALE + 1, None, true)), None);
+        assert_eq!(s.update(&obs(35_000, 0, None, true)), None);
+        assert_eq!(s.update(&obs(39_999, 0, None, true)), None);
+        let t = s.update(&obs(40_000, 0, None, true)).expect("leaves");
+        assert_eq!((t.from, t.to), (NodeState::Safe, NodeState::Operational));
+        assert_eq!(s.safe_entries(), 1);
+        s.update(&obs(60_001, 10_001, None, true));
+        assert_eq!(s.safe_entries(), 2);
+    }
+
+    #[test]
+    fn neighbour_loss_all_needs_every_neighbour_silent() {
+        let cfg = SupervisorConfig {
+            neighbour_timeout_us: Some(10_000),
+            ..SupervisorConfig::OFF
+        };
+        let mut s = watching(cfg);
+        s.update(&obs(0, 0, Some((0, 0)), true));
+        // One neighbour silent for long, another fresh: not lost with `All`.
+        assert_eq!(s.update(&obs(50_000, 0, Some((1_000, 50_000)), true)), None);
+        let t = s
+            .update(&obs(60_000, 0, Some((10_001, 60_000)), true))
+            .expect("enters");
+        assert!(t.lost.neighbours());
+        // Healthy again as soon as one neighbour is fresh.
+        let t = s
+            .update(&obs(61_000, 0, Some((0, 61_000)), true))
+            .expect("leaves");
+        assert_eq!(t.to, NodeState::Operational);
+    }
+
+    #[test]
+    fn neighbour_loss_any_needs_one_neighbour_silent_and_every_one_back() {
+        let mut s = watching(SupervisorConfig {
+            neighbour_timeout_us: Some(10_000),
+            neighbour_loss: NeighbourLoss::Any,
+            ..SupervisorConfig::OFF
+        });
+        s.update(&obs(0, 0, Some((0, 0)), true));
+        let t = s
+            .update(&obs(50_000, 0, Some((1_000, 10_001)), true))
+            .expect("enters");
+        assert!(t.lost.neighbours());
+        assert_eq!(s.update(&obs(51_000, 0, Some((0, STALE + 1)), true)), None);
+        let t = s
+            .update(&obs(52_000, 0, Some((0, STALE)), true))
+            .expect("leaves");
+        assert_eq!(t.to, NodeState::Operational);
+    }
+
+    #[test]
+    fn sensor_loss_counts_from_the_first_invalid_read() {
+        let mut s = watching(SupervisorConfig {
+            sensor_timeout_us: Some(3_000),
+            ..SupervisorConfig::OFF
+        });
+        s.update(&obs(0, 0, None, true));
+        for t in [1_000, 2_000, 3_000, 4_000] {
+            assert_eq!(s.update(&obs(t, 0, None, false)), None, "{t}");
+        }
+        let t = s.update(&obs(5_000, 0, None, false)).expect("enters");
+        assert!(t.lost.sensor());
+        assert_eq!(
+            s.update(&obs(6_000, 0, None, true)).map(|t| t.to),
+            Some(NodeState::Operational)
+        );
+        // A single valid read restarts the count.
+        s.update(&obs(7_000, 0, None, false));
+        s.update(&obs(9_000, 0, None, true));
+        assert_eq!(s.update(&obs(11_000, 0, None, false)), None);
+        assert_eq!(s.state(), NodeState::Operational);
+    }
+
+    #[test]
+    fn fault_is_latched() {
+        let mut s = watching(SupervisorConfig {
+            leader_timeout_us: Some(1_000),
+            ..SupervisorConfig::OFF
+        });
+        s.update(&obs(0, 0, None, true));
+        assert_eq!(s.fault().map(|t| t.to), Some(NodeState::Fault));
+        assert_eq!(s.fault(), None);
+        for t in [5_000, 10_000] {
+            assert_eq!(s.update(&obs(t, t, None, true)), None);
+            assert_eq!(s.update(&obs(t + 1, 0, None, true)), None);
+        }
+        assert_eq!(s.state(), NodeState::Fault);
+        assert_eq!(s.safe_entries(), 0);
+    }
+
+    #[test]
+    fn invalid_configurations_are_named() {
+        let bad = [
+            (
+                SupervisorConfig {
+                    policy: SafePolicy::Ramp { rate: 0.0 },
+                    ..SupervisorConfig::OFF
+                },
+                SupervisorError::RampRate,
+            ),
+            (
+                SupervisorConfig {
+                    policy: SafePolicy::Ramp { rate: f32::NAN },
+                    ..SupervisorConfig::OFF
+                },
+                SupervisorError::RampRate,
+            ),
+            (
+                SupervisorConfig {
+                    leader_timeout_us: Some(0),
+                    ..SupervisorConfig::OFF
+                },
+                SupervisorError::LeaderTimeout,
+            ),
+            (
+                SupervisorConfig {
+                    neighbour_timeout_us: Some(0),
+                    ..SupervisorConfig::OFF
+                },
+                SupervisorError::NeighbourTimeout,
+            ),
+            (
+                SupervisorConfig {
+                    sensor_timeout_us: Some(0),
+                    ..SupervisorConfig::OFF
+                },
+                SupervisorError::SensorTimeout,
+            ),
+        ];
+        for (cfg, e) in bad {
+            assert_eq!(Supervisor::new(&cfg).err(), Some(e));
+        }
+    }
+
+    #[test]
+    fn policies_command_hold_ramp_and_off() {
+        let last = [2.0f32, -0.5];
+        assert_eq!(safe_command(SafePolicy::Hold, &last, 1_000), last);
+        assert_eq!(safe_command(SafePolicy::Off, &last, 1_000), [0.0, 0.0]);
+        let ramp = SafePolicy::Ramp { rate: 100.0 };
+        assert_eq!(safe_command(ramp, &last, 10_000), [1.0, 0.0]);
+        assert_eq!(safe_command(ramp, &[1.0, f32::NAN], 10_000), [0.0, 0.0]);
+        let mut q = last;
+        for _ in 0..30 {
+            q = safe_command(SafePolicy::Ramp { rate: 10.0 }, &q, 10_000);
+        }
+        assert_eq!(q, [0.0, 0.0]);
+    }
+
+    #[test]
+    fn state_codes_round_trip() {
+        for s in [
+            NodeState::Operational,
+            NodeState::Boot,
+            NodeState::Safe,
+            NodeState::Fault,
+        ] {
+            assert_eq!(NodeState::from_code(s.code()), Some(s));
+        }
+        assert_eq!(NodeState::from_code(4), None);
+    }
+}

@@ -1,0 +1,354 @@
+//! The `[node]` section: the firmware nodes' identifier plan, heartbeat and safe-state
+//! supervision (`kind = "can"` and `"pil"`; no effect on `"ideal"`), its checks, and the
+//! [`agent_node::NodeConfig`] fields it gives.
+
+use agent_node::{
+    wire::IdPlanError, IdPlan, NeighbourLoss, NodeConfig, SafePolicy, SupervisorConfig,
+};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// `node.safe_state.policy`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PolicyName {
+    /// Keep the last command.
+    #[default]
+    Hold,
+    /// Ramp the commands to zero at `ramp_rate`.
+    Ramp,
+    /// Zero.
+    Off,
+}
+
+/// `node.safe_state.neighbour_loss`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LossName {
+    /// Every neighbour silent.
+    #[default]
+    All,
+    /// Any neighbour silent.
+    Any,
+}
+
+/// `[node.safe_state]`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SafeStateSpec {
+    /// `"hold"`, `"ramp"` or `"off"`.
+    pub policy: PolicyName,
+    /// Units of command per second (`policy = "ramp"` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ramp_rate: Option<f64>,
+    /// Leader silent longer than this is a loss [s]; absent: not supervised.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub leader_timeout: Option<f64>,
+    /// Neighbour silence longer than this is a loss [s]; absent: not supervised.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub neighbour_timeout: Option<f64>,
+    /// `"all"` or `"any"` neighbour.
+    pub neighbour_loss: LossName,
+    /// Sensor invalid longer than this is a loss [s]; absent: not supervised.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sensor_timeout: Option<f64>,
+    /// Every supervised source healthy this long before leaving the safe state [s].
+    pub recover_dwell: f64,
+}
+
+impl SafeStateSpec {
+    /// Nothing supervised.
+    pub fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
+}
+
+/// `[node]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NodeSpec {
+    /// Identifier of the leader's value frames; agent `i` sends at `id_base + i`.
+    pub id_base: i64,
+    /// Agent `i`'s heartbeat identifier is `heartbeat_id_base + i`.
+    pub heartbeat_id_base: i64,
+    /// Heartbeat period [s]; 0: no heartbeat.
+    pub heartbeat_period: f64,
+    /// `[node.safe_state]`.
+    #[serde(skip_serializing_if = "SafeStateSpec::is_default")]
+    pub safe_state: SafeStateSpec,
+}
+
+impl Default for NodeSpec {
+    fn default() -> Self {
+        Self {
+            id_base: i64::from(IdPlan::DEFAULT.value_base()),
+            heartbeat_id_base: IdPlan::DEFAULT.heartbeat_base().map_or(0x780, i64::from),
+            heartbeat_period: 0.0,
+            safe_state: SafeStateSpec::default(),
+        }
+    }
+}
+
+impl NodeSpec {
+    /// The default section: left out of the resolved scenario.
+    pub fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
+}
+
+/// Longest timeout, period or dwell accepted [s].
+const MAX_SECONDS: f64 = 1e6;
+
+fn seconds_to_us(s: f64) -> u64 {
+    (s * 1e6).round() as u64
+}
+
+fn timeout(v: Option<f64>, key: &str) -> Result<Option<u64>> {
+    match v {
+        None => Ok(None),
+        Some(s) if (1e-6..=MAX_SECONDS).contains(&s) => Ok(Some(seconds_to_us(s))),
+        Some(s) => Err(Error::invalid(
+            key,
+            format!("must be in [1e-6, {MAX_SECONDS:e}] s (got {s})"),
+        )),
+    }
+}
+
+fn identifier(v: i64, key: &str) -> Result<u16> {
+    u16::try_from(v)
+        .ok()
+        .filter(|&id| id <= agent_node::wire::MAX_STD_ID)
+        .ok_or_else(|| {
+            Error::invalid(
+                key,
+                format!("must be an 11-bit identifier in 0..=0x7FF (got {v})"),
+            )
+        })
+}
+
+/// The identifier plan of `spec` for `agents` agents.
+fn plan(spec: &NodeSpec, agents: usize) -> Result<IdPlan> {
+    let base = identifier(spec.id_base, "node.id_base")?;
+    let hb = identifier(spec.heartbeat_id_base, "node.heartbeat_id_base")?;
+    let n = u8::try_from(agents).map_err(|_| {
+        Error::invalid(
+            "node.id_base",
+            format!("an identifier plan carries at most 255 agents (got {agents})"),
+        )
+    })?;
+    let heartbeat = (spec.heartbeat_period > 0.0).then_some(hb);
+    IdPlan::new(base, heartbeat, n).map_err(|e| {
+        let key = match e {
+            IdPlanError::HeartbeatRange | IdPlanError::Overlap => "node.heartbeat_id_base",
+            _ => "node.id_base",
+        };
+        Error::invalid(
+            key,
+            format!(
+                "{e}: value frames at {base:#05x}..={:#05x}{}",
+                u32::from(base) + u32::from(n),
+                heartbeat.map_or(String::new(), |hb| format!(
+                    ", heartbeats at {:#05x}..={:#05x}",
+                    u32::from(hb) + 1,
+                    u32::from(hb) + u32::from(n)
+                ))
+            ),
+        )
+    })
+}
+
+/// The supervision of `[node.safe_state]`.
+fn supervisor(s: &SafeStateSpec) -> Result<SupervisorConfig> {
+    let policy = match (s.policy, s.ramp_rate) {
+        (PolicyName::Ramp, Some(r)) if r.is_finite() && r > 0.0 && r <= f64::from(f32::MAX) => {
+            SafePolicy::Ramp { rate: r as f32 }
+        }
+        (PolicyName::Ramp, Some(r)) => {
+            return Err(Error::invalid(
+                "node.safe_state.ramp_rate",
+                format!("must be finite and > 0 (got {r})"),
+            ))
+        }
+        (PolicyName::Ramp, None) => {
+            return Err(Error::invalid(
+                "node.safe_state.ramp_rate",
+                "needed with policy = \"ramp\" (command units per second)",
+            ))
+        }
+        (_, Some(_)) => {
+            return Err(Error::invalid(
+                "node.safe_state.ramp_rate",
+                "only for policy = \"ramp\"",
+            ))
+        }
+        (PolicyName::Hold, None) => SafePolicy::Hold,
+        (PolicyName::Off, None) => SafePolicy::Off,
+    };
+    if !(s.recover_dwell.is_finite() && (0.0..=MAX_SECONDS).contains(&s.recover_dwell)) {
+        return Err(Error::invalid(
+            "node.safe_state.recover_dwell",
+            format!(
+                "must be in [0, {MAX_SECONDS:e}] s (got {})",
+                s.recover_dwell
+            ),
+        ));
+    }
+    Ok(SupervisorConfig {
+        policy,
+        leader_timeout_us: timeout(s.leader_timeout, "node.safe_state.leader_timeout")?,
+        neighbour_timeout_us: timeout(s.neighbour_timeout, "node.safe_state.neighbour_timeout")?,
+        neighbour_loss: match s.neighbour_loss {
+            LossName::All => NeighbourLoss::All,
+            LossName::Any => NeighbourLoss::Any,
+        },
+        sensor_timeout_us: timeout(s.sensor_timeout, "node.safe_state.sensor_timeout")?,
+        recover_dwell_us: seconds_to_us(s.recover_dwell),
+    })
+}
+
+fn heartbeat_period(spec: &NodeSpec) -> Result<u64> {
+    let p = spec.heartbeat_period;
+    if p == 0.0 {
+        return Ok(0);
+    }
+    if !(1e-6..=MAX_SECONDS).contains(&p) {
+        return Err(Error::invalid(
+            "node.heartbeat_period",
+            format!("must be 0 (off) or in [1e-6, {MAX_SECONDS:e}] s (got {p})"),
+        ));
+    }
+    Ok(seconds_to_us(p))
+}
+
+/// Checks `[node]` for `agents` agents (every key, whatever the network kind; a bus carries
+/// at most 255 agents, which `[network]`'s check reports, so a larger group is checked as 255).
+pub fn validate(spec: &NodeSpec, agents: usize) -> Result<()> {
+    let agents = agents.min(usize::from(u8::MAX));
+    configure(spec, agents, &mut NodeConfig::<0>::new(1, [], 1))
+}
+
+/// Writes the identifier plan, heartbeat period and supervision of the validated `spec` for
+/// `agents` agents into `cfg`.
+pub fn configure<const K: usize>(
+    spec: &NodeSpec,
+    agents: usize,
+    cfg: &mut NodeConfig<K>,
+) -> Result<()> {
+    cfg.heartbeat_period_us = heartbeat_period(spec)?;
+    cfg.ids = plan(spec, agents)?;
+    cfg.supervisor = supervisor(&spec.safe_state)?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn message(spec: &NodeSpec) -> String {
+        validate(spec, 4).expect_err("invalid").to_string()
+    }
+
+    #[test]
+    fn default_section_gives_the_default_plan_without_heartbeat_or_supervision() {
+        let mut cfg = NodeConfig::<0>::new(1, [], 1);
+        configure(&NodeSpec::default(), 4, &mut cfg).expect("valid");
+        assert_eq!(cfg.ids.value_base(), 0x101);
+        assert_eq!(cfg.ids.heartbeat_base(), None);
+        assert_eq!(cfg.heartbeat_period_us, 0);
+        assert_eq!(cfg.supervisor, SupervisorConfig::OFF);
+    }
+
+    #[test]
+    fn bad_keys_are_named() {
+        let cases: [(NodeSpec, &str); 8] = [
+            (
+                NodeSpec {
+                    id_base: 0x800,
+                    ..NodeSpec::default()
+                },
+                "node.id_base",
+            ),
+            (
+                NodeSpec {
+                    id_base: 0x7FE,
+                    ..NodeSpec::default()
+                },
+                "node.id_base",
+            ),
+            (
+                NodeSpec {
+                    heartbeat_period: 0.1,
+                    heartbeat_id_base: 0x100,
+                    ..NodeSpec::default()
+                },
+                "node.heartbeat_id_base",
+            ),
+            (
+                NodeSpec {
+                    heartbeat_period: -1.0,
+                    ..NodeSpec::default()
+                },
+                "node.heartbeat_period",
+            ),
+            (
+                NodeSpec {
+                    safe_state: SafeStateSpec {
+                        policy: PolicyName::Ramp,
+                        ..SafeStateSpec::default()
+                    },
+                    ..NodeSpec::default()
+                },
+                "node.safe_state.ramp_rate",
+            ),
+            (
+                NodeSpec {
+                    safe_state: SafeStateSpec {
+                        ramp_rate: Some(1.0),
+                        ..SafeStateSpec::default()
+                    },
+                    ..NodeSpec::default()
+                },
+                "node.safe_state.ramp_rate",
+            ),
+            (
+                NodeSpec {
+                    safe_state: SafeStateSpec {
+                        leader_timeout: Some(0.0),
+                        ..SafeStateSpec::default()
+                    },
+                    ..NodeSpec::default()
+                },
+                "node.safe_state.leader_timeout",
+            ),
+            (
+                NodeSpec {
+                    safe_state: SafeStateSpec {
+                        recover_dwell: f64::NAN,
+                        ..SafeStateSpec::default()
+                    },
+                    ..NodeSpec::default()
+                },
+                "node.safe_state.recover_dwell",
+            ),
+        ];
+        for (spec, key) in cases {
+            let m = message(&spec);
+            assert!(m.contains(&format!("{key}:")), "{key}: {m}");
+        }
+    }
+
+    #[test]
+    fn a_heartbeat_block_is_checked_only_with_heartbeats_on() {
+        let spec = NodeSpec {
+            heartbeat_id_base: 0x7FF,
+            ..NodeSpec::default()
+        };
+        assert!(validate(&spec, 4).is_ok());
+        let on = NodeSpec {
+            heartbeat_period: 0.1,
+            ..spec
+        };
+        assert!(message(&on).contains("heartbeat identifiers"));
+    }
+}
