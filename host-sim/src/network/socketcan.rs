@@ -11,7 +11,9 @@
 //! Counted per agent: samples at which no new command had come since the previous one (the
 //! plant held the old command: a *late* command), commands never received (samples minus
 //! commands received), and the instant a node fell silent for `node_timeout` (*lost*). Counted
-//! for the host: how late each sample's wake-up was (loop lateness). `summary.json` gains a
+//! for the host: how late each sample's wake-up was (loop lateness). A sample that wakes more
+//! than `h/2` late (an overrun) restarts the schedule at its wake-up: simulated time stretches
+//! over a stall of the host instead of catching up with a burst of samples. `summary.json` gains a
 //! `socketcan` object ([`SocketcanSummary`]), the run directory `socketcan.png`.
 //!
 //! `nodes = "spawn"` starts one `node-linux` per agent in a process group of their own and
@@ -150,6 +152,8 @@ pub struct SocketcanAgents<const N: usize, const M: usize> {
     nodes: Spawned,
     last_wake: Option<Instant>,
     last_t: f64,
+    /// The first sample's deadline (`t0` moves with every overrun).
+    started: Option<Instant>,
 }
 
 /// Opens `interface` for host-sim, with the error naming `network.interface`.
@@ -324,6 +328,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
             nodes,
             last_wake: None,
             last_t: 0.0,
+            started: None,
         })
     }
 
@@ -363,6 +368,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
         }
         // Start on a whole period from now, so the nodes' first sample lands mid-period.
         self.t0 = Some((Instant::now() + self.h, SystemTime::now() + self.h));
+        self.started = self.t0.map(|(t, _)| t);
         Ok(())
     }
 
@@ -446,8 +452,8 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
             loop_lateness_p99_s: f64::from(p99),
             loop_lateness_max_s: f64::from(sorted.last().copied().unwrap_or(0.0)),
             loop_overruns: self.overruns,
-            wall_time_s: match (self.t0, self.last_wake) {
-                (Some((t0, _)), Some(w)) => w.saturating_duration_since(t0).as_secs_f64(),
+            wall_time_s: match (self.started, self.last_wake) {
+                (Some(t0), Some(w)) => w.saturating_duration_since(t0).as_secs_f64(),
                 _ => 0.0,
             },
             frames_sent: self.frames_sent,
@@ -513,7 +519,13 @@ impl<const N: usize, const M: usize> Agents<N, M> for SocketcanAgents<N, M> {
         let late = woke.saturating_duration_since(deadline);
         self.lateness.push(late.as_secs_f32());
         if late > self.h / 2 {
+            // The schedule restarts at this wake-up: simulated time stretches over the stall
+            // instead of catching up in a burst of samples the nodes never see.
             self.overruns += 1;
+            if let Some((t0, sys0)) = self.t0.as_mut() {
+                *t0 += late;
+                *sys0 += late;
+            }
         }
         self.last_t = t;
         self.drain(woke, t);
@@ -589,7 +601,7 @@ impl<const N: usize, const M: usize> Agents<N, M> for SocketcanAgents<N, M> {
                 width: 1,
                 ..Series::styled("host-sim".into(), 0, lateness)
             }],
-            hlines: vec![(h * 0.5e6, "h/2".into())],
+            hlines: vec![(self.h.as_secs_f64() * 0.5e6, "h/2 (wall)".into())],
             ..Panel::default()
         };
         let series = self
