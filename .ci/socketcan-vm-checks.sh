@@ -129,7 +129,7 @@ sja1000() {
   echo "run with can4 at 125 kbit/s: exit $?"
   for i in 0 4; do
     echo "can$i: $(ip -details -statistics link show can$i | grep -Eo 'can state [A-Z-]+ \(berr-counter tx [0-9]+ rx [0-9]+\)')"
-    echo "can$i restarts, bus-errors, arbitration-lost, error-warning, error-passive, bus-off: $(ip -details -statistics link show can$i | grep -A1 're-started' | tail -n 1 | tr -s ' ')"
+    echo "can$i restarts, bus-errors, arbitration-lost, error-warning, error-passive, bus-off: $(ip -details -statistics link show can$i | grep -A1 're-started' | tail -n 1 | awk '{print $1, $2, $3, $4, $5, $6}')"
   done
   ok "bitrates set and error counters read"
   no_process_left
