@@ -37,20 +37,20 @@ target/release/host-sim run scenarios/example1-can.toml --out target/socketcan-c
 # The emulated guest (TCG, no KVM) on a shared 2-core machine cannot keep h = 1 ms in real time
 # with five processes: the runs are slowed down by SC_TIME_SCALE (wall seconds per simulated
 # second; docs/BENCHMARKS.md has the late commands at each scale).
-export SC_SET="--set network.time_scale=${SC_TIME_SCALE:-10}"
+export SC_SET="--set network.time_scale=${SC_TIME_SCALE:-10} --set network.node_timeout=${SC_NODE_TIMEOUT:-2}"
 rm -rf target/socketcan-ci/vcan target/socketcan-ci/kill-node target/socketcan-ci/kill-host \
   target/socketcan-ci/sja1000 target/socketcan-ci/sja1000-bitrate
 status=0
 
 echo "== vcan0: Example 1, kill a node, kill host-sim ($SC_SET)"
 t=$SECONDS
-cargo xtask vm --timeout 180 -- sh .ci/socketcan-vm-checks.sh vcan-example1 kill-node kill-host ||
+cargo xtask vm --timeout 240 -- env SC_SET="$SC_SET" sh .ci/socketcan-vm-checks.sh vcan-example1 kill-node kill-host ||
   status=1
 echo "(vcan checks: $((SECONDS - t)) s with boot)"
 
 echo "== emulated SJA1000 controllers (kvaser_pci, host + 4 nodes)"
 t=$SECONDS
-cargo xtask vm --can 5 --timeout 180 -- sh .ci/socketcan-vm-checks.sh sja1000 || status=1
+cargo xtask vm --can 5 --timeout 240 -- env SC_SET="$SC_SET" sh .ci/socketcan-vm-checks.sh sja1000 || status=1
 echo "(SJA1000 checks: $((SECONDS - t)) s with boot)"
 
 echo "== judged on the host"
