@@ -4,7 +4,9 @@
 //!
 //! * Bus, in the default identifier plan ([`IdPlan::DEFAULT`]): one value frame
 //!   ([`VALUE_SIGNALS`], [`crate::wire`]) per sender, the leader and every agent of the plan,
-//!   and one heartbeat ([`HEARTBEAT_SIGNALS`]) per agent.
+//!   and one heartbeat ([`HEARTBEAT_SIGNALS`]) per agent; and per agent the sensor, command and
+//!   state frames of a host that simulates the plants on the bus ([`PLANT_MESSAGES`],
+//!   [`crate::plant_bus`]).
 //! * Link ([`crate::link`]): the process-I/O frames of [`crate::link::io`] and the payloads of the
 //!   tick and report records ([`IO_MESSAGES`]). The records are not CAN frames; the DBC gives
 //!   their base64-decoded payload an id ([`crate::link::io::SYNC`], [`crate::link::io::REPORT`]) so the same
@@ -380,6 +382,59 @@ pub const IO_MESSAGES: [Message; 12] = [
     },
 ];
 
+/// The per-agent frames of [`crate::plant_bus`], one message per agent each (`name` is
+/// followed by the agent number; `sender` `Agent` means that agent's node).
+pub const PLANT_MESSAGES: [Message; 3] = [
+    Message {
+        name: "Sensor",
+        id: crate::plant_bus::SENSOR_BASE as u32,
+        sender: "Host",
+        signals: &[Signal::float("x1", 0), Signal::float("x2", 32)],
+        comment: Some("Plant on the bus: the agent's state x_i at the host's sample"),
+    },
+    Message {
+        name: "Command",
+        id: crate::plant_bus::COMMAND_BASE as u32,
+        sender: "Agent",
+        signals: &[Signal::float("q1", 0), Signal::float("q2", 32)],
+        comment: Some("Plant on the bus: the node's quantized commands q_i, one per node sample"),
+    },
+    Message {
+        name: "State",
+        id: crate::plant_bus::STATE_BASE as u32,
+        sender: "Agent",
+        signals: &[
+            Signal {
+                max: Some(3),
+                comment: Some("0 waiting for the host, 1 running, 2 host lost, 3 stopping"),
+                ..Signal::unsigned("mode", 0, 8)
+            },
+            Signal {
+                comment: Some("neighbour and leader links not fresh at the last sample"),
+                ..Signal::unsigned("degraded_links", 8, 8)
+            },
+            Signal {
+                comment: Some("samples the node's timer woke more than h/2 late (saturating)"),
+                ..Signal::unsigned("late_ticks", 16, 16)
+            },
+        ],
+        comment: Some("Plant on the bus: the node's heartbeat, every 100 ms and on a change"),
+    },
+];
+
+fn write_plant_message(out: &mut impl Write, m: &Message, agent: u8) -> fmt::Result {
+    let id = m.id + u32::from(agent);
+    write!(out, "BO_ {id} {}{agent}: {} ", m.name, m.len())?;
+    match m.sender {
+        "Agent" => writeln!(out, "Agent{agent}")?,
+        other => writeln!(out, "{other}")?,
+    }
+    for s in m.signals {
+        write_signal(out, s)?;
+    }
+    out.write_char('\n')
+}
+
 /// A DBC message id of a 29-bit identifier (bit 31 set).
 const EXTENDED: u32 = 0x8000_0000;
 
@@ -409,8 +464,9 @@ fn write_value_message(out: &mut impl Write, source: Source, id: u16) -> fmt::Re
     out.write_char('\n')
 }
 
-/// `docs/wire.dbc`: nodes, every value frame and heartbeat of the default identifier plan,
-/// every link message, comments, and the `f32` signal types, in that order.
+/// `docs/wire.dbc`: nodes, every value frame and heartbeat of the default identifier plan, the
+/// plant-bus frames of every agent of the plan, every link message, comments, and the `f32`
+/// signal types, in that order.
 pub fn write_dbc(out: &mut impl Write) -> fmt::Result {
     let plan = IdPlan::DEFAULT;
     out.write_str("VERSION \"\"\n\nNS_ :\n\nBS_:\n\nBU_: Host Node Leader")?;
@@ -431,6 +487,11 @@ pub fn write_dbc(out: &mut impl Write) -> fmt::Result {
                 write_signal(out, s)?;
             }
             out.write_char('\n')?;
+        }
+    }
+    for m in &PLANT_MESSAGES {
+        for agent in 1..=plan.agents() {
+            write_plant_message(out, m, agent)?;
         }
     }
     for m in &IO_MESSAGES {
@@ -462,9 +523,32 @@ pub fn write_dbc(out: &mut impl Write) -> fmt::Result {
             }
         }
     }
+    for m in &PLANT_MESSAGES {
+        let first = m.id + 1;
+        if let Some(c) = m.comment {
+            writeln!(out, "CM_ BO_ {first} \"{c}\";")?;
+        }
+        for s in m.signals {
+            if let Some(c) = s.comment {
+                writeln!(out, "CM_ SG_ {first} {} \"{c}\";", s.name)?;
+            }
+        }
+    }
     for m in &IO_MESSAGES {
         if let Some(c) = m.comment {
             writeln!(out, "CM_ BO_ {} \"{c}\";", m.id | EXTENDED)?;
+        }
+    }
+    for m in &PLANT_MESSAGES {
+        for agent in 1..=plan.agents() {
+            for s in m.signals.iter().filter(|s| s.encoding == Encoding::Float) {
+                writeln!(
+                    out,
+                    "SIG_VALTYPE_ {} {} : 1;",
+                    m.id + u32::from(agent),
+                    s.name
+                )?;
+            }
         }
     }
     for m in &IO_MESSAGES {

@@ -16,6 +16,8 @@
 //! * [`link`]: the serial link between a node and the host that owns its plant: SLCAN lines,
 //!   the tick and report records, process-I/O frames, configuration words; and [`CanFrame`],
 //!   the classical CAN frame of the link, of `hil-mock`'s mocks and of its bus model.
+//! * [`plant_bus`]: the sensor, command and state frames between a node and a host that
+//!   simulates its plant on the same CAN bus (a Linux node process on SocketCAN).
 //! * [`dbc`]: every frame kind of the bus and the link described signal by signal, and
 //!   `docs/wire.dbc` written from that description ([`dbc::write_dbc`]).
 //!
@@ -38,6 +40,7 @@ mod fmt;
 pub mod dbc;
 pub mod link;
 pub mod node;
+pub mod plant_bus;
 pub mod supervisor;
 pub mod wire;
 

@@ -1,6 +1,7 @@
 //! What agents report beyond the loop, for `summary.json`: the bus figures (`network`, runs
-//! over the CAN bus model or processor in the loop) and the node-firmware figures
-//! (`firmware[]`, processor in the loop). A leaf module, so the simulation loop can name them
+//! over the CAN bus model or processor in the loop), the node-firmware figures
+//! (`firmware[]`, processor in the loop), and the real-time figures of a run on a Linux CAN
+//! interface (`socketcan`). A leaf module, so the simulation loop can name them
 //! without importing the agents that produce them.
 
 use hil_mock::bus::BusStats;
@@ -118,3 +119,69 @@ pub struct FirmwareSummary {
     /// Times the node entered its safe state (from the state in its reports).
     pub safe_state_entries: u32,
 }
+
+/// `summary.json` `socketcan`: one agent's commands.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct AgentCommands {
+    /// 1-based agent.
+    pub agent: usize,
+    /// Command frames received during the run.
+    pub received: u64,
+    /// Samples at which no new command had come since the previous sample (the plant held the
+    /// previous one).
+    pub late: u64,
+    /// Samples minus commands received (0 when a node sent more than one per sample).
+    pub missing: u64,
+    /// Run time at which the node had been silent for `node_timeout`; `null`: never.
+    pub lost_at_s: Option<f64>,
+    /// The node's last reported state (`waiting`, `running`, `host-lost`, `stopping`), `null`
+    /// when it sent none.
+    pub state: Option<&'static str>,
+    /// Samples its own timer woke more than `h/2` late, as its last state frame said.
+    pub node_late_ticks: Option<u16>,
+}
+
+/// `summary.json` `socketcan`: the real-time figures of a run on a Linux CAN interface.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SocketcanSummary {
+    /// The interface.
+    pub interface: String,
+    /// `"spawn"` or `"external"`.
+    pub nodes: &'static str,
+    /// Samples run.
+    pub samples: u64,
+    /// Mean of (wake-up − deadline) over the samples [s].
+    pub loop_lateness_mean_s: f64,
+    /// 99th percentile (nearest rank) [s].
+    pub loop_lateness_p99_s: f64,
+    /// Largest [s].
+    pub loop_lateness_max_s: f64,
+    /// Samples whose wake-up was more than `h/2` late.
+    pub loop_overruns: u64,
+    /// Wall time from the first sample's deadline to the last's wake-up [s].
+    pub wall_time_s: f64,
+    /// Frames the host sent (leader and sensor frames).
+    pub frames_sent: u64,
+    /// Frames the host could not send (full queue, bus-off).
+    pub send_errors: u64,
+    /// Per agent.
+    pub agents: Vec<AgentCommands>,
+}
+
+/// Units of the numeric keys of [`SocketcanSummary`] for `summary.json` `units`.
+pub const SOCKETCAN_UNITS: [(&str, &str); 14] = [
+    ("socketcan.samples", "count"),
+    ("socketcan.loop_lateness_mean_s", "s"),
+    ("socketcan.loop_lateness_p99_s", "s"),
+    ("socketcan.loop_lateness_max_s", "s"),
+    ("socketcan.loop_overruns", "count"),
+    ("socketcan.wall_time_s", "s"),
+    ("socketcan.frames_sent", "count"),
+    ("socketcan.send_errors", "count"),
+    ("socketcan.agents.agent", "1-based index"),
+    ("socketcan.agents.received", "count"),
+    ("socketcan.agents.late", "count"),
+    ("socketcan.agents.missing", "count"),
+    ("socketcan.agents.lost_at_s", "s"),
+    ("socketcan.agents.node_late_ticks", "count"),
+];

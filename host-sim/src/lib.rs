@@ -7,8 +7,8 @@
 //! controller `f32`.
 //!
 //! Layers: [`scenario`] (TOML, `--set`, validation) → [`graph`], [`leader`], [`plant`],
-//! [`faults`], [`clock`], [`network`] (every kind: `ideal`, `can`, `pil`, and the bus `trace`) → [`sim`]
-//! (the loop) → [`metrics`], [`report`] → [`run`] (commands) → [`campaign`] (many runs: grids,
+//! [`faults`], [`clock`], [`network`] (every kind: `ideal`, `can`, `pil`, `socketcan`, and the bus `trace`) → [`sim`]
+//! (the loop) → [`metrics`], [`report`] → [`run`], [`monitor`] (commands) → [`campaign`] (many runs: grids,
 //! Monte Carlo, shards). Every figure is drawn and written through [`figure`]. Each block owns
 //! the serde type and checks of its scenario section; [`scenario`] assembles them and no block
 //! imports it (docs/ARCHITECTURE.md, "host-sim modules").
@@ -28,6 +28,7 @@ pub mod graph;
 pub mod leader;
 pub mod matrix;
 pub mod metrics;
+pub mod monitor;
 pub mod network;
 pub mod plant;
 pub mod report;

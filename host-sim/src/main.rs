@@ -19,6 +19,8 @@ Examples:
   host-sim sweep campaigns/example1-ts-h.toml --out out/map1
   host-sim sweep campaigns/example1-ts-h.toml --out out/s2 --shard 2/4
   host-sim merge out/s1 out/s2 out/s3 out/s4 --out out/map1
+  host-sim run scenarios/example1-socketcan.toml --out out/sc --trace out/sc/vcan0.log
+  host-sim monitor vcan0 --dbc docs/wire.dbc
 
 Exit status: 0 run finished (also when it diverged: see summary.json), 2 bad input (invalid
 scenario or option, missing scenario file), 1 I/O error, 130 interrupted (temporary files are
@@ -55,6 +57,9 @@ enum Cmd {
     Merge(cli::merge::MergeArgs),
     /// Draw the scenario's communication graph (followers, links, leader pinning) into --out.
     Graph(cli::graph::GraphArgs),
+    /// Live table of a CAN bus running the product: per agent y, x, q, frame rates, node
+    /// state (heartbeat); error frames.
+    Monitor(cli::monitor::MonitorArgs),
 }
 
 fn dispatch(cmd: Cmd) -> Result<()> {
@@ -67,6 +72,7 @@ fn dispatch(cmd: Cmd) -> Result<()> {
         Cmd::Sweep(a) => cli::sweep::execute(a),
         Cmd::Merge(a) => cli::merge::execute(a),
         Cmd::Graph(a) => cli::graph::execute(a),
+        Cmd::Monitor(a) => cli::monitor::execute(a),
     }
 }
 

@@ -13,7 +13,7 @@ pub use spec::{MetricsSpec, WindowKind, WindowSpec};
 use crate::{
     clock::ClockSummary,
     error::Result,
-    figures::{FirmwareSummary, NetworkSummary},
+    figures::{FirmwareSummary, NetworkSummary, SocketcanSummary, SOCKETCAN_UNITS},
     scenario::{SchemeName, Setup},
     sim::{Divergence, Observer, SampleView},
 };
@@ -139,6 +139,10 @@ pub struct Summary {
     /// Node-firmware figures per agent (`[network] kind = "pil"`); absent otherwise.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub firmware: Option<Vec<FirmwareSummary>>,
+    /// Real-time figures of a run on a Linux CAN interface (`[network] kind = "socketcan"`);
+    /// absent otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub socketcan: Option<SocketcanSummary>,
     /// `[[metrics.window]]` figures; absent without windows.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub windows: Vec<WindowValue>,
@@ -272,6 +276,14 @@ impl Summary {
             self.units.extend(CLOCK_UNITS);
         }
         self.clock = clock;
+    }
+
+    /// Sets the real-time figures of a run on a Linux CAN interface (and their units).
+    pub fn set_socketcan(&mut self, socketcan: Option<SocketcanSummary>) {
+        if socketcan.is_some() {
+            self.units.extend(SOCKETCAN_UNITS);
+        }
+        self.socketcan = socketcan;
     }
 
     /// Sets the node-firmware figures of a PIL run (and their units).
@@ -460,6 +472,7 @@ impl Metrics {
             network: None,
             firmware: None,
             clock: None,
+            socketcan: None,
             windows: s
                 .metrics
                 .window

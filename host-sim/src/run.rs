@@ -191,7 +191,7 @@ pub fn run(setup: &Setup, opts: &RunOptions) -> Result<RunResult> {
             "needs serial links: network.kind = \"pil\"",
         )),
         NetworkKind::Ideal => run_with_link(setup, opts, IdealLink),
-        NetworkKind::Can | NetworkKind::Pil => match &setup.plant {
+        NetworkKind::Can | NetworkKind::Pil | NetworkKind::Socketcan => match &setup.plant {
             PlantModel::Example1(p) => {
                 run_with::<_, _, 2, 2>(setup, *p, bus_agents(setup, trace)?, opts)
             }
@@ -393,6 +393,7 @@ where
     summary.set_firmware(sim.agents().firmware());
     summary.set_clock(clocks.as_ref().map(Clocks::summary));
     let table = table.map(TrajectoryObserver::finish).transpose()?.flatten();
+    summary.set_socketcan(sim.agents().socketcan());
     if let Some(dir) = &opts.out {
         if let Some(c) = file {
             c.finish()?;

@@ -21,7 +21,7 @@ use crate::{
     clock::Clocks,
     error::{Error, Result},
     faults::{ActuatorEffect, FaultSchedule},
-    figures::{FirmwareSummary, NetworkSummary},
+    figures::{FirmwareSummary, NetworkSummary, SocketcanSummary},
     graph::Graph,
     leader::Leader,
     network::ideal::{Inbox, LinkModel},
@@ -132,6 +132,10 @@ pub trait Agents<const N: usize, const M: usize> {
     }
     /// Node-firmware figures for `summary.json` (processor in the loop only).
     fn firmware(&self) -> Option<Vec<FirmwareSummary>> {
+        None
+    }
+    /// Real-time figures for `summary.json` (a Linux CAN interface only).
+    fn socketcan(&self) -> Option<SocketcanSummary> {
         None
     }
     /// Figures of the agents' own (e.g. the firmware's cost per step) into `dir`.

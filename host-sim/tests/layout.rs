@@ -55,12 +55,16 @@ const LAYERS: &[(&str, &[&str])] = &[
             "network/mod.rs",
             "network/can.rs",
             "network/pil.rs",
+            "network/socketcan.rs",
             "metrics.rs",
             "report",
             "agent.rs",
         ],
     ),
-    ("commands", &["run.rs", "compare.rs", "matrix.rs"]),
+    (
+        "commands",
+        &["run.rs", "compare.rs", "matrix.rs", "monitor.rs"],
+    ),
     ("many runs", &["campaign"]),
     ("crate root and binary", &["lib.rs", "main.rs", "cli"]),
 ];

@@ -19,9 +19,12 @@
 //! * `board-size`: builds the board firmware `boards/nucleo-g474re` in release and fails when
 //!   its flash (text + data) exceeds 64 KiB or its RAM (data + bss) 16 KiB (details:
 //!   `board.rs`).
+//! * `vm`: runs a command in a Linux guest that has CAN (`vcan0`, optional SJA1000
+//!   controllers) with the repository at the same path (details: `vm.rs`).
 //!
-//! Nothing is installed: a missing `qemu-system-arm` or `thumbv7em-none-eabihf` target is
-//! reported with the command that installs it.
+//! Nothing is installed system-wide (`vm` unpacks its packages under `target/vm/`): a missing
+//! `qemu-system-arm` or `thumbv7em-none-eabihf` target is reported with the command that
+//! installs it.
 
 mod board;
 mod docs;
@@ -29,6 +32,7 @@ mod flash;
 mod gate;
 mod target;
 mod trace;
+mod vm;
 
 use std::{
     path::{Path, PathBuf},
@@ -65,6 +69,11 @@ tasks:
       build boards/nucleo-g474re in release (unless --no-run: the ELF as last built), print
       its text, data and bss, and fail if text + data exceeds 64 KiB (65,536 B) or data + bss
       exceeds 16 KiB (16,384 B); writes target/board/size.json
+  vm [--can N] [--bitrate B] [--mem MIB] [--smp N] [--timeout S] [--verbose] -- <command…>
+      boot a QEMU x86_64 Linux guest (Debian kernel, busybox initramfs, cached under
+      target/vm/) with vcan0 up (and can0..canN-1 on emulated Kvaser PCI SJA1000
+      controllers with --can N), the host root read-only and this repository writable at
+      the same path; run the command there and exit with its status
 ";
 
 fn main() -> ExitCode {
@@ -73,6 +82,12 @@ fn main() -> ExitCode {
         eprint!("{USAGE}");
         return ExitCode::from(2);
     };
+    if task == "vm" {
+        return vm::vm(&args[1..]).unwrap_or_else(|e| {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        });
+    }
     let opts = match Options::parse(&args[1..]) {
         Ok(o) => o,
         Err(e) => {

@@ -33,6 +33,7 @@ pub mod compare;
 pub mod fault_matrix;
 pub mod graph;
 pub mod merge;
+pub mod monitor;
 pub mod run;
 pub mod stable_h;
 pub mod sweep;

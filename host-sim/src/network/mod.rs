@@ -6,18 +6,20 @@
 //!   hardware over its simulated CAN bus ([`CanAgents`]).
 //! * [`pil`] (`kind = "pil"`): every agent the node firmware on its own emulated Cortex-M4F,
 //!   the bus model on the host ([`PilAgents`]).
+//! * [`socketcan`] (`kind = "socketcan"`): every agent a node process on a Linux CAN
+//!   interface, host-sim the plant and leader in real time ([`SocketcanAgents`]).
 //! * [`trace`]: the candump log of every frame on the bus (`--trace`), for both bus kinds.
 //! * [`spec`]: the `[network]` section, its checks, the bus settings and node settings it
 //!   gives.
 //!
 //! [`BusAgents`] picks the agents of a bus kind, so the run loop is built once for all of
-//! them; a new kind (a host `socketcan` interface, say) is one more module and one more
-//! variant. The model and its figures: `docs/NETWORK.md`.
+//! them; a new kind is one more module and one more variant. The model and its figures: `docs/NETWORK.md`.
 
 pub mod can;
 pub mod ideal;
 pub mod node;
 pub mod pil;
+pub mod socketcan;
 pub mod spec;
 pub mod trace;
 
@@ -31,6 +33,7 @@ pub use crate::network::{
     ideal::{IdealLink, Inbox, Link, LinkModel},
     node::NodeSpec,
     pil::PilAgents,
+    socketcan::SocketcanAgents,
     spec::{
         bus_config, validate, EventName, NetworkEvent, NetworkKind, NetworkSpec, MAX_BITRATE,
         MAX_CAN_AGENTS,
@@ -40,10 +43,29 @@ pub use crate::network::{
 use crate::{
     clock::Clocks,
     error::{Error, Result},
-    figures::FirmwareSummary,
+    figures::{FirmwareSummary, SocketcanSummary},
     graph::Graph,
     sim::{Agents, Release},
 };
+
+/// The output of a node that reports only some of it (filled in by the caller): commands and
+/// errors 0, the estimates 0, the rest NaN (no output uses `alpha`, `beta`, `varpi`).
+pub(crate) fn unreported_output<const N: usize, const M: usize>() -> StepOutput<N, M> {
+    StepOutput {
+        u: [0.0; M],
+        q: [0.0; M],
+        e: [0.0; N],
+        alpha: [f32::NAN; N],
+        beta: [f32::NAN; N],
+        estimates: controller_core::Estimates {
+            mu: 0.0,
+            xi: 0.0,
+            lambda: 0.0,
+        },
+        varpi: f32::NAN,
+        status: controller_core::StepStatus::default(),
+    }
+}
 
 /// The agents of a bus network kind: node firmware over the simulated CAN bus, host-compiled
 /// or emulated.
@@ -52,6 +74,8 @@ pub enum BusAgents<const N: usize, const M: usize> {
     Can(Box<CanAgents<N, M>>),
     /// `kind = "pil"`.
     Pil(Box<PilAgents<N, M>>),
+    /// `kind = "socketcan"`.
+    Socketcan(Box<SocketcanAgents<N, M>>),
 }
 
 impl<const N: usize, const M: usize> BusAgents<N, M> {
@@ -81,6 +105,14 @@ impl<const N: usize, const M: usize> BusAgents<N, M> {
                 .map(|a| Self::Can(Box::new(a))),
             NetworkKind::Pil => PilAgents::new(spec, node, h, graph, configs, samples, traces)
                 .map(|a| Self::Pil(Box::new(a))),
+            NetworkKind::Socketcan if traces.link.is_some() => Err(Error::invalid(
+                "--link-trace",
+                "needs serial links: network.kind = \"pil\"",
+            )),
+            NetworkKind::Socketcan => {
+                SocketcanAgents::new(spec, node, h, graph, configs, traces.bus)
+                    .map(|a| Self::Socketcan(Box::new(a)))
+            }
         }
     }
 
@@ -88,6 +120,7 @@ impl<const N: usize, const M: usize> BusAgents<N, M> {
         match self {
             Self::Can(a) => a.as_ref(),
             Self::Pil(a) => a.as_ref(),
+            Self::Socketcan(a) => a.as_ref(),
         }
     }
 
@@ -95,6 +128,7 @@ impl<const N: usize, const M: usize> BusAgents<N, M> {
         match self {
             Self::Can(a) => a.as_mut(),
             Self::Pil(a) => a.as_mut(),
+            Self::Socketcan(a) => a.as_mut(),
         }
     }
 }
@@ -146,6 +180,10 @@ impl<const N: usize, const M: usize> Agents<N, M> for BusAgents<N, M> {
 
     fn firmware(&self) -> Option<Vec<FirmwareSummary>> {
         self.agents().firmware()
+    }
+
+    fn socketcan(&self) -> Option<SocketcanSummary> {
+        self.agents().socketcan()
     }
 
     fn draw(&self, dir: &Path, h: f64, title: &str) -> Result<()> {

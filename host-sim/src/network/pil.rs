@@ -36,9 +36,7 @@ use agent_node::{
     wire::{self, IdPlan, Source},
     NodeState,
 };
-use controller_core::{
-    ControllerConfig, Estimates, Gains, LinkReport, StepFault, StepOutput, StepStatus,
-};
+use controller_core::{ControllerConfig, Estimates, Gains, LinkReport, StepFault, StepOutput};
 use embedded_can::Frame;
 use hil_mock::{
     bus::{Bus, Nanos},
@@ -533,28 +531,9 @@ fn read_output(mut stdout: impl Read, tx: &mpsc::Sender<Output>) {
 /// Pause of the output reader after each read.
 const READ_PAUSE: Duration = Duration::from_micros(150);
 
-/// An output before any report: no command, no estimates.
-fn blank_output<const N: usize, const M: usize>() -> StepOutput<N, M> {
-    StepOutput {
-        u: [0.0; M],
-        q: [0.0; M],
-        e: [0.0; N],
-        // Not reported over the link (no output uses them).
-        alpha: [f32::NAN; N],
-        beta: [f32::NAN; N],
-        estimates: Estimates {
-            mu: 0.0,
-            xi: 0.0,
-            lambda: 0.0,
-        },
-        varpi: f32::NAN,
-        status: StepStatus::default(),
-    }
-}
-
 /// The output a report carries (`N = M = 2`, checked when the agents start).
 fn report_output<const N: usize, const M: usize>(r: &Report) -> StepOutput<N, M> {
-    let mut out = blank_output();
+    let mut out = super::unreported_output();
     for (dst, src) in [(&mut out.q[..], r.q), (&mut out.u[..], r.u)]
         .into_iter()
         .chain([(&mut out.e[..], r.e)])
@@ -777,7 +756,7 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
             trace,
             link_trace,
             hang_at,
-            held: vec![blank_output(); agents],
+            held: vec![super::unreported_output(); agents],
             events: vec![NodeEvents::default(); agents],
         };
         agents.write_link_log();

@@ -22,6 +22,9 @@ pub enum NetworkKind {
     /// The node firmware on one emulated Cortex-M4F per agent, over the simulated CAN bus
     /// ([`crate::network::pil`]).
     Pil,
+    /// Node processes on a Linux CAN interface, host-sim the plant and leader in real time
+    /// ([`crate::network::socketcan`]).
+    Socketcan,
 }
 
 impl NetworkKind {
@@ -31,6 +34,7 @@ impl NetworkKind {
             Self::Ideal => "ideal",
             Self::Can => "can",
             Self::Pil => "pil",
+            Self::Socketcan => "socketcan",
         }
     }
 }
@@ -72,6 +76,27 @@ pub struct NetworkEvent {
     pub until: Option<f64>,
 }
 
+/// `network.nodes` (`kind = "socketcan"`): who starts the node processes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum NodesMode {
+    /// host-sim starts one `node-linux` per agent and stops them at the end.
+    #[default]
+    Spawn,
+    /// The nodes run elsewhere (other processes, boards); host-sim waits for them.
+    External,
+}
+
+impl NodesMode {
+    /// The TOML spelling.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Spawn => "spawn",
+            Self::External => "external",
+        }
+    }
+}
+
 /// `[network]`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -94,6 +119,37 @@ pub struct NetworkSpec {
     /// Silent and babbling nodes.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub event: Vec<NetworkEvent>,
+    /// `kind = "socketcan"`: the Linux CAN interface; absent: `"vcan0"`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub interface: Option<String>,
+    /// `kind = "socketcan"`: one interface per agent's node (e.g. each node on its own CAN
+    /// controller of one bus); absent: every node on `interface`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub node_interfaces: Option<Vec<String>>,
+    /// `kind = "socketcan"`: wall seconds per simulated second (host-sim's loop and the nodes'
+    /// timers run this much slower than real time; the controllers' `h` is unchanged);
+    /// absent: 1.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub time_scale: Option<f64>,
+    /// `kind = "socketcan"`: `"spawn"` (default) or `"external"`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nodes: Option<NodesMode>,
+    /// `kind = "socketcan"`: a node silent this long is lost; a node without sensor frames
+    /// this long stops [s]; absent: `max(0.25, 20 h)`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub node_timeout: Option<f64>,
+    /// `kind = "socketcan"`: how long to wait for every node before the run starts [s];
+    /// absent: 30.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub start_timeout: Option<f64>,
+    /// `kind = "socketcan"`: where the node configuration files are written (kept); absent: a
+    /// temporary directory, removed after the run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub node_dir: Option<String>,
+    /// `kind = "socketcan"`, `nodes = "spawn"`: the node program; absent: `node-linux` next to
+    /// the host-sim executable, else on `PATH`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub node_program: Option<String>,
 }
 
 impl Default for NetworkSpec {
@@ -107,6 +163,14 @@ impl Default for NetworkSpec {
             stale_timeout: None,
             seed: 0,
             event: Vec::new(),
+            interface: None,
+            node_interfaces: None,
+            time_scale: None,
+            nodes: None,
+            node_timeout: None,
+            start_timeout: None,
+            node_dir: None,
+            node_program: None,
         }
     }
 }
@@ -115,6 +179,27 @@ impl NetworkSpec {
     /// The default (ideal) section: `check` leaves it out of the resolved scenario.
     pub fn is_default(&self) -> bool {
         *self == Self::default()
+    }
+
+    /// `interface`, default `"vcan0"`.
+    pub fn interface(&self) -> &str {
+        self.interface.as_deref().unwrap_or("vcan0")
+    }
+
+    /// `node_timeout` [s of wall time], default `max(0.25, 20 h time_scale)`.
+    pub fn node_timeout(&self, h: f64) -> f64 {
+        self.node_timeout
+            .unwrap_or((20.0 * h * self.time_scale()).max(0.25))
+    }
+
+    /// `time_scale`, default 1 (real time).
+    pub fn time_scale(&self) -> f64 {
+        self.time_scale.unwrap_or(1.0)
+    }
+
+    /// `start_timeout` [s], default 30.
+    pub fn start_timeout(&self) -> f64 {
+        self.start_timeout.unwrap_or(30.0)
     }
 }
 
@@ -199,7 +284,17 @@ pub fn validate(spec: &NetworkSpec, agents: usize, h: f64, t_end: f64) -> Result
             format!("must be >= 0 (got {})", spec.seed),
         ));
     }
-    if matches!(spec.kind, NetworkKind::Can | NetworkKind::Pil) {
+    check_socketcan(spec, h)?;
+    if let Some(list) = spec.node_interfaces.as_ref().filter(|l| l.len() != agents) {
+        return Err(Error::invalid(
+            "network.node_interfaces",
+            format!("needs one entry per agent ({agents}), got {}", list.len()),
+        ));
+    }
+    if matches!(
+        spec.kind,
+        NetworkKind::Can | NetworkKind::Pil | NetworkKind::Socketcan
+    ) {
         if agents > MAX_CAN_AGENTS {
             return Err(Error::invalid(
                 "network.kind",
@@ -310,6 +405,75 @@ pub fn validate(spec: &NetworkSpec, agents: usize, h: f64, t_end: f64) -> Result
                 ));
             }
         }
+    }
+    Ok(())
+}
+
+/// The keys of `kind = "socketcan"`: only with that kind, and in range.
+fn check_socketcan(spec: &NetworkSpec, h: f64) -> Result<()> {
+    let given = [
+        ("network.interface", spec.interface.is_some()),
+        ("network.node_interfaces", spec.node_interfaces.is_some()),
+        ("network.time_scale", spec.time_scale.is_some()),
+        ("network.nodes", spec.nodes.is_some()),
+        ("network.node_timeout", spec.node_timeout.is_some()),
+        ("network.start_timeout", spec.start_timeout.is_some()),
+        ("network.node_dir", spec.node_dir.is_some()),
+        ("network.node_program", spec.node_program.is_some()),
+    ];
+    if spec.kind != NetworkKind::Socketcan {
+        if let Some((key, _)) = given.iter().find(|(_, g)| *g) {
+            return Err(Error::invalid(
+                *key,
+                "only for network.kind = \"socketcan\"",
+            ));
+        }
+        return Ok(());
+    }
+    let bad_name = |n: &str| n.is_empty() || n.len() > 15 || n.contains(['/', ' ']);
+    let iface = spec.interface();
+    if bad_name(iface) {
+        return Err(Error::invalid(
+            "network.interface",
+            format!("must be a Linux interface name of 1 to 15 bytes (got \"{iface}\")"),
+        ));
+    }
+    for (j, n) in spec.node_interfaces.iter().flatten().enumerate() {
+        if bad_name(n) {
+            return Err(Error::invalid(
+                format!("network.node_interfaces[{}]", j + 1),
+                format!("must be a Linux interface name of 1 to 15 bytes (got \"{n}\")"),
+            ));
+        }
+    }
+    let t = spec.node_timeout(h);
+    let least = 2.0 * h * spec.time_scale.unwrap_or(1.0);
+    if !(t.is_finite() && t >= least && t <= 3600.0) {
+        return Err(Error::invalid(
+            "network.node_timeout",
+            format!("must be in [2 h time_scale, 3600] s = [{least}, 3600] s (got {t})"),
+        ));
+    }
+    let ts = spec.time_scale();
+    if !(ts.is_finite() && (1.0..=1000.0).contains(&ts)) {
+        return Err(Error::invalid(
+            "network.time_scale",
+            format!("must be in [1, 1000] (got {ts})"),
+        ));
+    }
+    let t = spec.start_timeout();
+    if !(t.is_finite() && t > 0.0 && t <= 3600.0) {
+        return Err(Error::invalid(
+            "network.start_timeout",
+            format!("must be in (0, 3600] s (got {t})"),
+        ));
+    }
+    if spec.loss != 0.0 || spec.corruption != 0.0 || spec.latency != 0.0 || !spec.event.is_empty() {
+        return Err(Error::invalid(
+            "network.kind",
+            "\"socketcan\" is a real bus: latency, loss, corruption and event are the bus's own, \
+             not simulated",
+        ));
     }
     Ok(())
 }

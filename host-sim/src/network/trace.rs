@@ -45,7 +45,7 @@ pub const INTERFACE: &str = "can0";
 ///     "(1.000123) can0 101#DEAD0B01"
 /// );
 /// ```
-pub fn candump_line(t_ns: Nanos, interface: &str, frame: &MockFrame) -> String {
+pub fn candump_line<F: Frame>(t_ns: Nanos, interface: &str, frame: &F) -> String {
     let mut s = stamp(t_ns, interface);
     // Writing into a String cannot fail.
     let _ = match frame.id() {

@@ -1,0 +1,237 @@
+//! The frames between a node and a host that simulates its plant on the same CAN bus
+//! (`[network] kind = "socketcan"`): the host's sensor frames, the node's command frames and
+//! the node's state (heartbeat) frames. Standard 11-bit identifiers, one per agent:
+//!
+//! | frame    | sender → receiver | identifier (agent `i`) | payload |
+//! |----------|-------------------|------------------------|---------|
+//! | sensor   | host → node `i`   | [`SENSOR_BASE`] `+ i` = `0x201..=0x2FF`  | `x_{i,1}`, `x_{i,2}`: `f32` LE each (8 bytes) |
+//! | command  | node `i` → host   | [`COMMAND_BASE`] `+ i` = `0x301..=0x3FF` | `q_{i,1}`, `q_{i,2}`: `f32` LE each (8 bytes) |
+//! | state    | node `i` → all    | [`STATE_BASE`] `+ i` = `0x401..=0x4FF`   | [`NodeState`] (4 bytes) |
+//!
+//! The value frames of [`crate::wire`] (`0x100..=0x1FF`) win arbitration against all of them;
+//! sensor frames against commands, so a sample's state is on the bus before the commands it
+//! causes. The `f32` payloads carry exactly the values the simulated nodes of `kind = "can"`
+//! read and write. The state frame says what the process does (waiting for the host, running,
+//! stopping); the node's heartbeat of `crate::wire` (supervisor state) is sent besides it when
+//! configured. An identifier plan (`crate::wire::IdPlan`) must keep its blocks clear of
+//! `0x200..=0x4FF`.
+
+use embedded_can::{Frame, Id, StandardId};
+
+/// Identifier of agent `i`'s sensor frame: `SENSOR_BASE + i`.
+pub const SENSOR_BASE: u16 = 0x200;
+/// Identifier of agent `i`'s command frame: `COMMAND_BASE + i`.
+pub const COMMAND_BASE: u16 = 0x300;
+/// Identifier of agent `i`'s state frame: `STATE_BASE + i`.
+pub const STATE_BASE: u16 = 0x400;
+/// Data length of sensor and command frames.
+pub const PAIR_LEN: usize = 8;
+/// Data length of a state frame.
+pub const STATE_LEN: usize = 4;
+
+/// The kind of a plant-bus frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    /// host → node: the agent's state `x_i`.
+    Sensor,
+    /// node → host: the agent's quantized commands `q_i`.
+    Command,
+    /// node → all: the node's [`NodeState`].
+    State,
+}
+
+impl Kind {
+    const fn base(self) -> u16 {
+        match self {
+            Self::Sensor => SENSOR_BASE,
+            Self::Command => COMMAND_BASE,
+            Self::State => STATE_BASE,
+        }
+    }
+
+    /// The identifier of agent `agent`'s frame of this kind; `None` for agent 0.
+    pub fn id(self, agent: u8) -> Option<StandardId> {
+        if agent == 0 {
+            return None;
+        }
+        StandardId::new(self.base() + u16::from(agent))
+    }
+
+    /// The kind and agent of a raw 11-bit identifier, `None` when it is not a plant-bus frame.
+    pub const fn classify(raw: u16) -> Option<(Self, u8)> {
+        let kind = match raw & 0x700 {
+            SENSOR_BASE => Self::Sensor,
+            COMMAND_BASE => Self::Command,
+            STATE_BASE => Self::State,
+            _ => return None,
+        };
+        match (raw & 0xFF) as u8 {
+            0 => None,
+            agent => Some((kind, agent)),
+        }
+    }
+}
+
+/// Two `f32`, little-endian: the payload of sensor and command frames.
+pub fn encode_pair(v: [f32; 2]) -> [u8; PAIR_LEN] {
+    let mut b = [0; PAIR_LEN];
+    b[..4].copy_from_slice(&v[0].to_le_bytes());
+    b[4..].copy_from_slice(&v[1].to_le_bytes());
+    b
+}
+
+/// The two `f32` of a sensor or command payload; `None` unless it has [`PAIR_LEN`] bytes.
+pub fn decode_pair(data: &[u8]) -> Option<[f32; 2]> {
+    let b: &[u8; PAIR_LEN] = data.try_into().ok()?;
+    let f = |k: usize| f32::from_le_bytes([b[k], b[k + 1], b[k + 2], b[k + 3]]);
+    Some([f(0), f(4)])
+}
+
+/// A frame of `kind` for `agent` with payload `v`; `None` for agent 0.
+pub fn pair_frame<F: Frame>(kind: Kind, agent: u8, v: [f32; 2]) -> Option<F> {
+    F::new(kind.id(agent)?, &encode_pair(v))
+}
+
+/// A received plant-bus frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PlantFrame {
+    /// Agent's state from the host.
+    Sensor(u8, [f32; 2]),
+    /// Agent's commands from its node.
+    Command(u8, [f32; 2]),
+    /// Agent's node state.
+    State(u8, NodeState),
+}
+
+/// Decodes a plant-bus frame; `None` for any other frame or a malformed payload.
+pub fn decode<F: Frame>(frame: &F) -> Option<PlantFrame> {
+    let Id::Standard(id) = frame.id() else {
+        return None;
+    };
+    if frame.is_remote_frame() {
+        return None;
+    }
+    let (kind, agent) = Kind::classify(id.as_raw())?;
+    let data = frame.data();
+    Some(match kind {
+        Kind::Sensor => PlantFrame::Sensor(agent, decode_pair(data)?),
+        Kind::Command => PlantFrame::Command(agent, decode_pair(data)?),
+        Kind::State => PlantFrame::State(agent, NodeState::from_bytes(data)?),
+    })
+}
+
+/// What a node is doing, as its state frame says.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+pub enum Mode {
+    /// Started, no sensor frame yet: waiting for the host.
+    Waiting = 0,
+    /// Sampling on its own timer, sending commands.
+    Running = 1,
+    /// No sensor frame within its host timeout: stopping.
+    HostLost = 2,
+    /// Stopping on request (a signal).
+    Stopping = 3,
+}
+
+impl Mode {
+    /// The mode of a state byte.
+    pub const fn from_u8(v: u8) -> Option<Self> {
+        Some(match v {
+            0 => Self::Waiting,
+            1 => Self::Running,
+            2 => Self::HostLost,
+            3 => Self::Stopping,
+            _ => return None,
+        })
+    }
+
+    /// A short name for logs and the bus monitor.
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            Self::Waiting => "waiting",
+            Self::Running => "running",
+            Self::HostLost => "host-lost",
+            Self::Stopping => "stopping",
+        }
+    }
+}
+
+/// The payload of a state frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct NodeState {
+    /// What the node does.
+    pub mode: Mode,
+    /// Neighbour and leader links not fresh at the last sample.
+    pub degraded_links: u8,
+    /// Samples the node's timer woke up later than half a period (saturating).
+    pub late_ticks: u16,
+}
+
+impl NodeState {
+    /// `mode`, `degraded_links`, `late_ticks` (`u16` LE).
+    pub fn to_bytes(&self) -> [u8; STATE_LEN] {
+        let l = self.late_ticks.to_le_bytes();
+        [self.mode as u8, self.degraded_links, l[0], l[1]]
+    }
+
+    /// The state of a payload; `None` unless it has [`STATE_LEN`] bytes and a known mode.
+    pub fn from_bytes(data: &[u8]) -> Option<Self> {
+        let b: &[u8; STATE_LEN] = data.try_into().ok()?;
+        Some(Self {
+            mode: Mode::from_u8(b[0])?,
+            degraded_links: b[1],
+            late_ticks: u16::from_le_bytes([b[2], b[3]]),
+        })
+    }
+
+    /// A state frame of `agent`; `None` for agent 0.
+    pub fn frame<F: Frame>(&self, agent: u8) -> Option<F> {
+        F::new(Kind::State.id(agent)?, &self.to_bytes())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::CanFrame;
+
+    #[test]
+    fn identifiers_classify_back_to_kind_and_agent() {
+        for kind in [Kind::Sensor, Kind::Command, Kind::State] {
+            for agent in [1u8, 2, 200, 255] {
+                let id = kind.id(agent).expect("agent > 0");
+                assert_eq!(Kind::classify(id.as_raw()), Some((kind, agent)));
+            }
+            assert_eq!(kind.id(0), None);
+        }
+        for raw in [0x100, 0x101, 0x1FF, 0x200, 0x300, 0x400, 0x500, 0x701, 0x0] {
+            assert_eq!(Kind::classify(raw), None, "{raw:#x}");
+        }
+    }
+
+    #[test]
+    fn frames_decode_to_what_was_encoded() {
+        let f: CanFrame = pair_frame(Kind::Sensor, 3, [0.5, -1.25]).expect("frame");
+        assert_eq!(decode(&f), Some(PlantFrame::Sensor(3, [0.5, -1.25])));
+        let f: CanFrame = pair_frame(Kind::Command, 4, [f32::MAX, -0.0]).expect("frame");
+        assert_eq!(decode(&f), Some(PlantFrame::Command(4, [f32::MAX, -0.0])));
+        let s = NodeState {
+            mode: Mode::HostLost,
+            degraded_links: 2,
+            late_ticks: 513,
+        };
+        let f: CanFrame = s.frame(7).expect("frame");
+        assert_eq!(decode(&f), Some(PlantFrame::State(7, s)));
+    }
+
+    #[test]
+    fn malformed_frames_are_not_decoded() {
+        let short = CanFrame::new(Kind::Command.id(1).expect("id"), &[0; 4]).expect("frame");
+        assert_eq!(decode(&short), None);
+        let bad_mode = CanFrame::new(Kind::State.id(1).expect("id"), &[9, 0, 0, 0]).expect("f");
+        assert_eq!(decode(&bad_mode), None);
+        let value = CanFrame::new(StandardId::new(0x101).expect("id"), &[0; 4]).expect("frame");
+        assert_eq!(decode(&value), None);
+    }
+}

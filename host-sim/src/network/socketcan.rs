@@ -1,0 +1,645 @@
+//! `kind = "socketcan"`: the followers are node processes (`node-linux`, or boards) on a Linux
+//! CAN interface; host-sim is the plant and the leader, in real time against the wall clock.
+//!
+//! Every sample `k` the loop sleeps until `t0 + k h` (an absolute deadline on the monotonic
+//! clock), takes the command frames that arrived, sends the leader's value frame `y_d(t_k)`
+//! and each agent's sensor frame `x_i(t_k)` (`agent_node::plant_bus`), and hands the latest
+//! command of each agent to the plant for `[t_k, t_k + h)`. A node samples on its own timer
+//! half a period after the sensor frames, so its command is back before the next sample: the
+//! plant applies `q` computed from `x(t_{k-1})`, one sample later than with `kind = "can"`.
+//!
+//! Counted per agent: samples at which no new command had come since the previous one (the
+//! plant held the old command: a *late* command), commands never received (samples minus
+//! commands received), and the instant a node fell silent for `node_timeout` (*lost*). Counted
+//! for the host: how late each sample's wake-up was (loop lateness). A sample that wakes more
+//! than `h/2` late (an overrun) restarts the schedule at its wake-up: simulated time stretches
+//! over a stall of the host instead of catching up with a burst of samples. `summary.json` gains a
+//! `socketcan` object ([`SocketcanSummary`]), the run directory `socketcan.png`.
+//!
+//! `nodes = "spawn"` starts one `node-linux` per agent in a process group of their own and
+//! stops the group (SIGTERM, then SIGKILL) at the end, on an error and on Ctrl-C. The interface
+//! is used as found: host-sim never configures it.
+
+use std::{
+    path::{Path, PathBuf},
+    process::{Child, Command},
+    sync::Mutex,
+    time::{Duration, Instant, SystemTime},
+};
+
+use agent_node::{
+    plant_bus::{self, Kind, Mode, PlantFrame},
+    wire::{self, Source},
+};
+use controller_core::{ControllerConfig, Gains, Params, StepOutput};
+use node_linux::{
+    config::{NodeSection, Supervision},
+    NodeFile,
+};
+use socketcan::{CanFilter, CanFrame, CanSocket, Socket, SocketOptions};
+
+use crate::{
+    error::{Error, Result},
+    figure::{
+        panel::{render, Panel, Series},
+        FigureStyle,
+    },
+    figures::{AgentCommands, SocketcanSummary},
+    graph::Graph,
+    network::{
+        spec::{node_config, NetworkSpec, NodesMode},
+        trace::{candump_line, TraceWriter},
+    },
+    sim::{Agents, K},
+};
+
+/// Process groups of running node processes, stopped by the interrupt hook.
+static GROUPS: Mutex<Vec<i32>> = Mutex::new(Vec::new());
+
+fn stop_groups_on_interrupt() {
+    if let Ok(groups) = GROUPS.lock() {
+        for &g in groups.iter() {
+            signal_group(g, nix::sys::signal::Signal::SIGTERM);
+        }
+    }
+    eprintln!("host-sim: interrupted; node processes stopped");
+}
+
+fn signal_group(pgid: i32, sig: nix::sys::signal::Signal) {
+    let _ = nix::sys::signal::killpg(nix::unistd::Pid::from_raw(pgid), sig);
+}
+
+/// One agent's side of the loop.
+struct Agent {
+    q: [f32; 2],
+    received: u64,
+    this_sample: u64,
+    late: u64,
+    last_rx: Option<Instant>,
+    lost_at: Option<f64>,
+    state: Option<plant_bus::NodeState>,
+    /// Cumulative late commands at each sample (the figure).
+    late_series: Vec<u32>,
+}
+
+/// The node processes of `nodes = "spawn"`, stopped when dropped.
+struct Spawned {
+    children: Vec<(usize, Child)>,
+    pgid: Option<i32>,
+    dir: Option<PathBuf>,
+}
+
+impl Spawned {
+    /// Stops the group: SIGTERM, up to 2 s for a clean exit, then SIGKILL.
+    fn stop(&mut self) {
+        let Some(g) = self.pgid.take() else {
+            return;
+        };
+        signal_group(g, nix::sys::signal::Signal::SIGTERM);
+        let until = Instant::now() + Duration::from_secs(2);
+        for (i, c) in &mut self.children {
+            loop {
+                match c.try_wait() {
+                    Ok(Some(st)) if !st.success() => {
+                        eprintln!("host-sim: node of agent {i} ended with {st}");
+                        break;
+                    }
+                    Ok(Some(_)) | Err(_) => break,
+                    Ok(None) if Instant::now() < until => {
+                        std::thread::sleep(Duration::from_millis(10));
+                    }
+                    Ok(None) => {
+                        eprintln!("host-sim: node of agent {i} ignored SIGTERM; killed");
+                        signal_group(g, nix::sys::signal::Signal::SIGKILL);
+                        let _ = c.wait();
+                        break;
+                    }
+                }
+            }
+        }
+        if let Ok(mut groups) = GROUPS.lock() {
+            groups.retain(|&x| x != g);
+        }
+    }
+}
+
+impl Drop for Spawned {
+    fn drop(&mut self) {
+        self.stop();
+        if let Some(d) = self.dir.take() {
+            let _ = std::fs::remove_dir_all(d);
+        }
+    }
+}
+
+/// The agents of `kind = "socketcan"`: node processes on a Linux CAN interface.
+pub struct SocketcanAgents<const N: usize, const M: usize> {
+    socket: CanSocket,
+    trace_socket: Option<(CanSocket, TraceWriter)>,
+    interface: String,
+    mode: NodesMode,
+    /// The sample period in wall time (`h time_scale`).
+    h: Duration,
+    node_timeout: Duration,
+    start_timeout: Duration,
+    t0: Option<(Instant, SystemTime)>,
+    agents: Vec<Agent>,
+    lateness: Vec<f32>,
+    overruns: u64,
+    frames_sent: u64,
+    send_errors: u64,
+    gains: Gains,
+    nodes: Spawned,
+    last_wake: Option<Instant>,
+    last_t: f64,
+    /// The first sample's deadline (`t0` moves with every overrun).
+    started: Option<Instant>,
+}
+
+/// Opens `interface` for host-sim, with the error naming `network.interface`.
+fn open(interface: &str) -> Result<CanSocket> {
+    let s = node_linux::open(interface)
+        .map_err(|e| Error::invalid("network.interface", e.to_string()))?;
+    s.set_nonblocking(true)
+        .map_err(|e| Error::Io(format!("{interface}: {e}")))?;
+    Ok(s)
+}
+
+impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
+    /// Opens the interface of `spec`, writes one node configuration per agent of `graph` (with
+    /// the identifier plan, heartbeat and safe state of `[node]`, `node_spec`; controller
+    /// configurations `configs`, sample period `h`), starts the nodes
+    /// (`nodes = "spawn"`), and records every frame on the interface to `trace` when given.
+    pub fn new(
+        spec: &NetworkSpec,
+        node_spec: &crate::network::node::NodeSpec,
+        h: f64,
+        graph: &Graph,
+        configs: &[ControllerConfig<N>],
+        trace: Option<&Path>,
+    ) -> Result<Self> {
+        if (N, M) != (2, 2) {
+            return Err(Error::invalid(
+                "network.kind",
+                "\"socketcan\" carries the two-state plants of the examples (n = m = 2)",
+            ));
+        }
+        let interface = spec.interface().to_owned();
+        let socket = open(&interface)?;
+        let cmd = u32::from(plant_bus::COMMAND_BASE);
+        let state = u32::from(plant_bus::STATE_BASE);
+        socket
+            .set_filters(&[CanFilter::new(cmd, 0x700), CanFilter::new(state, 0x700)])
+            .map_err(|e| Error::Io(format!("{interface}: {e}")))?;
+        let trace_socket = match trace {
+            Some(p) => {
+                let s = open(&interface)?;
+                s.set_recv_timestamp(true)
+                    .map_err(|e| Error::Io(format!("{interface}: {e}")))?;
+                Some((s, TraceWriter::create(p)?))
+            }
+            None => None,
+        };
+        let node_timeout = spec.node_timeout(h);
+        let mode = spec.nodes.unwrap_or_default();
+        let (dir, keep) = match &spec.node_dir {
+            Some(d) => (PathBuf::from(d), true),
+            None => (
+                std::env::temp_dir().join(format!("host-sim-nodes-{}", std::process::id())),
+                false,
+            ),
+        };
+        crate::report::create_dir(&dir)?;
+        let mut nodes = Spawned {
+            children: Vec::new(),
+            pgid: None,
+            dir: (!keep).then(|| dir.clone()),
+        };
+        let mut files = Vec::with_capacity(configs.len());
+        for (i, c) in configs.iter().enumerate() {
+            let nc = node_config(spec, node_spec, h, graph, i)?;
+            let plan = nc.ids;
+            let blocks = [
+                Some((plan.value_base(), "node.id_base")),
+                plan.heartbeat_base().map(|b| (b, "node.heartbeat_id_base")),
+            ];
+            for (base, key) in blocks.into_iter().flatten() {
+                let end = base + u16::from(plan.agents());
+                if base <= 0x4FF && end >= plan_bus_first() {
+                    return Err(Error::invalid(
+                        key,
+                        "with network.kind = \"socketcan\" the identifiers must stay clear of \
+                         0x200..=0x4FF (sensor, command and state frames)",
+                    ));
+                }
+            }
+            let section = NodeSection {
+                agent: i64::from(nc.agent),
+                neighbours: graph.neighbours(i).iter().map(|&k| k as i64 + 1).collect(),
+                interface: spec
+                    .node_interfaces
+                    .as_ref()
+                    .and_then(|l| l.get(i))
+                    .unwrap_or(&interface)
+                    .clone(),
+                stale_timeout: Some(nc.stale_timeout_us as f64 * 1e-6),
+                host_timeout: node_timeout,
+                time_scale: spec.time_scale(),
+                supervision: Some(Supervision::of(&nc)),
+            };
+            let text = NodeFile::to_toml(&section, *c)
+                .map_err(|e| Error::Io(format!("node configuration of agent {}: {e}", i + 1)))?;
+            NodeFile::parse(&text)
+                .map_err(|e| Error::invalid(format!("node configuration of agent {}", i + 1), e))?;
+            let path = dir.join(format!("agent-{}.toml", i + 1));
+            crate::report::write_atomic(&path, text.as_bytes())?;
+            files.push(path);
+        }
+        if mode == NodesMode::Spawn {
+            crate::report::also_on_interrupt(stop_groups_on_interrupt);
+            let program = node_program(spec);
+            for (i, f) in files.iter().enumerate() {
+                let mut cmd = Command::new(&program);
+                cmd.arg(f);
+                std::os::unix::process::CommandExt::process_group(
+                    &mut cmd,
+                    nodes.pgid.unwrap_or(0),
+                );
+                let child = cmd.spawn().map_err(|e| {
+                    Error::invalid(
+                        "network.node_program",
+                        format!(
+                            "cannot start `{}`: {e} (build it: cargo build -p node-linux)",
+                            program.display()
+                        ),
+                    )
+                })?;
+                if nodes.pgid.is_none() {
+                    let g = i32::try_from(child.id()).unwrap_or(i32::MAX);
+                    nodes.pgid = Some(g);
+                    if let Ok(mut groups) = GROUPS.lock() {
+                        groups.push(g);
+                    }
+                }
+                nodes.children.push((i + 1, child));
+            }
+        } else {
+            eprintln!(
+                "host-sim: waiting up to {} s for the nodes on {interface}; their configurations: {}",
+                spec.start_timeout(),
+                dir.display()
+            );
+        }
+        let gains = configs.first().and_then(|c| Params::new(c, K).ok()).map_or(
+            Gains {
+                c1: f32::NAN,
+                c2: f32::NAN,
+                k1: f32::NAN,
+                k2: f32::NAN,
+            },
+            |p| *p.gains(),
+        );
+        Ok(Self {
+            socket,
+            trace_socket,
+            interface,
+            mode,
+            h: Duration::from_secs_f64(h * spec.time_scale()),
+            node_timeout: Duration::from_secs_f64(node_timeout),
+            start_timeout: Duration::from_secs_f64(spec.start_timeout()),
+            t0: None,
+            agents: (0..configs.len())
+                .map(|_| Agent {
+                    q: [0.0; 2],
+                    received: 0,
+                    this_sample: 0,
+                    late: 0,
+                    last_rx: None,
+                    lost_at: None,
+                    state: None,
+                    late_series: Vec::new(),
+                })
+                .collect(),
+            lateness: Vec::new(),
+            overruns: 0,
+            frames_sent: 0,
+            send_errors: 0,
+            gains,
+            nodes,
+            last_wake: None,
+            last_t: 0.0,
+            started: None,
+        })
+    }
+
+    /// Waits until every node has said it is there (a state frame) and sets `t0`.
+    fn start(&mut self) -> Result<()> {
+        let until = Instant::now() + self.start_timeout;
+        loop {
+            self.drain(Instant::now(), 0.0);
+            if self.agents.iter().all(|a| a.state.is_some()) {
+                break;
+            }
+            if Instant::now() >= until {
+                let missing: Vec<String> = self
+                    .agents
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, a)| a.state.is_none())
+                    .map(|(i, _)| (i + 1).to_string())
+                    .collect();
+                return Err(Error::Io(format!(
+                    "no node of agent(s) {} on {} within network.start_timeout = {} s ({})",
+                    missing.join(", "),
+                    self.interface,
+                    self.start_timeout.as_secs_f64(),
+                    match self.mode {
+                        NodesMode::Spawn => "the spawned node processes did not come up",
+                        NodesMode::External => "start them with the files of network.node_dir",
+                    }
+                )));
+            }
+            self.check_children()?;
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        for a in &mut self.agents {
+            a.this_sample = 0;
+            a.last_rx = None;
+        }
+        // Start on a whole period from now, so the nodes' first sample lands mid-period.
+        self.t0 = Some((Instant::now() + self.h, SystemTime::now() + self.h));
+        self.started = self.t0.map(|(t, _)| t);
+        Ok(())
+    }
+
+    /// A spawned node that exited before the run started is an error.
+    fn check_children(&mut self) -> Result<()> {
+        for (i, c) in &mut self.nodes.children {
+            if let Ok(Some(st)) = c.try_wait() {
+                return Err(Error::Io(format!(
+                    "the node process of agent {i} exited before the run started ({st})"
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Takes every waiting frame (commands, states; the trace socket's all).
+    fn drain(&mut self, now: Instant, t: f64) {
+        while let Ok(f) = self.socket.read_frame() {
+            match plant_bus::decode(&f) {
+                Some(PlantFrame::Command(a, q)) => {
+                    if let Some(ag) = self.agents.get_mut(usize::from(a) - 1) {
+                        ag.q = q;
+                        ag.received += 1;
+                        ag.this_sample += 1;
+                        ag.last_rx = Some(now);
+                    }
+                }
+                Some(PlantFrame::State(a, s)) => {
+                    if let Some(ag) = self.agents.get_mut(usize::from(a) - 1) {
+                        let changed = ag.state.map(|o| o.mode) != Some(s.mode);
+                        if changed && s.mode != Mode::Running && self.t0.is_some() {
+                            eprintln!(
+                                "host-sim: t = {t:.3} s: node of agent {a} is {}",
+                                s.mode.as_str()
+                            );
+                        }
+                        ag.state = Some(s);
+                    }
+                }
+                _ => {}
+            }
+        }
+        if let (Some((s, w)), Some((_, sys0))) = (self.trace_socket.as_mut(), self.t0) {
+            let mut lines = Vec::new();
+            while let Ok((f, at)) = s.read_frame_with_timestamp() {
+                let ns = at.duration_since(sys0).map_or(0, |d| d.as_nanos() as u64);
+                if let CanFrame::Data(_) | CanFrame::Remote(_) = f {
+                    lines.push(candump_line(ns, &self.interface, &f));
+                }
+            }
+            w.write_lines(lines);
+        }
+    }
+
+    fn send(&mut self, f: Option<CanFrame>) {
+        match f.map(|f| self.socket.write_frame(&f)) {
+            Some(Ok(())) => self.frames_sent += 1,
+            _ => self.send_errors += 1,
+        }
+    }
+
+    /// The figures of `summary.json` `socketcan`.
+    pub fn summary(&self) -> SocketcanSummary {
+        let n = self.lateness.len();
+        let mut sorted: Vec<f32> = self.lateness.clone();
+        sorted.sort_by(f32::total_cmp);
+        let p99 = sorted
+            .get((n * 99).div_ceil(100).saturating_sub(1))
+            .copied()
+            .unwrap_or(0.0);
+        let samples = n as u64;
+        SocketcanSummary {
+            interface: self.interface.clone(),
+            nodes: self.mode.as_str(),
+            samples,
+            loop_lateness_mean_s: if n == 0 {
+                0.0
+            } else {
+                sorted.iter().map(|&v| f64::from(v)).sum::<f64>() / n as f64
+            },
+            loop_lateness_p99_s: f64::from(p99),
+            loop_lateness_max_s: f64::from(sorted.last().copied().unwrap_or(0.0)),
+            loop_overruns: self.overruns,
+            wall_time_s: match (self.started, self.last_wake) {
+                (Some(t0), Some(w)) => w.saturating_duration_since(t0).as_secs_f64(),
+                _ => 0.0,
+            },
+            frames_sent: self.frames_sent,
+            send_errors: self.send_errors,
+            agents: self
+                .agents
+                .iter()
+                .enumerate()
+                .map(|(i, a)| AgentCommands {
+                    agent: i + 1,
+                    received: a.received,
+                    late: a.late,
+                    missing: samples.saturating_sub(a.received),
+                    lost_at_s: a.lost_at,
+                    state: a.state.map(|s| s.mode.as_str()),
+                    node_late_ticks: a.state.map(|s| s.late_ticks),
+                })
+                .collect(),
+        }
+    }
+}
+
+/// The first identifier of the plant-bus frames.
+fn plan_bus_first() -> u16 {
+    plant_bus::SENSOR_BASE
+}
+
+/// The node program: `network.node_program`, else `node-linux` beside this executable, else
+/// `node-linux` on `PATH`.
+fn node_program(spec: &NetworkSpec) -> PathBuf {
+    if let Some(p) = &spec.node_program {
+        return PathBuf::from(p);
+    }
+    std::env::current_exe()
+        .ok()
+        .and_then(|e| e.parent().map(|d| d.join("node-linux")))
+        .filter(|p| p.is_file())
+        .unwrap_or_else(|| PathBuf::from("node-linux"))
+}
+
+impl<const N: usize, const M: usize> Agents<N, M> for SocketcanAgents<N, M> {
+    fn control(
+        &mut self,
+        k: u64,
+        t: f64,
+        x: &[[f64; N]],
+        yd: f64,
+        out: &mut Vec<StepOutput<N, M>>,
+    ) -> Result<()> {
+        if self.t0.is_none() {
+            self.start()?;
+        }
+        let Some((t0, _)) = self.t0 else {
+            return Err(Error::Io("the run has no start time".into()));
+        };
+        let deadline = t0 + self.h.mul_f64(k as f64);
+        let now = Instant::now();
+        if deadline > now {
+            std::thread::sleep(deadline - now);
+        }
+        let woke = Instant::now();
+        self.last_wake = Some(woke);
+        let late = woke.saturating_duration_since(deadline);
+        self.lateness.push(late.as_secs_f32());
+        if late > self.h / 2 {
+            // The schedule restarts at this wake-up: simulated time stretches over the stall
+            // instead of catching up in a burst of samples the nodes never see.
+            self.overruns += 1;
+            if let Some((t0, sys0)) = self.t0.as_mut() {
+                *t0 += late;
+                *sys0 += late;
+            }
+        }
+        self.last_t = t;
+        self.drain(woke, t);
+        for (i, a) in self.agents.iter_mut().enumerate() {
+            if k > 0 && a.this_sample == 0 {
+                a.late += 1;
+            }
+            a.this_sample = 0;
+            a.late_series
+                .push(u32::try_from(a.late).unwrap_or(u32::MAX));
+            let silent = woke.saturating_duration_since(a.last_rx.unwrap_or(t0));
+            if a.lost_at.is_none() && silent > self.node_timeout {
+                a.lost_at = Some(t);
+                eprintln!(
+                    "host-sim: t = {t:.3} s: agent {} lost (no command for {:.3} s, node_timeout {:.3} s)",
+                    i + 1,
+                    silent.as_secs_f64(),
+                    self.node_timeout.as_secs_f64()
+                );
+            } else if a.lost_at.is_some() && silent <= self.node_timeout {
+                a.lost_at = None;
+                eprintln!("host-sim: t = {t:.3} s: agent {} is back", i + 1);
+            }
+        }
+        let seq = (k % u64::from(wire::SEQ_MODULUS)) as u8;
+        self.send(wire::encode::<CanFrame>(Source::Leader, yd as f32, seq).map(|(f, _)| f));
+        for (i, xi) in x.iter().enumerate() {
+            let agent = u8::try_from(i + 1).unwrap_or(0);
+            let v = [xi[0] as f32, xi.get(1).copied().unwrap_or(0.0) as f32];
+            self.send(plant_bus::pair_frame(Kind::Sensor, agent, v));
+        }
+        out.extend(self.agents.iter().map(|a| {
+            let mut o = super::unreported_output::<N, M>();
+            for (d, s) in o.q.iter_mut().zip(a.q) {
+                *d = s;
+            }
+            o.u = o.q;
+            // The nodes keep their errors: not on the bus.
+            o.e = [f32::NAN; N];
+            o
+        }));
+        Ok(())
+    }
+
+    fn gains(&self) -> Gains {
+        self.gains
+    }
+
+    fn socketcan(&self) -> Option<SocketcanSummary> {
+        Some(self.summary())
+    }
+
+    /// `socketcan.png` / `.svg`: the host loop's lateness per sample, and each agent's late
+    /// commands, cumulative.
+    fn draw(&self, dir: &Path, h: f64, title: &str) -> Result<()> {
+        const STRIDE: usize = 10;
+        let lateness = self
+            .lateness
+            .chunks(STRIDE)
+            .enumerate()
+            .map(|(b, w)| {
+                let peak = w.iter().copied().fold(0.0f32, f32::max);
+                ((b * STRIDE) as f64 * h, f64::from(peak) * 1e6)
+            })
+            .collect();
+        let top = Panel {
+            title: format!(
+                "{title}: host loop lateness on {} (largest of 10 samples)",
+                self.interface
+            ),
+            y_label: "wake-up − deadline [µs]".into(),
+            series: vec![Series {
+                width: 1,
+                ..Series::styled("host-sim".into(), 0, lateness)
+            }],
+            hlines: vec![(self.h.as_secs_f64() * 0.5e6, "h/2 (wall)".into())],
+            ..Panel::default()
+        };
+        let series = self
+            .agents
+            .iter()
+            .enumerate()
+            .map(|(i, a)| {
+                let points = a
+                    .late_series
+                    .iter()
+                    .enumerate()
+                    .step_by(STRIDE)
+                    .map(|(k, &v)| (k as f64 * h, f64::from(v)))
+                    .collect();
+                Series::styled(format!("agent {}", i + 1), i, points)
+            })
+            .collect();
+        let bottom = Panel {
+            title: "late command frames (no new command at the host's sample), cumulative".into(),
+            y_label: "samples".into(),
+            series,
+            ..Panel::default()
+        };
+        render(
+            dir,
+            "socketcan",
+            &[top, bottom],
+            (2, 1),
+            FigureStyle::px(1000, 760),
+        )
+    }
+
+    fn finish(&mut self) -> Result<()> {
+        self.nodes.stop();
+        self.drain(Instant::now(), self.last_t);
+        match self.trace_socket.as_mut() {
+            Some((_, w)) => w.finish(),
+            None => Ok(()),
+        }
+    }
+}

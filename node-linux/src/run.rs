@@ -1,0 +1,297 @@
+//! The node process: `agent_node::Node` over two SocketCAN sockets on one interface, paced by
+//! its own timer.
+//!
+//! * The *bus* socket, owned by the `Node`, receives every frame but the plant-bus ones
+//!   (`0x200..=0x4FF`, kernel filters) and sends this agent's value frame (and heartbeat).
+//! * The *plant* socket receives only this agent's sensor frame and sends its command and
+//!   state frames (`agent_node::plant_bus`); the `Sensor` and `Actuator` of the node share it.
+//!
+//! The node waits for the first sensor frame (state `waiting`), then samples every `h` on the
+//! monotonic clock, at absolute deadlines half a period after that frame's arrival (so the
+//! host's sample is on the bus before the node's and the command is back before the host's
+//! next one). A deadline missed by more than `h/2` counts as a late tick; when the process falls
+//! a whole period behind, the missed samples are skipped, not run in a burst. It stops on
+//! SIGINT/SIGTERM, and when no sensor frame came for `host_timeout` (the host is gone).
+
+use std::{
+    cell::RefCell,
+    io,
+    rc::Rc,
+    sync::{
+        atomic::{AtomicBool, Ordering},
+        Arc,
+    },
+    time::{Duration, Instant},
+};
+
+use agent_node::{
+    plant_bus::{self, Kind, Mode, NodeState, PlantFrame},
+    Actuator, Clock, Node, Sensor,
+};
+use socketcan::{CanFilter, CanFrame, CanSocket, Socket, SocketOptions};
+
+use crate::config::{NodeFile, MAX_NEIGHBOURS, N};
+
+/// State frames are sent this often, and on every change of mode.
+pub const HEARTBEAT: Duration = Duration::from_millis(100);
+
+/// Why the node stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Stop {
+    /// SIGINT or SIGTERM.
+    Signal,
+    /// No sensor frame within `host_timeout`.
+    HostLost,
+}
+
+/// Opens a CAN socket on `interface` with the error a user can act on.
+pub fn open(interface: &str) -> io::Result<CanSocket> {
+    CanSocket::open(interface).map_err(|e| explain_open_error(interface, e))
+}
+
+/// Whether this kernel opens CAN sockets at all (`AF_CAN`, the `can` and `can-raw` modules).
+pub fn af_can_available() -> bool {
+    use nix::sys::socket::{socket, AddressFamily, SockFlag, SockProtocol, SockType};
+    socket(
+        AddressFamily::Can,
+        SockType::Raw,
+        SockFlag::SOCK_CLOEXEC,
+        SockProtocol::CanRaw,
+    )
+    .is_ok()
+}
+
+/// The error of opening a CAN socket on `interface`, with what to do about it.
+pub fn explain_open_error(interface: &str, e: io::Error) -> io::Error {
+    let hint = if !af_can_available() {
+        "this kernel has no CAN sockets (AF_CAN); load the `can` and `can-raw` modules, or run \
+         inside the test VM (`cargo xtask vm -- …`)"
+            .to_owned()
+    } else if e.raw_os_error() == Some(19) {
+        format!(
+            "there is no interface `{interface}`; a virtual one: `ip link add dev {interface} \
+             type vcan && ip link set {interface} up`"
+        )
+    } else {
+        String::new()
+    };
+    let msg = if hint.is_empty() {
+        format!("CAN interface `{interface}`: {e}")
+    } else {
+        format!("CAN interface `{interface}`: {e}: {hint}")
+    };
+    io::Error::new(e.kind(), msg)
+}
+
+/// Microseconds of the monotonic clock since the node started, divided by the time scale.
+struct MonoClock(Instant, f64);
+
+impl Clock for MonoClock {
+    fn now_us(&mut self) -> u64 {
+        (self.0.elapsed().as_secs_f64() * 1e6 / self.1) as u64
+    }
+}
+
+/// The plant socket and what came through it.
+struct PlantIo {
+    socket: CanSocket,
+    agent: u8,
+    x: Option<[f32; N]>,
+    last_rx: Option<Instant>,
+    tx_errors: u64,
+}
+
+impl PlantIo {
+    /// Takes every waiting sensor frame; `true` if at least one came.
+    fn drain(&mut self) -> bool {
+        let mut got = false;
+        while let Ok(f) = self.socket.read_frame() {
+            if let Some(PlantFrame::Sensor(a, x)) = plant_bus::decode(&f) {
+                if a == self.agent {
+                    self.x = Some(x);
+                    self.last_rx = Some(Instant::now());
+                    got = true;
+                }
+            }
+        }
+        got
+    }
+
+    fn send(&mut self, f: Option<CanFrame>) {
+        if f.is_none_or(|f| self.socket.write_frame(&f).is_err()) {
+            self.tx_errors += 1;
+        }
+    }
+}
+
+/// The state sensor: the latest sensor frame.
+struct BusSensor(Rc<RefCell<PlantIo>>);
+
+/// No sensor frame has come yet.
+#[derive(Debug)]
+struct NoSample;
+
+impl Sensor<N> for BusSensor {
+    type Error = NoSample;
+    fn read(&mut self) -> Result<[f32; N], NoSample> {
+        let mut io = self.0.borrow_mut();
+        io.drain();
+        io.x.ok_or(NoSample)
+    }
+}
+
+/// The actuators: one command frame per sample.
+struct BusActuator(Rc<RefCell<PlantIo>>);
+
+impl Actuator<N> for BusActuator {
+    type Error = ();
+    fn write(&mut self, q: &[f32; N]) -> Result<(), ()> {
+        let mut io = self.0.borrow_mut();
+        let agent = io.agent;
+        let f = plant_bus::pair_frame(Kind::Command, agent, *q);
+        let before = io.tx_errors;
+        io.send(f);
+        if io.tx_errors == before {
+            Ok(())
+        } else {
+            Err(())
+        }
+    }
+}
+
+/// Runs the node until a signal (`stop` set) or the host's silence; the reason it stopped.
+pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
+    let agent = cfg.node_config.agent;
+    let iface = cfg.node.interface.as_str();
+    let bus = open(iface)?;
+    // Everything but the plant-bus frames (0x200..=0x4FF): value frames and heartbeats of
+    // whatever identifier plan.
+    let plant_block = |base: u16| CanFilter::new_inverted(u32::from(base), 0x700);
+    bus.set_filters(&[
+        plant_block(plant_bus::SENSOR_BASE),
+        plant_block(plant_bus::COMMAND_BASE),
+        plant_block(plant_bus::STATE_BASE),
+    ])?;
+    bus.set_join_filters(true)?;
+    bus.set_nonblocking(true)?;
+    let plant = open(iface)?;
+    let sensor_id = Kind::Sensor
+        .id(agent)
+        .map_or(0, |id| u32::from(id.as_raw()));
+    plant.set_filters(&[CanFilter::new(sensor_id, 0x7FF)])?;
+    plant.set_nonblocking(true)?;
+    let io = Rc::new(RefCell::new(PlantIo {
+        socket: plant,
+        agent,
+        x: None,
+        last_rx: None,
+        tx_errors: 0,
+    }));
+    let mut node: Node<CanSocket, MonoClock, BusSensor, BusActuator, N, N, MAX_NEIGHBOURS> =
+        Node::new(
+            &cfg.node_config,
+            &cfg.controller,
+            bus,
+            MonoClock(Instant::now(), cfg.node.time_scale),
+            BusSensor(io.clone()),
+            BusActuator(io.clone()),
+        )
+        .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
+    let h = Duration::from_secs_f64(cfg.wall_h());
+    let host_timeout = Duration::from_secs_f64(cfg.node.host_timeout);
+    let mut state = NodeState {
+        mode: Mode::Waiting,
+        degraded_links: 0,
+        late_ticks: 0,
+    };
+    let heartbeat = |io: &Rc<RefCell<PlantIo>>, s: &NodeState| {
+        io.borrow_mut().send(s.frame(agent));
+    };
+    log::info!("agent {agent}: on {iface}, waiting for the host's sensor frames");
+    let mut next_beat = Instant::now();
+    // Waiting: heartbeats until the first sensor frame.
+    let first = loop {
+        if stop.load(Ordering::Relaxed) {
+            return finish(&io, agent, state, Stop::Signal);
+        }
+        let now = Instant::now();
+        if now >= next_beat {
+            heartbeat(&io, &state);
+            next_beat = now + HEARTBEAT;
+        }
+        if io.borrow_mut().drain() {
+            break io.borrow().last_rx.unwrap_or(now);
+        }
+        std::thread::sleep(Duration::from_micros(200).min(h / 4));
+    };
+    state.mode = Mode::Running;
+    heartbeat(&io, &state);
+    log::info!("agent {agent}: first sensor frame, sampling every {h:?}");
+    let start = first + h / 2;
+    let mut k: u64 = 0;
+    let mut ticks: u64 = 0;
+    let mut late: u64 = 0;
+    next_beat = Instant::now() + HEARTBEAT;
+    let reason = loop {
+        let deadline = start + h.mul_f64(k as f64);
+        let now = Instant::now();
+        if deadline > now {
+            std::thread::sleep(deadline - now);
+        }
+        if stop.load(Ordering::Relaxed) {
+            break Stop::Signal;
+        }
+        let woke = Instant::now();
+        let behind = woke.saturating_duration_since(deadline);
+        if behind > h / 2 {
+            late += 1;
+            state.late_ticks = state.late_ticks.saturating_add(1);
+        }
+        let t = node.tick();
+        ticks += 1;
+        let l = t.output.status.links;
+        let degraded = u32::from(l.stale_neighbours)
+            + u32::from(l.missing_neighbours)
+            + u32::from(l.leader_stale || l.leader_missing);
+        state.degraded_links = u8::try_from(degraded).unwrap_or(u8::MAX);
+        let last_rx = io.borrow().last_rx.unwrap_or(first);
+        if woke.saturating_duration_since(last_rx) > host_timeout {
+            log::error!(
+                "agent {agent}: no sensor frame for {:?} (host_timeout): the host is gone",
+                woke.saturating_duration_since(last_rx)
+            );
+            break Stop::HostLost;
+        }
+        if woke >= next_beat {
+            heartbeat(&io, &state);
+            next_beat = woke + HEARTBEAT;
+        }
+        // Skip the samples a stall made us miss instead of running them in a burst.
+        let elapsed = Instant::now().saturating_duration_since(start);
+        k = (k + 1).max((elapsed.as_secs_f64() / h.as_secs_f64()).floor() as u64);
+    };
+    let st = node.stats();
+    log::info!(
+        "agent {agent}: {ticks} samples, {late} late (woke more than h/2 after the deadline), \
+         {} frames received, {} stale link-samples, {} tx errors",
+        st.frames_rx,
+        st.stale_samples,
+        st.tx_errors + u32::try_from(io.borrow().tx_errors).unwrap_or(u32::MAX)
+    );
+    finish(&io, agent, state, reason)
+}
+
+fn finish(
+    io: &Rc<RefCell<PlantIo>>,
+    agent: u8,
+    mut state: NodeState,
+    reason: Stop,
+) -> io::Result<Stop> {
+    state.mode = match reason {
+        Stop::Signal => Mode::Stopping,
+        Stop::HostLost => Mode::HostLost,
+    };
+    io.borrow_mut().send(state.frame(agent));
+    log::info!("agent {agent}: stopped ({})", state.mode.as_str());
+    Ok(reason)
+}
