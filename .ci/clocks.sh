@@ -26,7 +26,7 @@ for f in summary.json clocks.png clocks.svg; do
   test -s "out/clocks/$f" || { echo "out/clocks/$f missing" >&2; exit 1; }
 done
 
-rm -rf target/docs/clocks
+rm -rf target/docs/run/example1-can-clock-*
 cargo xtask docs --check --only docs/CLOCKS.md
 
 echo "clocks: build $((built - t0)) s, campaigns, run and documentation check $((SECONDS - built)) s"

@@ -1,11 +1,11 @@
 //! Figures of docs/CLOCKS.md: the clock campaigns (`clocks.NAME`, `clocks.NAME.KEY`) and the
 //! three 60 s runs of the goal (`clocks.goal`, `clocks.goal.RUN`).
 
-use std::{collections::BTreeMap, fmt::Write as _, process::Command};
+use std::{collections::BTreeMap, fmt::Write as _};
 
 use serde_json::Value;
 
-use super::{cell, diverged, fixed, num, run, workspace_root, Row, Sources};
+use super::{cell, diverged, fixed, num, Row, Sources};
 use crate::Result;
 
 /// The campaigns over sync mode × drift × jitter (`campaigns/NAME.toml`).
@@ -63,24 +63,11 @@ impl Sources {
             .find(|g| g.0 == name)
             .ok_or_else(|| format!("no goal run `{name}`"))?
             .1;
-        let path = format!("target/docs/clocks/{name}/summary.json");
-        self.json_file(&path, |s, file| {
-            let bin = s.host_sim()?;
-            let dir = file.parent().unwrap_or(file);
-            let mut cmd = Command::new(bin);
-            cmd.current_dir(workspace_root()).args([
-                "run",
-                "scenarios/example1-can.toml",
-                "--no-plots",
-                "--quiet",
-                "--set",
-                &format!("simulation.t_end={GOAL_T_END}"),
-            ]);
-            for set in sets {
-                cmd.args(["--set", set]);
-            }
-            run(cmd.arg("--out").arg(dir)).map(|_| ())
-        })
+        let t_end = format!("simulation.t_end={GOAL_T_END}");
+        let all: Vec<&str> = std::iter::once(t_end.as_str())
+            .chain(sets.iter().copied())
+            .collect();
+        self.summary_with("example1-can", &format!("-clock-{name}"), &all)
     }
 }
 
