@@ -13,8 +13,10 @@ use object::{elf::SHF_ALLOC, Object, ObjectSection, SectionFlags, SectionKind};
 
 /// The board firmware's directory under the workspace root.
 pub const BOARD_DIR: &str = "boards/nucleo-g474re";
-/// The ELF it builds, under its directory.
-const ELF: &str = "target/thumbv7em-none-eabihf/release/nucleo-g474re";
+/// Where `board-size` builds it, under the workspace root (see [`firmware_build`]).
+const TARGET_DIR: &str = "target/board/fw-remapped";
+/// The ELF it builds, under [`TARGET_DIR`].
+const ELF: &str = "thumbv7em-none-eabihf/release/nucleo-g474re";
 /// Where the figures are written, under the workspace root.
 pub const SIZE_JSON: &str = "target/board/size.json";
 /// The keys of [`SIZE_JSON`].
@@ -91,15 +93,14 @@ impl Sizes {
 pub fn board_size(opts: &Options) -> Result<()> {
     let dir = workspace_root().join(BOARD_DIR);
     if !opts.no_run {
-        let status = firmware_build(&dir)
-            .args(["--target-dir", "target"])
+        let status = firmware_build(&dir, &workspace_root().join(TARGET_DIR))
             .status()
             .map_err(|e| format!("cannot run cargo: {e}"))?;
         if !status.success() {
             return Err(format!("building {BOARD_DIR} failed ({status})"));
         }
     }
-    let elf = dir.join(ELF);
+    let elf = workspace_root().join(TARGET_DIR).join(ELF);
     let data = std::fs::read(&elf).map_err(|e| format!("{}: {e}", elf.display()))?;
     let s = Sizes::of_elf(&data)?;
     println!(

@@ -678,13 +678,9 @@ impl Sources {
     fn node_fw(&mut self) -> Result<Value> {
         self.json_file("target/docs/node-fw.json", |_, file| {
             let dir = workspace_root().join("node-fw");
-            run(Command::new(cargo()).current_dir(&dir).args([
-                "build",
-                "--release",
-                "--locked",
-                "--quiet",
-            ]))?;
-            let elf = dir.join("target/thumbv7em-none-eabihf/release/node-fw");
+            let target_dir = workspace_root().join("target/docs/node-fw-remapped");
+            run(crate::firmware_build(&dir, &target_dir).arg("--quiet"))?;
+            let elf = target_dir.join("thumbv7em-none-eabihf/release/node-fw");
             let data = fs::read(&elf).map_err(|e| format!("{}: {e}", elf.display()))?;
             let obj = object::File::parse(&*data)
                 .map_err(|e| format!("{}: cannot parse the ELF: {e}", elf.display()))?;

@@ -181,18 +181,45 @@ pub fn cargo() -> String {
     std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_owned())
 }
 
-/// `cargo build --release --locked` of a firmware crate outside the workspace, run from its
-/// directory so its `.cargo/config.toml` (target, linker scripts) applies, with no host
-/// flags leaking into the target build.
-pub fn firmware_build(dir: &Path) -> std::process::Command {
+/// `cargo build --release --locked` of a firmware crate outside the workspace into `target_dir`,
+/// run from its directory so its `.cargo/config.toml` (target, linker scripts) applies, with no
+/// host flags leaking into the target build. The checkout's and Cargo home's paths are remapped to
+/// fixed prefixes, so the panic locations kept in flash, and with them the measured sizes, are
+/// the same wherever the repository and the registry lie. Cargo leaves `--remap-path-prefix` out
+/// of its fingerprints, so `target_dir` must hold no build made without these flags: it is a
+/// directory of its own, not the crate's `target`.
+pub fn firmware_build(dir: &Path, target_dir: &Path) -> std::process::Command {
     let mut c = std::process::Command::new(cargo());
     c.current_dir(dir)
-        .args(["build", "--release", "--locked"])
+        .args(["build", "--release", "--locked", "--config"])
+        .arg(remap_config())
+        .arg("--target-dir")
+        .arg(target_dir)
         .env_remove("RUSTFLAGS")
         .env_remove("CARGO_ENCODED_RUSTFLAGS")
         .env_remove("CARGO_BUILD_RUSTFLAGS")
         .env_remove("CARGO_BUILD_TARGET");
     c
+}
+
+/// The `--config` value that adds the path remapping of [`firmware_build`] to the target's
+/// `rustflags` (cargo appends it to those of the crate's `.cargo/config.toml`).
+fn remap_config() -> String {
+    let cargo_home = std::env::var_os("CARGO_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cargo")));
+    let mut flags = vec![format!(
+        "--remap-path-prefix={}=/src",
+        workspace_root().display()
+    )];
+    if let Some(home) = cargo_home {
+        flags.push(format!("--remap-path-prefix={}=/cargo", home.display()));
+    }
+    // A JSON array of strings is a TOML inline array.
+    format!(
+        "target.thumbv7em-none-eabihf.rustflags={}",
+        serde_json::Value::from(flags)
+    )
 }
 
 /// Result type of the tasks: a message for the user.

@@ -226,12 +226,10 @@ fn qemu_version() -> String {
 /// Builds the firmware for `v`; returns a copy of its ELF named after the variant.
 fn build(v: &Variant, trace: &Path, dir: &Path) -> Result<PathBuf> {
     let fw = workspace_root().join("bench-fw");
-    let target_dir = dir.join("fw");
+    let target_dir = dir.join("fw-remapped");
     eprintln!("building {} (features {})", v.name, v.features);
-    let status = firmware_build(&fw)
+    let status = firmware_build(&fw, &target_dir)
         .args(["--no-default-features", "--features", v.features])
-        .arg("--target-dir")
-        .arg(&target_dir)
         .env("BENCH_TRACE", trace)
         .status()
         .map_err(|e| format!("cannot run cargo: {e}"))?;
