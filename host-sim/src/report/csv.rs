@@ -18,7 +18,7 @@ use crate::{
     report::{
         parquet,
         plots::MAX_PLOTTED_AGENTS,
-        table::{Block, Layout, Table},
+        table::{Block, Field, Layout, Table},
         temp_path, TempFile,
     },
     scenario::Setup,
@@ -275,19 +275,12 @@ pub struct TrajectoryObserver {
 
 /// The column names of the trajectory of `agents` (0-based) with `n` states and `m` actuators.
 pub fn header(agents: &[usize], n: usize, m: usize) -> Vec<String> {
-    let mut header = vec!["t".to_string(), "yd".to_string()];
-    for i in agents.iter().map(|i| i + 1) {
-        header.push(format!("y{i}"));
-        header.extend((1..=n).map(|j| format!("x{i}_{j}")));
-        header.extend((1..=n).map(|j| format!("e{i}_{j}")));
-        header.extend((1..=m).map(|l| format!("u{i}_{l}")));
-        header.extend((1..=m).map(|l| format!("q{i}_{l}")));
-        header.extend([format!("mu{i}"), format!("xi{i}"), format!("lambda{i}")]);
-    }
-    for i in agents.iter().map(|i| i + 1) {
-        header.extend((1..=m).map(|l| format!("qf{i}_{l}")));
-    }
-    header
+    let layout = Layout::new(agents.len(), n, m);
+    layout
+        .columns(agents)
+        .into_iter()
+        .map(|(name, _)| name)
+        .collect()
 }
 
 /// What the writer thread hands back: a table when the sink is [`Sink::Table`].
@@ -323,13 +316,8 @@ impl TrajectoryObserver {
         h: f64,
     ) -> Result<Self> {
         let total = agents.iter().max().map_or(0, |a| a + 1);
+        let layout = Layout::new(agents.len(), n, m);
         let names = header(&agents, n, m);
-        let layout = Layout {
-            agents: agents.len(),
-            wide: 1 + n,
-            narrow: n + 2 * m + 3,
-            m,
-        };
         let (tx, rx) = sync_channel(QUEUE);
         let spawn = |what: &str, f: Box<dyn FnOnce() -> Written + Send>| {
             std::thread::Builder::new()
@@ -498,27 +486,22 @@ fn write_rows(
 ) -> std::io::Result<()> {
     let mut line = Vec::with_capacity(1 << 12);
     let mut texts = Texts::new(layout.wide_row() + layout.narrow_row());
+    let fields = layout.fields();
     for block in rx {
         for (w, q) in layout.rows(&block) {
             line.clear();
             texts.row();
-            for &v in &w[..2] {
-                texts.field(&mut line, v, v.to_bits(), false);
-            }
-            let (per_agent, qf) = w[2..].split_at(layout.agents * layout.wide);
-            for (wa, qa) in per_agent
-                .chunks_exact(layout.wide)
-                .zip(q.chunks_exact(layout.narrow))
-            {
-                for &v in wa {
-                    texts.field(&mut line, v, v.to_bits(), false);
+            for f in &fields {
+                match *f {
+                    Field::Wide(i) => {
+                        let v = w[i];
+                        texts.field(&mut line, v, v.to_bits(), false);
+                    }
+                    Field::Narrow(i) => {
+                        let v = q[i];
+                        texts.field(&mut line, v, u64::from(v.to_bits()), true);
+                    }
                 }
-                for &v in qa {
-                    texts.field(&mut line, v, u64::from(v.to_bits()), true);
-                }
-            }
-            for &v in qf {
-                texts.field(&mut line, v, v.to_bits(), false);
             }
             if let Some(last) = line.last_mut() {
                 *last = b'\n';

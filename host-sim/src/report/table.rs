@@ -88,16 +88,43 @@ impl Layout {
         (self.agents * self.narrow).max(1)
     }
 
-    /// Every column in header order.
-    pub(crate) fn fields(&self) -> Vec<Field> {
-        let mut f = vec![Field::Wide(0), Field::Wide(1)];
-        for a in 0..self.agents {
-            f.extend((0..self.wide).map(|j| Field::Wide(2 + a * self.wide + j)));
-            f.extend((0..self.narrow).map(|j| Field::Narrow(a * self.narrow + j)));
+    /// The layout of `agents` agents with `n` states and `m` actuators.
+    pub(crate) fn new(agents: usize, n: usize, m: usize) -> Self {
+        Self {
+            agents,
+            wide: 1 + n,
+            narrow: n + 2 * m + 3,
+            m,
+        }
+    }
+
+    /// Every column in header order: its name in `trajectory.csv` (agents numbered from
+    /// `agents`, 0-based, one per agent of the layout) and where its values are in a row.
+    pub(crate) fn columns(&self, agents: &[usize]) -> Vec<(String, Field)> {
+        let (n, m) = (self.wide - 1, self.m);
+        let mut c = vec![("t".into(), Field::Wide(0)), ("yd".into(), Field::Wide(1))];
+        for (a, i) in agents.iter().map(|i| i + 1).enumerate() {
+            let wide = |j: usize| Field::Wide(2 + a * self.wide + j);
+            let narrow = |j: usize| Field::Narrow(a * self.narrow + j);
+            c.push((format!("y{i}"), wide(0)));
+            c.extend((1..=n).map(|j| (format!("x{i}_{j}"), wide(j))));
+            c.extend((1..=n).map(|j| (format!("e{i}_{j}"), narrow(j - 1))));
+            c.extend((1..=m).map(|l| (format!("u{i}_{l}"), narrow(n + l - 1))));
+            c.extend((1..=m).map(|l| (format!("q{i}_{l}"), narrow(n + m + l - 1))));
+            let estimates = ["mu", "xi", "lambda"].into_iter().enumerate();
+            c.extend(estimates.map(|(k, e)| (format!("{e}{i}"), narrow(n + 2 * m + k))));
         }
         let qf = 2 + self.agents * self.wide;
-        f.extend((0..self.agents * self.m).map(|j| Field::Wide(qf + j)));
-        f
+        for (a, i) in agents.iter().map(|i| i + 1).enumerate() {
+            c.extend((1..=m).map(|l| (format!("qf{i}_{l}"), Field::Wide(qf + a * m + l - 1))));
+        }
+        c
+    }
+
+    /// Every column in header order.
+    pub(crate) fn fields(&self) -> Vec<Field> {
+        let agents: Vec<usize> = (0..self.agents).collect();
+        self.columns(&agents).into_iter().map(|(_, f)| f).collect()
     }
 
     /// The rows of `block`: their `f64` and `f32` values.
