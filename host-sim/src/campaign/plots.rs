@@ -427,7 +427,7 @@ fn heatmap<DB: DrawingBackend>(
                 .map_err(err)?;
         }
     }
-    colour_bar(&bar, style, (lo, hi), scale, metric)
+    colour_bar(&bar, style, (lo, hi), scale, &t.label(metric))
 }
 
 fn colour_bar<DB: DrawingBackend>(
@@ -435,7 +435,7 @@ fn colour_bar<DB: DrawingBackend>(
     style: &FigureStyle,
     (lo, hi): (f64, f64),
     scale: Scale,
-    metric: &str,
+    label: &str,
 ) -> DrawResult {
     let fmt = move |v: &f64| short(scale.from(*v));
     let mut c = ChartBuilder::on(area)
@@ -449,11 +449,7 @@ fn colour_bar<DB: DrawingBackend>(
         .disable_mesh()
         .disable_x_axis()
         .y_label_formatter(&fmt)
-        .y_desc(if scale.log {
-            format!("{metric} (log)")
-        } else {
-            metric.to_string()
-        })
+        .y_desc(with_scale(label, scale))
         .label_style(style.font(12))
         .draw()
         .map_err(err)?;

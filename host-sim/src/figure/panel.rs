@@ -244,13 +244,25 @@ impl Figure for Panels<'_> {
     }
 }
 
+/// The vertical lines of `p` inside its time window, with their index (which sets their style):
+/// those outside are neither drawn nor named in the legend.
+fn shown_vlines(p: &Panel) -> impl Iterator<Item = (usize, &(f64, String))> {
+    let from = p.x_from.unwrap_or(f64::NEG_INFINITY);
+    let to = p.x_to.unwrap_or(f64::INFINITY);
+    p.vlines
+        .iter()
+        .enumerate()
+        .filter(move |(_, (t, _))| (from..=to).contains(t))
+}
+
 /// The legend texts of `p`.
 fn legend_entries(p: &Panel) -> Vec<String> {
     p.series
         .iter()
         .map(|s| s.label.clone())
         .filter(|l| !l.is_empty())
-        .chain(p.vlines.iter().chain(&p.hlines).map(|l| l.1.clone()))
+        .chain(shown_vlines(p).map(|(_, l)| l.1.clone()))
+        .chain(p.hlines.iter().map(|l| l.1.clone()))
         .chain(p.band.iter().map(|b| b.1.clone()))
         .chain(p.shades.iter().map(|s| s.label.clone()))
         .collect()
@@ -620,7 +632,7 @@ fn draw_panel<DB: DrawingBackend>(
     shade_labels.sort_unstable();
     shade_labels.dedup();
     let entries = p.series.len()
-        + p.vlines.len()
+        + shown_vlines(p).count()
         + p.hlines.len()
         + usize::from(p.band.is_some())
         + shade_labels.len();
@@ -628,7 +640,8 @@ fn draw_panel<DB: DrawingBackend>(
         .series
         .iter()
         .map(|s| &s.label)
-        .chain(p.vlines.iter().chain(&p.hlines).map(|l| &l.1))
+        .chain(shown_vlines(p).map(|(_, l)| &l.1))
+        .chain(p.hlines.iter().map(|l| &l.1))
         .chain(&p.band.iter().map(|b| b.1.clone()).collect::<Vec<_>>())
         .map(|l| l.chars().count())
         .chain(shade_labels.iter().map(|l| l.chars().count()))
@@ -914,7 +927,7 @@ fn legend_samples(p: &Panel) -> Vec<(Sample, String)> {
             label.clone(),
         ));
     }
-    for (k, (_, label)) in p.vlines.iter().enumerate() {
+    for (k, (_, label)) in shown_vlines(p) {
         let sample = if k == 0 {
             Sample::Line(Dash::Solid, Marker::None, BLACK.mix(0.6), 2)
         } else {
@@ -1048,6 +1061,25 @@ mod tests {
             "a new line gets its legend"
         );
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_vertical_line_outside_the_time_window_is_not_in_the_legend() {
+        let p = Panel {
+            series: vec![Series::styled(
+                "agent 1".into(),
+                0,
+                vec![(0.0, 0.0), (10.0, 1.0)],
+            )],
+            vlines: vec![(4.0, "2Tₛ = 4 s".into()), (7.5, "settled".into())],
+            x_from: Some(5.0),
+            ..Panel::default()
+        };
+        let labels: Vec<String> = legend_samples(&p).into_iter().map(|(_, l)| l).collect();
+        assert_eq!(labels, ["settled", "agent 1"]);
+        assert_eq!(legend_entries(&p), ["agent 1", "settled"]);
+        // The line inside keeps the style of its place in the list.
+        assert_eq!(shown_vlines(&p).map(|(k, _)| k).collect::<Vec<_>>(), [1]);
     }
 
     #[test]
