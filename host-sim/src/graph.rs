@@ -345,6 +345,31 @@ impl Graph {
         (0..n).filter(|&i| !seen[i]).collect()
     }
 
+    /// Per agent, the fewest links from the leader to it (a pinned agent: 1); `None` for an
+    /// agent no path reaches (not in a graph that [`Graph::new`] accepted).
+    pub fn hops(&self) -> Vec<Option<usize>> {
+        let n = self.len();
+        let mut hearers: Vec<Vec<usize>> = vec![Vec::new(); n];
+        for i in 0..n {
+            for &k in self.neighbours(i) {
+                hearers[k].push(i);
+            }
+        }
+        let mut hops: Vec<Option<usize>> = self.pinned.iter().map(|&p| p.then_some(1)).collect();
+        let mut queue: std::collections::VecDeque<usize> =
+            (0..n).filter(|&i| self.pinned[i]).collect();
+        while let Some(k) = queue.pop_front() {
+            let next = hops[k].map(|h| h + 1);
+            for &i in &hearers[k] {
+                if hops[i].is_none() {
+                    hops[i] = next;
+                    queue.push_back(i);
+                }
+            }
+        }
+        hops
+    }
+
     /// Number of agents.
     pub fn len(&self) -> usize {
         self.pinned.len()
@@ -433,6 +458,20 @@ mod tests {
             Ok(_) => panic!("agents 3 and 4 are not reached from the leader"),
         };
         assert!(err.contains("3, 4"), "{err}");
+    }
+
+    #[test]
+    fn hops_count_the_links_from_the_leader() {
+        // LAW §8's graph: 1 pinned, 2 and 3 hear 1, 4 hears 1 and 3.
+        let g = Graph::new(
+            vec![vec![], vec![0], vec![0], vec![0, 2]],
+            vec![true, false, false, false],
+        )
+        .expect("graph");
+        assert_eq!(g.hops(), [Some(1), Some(2), Some(2), Some(2)]);
+        let line =
+            Graph::new(vec![vec![], vec![0], vec![1]], vec![true, false, false]).expect("line");
+        assert_eq!(line.hops(), [Some(1), Some(2), Some(3)]);
     }
 
     #[test]

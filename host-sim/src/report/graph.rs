@@ -11,6 +11,7 @@ use crate::{
     error::{Error, Result},
     figure::{drawing_error, save_png_and_svg, DrawResult, Figure, FigureStyle, Format},
     graph::Graph,
+    report::write_atomic,
     scenario::Setup,
 };
 
@@ -22,21 +23,26 @@ struct GraphFigure<'a> {
     title: String,
 }
 
-/// Writes `dir/graph.<ext>` of the scenario's graph.
+/// Writes `dir/graph.json` (the graph's figures: followers, links, pinned followers, largest
+/// in-degree, hops from the leader) and, for at most [`MAX_DRAWN`] followers, `dir/graph.<ext>`.
 pub fn draw(dir: &Path, setup: &Setup) -> Result<()> {
+    let g = &setup.graph;
     let n = setup.agents();
+    let path = dir.join("graph.json");
+    let text = serde_json::to_string_pretty(&figures(g)).map_err(|e| Error::io(&path, e))?;
+    write_atomic(&path, format!("{text}\n").as_bytes())?;
     if n > MAX_DRAWN {
-        return Err(Error::invalid(
-            "graph",
-            format!("{n} followers: the graph figure draws at most {MAX_DRAWN}"),
-        ));
+        eprintln!(
+            "graph: {n} followers, more than the {MAX_DRAWN} the figure draws: only graph.json written"
+        );
+        return Ok(());
     }
     let figure = GraphFigure {
-        graph: &setup.graph,
+        graph: g,
         title: format!(
             "{}: communication graph ({n} followers, {} links)",
             setup.scenario.name,
-            setup.graph.links()
+            g.links()
         ),
     };
     save_png_and_svg(
@@ -45,6 +51,20 @@ pub fn draw(dir: &Path, setup: &Setup) -> Result<()> {
         &FigureStyle::px(700, 560).with(setup.figures()),
         &figure,
     )
+}
+
+/// The content of `graph.json`.
+fn figures(g: &Graph) -> serde_json::Value {
+    let n = g.len();
+    let hops: Vec<usize> = g.hops().into_iter().flatten().collect();
+    serde_json::json!({
+        "followers": n,
+        "links": g.links(),
+        "pinned": (0..n).filter(|&i| g.pinned(i)).count(),
+        "in_degree_max": (0..n).map(|i| g.neighbours(i).len()).max().unwrap_or(0),
+        "hops_max": hops.iter().max().copied().unwrap_or(0),
+        "hops_mean": hops.iter().sum::<usize>() as f64 / hops.len().max(1) as f64,
+    })
 }
 
 /// An arrow from `a` to `b` that stops `gap` px short of both centres.
