@@ -28,7 +28,9 @@ use std::{
     time::Instant,
 };
 
+mod back_end;
 mod clocks;
+mod scaling;
 
 const OPEN: &str = "<!-- fig:";
 const CLOSE: &str = "<!-- /fig:";
@@ -245,7 +247,7 @@ fn short(s: &str) -> String {
 }
 
 /// The figure names (patterns) and what they render.
-pub const CATALOGUE: [(&str, &str); 25] = [
+pub const CATALOGUE: [(&str, &str); 32] = [
     ("bench-table", "target bench table (target/bench/step.json)"),
     ("bench.VARIANT.KEY", "one number of step.json's VARIANT (KEY also flash_total)"),
     ("scenarios", "shipped scenario table (host-sim run, stable-h)"),
@@ -260,6 +262,13 @@ pub const CATALOGUE: [(&str, &str); 25] = [
     ("torque-limit.smallest", "smallest u_max that tracks into the band"),
     ("torque-limit.fails", "largest u_max found not to track"),
     ("pil", "per-agent Node::tick instructions of the 2 s PIL run (target/ci-pil/pil)"),
+    ("back-end.NAME[.KEY]", "closed-loop drift table of a math back-end against the default build (NAME: micromath, fast-math; KEY: worst, SCENARIO.worst, SCENARIO.FIGURE; target/docs/back-end/NAME.md of its host-sim test)"),
+    ("scaling.line", "error after 2Ts of a line of 1 to 10 followers (scenarios/line.toml, --set graph.agents=N)"),
+    ("scaling.line.per-follower", "error after 2Ts added per follower of the line, from 1 to 10"),
+    ("scaling.run.NAME", "error after 2Ts of a generated graph (NAME: line-N, star-50, random-50, random-50-links, swarm)"),
+    ("scaling.graph.KEY", "the swarm's graph.json (KEY: hops_max, hops_mean, in_degree_max)"),
+    ("scaling.file.KEY", "the swarm's trajectory.csv (KEY: decimate, rows, mb, every-sample-gb, three-agents-mb)"),
+    ("trajectory.SCENARIO.KEY", "trajectory file of a shipped scenario's run, --no-plots (KEY: csv, parquet = bytes of trajectory.csv, trajectory.parquet; parquet-percent; rows; columns)"),
     ("node-fw.KEY", "node-fw release ELF in bytes (KEY: flash = vector table, .text, .rodata, .data; ram = .data, .bss, .uninit)"),
     ("sizes.KEY", "size_of in bytes (KEY: controller, params, state, controller-n3)"),
     ("campaign.NAME", "Ts x h map summary per Ts (NAME: example1-ts-h, example2-ts-h; out/campaigns/NAME/results.csv)"),
@@ -291,6 +300,13 @@ enum Figure<'a> {
     TorqueFails,
     Pil,
     NodeFw(&'a str),
+    Trajectory(&'a str, &'a str),
+    BackEnd(&'a str, &'a str),
+    ScalingLine,
+    ScalingPerFollower,
+    ScalingRun(&'a str),
+    ScalingGraph(&'a str),
+    ScalingFile(&'a str),
     Size(&'a str),
     TsH(&'a str),
     MonteCarlo(&'a str),
@@ -327,6 +343,8 @@ const MONTE_CARLO: [&str; 7] = [
     "error-median",
     "error-p95",
 ];
+/// Figures of a run's trajectory file that `trajectory.SCENARIO.KEY` renders.
+const TRAJECTORY_KEYS: [&str; 5] = ["csv", "parquet", "parquet-percent", "rows", "columns"];
 /// `size_of` figures the sizes test prints.
 const SIZES: [&str; 4] = ["controller", "params", "state", "controller-n3"];
 
@@ -351,6 +369,18 @@ fn parse(name: &str) -> Option<Figure<'_>> {
         ["torque-limit", "fails"] => Figure::TorqueFails,
         ["pil"] => Figure::Pil,
         ["node-fw", key] if ["flash", "ram"].contains(key) => Figure::NodeFw(key),
+        ["back-end", back, ..] if back_end::known(back) => {
+            let key = name.get("back-end.".len() + back.len()..).unwrap_or("");
+            Figure::BackEnd(back, key.trim_start_matches('.'))
+        }
+        ["scaling", "line"] => Figure::ScalingLine,
+        ["scaling", "line", "per-follower"] => Figure::ScalingPerFollower,
+        ["scaling", "run", run] if scaling::known_run(run) => Figure::ScalingRun(run),
+        ["scaling", "graph", key] if scaling::GRAPH_KEYS.contains(key) => Figure::ScalingGraph(key),
+        ["scaling", "file", key] if scaling::FILE_KEYS.contains(key) => Figure::ScalingFile(key),
+        ["trajectory", stem, key] if scenario(stem) && TRAJECTORY_KEYS.contains(key) => {
+            Figure::Trajectory(stem, key)
+        }
         ["sizes", key] if SIZES.contains(key) => Figure::Size(key),
         ["campaign", name] if TS_H.contains(name) => Figure::TsH(name),
         ["campaign", "example1-monte-carlo", key] if MONTE_CARLO.contains(key) => {
@@ -390,6 +420,13 @@ fn render(name: &str, src: &mut Sources) -> Result<Option<String>> {
         Figure::TorqueFails => fixed(num(&src.torque()?, "fails")?, 2),
         Figure::Pil => pil_table(&src.pil()?)?,
         Figure::NodeFw(key) => grouped(num(&src.node_fw()?, key)?, 0),
+        Figure::Trajectory(stem, key) => trajectory_figure(src, stem, key)?,
+        Figure::BackEnd(name, key) => back_end::figure(src, name, key)?,
+        Figure::ScalingLine => scaling::line_table(src)?,
+        Figure::ScalingPerFollower => scaling::line_per_follower(src)?,
+        Figure::ScalingRun(run) => scaling::run_figure(src, run)?,
+        Figure::ScalingGraph(key) => scaling::graph_figure(src, key)?,
+        Figure::ScalingFile(key) => scaling::file_figure(src, key)?,
         Figure::Size(key) => sizes_figure(&src.sizes()?, key)?,
         Figure::TsH(name) => ts_h_table(&src.campaign(name)?)?,
         Figure::MonteCarlo(key) => monte_carlo(&src.campaign("example1-monte-carlo")?, key)?,
@@ -539,19 +576,36 @@ impl Sources {
         }
         let path = format!("target/docs/run/{stem}{tag}/summary.json");
         self.json_file(&path, |s, file| {
-            let bin = s.host_sim()?;
-            let dir = file.parent().unwrap_or(file);
-            let mut cmd = Command::new(bin);
-            cmd.current_dir(workspace_root()).args([
+            let args: Vec<&str> = sets.iter().flat_map(|set| ["--set", set]).collect();
+            s.run_scenario(stem, &args, file.parent().unwrap_or(file))
+        })
+    }
+
+    /// `host-sim run scenarios/<file>.toml --no-plots --quiet <args> --out <dir>`.
+    fn run_scenario(&mut self, file: &str, args: &[&str], dir: &Path) -> Result<()> {
+        let bin = self.host_sim()?;
+        let mut cmd = Command::new(bin);
+        cmd.current_dir(workspace_root())
+            .args([
                 "run",
-                &format!("scenarios/{stem}.toml"),
+                &format!("scenarios/{file}.toml"),
                 "--no-plots",
                 "--quiet",
-            ]);
-            for set in sets {
-                cmd.args(["--set", set]);
-            }
-            run(cmd.arg("--out").arg(dir)).map(|_| ())
+            ])
+            .args(args);
+        run(cmd.arg("--out").arg(dir)).map(|_| ())
+    }
+
+    /// `trajectory.parquet` of a shipped scenario run with `--format parquet`, in
+    /// `target/docs/run/<stem>-parquet/`.
+    fn parquet(&mut self, stem: &str) -> Result<PathBuf> {
+        let path = format!("target/docs/run/{stem}-parquet/trajectory.parquet");
+        self.file(&path, |s, file| {
+            s.run_scenario(
+                stem,
+                &["--format", "parquet"],
+                file.parent().unwrap_or(file),
+            )
         })
     }
 
@@ -882,6 +936,36 @@ fn settling(s: &Value) -> String {
         || "never settled in 0.05".to_owned(),
         |t| fixed(t, 2) + " s",
     )
+}
+
+/// `trajectory.SCENARIO.KEY`: sizes of the run's trajectory files, and the CSV's shape.
+fn trajectory_figure(src: &mut Sources, stem: &str, key: &str) -> Result<String> {
+    src.summary(stem)?;
+    let csv_path = workspace_root().join(format!("target/docs/run/{stem}/trajectory.csv"));
+    let bytes = |p: &Path| {
+        fs::metadata(p)
+            .map(|m| m.len())
+            .map_err(|e| format!("{}: {e}", p.display()))
+    };
+    let csv = bytes(&csv_path)?;
+    let shape = || -> Result<(usize, usize)> {
+        let text =
+            fs::read_to_string(&csv_path).map_err(|e| format!("{}: {e}", csv_path.display()))?;
+        let mut lines = text.lines();
+        let columns = lines.next().map_or(0, |h| h.split(',').count());
+        Ok((lines.count(), columns))
+    };
+    Ok(match key {
+        "csv" => grouped(csv as f64, 0),
+        "parquet" => grouped(bytes(&src.parquet(stem)?)? as f64, 0),
+        "parquet-percent" => {
+            let parquet = bytes(&src.parquet(stem)?)?;
+            fixed(100.0 * parquet as f64 / csv.max(1) as f64, 0)
+        }
+        "rows" => grouped(shape()?.0 as f64, 0),
+        "columns" => grouped(shape()?.1 as f64, 0),
+        other => return Err(format!("no trajectory figure `{other}`")),
+    })
 }
 
 fn run_figure(s: &Value, key: &str) -> Result<String> {

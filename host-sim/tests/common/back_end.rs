@@ -1,7 +1,8 @@
 //! The closed loop of a math back-end against the default build: both paper examples, full
 //! runs, each figure's relative drift from `golden/accurate-closed-loop.json` (made by the
-//! default build, whose outputs the golden digests of `tests/safety.rs` pin), printed as the
-//! table of `docs/REPRODUCTION.md`, "Math back-ends", and held to the back-end's bounds.
+//! default build, whose outputs the golden digests of `tests/safety.rs` pin), printed and
+//! written to `target/docs/back-end/<back-end>.md` (the tables of `docs/REPRODUCTION.md`, "Math
+//! back-ends", `cargo xtask docs`), and held to the back-end's bounds.
 
 use serde_json::Value;
 
@@ -85,8 +86,9 @@ pub fn check(back_end: &str, bounds: &Bounds) {
         serde_json::from_str(include_str!("../golden/accurate-closed-loop.json")).expect("JSON");
     let scenarios = reference["scenarios"].as_object().expect("scenarios");
     assert_eq!(scenarios.len(), bounds.len());
-    println!("| example | figure | default build | `{back_end}` | relative drift |");
-    println!("| --- | --- | ---: | ---: | ---: |");
+    let mut table = format!(
+        "| example | figure | default build | `{back_end}` | relative drift |\n| --- | --- | ---: | ---: | ---: |\n"
+    );
     let mut failures = Vec::new();
     for (scenario, limits) in bounds {
         let want = &scenarios[*scenario];
@@ -102,8 +104,8 @@ pub fn check(back_end: &str, bounds: &Bounds) {
                     (worst, at) = (rel, k);
                 }
             }
-            println!(
-                "| {scenario} | {key} | {:.6} | {:.6} | {worst:+.2e} |",
+            table += &format!(
+                "| {scenario} | {key} | {:.6} | {:.6} | {worst:+.2e} |\n",
                 want[at], got[at]
             );
             if worst.is_nan() || worst.abs() > limit {
@@ -113,5 +115,9 @@ pub fn check(back_end: &str, bounds: &Bounds) {
             }
         }
     }
+    print!("{table}");
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/docs/back-end");
+    std::fs::create_dir_all(&dir).expect("target/docs/back-end");
+    std::fs::write(dir.join(format!("{back_end}.md")), &table).expect("the table");
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
