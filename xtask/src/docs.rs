@@ -29,6 +29,7 @@ use std::{
 };
 
 mod clocks;
+mod network;
 
 const OPEN: &str = "<!-- fig:";
 const CLOSE: &str = "<!-- /fig:";
@@ -245,7 +246,7 @@ fn short(s: &str) -> String {
 }
 
 /// The figure names (patterns) and what they render.
-pub const CATALOGUE: [(&str, &str); 25] = [
+pub const CATALOGUE: [(&str, &str); 31] = [
     ("bench-table", "target bench table (target/bench/step.json)"),
     ("bench.VARIANT.KEY", "one number of step.json's VARIANT (KEY also flash_total)"),
     ("scenarios", "shipped scenario table (host-sim run, stable-h)"),
@@ -269,6 +270,12 @@ pub const CATALOGUE: [(&str, &str); 25] = [
     ("clocks.NAME.KEY", "clock campaign figures (KEY: runs, synchronous, synchronous-settling, worst-none, worst-leader, best-none, energy-max, diverged-none, diverged-leader)"),
     ("clocks.goal", "Example 1 over CAN for 60 s: synchronous, free-running clocks, leader sync"),
     ("clocks.goal.RUN", "error after 2Ts of a goal run vs synchronous (RUN: free, leader)"),
+    ("network.bus", "NETWORK §5 bus table: Example 1 over the bus of hil-mock/tests (HIL_MOCK_FIGURES_OUT)"),
+    ("network.silent.KEY", "agent 3 silent 5–7 s (KEY: held, agent4-error, agent4-x2, recovered, without, stale-samples)"),
+    ("network.starved.KEY", "a babbling node for 0.2–0.5 s without safety (KEY: escape, yd-moved, max-x-0.3, max-x-0.2)"),
+    ("network.scenarios", "NETWORK §7 table: shipped CAN scenarios and --set variants"),
+    ("network.lossy.KEY", "example1-lossy by window (KEY: before, silent, return, after, max-u-return, ideal-after, after-vs-ideal)"),
+    ("network.pil-lossy.KEY", "example1-lossy over 7.5 s, which PIL matches (KEY: lost, stale, suppressed, can-sent)"),
     ("wall.example1-run", "wall time of host-sim run example1 (date and machine; --wall-clock)"),
     ("claims", "the paper's claims with verdicts (Examples 1 and 2, faults off, the baseline-retune campaign)"),
 ];
@@ -299,6 +306,7 @@ enum Figure<'a> {
     ClocksKey(&'a str, &'a str),
     ClocksGoal,
     ClocksGoalRun(&'a str),
+    Network(&'a str),
     WallExample1,
     Claims,
 }
@@ -363,6 +371,9 @@ fn parse(name: &str) -> Option<Figure<'_>> {
         ["clocks", name, key] if clocks::CAMPAIGNS.contains(name) && clocks::KEYS.contains(key) => {
             Figure::ClocksKey(name, key)
         }
+        ["network", ..] if network::known(&name["network.".len()..]) => {
+            Figure::Network(&name["network.".len()..])
+        }
         ["wall", "example1-run"] => Figure::WallExample1,
         ["claims"] => Figure::Claims,
         _ => return None,
@@ -398,6 +409,7 @@ fn render(name: &str, src: &mut Sources) -> Result<Option<String>> {
         Figure::ClocksKey(name, key) => clocks::figure(&src.campaign(name)?, key)?,
         Figure::ClocksGoal => clocks::goal_table(src)?,
         Figure::ClocksGoalRun(run) => clocks::goal_figure(src, run)?,
+        Figure::Network(name) => network::render(src, name)?,
         Figure::WallExample1 => wall_example1(src)?,
         Figure::Claims => claims_table(src)?,
     };
