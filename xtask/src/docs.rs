@@ -30,6 +30,7 @@ use std::{
 
 mod clocks;
 mod network;
+mod reliability;
 
 const OPEN: &str = "<!-- fig:";
 const CLOSE: &str = "<!-- /fig:";
@@ -246,7 +247,7 @@ fn short(s: &str) -> String {
 }
 
 /// The figure names (patterns) and what they render.
-pub const CATALOGUE: [(&str, &str); 31] = [
+pub const CATALOGUE: [(&str, &str); 37] = [
     ("bench-table", "target bench table (target/bench/step.json)"),
     ("bench.VARIANT.KEY", "one number of step.json's VARIANT (KEY also flash_total)"),
     ("scenarios", "shipped scenario table (host-sim run, stable-h)"),
@@ -276,6 +277,12 @@ pub const CATALOGUE: [(&str, &str); 31] = [
     ("network.scenarios", "NETWORK §7 table: shipped CAN scenarios and --set variants"),
     ("network.lossy.KEY", "example1-lossy by window (KEY: before, silent, return, after, max-u-return, ideal-after, after-vs-ideal)"),
     ("network.pil-lossy.KEY", "example1-lossy over 7.5 s, which PIL matches (KEY: lost, stale, suppressed, can-sent)"),
+    ("reliability.soak", "soak windows, first and last 10 min (controller-core/tests/soak.rs with SOAK_OUT, target/soak/soak.json)"),
+    ("reliability.soak.growth", "largest change of a soak figure from the first window to the last"),
+    ("reliability.stable-h", "Example 1's largest stable sample period (host-sim stable-h)"),
+    ("reliability.extreme.RUN.KEY", "extreme runs of tests/tests/extreme.rs on shipped scenarios (RUN: ts, h10, ex2-h10; KEY: time, agent, max-u, c1)"),
+    ("reliability.corruption.CASE.KEY", "Example 1's fault-matrix corruption cells run alone (CASE: 10, 30; KEY: bus-off, misses)"),
+    ("reliability.matrix.CASE.KEY", "fault-matrix figures of the prose (KEY: band, band-off, on-max-u, off-max-u, off-diverged-min/max, off-back-max, not-met, not-met-min/max, outage-not-met-min/max, outage-off-back, outage-off-u, stuck-*, named cells)"),
     ("wall.example1-run", "wall time of host-sim run example1 (date and machine; --wall-clock)"),
     ("claims", "the paper's claims with verdicts (Examples 1 and 2, faults off, the baseline-retune campaign)"),
 ];
@@ -307,6 +314,7 @@ enum Figure<'a> {
     ClocksGoal,
     ClocksGoalRun(&'a str),
     Network(&'a str),
+    Reliability(&'a str),
     WallExample1,
     Claims,
 }
@@ -374,6 +382,9 @@ fn parse(name: &str) -> Option<Figure<'_>> {
         ["network", ..] if network::known(&name["network.".len()..]) => {
             Figure::Network(&name["network.".len()..])
         }
+        ["reliability", ..] if reliability::known(&name["reliability.".len()..]) => {
+            Figure::Reliability(&name["reliability.".len()..])
+        }
         ["wall", "example1-run"] => Figure::WallExample1,
         ["claims"] => Figure::Claims,
         _ => return None,
@@ -410,6 +421,7 @@ fn render(name: &str, src: &mut Sources) -> Result<Option<String>> {
         Figure::ClocksGoal => clocks::goal_table(src)?,
         Figure::ClocksGoalRun(run) => clocks::goal_figure(src, run)?,
         Figure::Network(name) => network::render(src, name)?,
+        Figure::Reliability(name) => reliability::render(src, name)?,
         Figure::WallExample1 => wall_example1(src)?,
         Figure::Claims => claims_table(src)?,
     };
