@@ -280,7 +280,7 @@ pub const CATALOGUE: [(&str, &str); 37] = [
     ("reliability.soak", "soak windows, first and last 10 min (controller-core/tests/soak.rs with SOAK_OUT, target/soak/soak.json)"),
     ("reliability.soak.growth", "largest change of a soak figure from the first window to the last"),
     ("reliability.stable-h", "Example 1's largest stable sample period (host-sim stable-h)"),
-    ("reliability.extreme.RUN.KEY", "extreme runs of tests/tests/extreme.rs on shipped scenarios (RUN: ts, h10, ex2-h10; KEY: time, agent, max-u, c1)"),
+    ("reliability.extreme.RUN.KEY", "runs of tests/tests/extreme.rs with EXTREME_OUT, release (RUN: ts-0.05, h-10ms, ex2-h-10ms, line-50-can-500k-lossy, all-at-once; KEY: time, agent, max-u, c1, misses, lost)"),
     ("reliability.corruption.CASE.KEY", "Example 1's fault-matrix corruption cells run alone (CASE: 10, 30; KEY: bus-off, misses)"),
     ("reliability.matrix.CASE.KEY", "fault-matrix figures of the prose (KEY: band, band-off, on-max-u, off-max-u, off-diverged-min/max, off-back-max, not-met, not-met-min/max, outage-not-met-min/max, outage-off-back, outage-off-u, stuck-*, named cells)"),
     ("wall.example1-run", "wall time of host-sim run example1 (date and machine; --wall-clock)"),

@@ -136,28 +136,50 @@ pub fn render(src: &mut Sources, name: &str) -> Result<String> {
 }
 
 impl Sources {
-    /// Every run `hil-mock/tests` recorded, by name: the tests run with
-    /// `HIL_MOCK_FIGURES_OUT`, their files merged into one object.
+    /// Every run `hil-mock/tests` recorded, by name.
     fn hil_mock(&mut self) -> Result<Value> {
-        self.json_file("target/docs/hil-mock.json", |_, file| {
-            let dir = workspace_root().join(HIL_MOCK_DIR);
-            let _ = fs::remove_dir_all(&dir);
+        self.records(
+            "target/docs/hil-mock.json",
+            HIL_MOCK_DIR,
+            "HIL_MOCK_FIGURES_OUT",
+            &[
+                "-p",
+                "hil-mock",
+                "--test",
+                "example1_can",
+                "--test",
+                "faults",
+            ],
+        )
+    }
+
+    /// The JSON files a release `cargo test` with `args` writes into `dir` (named by the
+    /// environment variable `env`), merged into one object by file stem at `path`.
+    pub(super) fn records(
+        &mut self,
+        path: &str,
+        dir: &'static str,
+        env: &str,
+        args: &[&str],
+    ) -> Result<Value> {
+        self.json_file(path, |_, file| {
+            let out = workspace_root().join(dir);
+            let _ = fs::remove_dir_all(&out);
             run(Command::new(cargo())
                 .current_dir(workspace_root())
-                .env("HIL_MOCK_FIGURES_OUT", &dir)
-                .args(["test", "-p", "hil-mock", "--release", "--quiet"])
-                .args(["--test", "example1_can", "--test", "faults"]))?;
+                .env(env, &out)
+                .args(["test", "--release", "--quiet"])
+                .args(args))?;
             let mut all = serde_json::Map::new();
-            let entries = fs::read_dir(&dir).map_err(|e| format!("{HIL_MOCK_DIR}: {e}"))?;
+            let entries = fs::read_dir(&out).map_err(|e| format!("{dir}: {e}"))?;
             for e in entries.filter_map(|e| e.ok()) {
-                let path = e.path();
-                let Some(name) = path.file_stem().and_then(|s| s.to_str()) else {
+                let p = e.path();
+                let Some(name) = p.file_stem().and_then(|s| s.to_str()) else {
                     continue;
                 };
-                let text =
-                    fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+                let text = fs::read_to_string(&p).map_err(|e| format!("{}: {e}", p.display()))?;
                 let v: Value =
-                    serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+                    serde_json::from_str(&text).map_err(|e| format!("{}: {e}", p.display()))?;
                 all.insert(name.to_owned(), v);
             }
             fs::write(file, Value::Object(all).to_string())

@@ -14,27 +14,17 @@ use crate::{cargo, workspace_root, Result};
 /// that runs the soak with it set is reused.
 const SOAK_JSON: &str = "target/soak/soak.json";
 
-/// The extreme runs of `tests/tests/extreme.rs` on shipped scenarios: name, scenario, `--set`s.
-const EXTREME: [(&str, &str, &[&str]); 3] = [
-    (
-        "ts",
-        "example1",
-        &["controller.ts=0.05", "simulation.t_end=0.5"],
-    ),
-    (
-        "h10",
-        "example1",
-        &["simulation.h=0.01", "simulation.t_end=3"],
-    ),
-    (
-        "ex2-h10",
-        "example2",
-        &["simulation.h=0.01", "simulation.t_end=2"],
-    ),
+/// Runs of `tests/tests/extreme.rs` the text quotes.
+const EXTREME: [&str; 5] = [
+    "ts-0.05",
+    "h-10ms",
+    "ex2-h-10ms",
+    "line-50-can-500k-lossy",
+    "all-at-once",
 ];
 
 /// Inline figures of an extreme run.
-const EXTREME_KEYS: [&str; 4] = ["time", "agent", "max-u", "c1"];
+const EXTREME_KEYS: [&str; 6] = ["time", "agent", "max-u", "c1", "misses", "lost"];
 
 /// Corruption cells of Example 1's fault matrix, run alone: case, `--set`s. The horizon is
 /// the matrix's for whole-run faults: `t_f = 2 T_s + 1 s` plus `2·2T_s + 1 s` (T_s = 2).
@@ -77,10 +67,15 @@ const CELL_KEYS: [&str; 5] = [
 
 /// Whether `name` (after `reliability.`) is a figure of this family.
 pub fn known(name: &str) -> bool {
+    if let Some((run, key)) = name
+        .strip_prefix("extreme.")
+        .and_then(|r| r.rsplit_once('.'))
+    {
+        return EXTREME.contains(&run) && EXTREME_KEYS.contains(&key);
+    }
     let parts: Vec<&str> = name.splitn(3, '.').collect();
     match parts.as_slice() {
         ["soak"] | ["soak", "growth"] | ["stable-h"] => true,
-        ["extreme", run, key] => EXTREME.iter().any(|e| e.0 == *run) && EXTREME_KEYS.contains(key),
         ["corruption", case, key] => {
             CORRUPTION.iter().any(|c| c.0 == *case) && CORRUPTION_KEYS.contains(key)
         }
@@ -93,6 +88,12 @@ pub fn known(name: &str) -> bool {
 
 /// Renders `name` (after `reliability.`), a name [`known`] accepts.
 pub fn render(src: &mut Sources, name: &str) -> Result<String> {
+    if let Some((run, key)) = name
+        .strip_prefix("extreme.")
+        .and_then(|r| r.rsplit_once('.'))
+    {
+        return extreme(src, run, key);
+    }
     let parts: Vec<&str> = name.splitn(3, '.').collect();
     match parts.as_slice() {
         ["soak"] => soak_table(&src.soak()?),
@@ -105,7 +106,6 @@ pub fn render(src: &mut Sources, name: &str) -> Result<String> {
             let (band, h_max) = search.ok_or("example1 has no stable-h search")?;
             Ok(ms(src.stable_h(stem, band, h_max)?.0))
         }
-        ["extreme", name, key] => extreme(src, name, key),
         ["corruption", case, key] => {
             let sets = CORRUPTION
                 .iter()
@@ -187,11 +187,15 @@ fn sci2(x: f64) -> String {
 }
 
 fn extreme(src: &mut Sources, name: &str, key: &str) -> Result<String> {
-    let (_, stem, sets) = EXTREME
-        .iter()
-        .find(|e| e.0 == name)
-        .ok_or_else(|| format!("no extreme run `{name}`"))?;
-    let s = src.summary_with(stem, &format!("-extreme-{name}"), sets)?;
+    let all = src.records(
+        "target/docs/extreme.json",
+        "target/docs/extreme",
+        "EXTREME_OUT",
+        &["-p", "integration-tests", "--test", "extreme"],
+    )?;
+    let s = all
+        .get(name)
+        .ok_or_else(|| format!("tests/tests/extreme.rs recorded no run `{name}`"))?;
     let d = &s["divergence"];
     Ok(match key {
         "time" => fixed(
@@ -199,8 +203,10 @@ fn extreme(src: &mut Sources, name: &str, key: &str) -> Result<String> {
             3,
         ),
         "agent" => grouped(num(d, "agent")?, 0),
-        "max-u" => sci2(num(&s, "max_abs_u")?),
-        "c1" => grouped(num(&s, "c1")?, 0),
+        "max-u" => sci2(num(s, "max_abs_u")?),
+        "c1" => grouped(num(s, "c1")?, 0),
+        "misses" => grouped(num(&s["network"], "deadline_misses")?, 0),
+        "lost" => grouped(num(&s["network"], "frames_lost")?, 0),
         other => return Err(format!("no extreme-run figure `{other}`")),
     })
 }
@@ -464,9 +470,11 @@ mod tests {
     fn names_of_the_family_are_known_and_others_are_not() {
         for name in [
             "soak",
+            "soak.growth",
             "stable-h",
-            "extreme.ts.time",
-            "extreme.ex2-h10.agent",
+            "extreme.ts-0.05.time",
+            "extreme.ex2-h-10ms.agent",
+            "extreme.line-50-can-500k-lossy.misses",
             "corruption.30.bus-off",
             "matrix.example2-fast.outage-off-u",
             "matrix.example1.silent-agent1-0.5s-off-u",
@@ -475,7 +483,8 @@ mod tests {
         }
         for name in [
             "soak.x",
-            "extreme.ts",
+            "extreme.ts-0.05",
+            "extreme.ts.time",
             "extreme.nope.time",
             "corruption.20.bus-off",
             "matrix.example3.band",
