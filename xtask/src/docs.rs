@@ -255,7 +255,7 @@ pub const CATALOGUE: [(&str, &str); 37] = [
     ("run.SCENARIO.KEY", "one figure of a shipped scenario's summary.json (KEY: max_error, settling_time, max_abs_u, bus_load, saturated, frames_lost)"),
     ("agents.SCENARIO", "per-agent table of a shipped scenario's summary.json"),
     ("headline.SCENARIO", "the headline line of a shipped scenario's summary.json"),
-    ("matrix.CASE", "fault matrix table, safety on and off (CASE: example1, example2, example2-fast)"),
+    ("matrix.CASE", "fault matrix table, safety on and off (CASE: example1, example2, example2-fast, example2-umax30)"),
     ("matrix.CASE.met", "fault-matrix cells meeting the goal with safety on"),
     ("matrix.CASE.cells", "fault-matrix cells"),
     ("torque-limit", "Example 2 torque-limit sweep table (host-sim/tests/torque_limit.rs)"),
@@ -329,8 +329,9 @@ const RUN_KEYS: [&str; 6] = [
     "frames_lost",
 ];
 /// Fault matrices: `example1`, `example2` (the deploy scenarios, as CI runs them) and
-/// `example2-fast` (Example 2's deploy scenario at h = 0.2 ms on a 5 Mbit/s bus).
-const MATRICES: [&str; 3] = ["example1", "example2", "example2-fast"];
+/// `example2-fast` (Example 2's deploy scenario at h = 0.2 ms on a 5 Mbit/s bus),
+/// `example2-umax30` (the deploy scenario with `u_max = 30 N m`).
+const MATRICES: [&str; 4] = ["example1", "example2", "example2-fast", "example2-umax30"];
 /// The shipped campaigns over `Ts × h`.
 const TS_H: [&str; 2] = ["example1-ts-h", "example2-ts-h"];
 /// Figures of the Monte Carlo campaign: runs, diverged and the error after `2 T_s` of the others.
@@ -638,6 +639,7 @@ impl Sources {
                 "example2-deploy",
                 &["simulation.h=2e-4", "network.bitrate=5000000"],
             ),
+            "example2-umax30" => ("example2-deploy", &["safety.u_max=30"]),
             other => return Err(format!("no fault matrix `{other}`")),
         };
         let dir = format!("target/fault-matrix/{case}");
