@@ -247,7 +247,7 @@ fn short(s: &str) -> String {
 }
 
 /// The figure names (patterns) and what they render.
-pub const CATALOGUE: [(&str, &str); 37] = [
+pub const CATALOGUE: [(&str, &str); 38] = [
     ("bench-table", "target bench table (target/bench/step.json)"),
     ("bench.VARIANT.KEY", "one number of step.json's VARIANT (KEY also flash_total)"),
     ("scenarios", "shipped scenario table (host-sim run, stable-h)"),
@@ -276,6 +276,7 @@ pub const CATALOGUE: [(&str, &str); 37] = [
     ("network.starved.KEY", "a babbling node for 0.2–0.5 s without safety (KEY: escape, yd-moved, max-x-0.3, max-x-0.2)"),
     ("network.scenarios", "NETWORK §7 table: shipped CAN scenarios and --set variants"),
     ("network.lossy.KEY", "example1-lossy by window (KEY: before, silent, return, after, max-u-return, ideal-after, after-vs-ideal)"),
+    ("network.trace.KEY", "0.3 s of example1-can --trace decoded by cantools with docs/wire.dbc (KEY: frames, max-diff)"),
     ("network.pil-lossy.KEY", "example1-lossy over 7.5 s, which PIL matches (KEY: lost, stale, suppressed, can-sent)"),
     ("reliability.soak", "soak windows, first and last 10 min (controller-core/tests/soak.rs with SOAK_OUT, target/soak/soak.json)"),
     ("reliability.soak.growth", "largest change of a soak figure from the first window to the last"),

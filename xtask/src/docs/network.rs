@@ -102,6 +102,9 @@ const LOSSY_KEYS: [&str; 3] = ["max-u-return", "ideal-after", "after-vs-ideal"];
 /// Inline figures of `example1-lossy` over 7.5 s (`network.pil-lossy.KEY`).
 pub const PIL_LOSSY_KEYS: [&str; 4] = ["lost", "stale", "suppressed", "can-sent"];
 
+/// Inline figures of the bus trace decoded with cantools (`network.trace.KEY`).
+pub const TRACE_KEYS: [&str; 2] = ["frames", "max-diff"];
+
 /// Horizon of the lossy run compared with the emulated nodes [s].
 const PIL_LOSSY_T_END: &str = "simulation.t_end=7.5";
 
@@ -118,6 +121,7 @@ pub fn known(name: &str) -> bool {
         Some(("starved", k)) => STARVED_KEYS.contains(&k),
         Some(("lossy", k)) => lossy_key(k),
         Some(("pil-lossy", k)) => PIL_LOSSY_KEYS.contains(&k),
+        Some(("trace", k)) => TRACE_KEYS.contains(&k),
         Some(_) => false,
     }
 }
@@ -131,6 +135,14 @@ pub fn render(src: &mut Sources, name: &str) -> Result<String> {
         Some(("starved", k)) => starved(src, k),
         Some(("lossy", k)) => lossy(src, k),
         Some(("pil-lossy", k)) => pil_lossy(src, k),
+        Some(("trace", k)) => {
+            let (frames, diff) = parse_decoded(&src.decoded_trace()?)?;
+            match k {
+                "frames" => Ok(grouped(frames, 0)),
+                "max-diff" => Ok(format!("{diff:.1e}")),
+                other => Err(format!("no trace figure `{other}`")),
+            }
+        }
         _ => Err(format!("no network figure `{name}`")),
     }
 }
@@ -185,6 +197,32 @@ impl Sources {
             fs::write(file, Value::Object(all).to_string())
                 .map_err(|e| format!("{}: {e}", file.display()))
         })
+    }
+
+    /// What `host-sim/tests/decode_trace.py` (cantools, `docs/wire.dbc`) prints for 0.3 s of
+    /// `example1-can` run with `--trace`, as `host-sim/tests/trace.rs` runs it.
+    fn decoded_trace(&mut self) -> Result<String> {
+        let path = "target/docs/trace/decoded.txt";
+        let file = self.file(path, |s, file| {
+            let bin = s.host_sim()?;
+            let dir = file.parent().unwrap_or(file);
+            let root = workspace_root();
+            run(Command::new(bin)
+                .current_dir(&root)
+                .args(["run", "--quiet", "--no-plots", "--out"])
+                .arg(dir)
+                .arg("scenarios/example1-can.toml")
+                .args(["--set", "simulation.t_end=0.3", "--trace"])
+                .arg(dir.join("bus.log")))?;
+            let out = run(Command::new("python3")
+                .current_dir(&root)
+                .args(["host-sim/tests/decode_trace.py", "docs/wire.dbc"])
+                .arg(dir.join("bus.log"))
+                .arg(dir.join("trajectory.csv"))
+                .args(["0.001", "4"]))?;
+            fs::write(file, out).map_err(|e| format!("{path}: {e}"))
+        })?;
+        fs::read_to_string(&file).map_err(|e| format!("{path}: {e}"))
     }
 
     /// One run `hil-mock/tests` recorded.
@@ -282,6 +320,25 @@ impl Trajectory {
             us.iter().map(|&k| r[k].abs()).fold(0.0, f64::max)
         })
     }
+}
+
+/// Frames decoded and the largest `|decoded − csv|` of `decode_trace.py`'s line
+/// `decoded 1495 frames over 299 samples; max |y - csv| = 7.611e-06`.
+fn parse_decoded(out: &str) -> Result<(f64, f64)> {
+    let line = out
+        .lines()
+        .find(|l| l.starts_with("decoded "))
+        .ok_or("decode_trace.py printed no `decoded …` line")?;
+    let frames = line["decoded ".len()..]
+        .split_whitespace()
+        .next()
+        .and_then(|n| n.parse().ok())
+        .ok_or_else(|| format!("no frame count in `{line}`"))?;
+    let diff = line
+        .rsplit_once("= ")
+        .and_then(|(_, x)| x.trim().parse().ok())
+        .ok_or_else(|| format!("no max difference in `{line}`"))?;
+    Ok((frames, diff))
 }
 
 /// `−0.2174`: a signed value with a true minus sign.
@@ -520,6 +577,14 @@ mod tests {
     }
 
     #[test]
+    fn the_decoder_line_gives_frames_and_largest_difference() {
+        let out = "noise\ndecoded 1495 frames over 299 samples; max |y - csv| = 7.611e-06\n";
+        assert_eq!(parse_decoded(out), Ok((1495.0, 7.611e-6)));
+        assert!(parse_decoded("decoded x frames").is_err());
+        assert!(parse_decoded("nothing").is_err());
+    }
+
+    #[test]
     fn names_of_the_family_are_known_and_others_are_not() {
         for name in [
             "bus",
@@ -529,6 +594,7 @@ mod tests {
             "lossy.silent",
             "lossy.max-u-return",
             "pil-lossy.lost",
+            "trace.max-diff",
         ] {
             assert!(known(name), "{name}");
         }
@@ -538,6 +604,8 @@ mod tests {
             "silent.nope",
             "lossy.during",
             "pil-lossy",
+            "trace",
+            "trace.nope",
             "x.held",
         ] {
             assert!(!known(name), "{name}");
