@@ -1,6 +1,8 @@
 //! One hour of simulated time of Example 1 with the recurring faults (fault endurance).
 //! Ignored under plain `cargo test` (it takes a while in a debug build); run it with
-//! `cargo test -p controller-core --release --test soak -- --ignored --nocapture`.
+//! `cargo test -p controller-core --release --test soak -- --ignored --nocapture`. With
+//! `SOAK_OUT=<dir>` it also writes both windows to `<dir>/soak.json` (docs/RELIABILITY.md's
+//! table, `cargo xtask docs`).
 
 mod common;
 
@@ -14,6 +16,13 @@ struct Window {
 }
 
 impl Window {
+    fn json(&self) -> String {
+        format!(
+            "{{\"error\":{:?},\"mu\":{:?},\"xi\":{:?},\"lambda\":{:?},\"u\":{:?}}}",
+            self.error, self.mu, self.xi, self.lambda, self.u
+        )
+    }
+
     fn add(&mut self, s: &common::Sample) {
         self.error = self.error.max(s.max_error);
         self.u = self.u.max(s.max_abs_u);
@@ -54,6 +63,16 @@ fn one_hour_of_recurring_faults_stays_bounded() {
     }
     println!("soak {hours} h: first 10 min after 2Ts {first:?}");
     println!("soak {hours} h: last 10 min            {last:?}");
+    if let Some(dir) = std::env::var_os("SOAK_OUT") {
+        let dir = std::path::PathBuf::from(dir);
+        std::fs::create_dir_all(&dir).expect("SOAK_OUT is writable");
+        let json = format!(
+            "{{\"hours\":{hours:?},\"first\":{},\"last\":{}}}",
+            first.json(),
+            last.json()
+        );
+        std::fs::write(dir.join("soak.json"), json).expect("SOAK_OUT is writable");
+    }
     // Nothing grows: the last window is no worse than the first beyond a small margin.
     assert!(
         last.error <= first.error * 1.1 + 1e-3,

@@ -3,7 +3,7 @@
 mod common;
 
 use agent_node::wire::PAYLOAD_LEN;
-use common::{run_can, run_ideal, H};
+use common::{record, run_can, run_ideal, H};
 use hil_mock::bus::{frame_bits, BusConfig};
 
 const T_END: f64 = 10.0;
@@ -25,6 +25,8 @@ fn one_mbit_no_loss_matches_the_ideal_link_within_10_percent() {
         T_FROM,
         |_, _, _, _| {},
     );
+    record("ideal", None, &[("max_error", ideal)]);
+    record("can-1m", Some(&can), &[]);
     let rel = (can.max_error - ideal).abs() / ideal;
     println!(
         "ideal link: max |y_i - y_d| after {T_FROM} s = {ideal:.4}; CAN 1 Mbit/s: {:.4} ({:+.1} %)",
@@ -79,6 +81,7 @@ fn bus_load_at_500_kbit_matches_the_hand_computation() {
         1.0,
         |_, _, _, _| {},
     );
+    record("can-500k", Some(&can), &[]);
     println!(
         "500 kbit/s: load {:.2} % (by hand {by_hand:.2} %), sent {}, deadline misses {}, latency max {:.1} us, max error after 1 s {:.4}",
         can.bus.load_percent(),

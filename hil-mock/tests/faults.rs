@@ -2,14 +2,18 @@
 
 mod common;
 
-use common::{capture_logs, logged, run_can, CanRun};
+use agent_node::Tick;
+use common::{capture_logs, logged, record, run_can, yd, CanRun};
 use controller_core::Link;
 use hil_mock::bus::{BusConfig, BusEvent, EventKind};
+use hil_mock::network::CanNetwork;
 
 const STALE_US: u64 = 2_500;
 const S: u64 = 1_000_000_000;
 
-fn report(name: &str, r: &CanRun) {
+/// Prints the run's figures and records them as `key` (see [`record`]).
+fn report(name: &str, key: &str, r: &CanRun) {
+    record(key, Some(r), &[]);
     let b = &r.bus;
     let gaps: u32 = r.nodes.iter().map(|n| n.seq_gaps).sum();
     let stale: u32 = r.nodes.iter().map(|n| n.stale_samples).sum();
@@ -53,7 +57,11 @@ fn lossy(loss: f64) -> CanRun {
 fn random_loss_keeps_the_loop_bounded_and_is_reported() {
     for loss in [0.1, 0.3] {
         let r = lossy(loss);
-        report(&format!("loss {:.0} %", loss * 100.0), &r);
+        report(
+            &format!("loss {:.0} %", loss * 100.0),
+            &format!("loss-{:.0}", loss * 100.0),
+            &r,
+        );
         assert_eq!(r.diverged_at, None);
         assert!(
             r.max_state < 5.0,
@@ -82,6 +90,7 @@ fn silent_agent_3_is_held_at_its_last_value_by_agent_4_and_the_loop_recovers() {
     let mut held: Option<f32> = None;
     let mut stale_steps = 0;
     let mut fresh_after = 0;
+    let (mut agent4_error, mut agent4_x2) = (0.0f64, 0.0f64);
     let r = run_can(
         BusConfig {
             bitrate: 1_000_000,
@@ -97,8 +106,14 @@ fn silent_agent_3_is_held_at_its_last_value_by_agent_4_and_the_loop_recovers() {
         STALE_US,
         10.0,
         8.5,
-        |t, _, ticks, net| {
+        |t, x, ticks, net| {
             let t_us = (t * 1e6).round() as u64;
+            if (t1..t2).contains(&t) {
+                agent4_error = agent4_error.max((x[3][0] - yd(t)).abs());
+            }
+            if (t2..t2 + 0.1).contains(&t) {
+                agent4_x2 = agent4_x2.max(x[3][1].abs());
+            }
             // Agent 4 (index 3) hears agents 1 and 3; agent 3 is its slot 1.
             let link = net.nodes()[3].neighbour_link(1, t_us);
             let report = ticks[3].output.status.links;
@@ -121,7 +136,7 @@ fn silent_agent_3_is_held_at_its_last_value_by_agent_4_and_the_loop_recovers() {
             assert_eq!(ticks[1].output.status.links.stale_neighbours, 0);
         },
     );
-    report("agent 3 silent 5-7 s", &r);
+    report("agent 3 silent 5-7 s", "silent-3", &r);
     let base = run_can(
         BusConfig {
             bitrate: 1_000_000,
@@ -135,6 +150,18 @@ fn silent_agent_3_is_held_at_its_last_value_by_agent_4_and_the_loop_recovers() {
     println!(
         "max error over [8.5, 10] s: with the silence {:.4}, without {:.4}; held y_3 = {held:?}, stale steps {stale_steps}",
         r.max_error, base.max_error
+    );
+    println!("agent 4: max |y - y_d| {agent4_error:.4} while agent 3 is silent, max |x_2| {agent4_x2:.3} in the 0.1 s after");
+    record(
+        "silent-3",
+        Some(&r),
+        &[
+            ("held_y3", held.map_or(f64::NAN, f64::from)),
+            ("agent4_stale_samples", f64::from(r.nodes[3].stale_samples)),
+            ("agent4_max_error_silent", agent4_error),
+            ("agent4_max_x2_after", agent4_x2),
+            ("max_error_without", base.max_error),
+        ],
     );
     assert!(stale_steps > 1990);
     assert!(fresh_after > 2900);
@@ -170,6 +197,30 @@ fn silent_agent_3_is_held_at_its_last_value_by_agent_4_and_the_loop_recovers() {
     );
 }
 
+/// Example 1 for 3 s (error from 2.5 s) with agent 2 flooding identifier 0 from 1 s to `until_ns`.
+fn babbling_agent_2(
+    until_ns: u64,
+    observe: impl FnMut(f64, &[[f64; 2]; 4], &[Tick<2, 2>], &CanNetwork<2, 2, 4>),
+) -> CanRun {
+    run_can(
+        BusConfig {
+            bitrate: 1_000_000,
+            deadline_ns: 1_000_000,
+            events: vec![BusEvent {
+                node: 2,
+                kind: EventKind::Babbling { id: 0x000 },
+                from_ns: S,
+                until_ns,
+            }],
+            ..BusConfig::default()
+        },
+        STALE_US,
+        3.0,
+        2.5,
+        observe,
+    )
+}
+
 #[test]
 fn babbling_highest_priority_node_starves_the_others_and_misses_are_reported() {
     capture_logs();
@@ -177,32 +228,16 @@ fn babbling_highest_priority_node_starves_the_others_and_misses_are_reported() {
     // plant escapes on the next samples: see docs/NETWORK.md.)
     let (t1, t2) = (S, S + S / 5);
     let mut delivered_in_window = 0u64;
-    let r = run_can(
-        BusConfig {
-            bitrate: 1_000_000,
-            deadline_ns: 1_000_000,
-            events: vec![BusEvent {
-                node: 2,
-                kind: EventKind::Babbling { id: 0x000 },
-                from_ns: t1,
-                until_ns: t2,
-            }],
-            ..BusConfig::default()
-        },
-        STALE_US,
-        3.0,
-        2.5,
-        |t, _, ticks, _| {
-            let t_ns = (t * 1e9).round() as u64;
-            if t_ns > t1 + 3_000_000 && t_ns < t2 {
-                // Everyone's links are stale: agent 1's leader, agents 2..4's neighbours.
-                assert!(ticks[0].output.status.links.leader_stale, "t = {t}");
-                assert_eq!(ticks[3].output.status.links.stale_neighbours, 2);
-                delivered_in_window += 1;
-            }
-        },
-    );
-    report("agent 2 babbling id 0x000, 1.0-1.2 s", &r);
+    let r = babbling_agent_2(t2, |t, _, ticks, _| {
+        let t_ns = (t * 1e9).round() as u64;
+        if t_ns > t1 + 3_000_000 && t_ns < t2 {
+            // Everyone's links are stale: agent 1's leader, agents 2..4's neighbours.
+            assert!(ticks[0].output.status.links.leader_stale, "t = {t}");
+            assert_eq!(ticks[3].output.status.links.stale_neighbours, 2);
+            delivered_in_window += 1;
+        }
+    });
+    report("agent 2 babbling id 0x000, 1.0-1.2 s", "babbling-2", &r);
     assert_eq!(r.diverged_at, None);
     let b = &r.bus;
     // 200 samples x 5 senders (leader + 4 agents) replaced or late.
@@ -240,7 +275,7 @@ fn corruption_raises_error_counters_and_a_bad_bus_goes_bus_off_and_recovers() {
         1.0,
         |_, _, _, _| {},
     );
-    report("corruption 2 %", &light);
+    report("corruption 2 %", "corruption-2", &light);
     assert!(light.bus.frames_corrupted > 0);
     assert_eq!(light.bus.bus_off_events, 0);
     assert!(light.bus.nodes.iter().any(|n| n.max_tec > 0));
@@ -259,10 +294,44 @@ fn corruption_raises_error_counters_and_a_bad_bus_goes_bus_off_and_recovers() {
         1.0,
         |_, _, _, _| {},
     );
-    report("corruption 30 %", &heavy);
+    report("corruption 30 %", "corruption-30", &heavy);
     assert!(heavy.bus.bus_off_events > 0);
     assert!(heavy.bus.refused_bus_off > 0);
     let tx_errors: u32 = heavy.nodes.iter().map(|n| n.tx_errors).sum();
     assert!(tx_errors > 0);
     assert!(heavy.max_state < 5.0);
+}
+
+#[test]
+fn starving_the_bus_longer_lets_example_1s_plant_escape_without_safety() {
+    // The babbling window of the test above, from 1 s, made longer: the values that return
+    // jump by as much as y_d moved meanwhile.
+    let starve = |secs: f64| babbling_agent_2(S + (secs * 1e9).round() as u64, |_, _, _, _| {});
+    let (short, long) = (starve(0.3), starve(0.5));
+    report(
+        "agent 2 babbling id 0x000, 1.0-1.3 s",
+        "babbling-2-0.3s",
+        &short,
+    );
+    report(
+        "agent 2 babbling id 0x000, 1.0-1.5 s",
+        "babbling-2-0.5s",
+        &long,
+    );
+    assert_eq!(short.diverged_at, None);
+    let escaped = long
+        .diverged_at
+        .expect("0.5 s of starvation: the plant escapes");
+    assert!(
+        (1.5..1.6).contains(&escaped),
+        "escaped at {escaped} s, not just after the bus returned at 1.5 s"
+    );
+    record(
+        "starvation",
+        None,
+        &[
+            ("escape_after_s", escaped - 1.5),
+            ("yd_moved", (yd(1.5) - yd(1.0)).abs()),
+        ],
+    );
 }

@@ -1,7 +1,9 @@
 //! Extreme but valid scenarios: a very short predefined time, ζ close to 1, 50 agents
 //! on a line graph, a 10 ms sample period, and all of them at once. Each run either finishes or
 //! reports its divergence with time and agent; never a panic, never a NaN or ∞ in
-//! `trajectory.csv`, and `summary.json` is always valid JSON.
+//! `trajectory.csv`, and `summary.json` is always valid JSON. With `EXTREME_OUT=<dir>` each
+//! run's `summary.json` is also copied to `<dir>/<run>.json` (docs/RELIABILITY.md, `cargo xtask
+//! docs`).
 
 use std::{fmt::Write as _, path::Path};
 
@@ -115,6 +117,12 @@ fn run(name: &str, scenario: &Path, sets: &[&str]) -> bool {
     assert!(!stderr.contains("panicked"), "{name}: {stderr}");
     let d = check_outputs(name, &out, &stdout);
     println!("{name}: {}", stdout.lines().next().unwrap_or(""));
+    if let Some(dir) = std::env::var_os("EXTREME_OUT") {
+        let dir = Path::new(&dir);
+        std::fs::create_dir_all(dir).unwrap_or_else(|e| panic!("EXTREME_OUT: {e}"));
+        std::fs::copy(out.join("summary.json"), dir.join(format!("{name}.json")))
+            .unwrap_or_else(|e| panic!("EXTREME_OUT: {e}"));
+    }
     d
 }
 

@@ -30,6 +30,8 @@ use std::{
 
 mod back_end;
 mod clocks;
+mod network;
+mod reliability;
 mod scaling;
 
 const OPEN: &str = "<!-- fig:";
@@ -247,7 +249,7 @@ fn short(s: &str) -> String {
 }
 
 /// The figure names (patterns) and what they render.
-pub const CATALOGUE: [(&str, &str); 32] = [
+pub const CATALOGUE: [(&str, &str); 45] = [
     ("bench-table", "target bench table (target/bench/step.json)"),
     ("bench.VARIANT.KEY", "one number of step.json's VARIANT (KEY also flash_total)"),
     ("scenarios", "shipped scenario table (host-sim run, stable-h)"),
@@ -255,14 +257,14 @@ pub const CATALOGUE: [(&str, &str); 32] = [
     ("run.SCENARIO.KEY", "one figure of a shipped scenario's summary.json (KEY: max_error, settling_time, max_abs_u, bus_load, saturated, frames_lost)"),
     ("agents.SCENARIO", "per-agent table of a shipped scenario's summary.json"),
     ("headline.SCENARIO", "the headline line of a shipped scenario's summary.json"),
-    ("matrix.CASE", "fault matrix table, safety on and off (CASE: example1, example2, example2-fast)"),
+    ("matrix.CASE", "fault matrix table, safety on and off (CASE: example1, example2, example2-fast, example2-umax30)"),
     ("matrix.CASE.met", "fault-matrix cells meeting the goal with safety on"),
     ("matrix.CASE.cells", "fault-matrix cells"),
     ("torque-limit", "Example 2 torque-limit sweep table (host-sim/tests/torque_limit.rs)"),
     ("torque-limit.smallest", "smallest u_max that tracks into the band"),
     ("torque-limit.fails", "largest u_max found not to track"),
     ("pil", "per-agent Node::tick instructions of the 2 s PIL run (target/ci-pil/pil)"),
-    ("back-end.NAME[.KEY]", "closed-loop drift table of a math back-end against the default build (NAME: micromath, fast-math; KEY: worst, SCENARIO.worst, SCENARIO.FIGURE; target/docs/back-end/NAME.md of its host-sim test)"),
+    ("back-end.NAME[.KEY]", "closed-loop drift table of a math back-end against the default build (NAME: micromath, fast-math; KEY: worst, SCENARIO.worst, SCENARIO.FIGURE; target/back-end/NAME.md of its host-sim test)"),
     ("scaling.line", "error after 2Ts of a line of 1 to 10 followers (scenarios/line.toml, --set graph.agents=N)"),
     ("scaling.line.per-follower", "error after 2Ts added per follower of the line, from 1 to 10"),
     ("scaling.run.NAME", "error after 2Ts of a generated graph (NAME: line-N, star-50, random-50, random-50-links, swarm)"),
@@ -278,6 +280,19 @@ pub const CATALOGUE: [(&str, &str); 32] = [
     ("clocks.NAME.KEY", "clock campaign figures (KEY: runs, synchronous, synchronous-settling, worst-none, worst-leader, best-none, energy-max, diverged-none, diverged-leader)"),
     ("clocks.goal", "Example 1 over CAN for 60 s: synchronous, free-running clocks, leader sync"),
     ("clocks.goal.RUN", "error after 2Ts of a goal run vs synchronous (RUN: free, leader)"),
+    ("network.bus", "NETWORK §5 bus table: Example 1 over the bus of hil-mock/tests (HIL_MOCK_FIGURES_OUT)"),
+    ("network.silent.KEY", "agent 3 silent 5–7 s (KEY: held, agent4-error, agent4-x2, recovered, without, stale-samples)"),
+    ("network.starved.KEY", "a babbling node for 0.2–0.5 s without safety (KEY: escape, yd-moved, max-x-0.3, max-x-0.2)"),
+    ("network.scenarios", "NETWORK §7 table: shipped CAN scenarios and --set variants"),
+    ("network.lossy.KEY", "example1-lossy by window (KEY: before, silent, return, after, max-u-return, ideal-after, after-vs-ideal)"),
+    ("network.trace.KEY", "0.3 s of example1-can --trace decoded by cantools with docs/wire.dbc (KEY: frames, max-diff)"),
+    ("network.pil-lossy.KEY", "example1-lossy over 7.5 s, which PIL matches (KEY: lost, stale, suppressed, can-sent)"),
+    ("reliability.soak", "soak windows, first and last 10 min (controller-core/tests/soak.rs with SOAK_OUT, target/soak/soak.json)"),
+    ("reliability.soak.growth", "largest change of a soak figure from the first window to the last"),
+    ("reliability.stable-h", "Example 1's largest stable sample period (host-sim stable-h)"),
+    ("reliability.extreme.RUN.KEY", "runs of tests/tests/extreme.rs with EXTREME_OUT, release (RUN: ts-0.05, h-10ms, ex2-h-10ms, line-50-can-500k-lossy, all-at-once; KEY: time, agent, max-u, c1, misses, lost)"),
+    ("reliability.corruption.CASE.KEY", "Example 1's fault-matrix corruption cells run alone (CASE: 10, 30; KEY: bus-off, misses)"),
+    ("reliability.matrix.CASE.KEY", "fault-matrix figures of the prose (KEY: band, band-off, on-max-u, off-max-u, off-diverged-min/max, off-back-max, not-met, not-met-min/max, outage-not-met-min/max, outage-off-back, outage-off-u, stuck-*, named cells)"),
     ("wall.example1-run", "wall time of host-sim run example1 (date and machine; --wall-clock)"),
     ("claims", "the paper's claims with verdicts (Examples 1 and 2, faults off, the baseline-retune campaign)"),
 ];
@@ -315,6 +330,8 @@ enum Figure<'a> {
     ClocksKey(&'a str, &'a str),
     ClocksGoal,
     ClocksGoalRun(&'a str),
+    Network(&'a str),
+    Reliability(&'a str),
     WallExample1,
     Claims,
 }
@@ -329,8 +346,9 @@ const RUN_KEYS: [&str; 6] = [
     "frames_lost",
 ];
 /// Fault matrices: `example1`, `example2` (the deploy scenarios, as CI runs them) and
-/// `example2-fast` (Example 2's deploy scenario at h = 0.2 ms on a 5 Mbit/s bus).
-const MATRICES: [&str; 3] = ["example1", "example2", "example2-fast"];
+/// `example2-fast` (Example 2's deploy scenario at h = 0.2 ms on a 5 Mbit/s bus),
+/// `example2-umax30` (the deploy scenario with `u_max = 30 N m`).
+const MATRICES: [&str; 4] = ["example1", "example2", "example2-fast", "example2-umax30"];
 /// The shipped campaigns over `Ts × h`.
 const TS_H: [&str; 2] = ["example1-ts-h", "example2-ts-h"];
 /// Figures of the Monte Carlo campaign: runs, diverged and the error after `2 T_s` of the others.
@@ -393,6 +411,12 @@ fn parse(name: &str) -> Option<Figure<'_>> {
         ["clocks", name, key] if clocks::CAMPAIGNS.contains(name) && clocks::KEYS.contains(key) => {
             Figure::ClocksKey(name, key)
         }
+        ["network", ..] if network::known(&name["network.".len()..]) => {
+            Figure::Network(&name["network.".len()..])
+        }
+        ["reliability", ..] if reliability::known(&name["reliability.".len()..]) => {
+            Figure::Reliability(&name["reliability.".len()..])
+        }
         ["wall", "example1-run"] => Figure::WallExample1,
         ["claims"] => Figure::Claims,
         _ => return None,
@@ -435,6 +459,8 @@ fn render(name: &str, src: &mut Sources) -> Result<Option<String>> {
         Figure::ClocksKey(name, key) => clocks::figure(&src.campaign(name)?, key)?,
         Figure::ClocksGoal => clocks::goal_table(src)?,
         Figure::ClocksGoalRun(run) => clocks::goal_figure(src, run)?,
+        Figure::Network(name) => network::render(src, name)?,
+        Figure::Reliability(name) => reliability::render(src, name)?,
         Figure::WallExample1 => wall_example1(src)?,
         Figure::Claims => claims_table(src)?,
     };
@@ -668,6 +694,7 @@ impl Sources {
                 "example2-deploy",
                 &["simulation.h=2e-4", "network.bitrate=5000000"],
             ),
+            "example2-umax30" => ("example2-deploy", &["safety.u_max=30"]),
             other => return Err(format!("no fault matrix `{other}`")),
         };
         let dir = format!("target/fault-matrix/{case}");

@@ -65,6 +65,50 @@ pub fn controller_config(i: usize) -> ControllerConfig<2> {
     }
 }
 
+/// With `HIL_MOCK_FIGURES_OUT=<dir>`, writes `<dir>/<name>.json`: the run's figures and
+/// `extra`, for `cargo xtask docs` (docs/NETWORK.md §3, §5).
+pub fn record(name: &str, r: Option<&CanRun>, extra: &[(&str, f64)]) {
+    let Some(dir) = std::env::var_os("HIL_MOCK_FIGURES_OUT") else {
+        return;
+    };
+    let mut v = serde_json::Map::new();
+    if let Some(r) = r {
+        let b = &r.bus;
+        let sum = |f: fn(&NodeStats) -> u32| r.nodes.iter().map(f).sum::<u32>();
+        let figures = serde_json::json!({
+            "max_error": r.max_error,
+            "max_state": r.max_state,
+            "diverged_at": r.diverged_at,
+            "load_percent": b.load_percent(),
+            "frames_sent": b.frames_sent,
+            "frames_lost": b.frames_lost,
+            "frames_corrupted": b.frames_corrupted,
+            "deadline_misses": b.deadline_misses,
+            "bus_off_events": b.bus_off_events,
+            "max_tec": b.nodes.iter().map(|n| n.max_tec).max().unwrap_or(0),
+            "babble_frames": b.babble_frames,
+            "suppressed": b.suppressed,
+            "max_age_s": b.max_age_s(),
+            "mean_age_s": b.mean_age_s(),
+            "max_latency_s": b.max_latency_ns as f64 * 1e-9,
+            "seq_gaps": sum(|n| n.seq_gaps),
+            "stale_samples": sum(|n| n.stale_samples),
+            "malformed": sum(|n| n.malformed.total()),
+        });
+        if let serde_json::Value::Object(m) = figures {
+            v.extend(m);
+        }
+    }
+    for (k, x) in extra {
+        v.insert((*k).to_owned(), serde_json::json!(x));
+    }
+    let dir = std::path::PathBuf::from(dir);
+    std::fs::create_dir_all(&dir).expect("HIL_MOCK_FIGURES_OUT is writable");
+    let path = dir.join(format!("{name}.json"));
+    std::fs::write(&path, serde_json::Value::Object(v).to_string())
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+}
+
 /// Max |y_i − y_d| over samples with t ≥ t_from, the ideal link (every value fresh, no delay).
 pub fn run_ideal(t_end: f64, t_from: f64) -> f64 {
     let mut ctrls: Vec<Controller<2, 2, 4>> = (0..4)

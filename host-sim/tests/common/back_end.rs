@@ -1,7 +1,7 @@
 //! The closed loop of a math back-end against the default build: both paper examples, full
 //! runs, each figure's relative drift from `golden/accurate-closed-loop.json` (made by the
 //! default build, whose outputs the golden digests of `tests/safety.rs` pin), printed and
-//! written to `target/docs/back-end/<back-end>.md` (the tables of `docs/REPRODUCTION.md`, "Math
+//! written to `target/back-end/<back-end>.md` (the tables of `docs/REPRODUCTION.md`, "Math
 //! back-ends", `cargo xtask docs`), and held to the back-end's bounds.
 
 use serde_json::Value;
@@ -116,8 +116,8 @@ pub fn check(back_end: &str, bounds: &Bounds) {
         }
     }
     print!("{table}");
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/docs/back-end");
-    std::fs::create_dir_all(&dir).expect("target/docs/back-end");
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/back-end");
+    std::fs::create_dir_all(&dir).expect("target/back-end");
     std::fs::write(dir.join(format!("{back_end}.md")), &table).expect("the table");
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

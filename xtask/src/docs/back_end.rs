@@ -1,5 +1,5 @@
 //! Figures of docs/REPRODUCTION.md, "Math back-ends": the closed-loop drift tables that
-//! `host-sim/tests/{micromath,fast_math}.rs` write to `target/docs/back-end/NAME.md`
+//! `host-sim/tests/{micromath,fast_math}.rs` write to `target/back-end/NAME.md`
 //! (`back-end.NAME`), and single drifts from them (`back-end.NAME.SCENARIO.KEY`,
 //! `back-end.NAME.SCENARIO.worst`, `back-end.NAME.worst`).
 
@@ -31,7 +31,7 @@ fn table(src: &mut Sources, name: &str) -> Result<String> {
         .iter()
         .find(|(n, _)| *n == name)
         .ok_or_else(|| format!("no back-end `{name}`"))?;
-    let path = format!("target/docs/back-end/{name}.md");
+    let path = format!("target/back-end/{name}.md");
     let file = src.file(&path, |_, _| {
         run(Command::new(cargo()).current_dir(workspace_root()).args([
             "test",
