@@ -32,10 +32,14 @@ fn io(e: ParquetError) -> std::io::Error {
     std::io::Error::other(e)
 }
 
-fn properties() -> Arc<WriterProperties> {
+/// Snappy throughout; dictionary pages only where values repeat (results: names, flags).
+/// Trajectory columns are written plain: nearly every sample value is new, so a dictionary
+/// costs a hash per value and, once it overflows, a second encoding, and the file grows.
+fn properties(dictionary: bool) -> Arc<WriterProperties> {
     Arc::new(
         WriterProperties::builder()
             .set_compression(Compression::SNAPPY)
+            .set_dictionary_enabled(dictionary)
             .build(),
     )
 }
@@ -85,7 +89,7 @@ pub(crate) fn write_trajectory(
         })
         .collect::<std::io::Result<Vec<_>>>()?;
     let out = BufWriter::with_capacity(1 << 16, file);
-    let mut w = SerializedFileWriter::new(out, schema(types)?, properties()).map_err(io)?;
+    let mut w = SerializedFileWriter::new(out, schema(types)?, properties(false)).map_err(io)?;
     let mut cols: Vec<Values> = fields
         .iter()
         .map(|f| match *f {
@@ -163,7 +167,8 @@ fn results_bytes(results: &Results) -> std::io::Result<Vec<u8>> {
             primitive(n, physical, true)
         })
         .collect::<std::io::Result<Vec<_>>>()?;
-    let mut w = SerializedFileWriter::new(Vec::new(), schema(types)?, properties()).map_err(io)?;
+    let mut w =
+        SerializedFileWriter::new(Vec::new(), schema(types)?, properties(true)).map_err(io)?;
     let mut rg = w.next_row_group().map_err(io)?;
     for column in &results.columns {
         let Some(mut col) = rg.next_column().map_err(io)? else {
