@@ -17,7 +17,7 @@ target/debug/host-sim graph scenarios/example1.toml --out "$out" --set 'figures.
   --set figures.width_mm=85
 passed=0
 failed=0
-for f in tracking errors inputs estimates graph; do
+for f in tracking errors inputs inputs-1 estimates graph; do
   fonts=$(pdffonts "$out/$f.pdf" | tail -n +3)
   width=$(pdfinfo "$out/$f.pdf" | awk '/Page size/ {print $3}')
   if [ -n "$fonts" ] && ! grep -qv ' yes ' <<<"$fonts" && grep -q DejaVuSans <<<"$fonts" \

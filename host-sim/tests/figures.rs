@@ -213,6 +213,23 @@ fn figures_section_writes_print_pdfs_in_the_time_window() {
     assert!(!svg.contains(">\n2.6\n<"), "the axis ends at t_to");
     let inputs = std::fs::read_to_string(dir.join("inputs.svg")).expect("svg");
     assert_has(&inputs, &["qᶠ(u₁)", "partial loss"], "inputs.svg");
+    // Agent by agent: agent 1's quantization error comes before agent 2's command.
+    let at = |what: &str| inputs.find(what).expect(what);
+    assert!(at("agent 1: quantization error") < at("agent 2: command"));
+    for i in 1..=4 {
+        let one = std::fs::read_to_string(dir.join(format!("inputs-{i}.svg"))).expect("svg");
+        assert_has(
+            &one,
+            &[
+                &format!("agent {i}: command"),
+                &format!("agent {i}: quantization error"),
+            ],
+            &format!("inputs-{i}.svg"),
+        );
+        assert!(!one.contains(&format!("agent {}: command", i % 4 + 1)));
+        assert!(dir.join(format!("inputs-{i}.pdf")).exists());
+    }
+    assert!(!dir.join("inputs-5.svg").exists());
 }
 
 /// `leader.y_d = "0.6*sin(2*t)"` is Example 1's default leader: the same trajectory to the byte.

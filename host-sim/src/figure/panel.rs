@@ -685,7 +685,7 @@ fn draw_panel<DB: DrawingBackend>(
     let area = if strip {
         let samples = legend_samples(p);
         let (w, _) = area.dim_in_pixel();
-        let rows = strip_rows(page, &samples, w);
+        let (_, rows) = strip_layout(page, &samples, w);
         let (top, rest) = area.split_vertically(z(18) * rows as u32 + z(4));
         draw_strip(&top, page, &samples)?;
         rest
@@ -944,26 +944,69 @@ fn legend_samples(p: &Panel) -> Vec<(Sample, String)> {
     out
 }
 
-/// Width of one strip entry [px]: the sample, a gap and the text.
-fn strip_entry_width(page: &FigureStyle, label: &str) -> u32 {
-    page.scaled(34) + (label.chars().count() as f64 * 7.0 * page.zoom()) as u32 + page.scaled(14)
+/// Width of `chars` characters of legend text [px] (the bundled font at the legend's size).
+fn strip_text_width(page: &FigureStyle, chars: usize) -> u32 {
+    (chars as f64 * 7.0 * page.zoom()) as u32
 }
 
-/// Rows of the legend strip of `samples` over `width` px (entries wrap onto new rows).
-fn strip_rows(page: &FigureStyle, samples: &[(Sample, String)], width: u32) -> usize {
-    let (mut rows, mut x) = (1, page.scaled(8));
+/// One entry of the legend strip: where it goes and its text, broken into lines.
+struct StripEntry {
+    x: u32,
+    row: usize,
+    lines: Vec<String>,
+}
+
+/// The legend strip of `samples` over `width` px: entries side by side, wrapping onto new rows;
+/// a label wider than a row is broken at spaces onto lines of its own, so no text leaves the
+/// figure. Returns the entries and the number of rows.
+fn strip_layout(
+    page: &FigureStyle,
+    samples: &[(Sample, String)],
+    width: u32,
+) -> (Vec<StripEntry>, usize) {
+    let (left, sample, gap) = (page.scaled(8), page.scaled(34), page.scaled(14));
+    let room = width.saturating_sub(left + sample + gap);
+    let (mut entries, mut row, mut x) = (Vec::with_capacity(samples.len()), 0, left);
     for (_, label) in samples {
-        let w = strip_entry_width(page, label);
-        if x + w > width && x > page.scaled(8) {
-            rows += 1;
-            x = page.scaled(8);
+        let lines = wrap(label, page, room);
+        let text = lines.iter().map(|l| l.chars().count()).max().unwrap_or(0);
+        let w = sample + strip_text_width(page, text) + gap;
+        if x + w > width && x > left {
+            row += 1;
+            x = left;
         }
+        let extra = lines.len().saturating_sub(1);
+        entries.push(StripEntry { x, row, lines });
         x += w;
+        if extra > 0 {
+            row += extra + 1;
+            x = left;
+        }
     }
-    rows
+    let rows = if x > left { row + 1 } else { row.max(1) };
+    (entries, rows)
 }
 
-/// The legend as rows of entries across `area`.
+/// `label` broken at spaces into lines of at most `room` px (a word longer than that stays
+/// whole on its line).
+fn wrap(label: &str, page: &FigureStyle, room: u32) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    let mut line = String::new();
+    for word in label.split(' ') {
+        let n = line.chars().count() + 1 + word.chars().count();
+        if !line.is_empty() && strip_text_width(page, n) > room {
+            lines.push(std::mem::take(&mut line));
+        }
+        if !line.is_empty() {
+            line.push(' ');
+        }
+        line.push_str(word);
+    }
+    lines.push(line);
+    lines
+}
+
+/// The legend as rows of entries across `area`, laid out by [`strip_layout`].
 fn draw_strip<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     page: &FigureStyle,
@@ -972,13 +1015,9 @@ fn draw_strip<DB: DrawingBackend>(
     let (w, _) = area.dim_in_pixel();
     let z = |px: u32| page.scaled(px) as i32;
     let font = page.font(12);
-    let (mut x, mut y) = (z(8), z(11));
-    for (sample, label) in samples {
-        let ew = strip_entry_width(page, label) as i32;
-        if x + ew > w as i32 && x > z(8) {
-            x = z(8);
-            y += z(18);
-        }
+    let (entries, _) = strip_layout(page, samples, w);
+    for ((sample, _), entry) in samples.iter().zip(&entries) {
+        let (x, y) = (entry.x as i32, z(11) + z(18) * entry.row as i32);
         let line = z(24);
         match *sample {
             Sample::Line(dash, marker, color, width) => area.draw(&Glyph {
@@ -1008,12 +1047,13 @@ fn draw_strip<DB: DrawingBackend>(
                 }
             }
         }
-        area.draw(&Text::new(
-            label.clone(),
-            (x + z(30), y),
-            TextStyle::from(font.clone()).pos(Pos::new(HPos::Left, VPos::Center)),
-        ))?;
-        x += ew;
+        for (k, text) in entry.lines.iter().enumerate() {
+            area.draw(&Text::new(
+                text.clone(),
+                (x + z(30), y + z(18) * k as i32),
+                TextStyle::from(font.clone()).pos(Pos::new(HPos::Left, VPos::Center)),
+            ))?;
+        }
     }
     Ok(())
 }
@@ -1061,6 +1101,31 @@ mod tests {
             "a new line gets its legend"
         );
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_legend_label_wider_than_the_strip_is_broken_onto_lines_that_fit() {
+        let style = FigureStyle::px(400, 400);
+        let sample = || Sample::Fill(BLACK.mix(0.2), false);
+        let long = "2Tₛ (example2) = t_prescribed (example2-baseline) = 1 s: common instant";
+        let samples = [
+            (sample(), "y_d".to_string()),
+            (sample(), long.to_string()),
+            (sample(), "y₁".to_string()),
+        ];
+        let (entries, rows) = strip_layout(&style, &samples, 400);
+        let room = 400 - style.scaled(8) - style.scaled(34) - style.scaled(14);
+        assert!(entries[1].lines.len() > 1, "{:?}", entries[1].lines);
+        assert_eq!(entries[1].lines.join(" "), long);
+        for line in &entries[1].lines {
+            assert!(
+                strip_text_width(&style, line.chars().count()) <= room,
+                "{line}"
+            );
+        }
+        assert_eq!((entries[0].row, entries[1].row), (0, 1));
+        assert_eq!(entries[2].row, 1 + entries[1].lines.len());
+        assert_eq!(rows, entries[2].row + 1);
     }
 
     #[test]
