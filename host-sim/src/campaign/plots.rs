@@ -437,7 +437,14 @@ fn colour_bar<DB: DrawingBackend>(
     scale: Scale,
     label: &str,
 ) -> DrawResult {
-    let fmt = move |v: &f64| short(scale.from(*v));
+    // Linear: decimals to the tick step, so a narrow range gets distinct labels.
+    let fmt = move |v: &f64| {
+        if scale.log {
+            short(scale.from(*v))
+        } else {
+            tick_label(*v, (lo, hi))
+        }
+    };
     let mut c = ChartBuilder::on(area)
         .margin_top(50)
         .margin_bottom(60)
@@ -604,9 +611,32 @@ fn label(key: &str, (y, u): (&str, &str)) -> String {
         "quantizer.rho" => ("quantizer ρ", "–".into()),
         "quantizer.u_min" => ("quantizer u_min", u.to_string()),
         "simulation.settle_band" => ("band b", y.to_string()),
-        _ => return key.to_string(),
+        "clock.drift_ppm" => ("clock drift", "ppm".into()),
+        "clock.jitter_us" => ("clock jitter", "µs".into()),
+        "clock.offset_us" => ("clock offset", "µs".into()),
+        _ => return param_label(key, (y, u)),
     };
     format!("{name} [{unit}]")
+}
+
+/// The axis text of a key of the controller's parameter table (`controller.zeta`,
+/// `controller.a_check[2]`): the key and its unit; any other key as it is.
+fn param_label(key: &str, (y, u): (&str, &str)) -> String {
+    let base = key.split_once('[').map_or(key, |(b, _)| b);
+    let Some(p) = controller_core::param::Param::ALL
+        .iter()
+        .find(|p| p.key() == base)
+    else {
+        return key.to_string();
+    };
+    let unit = p
+        .spec()
+        .unit
+        .replace('`', "")
+        .replace("[y]", y)
+        .replace("[u]", u)
+        .replace(['[', ']'], "");
+    format!("{key} [{unit}]")
 }
 
 /// The output and input units of the campaign's plant (as on the run figures).
@@ -778,4 +808,25 @@ fn monte_carlo<DB: DrawingBackend>(
     .label(format!("predefined time 2Ts = {}", short(predefined)))
     .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], grey));
     legend(&mut c, style, SeriesLabelPosition::LowerRight, 13).map_err(err)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::label;
+
+    #[test]
+    fn axis_labels_carry_units() {
+        let units = ("rad", "N·m");
+        assert_eq!(label("clock.drift_ppm", units), "clock drift [ppm]");
+        assert_eq!(label("clock.jitter_us", units), "clock jitter [µs]");
+        assert_eq!(label("controller.ts", units), "Tₛ [s]");
+        assert_eq!(label("controller.zeta", units), "controller.zeta [–]");
+        assert_eq!(label("safety.du_max", units), "safety.du_max [N·m/s]");
+        assert_eq!(label("controller.gamma", units), "controller.gamma [x_n]");
+        assert_eq!(
+            label("controller.a_check[2]", units),
+            "controller.a_check[2] [–]"
+        );
+        assert_eq!(label("network.loss", units), "network.loss");
+    }
 }
