@@ -30,6 +30,7 @@ use std::{
 
 mod back_end;
 mod clocks;
+mod images;
 mod network;
 mod reliability;
 mod scaling;
@@ -186,8 +187,19 @@ pub fn docs(opts: &Options) -> Result<()> {
     process(&workspace_root(), only_file, opts.check, keep, |name| {
         render(name, &mut src)
     })?;
+    // The images are copies of whole figures: handled with every document, or `--only images`.
+    if opts.only.is_none() || opts.only.as_deref() == Some("images") {
+        let differ = images::images(&mut src, opts.check)?;
+        if !differ.is_empty() {
+            return Err(format!(
+                "{} image(s) differ from what the current code draws (`cargo xtask docs` copies them):\n{}",
+                differ.len(),
+                differ.join("\n")
+            ));
+        }
+    }
     if opts.check {
-        println!("docs: every measured figure matches");
+        println!("docs: every measured figure and image matches");
     }
     Ok(())
 }

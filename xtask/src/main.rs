@@ -64,7 +64,9 @@ tasks:
       nothing and fails naming each block that differs; wall-clock figures (wall.*)
       are rewritten only with --wall-clock and never checked; --list names the figures;
       --only FILE (e.g. docs/CLOCKS.md) handles that document alone; --only NAME renders (or
-      checks) the blocks of figure NAME alone
+      checks) the blocks of figure NAME alone. The documents' images (campaign maps, fault
+      matrices, run figures) are copied from the figures the commands draw, and checked
+      byte for byte, with every document or with --only images
   board-size [--no-run]
       build boards/nucleo-g474re in release (unless --no-run: the ELF as last built), print
       its text, data and bss, and fail if text + data exceeds 64 KiB (65,536 B) or data + bss

@@ -1,0 +1,198 @@
+//! The images of `README.md` and `docs/`: each is a copy of a figure that a measuring command
+//! writes (a shipped campaign's map, a fault matrix, a run's figure). `cargo xtask docs` copies
+//! them from the current outputs; `--check` names every image whose bytes differ, so an image
+//! drawn by older code cannot stay in the documents.
+
+use std::{fs, process::Command};
+
+use super::{run, Sources};
+use crate::{workspace_root, Result};
+
+/// Where an image comes from.
+enum Source {
+    /// A file beside `out/campaigns/NAME/results.csv` (a shipped campaign).
+    Campaign(&'static str, &'static str),
+    /// `matrix.png` of `target/fault-matrix/CASE/`.
+    Matrix(&'static str),
+    /// The torque-limit sweep's figure (`target/torque-limit/`).
+    Torque,
+    /// A figure of `host-sim compare scenarios/example2.toml scenarios/example2-baseline.toml`
+    /// (docs/REPRODUCTION.md's comparison of Fig. 8), in `target/docs/images/example2-compare/`.
+    Compare(&'static str),
+    /// A figure of `host-sim run scenarios/SCENARIO.toml` with these `--set`s, in
+    /// `target/docs/images/TAG/`.
+    Run {
+        tag: &'static str,
+        scenario: &'static str,
+        sets: &'static [&'static str],
+        file: &'static str,
+    },
+}
+
+/// Every image of the documents and its source.
+const IMAGES: [(&str, Source); 16] = [
+    (
+        "host-sim/doc/example1-errors.png",
+        Source::Run {
+            tag: "example1",
+            scenario: "example1",
+            sets: &[],
+            file: "errors.png",
+        },
+    ),
+    (
+        "docs/figures/clocks-example1-can.png",
+        Source::Run {
+            tag: "example1-can-clocks",
+            scenario: "example1-can",
+            sets: &[
+                "clock.drift_ppm=[100, -100, 100, -100]",
+                "clock.jitter_us=20",
+                "clock.offset_us=200",
+            ],
+            file: "clocks.png",
+        },
+    ),
+    (
+        "docs/campaigns/clock-drift-map-none.png",
+        Source::Campaign("clock-drift", "map-1.png"),
+    ),
+    (
+        "docs/campaigns/clock-drift-example2-map-none.png",
+        Source::Campaign("clock-drift-example2", "map-1.png"),
+    ),
+    (
+        "docs/campaigns/clock-drift-example2-map-leader.png",
+        Source::Campaign("clock-drift-example2", "map-2.png"),
+    ),
+    (
+        "docs/campaigns/clock-drift-example2-montecarlo.png",
+        Source::Campaign("clock-drift-example2", "montecarlo.png"),
+    ),
+    (
+        "docs/campaigns/example1-monte-carlo.png",
+        Source::Campaign("example1-monte-carlo", "montecarlo.png"),
+    ),
+    (
+        "docs/campaigns/example1-ts-h.png",
+        Source::Campaign("example1-ts-h", "map.png"),
+    ),
+    (
+        "docs/campaigns/example2-ts-h.png",
+        Source::Campaign("example2-ts-h", "map.png"),
+    ),
+    (
+        "docs/figures/fault-matrix-example1.png",
+        Source::Matrix("example1"),
+    ),
+    (
+        "docs/figures/fault-matrix-example2-deploy.png",
+        Source::Matrix("example2"),
+    ),
+    (
+        "docs/figures/fault-matrix-example2-fast.png",
+        Source::Matrix("example2-fast"),
+    ),
+    ("docs/figures/torque-limit.png", Source::Torque),
+    (
+        "docs/campaigns/example2-baseline-retune.png",
+        Source::Campaign("example2-baseline-retune", "map.png"),
+    ),
+    (
+        "docs/figures/example2-compare-outputs.png",
+        Source::Compare("compare-outputs.png"),
+    ),
+    (
+        "docs/figures/example1-inputs-print.png",
+        Source::Run {
+            tag: "example1-print",
+            scenario: "example1",
+            sets: &[
+                "figures.width_mm=85",
+                "figures.height_mm=55",
+                "figures.font_pt=8",
+                "figures.dpi=300",
+                "figures.format=[\"png\"]",
+            ],
+            file: "inputs-2.png",
+        },
+    ),
+];
+
+impl Sources {
+    /// The current file an image copies, produced when missing (or with `--rerun`).
+    fn image_source(&mut self, source: &Source) -> Result<std::path::PathBuf> {
+        match *source {
+            Source::Campaign(name, file) => {
+                self.campaign(name)?;
+                Ok(workspace_root().join(format!("out/campaigns/{name}/{file}")))
+            }
+            Source::Matrix(case) => {
+                self.matrix(case)?;
+                Ok(workspace_root().join(format!("target/fault-matrix/{case}/matrix.png")))
+            }
+            Source::Torque => {
+                self.torque()?;
+                Ok(workspace_root().join("target/torque-limit/torque-limit.png"))
+            }
+            Source::Compare(file) => self.file(
+                &format!("target/docs/images/example2-compare/{file}"),
+                |s, path| {
+                    let bin = s.host_sim()?;
+                    run(Command::new(bin)
+                        .current_dir(workspace_root())
+                        .args([
+                            "compare",
+                            "scenarios/example2.toml",
+                            "scenarios/example2-baseline.toml",
+                            "--out",
+                        ])
+                        .arg(path.parent().unwrap_or(path)))
+                    .map(|_| ())
+                },
+            ),
+            Source::Run {
+                tag,
+                scenario,
+                sets,
+                file,
+            } => self.file(&format!("target/docs/images/{tag}/{file}"), |s, path| {
+                let bin = s.host_sim()?;
+                let mut cmd = Command::new(bin);
+                cmd.current_dir(workspace_root())
+                    .args(["run", &format!("scenarios/{scenario}.toml"), "--quiet"])
+                    .arg("--out")
+                    .arg(path.parent().unwrap_or(path));
+                for set in sets {
+                    cmd.args(["--set", set]);
+                }
+                run(&mut cmd).map(|_| ())
+            }),
+        }
+    }
+}
+
+/// Copies every image from its source or, with `check`, lists those that differ.
+pub(super) fn images(src: &mut Sources, check: bool) -> Result<Vec<String>> {
+    let mut differ = Vec::new();
+    for (doc, source) in &IMAGES {
+        let from = src.image_source(source)?;
+        let new = fs::read(&from).map_err(|e| format!("{}: {e}", from.display()))?;
+        let path = workspace_root().join(doc);
+        if fs::read(&path).ok().as_deref() == Some(&new[..]) {
+            continue;
+        }
+        let rel = from
+            .strip_prefix(workspace_root())
+            .unwrap_or(&from)
+            .display()
+            .to_string();
+        if check {
+            differ.push(format!("{doc}: image differs from {rel}"));
+        } else {
+            fs::write(&path, &new).map_err(|e| format!("{doc}: {e}"))?;
+            println!("{doc}: copied from {rel}");
+        }
+    }
+    Ok(differ)
+}
