@@ -16,15 +16,10 @@ enum Source {
     Matrix(&'static str),
     /// The torque-limit sweep's figure (`target/torque-limit/`).
     Torque,
-    /// A figure of `host-sim compare scenarios/example2.toml scenarios/example2-baseline.toml`
-    /// (docs/REPRODUCTION.md's comparison of Fig. 8), in `target/docs/images/example2-compare/`.
-    Compare(&'static str),
-    /// A figure of `host-sim run scenarios/SCENARIO.toml` with these `--set`s, in
-    /// `target/docs/images/TAG/`.
+    /// A figure of `host-sim ARGS --out target/docs/images/TAG/`.
     Run {
         tag: &'static str,
-        scenario: &'static str,
-        sets: &'static [&'static str],
+        args: &'static [&'static str],
         file: &'static str,
     },
 }
@@ -35,8 +30,7 @@ const IMAGES: [(&str, Source); 16] = [
         "host-sim/doc/example1-errors.png",
         Source::Run {
             tag: "example1",
-            scenario: "example1",
-            sets: &[],
+            args: &["run", "scenarios/example1.toml", "--quiet"],
             file: "errors.png",
         },
     ),
@@ -44,10 +38,15 @@ const IMAGES: [(&str, Source); 16] = [
         "docs/figures/clocks-example1-can.png",
         Source::Run {
             tag: "example1-can-clocks",
-            scenario: "example1-can",
-            sets: &[
+            args: &[
+                "run",
+                "scenarios/example1-can.toml",
+                "--quiet",
+                "--set",
                 "clock.drift_ppm=[100, -100, 100, -100]",
+                "--set",
                 "clock.jitter_us=20",
+                "--set",
                 "clock.offset_us=200",
             ],
             file: "clocks.png",
@@ -100,18 +99,33 @@ const IMAGES: [(&str, Source); 16] = [
     ),
     (
         "docs/figures/example2-compare-outputs.png",
-        Source::Compare("compare-outputs.png"),
+        Source::Run {
+            tag: "example2-compare",
+            args: &[
+                "compare",
+                "scenarios/example2.toml",
+                "scenarios/example2-baseline.toml",
+            ],
+            file: "compare-outputs.png",
+        },
     ),
     (
         "docs/figures/example1-inputs-print.png",
         Source::Run {
             tag: "example1-print",
-            scenario: "example1",
-            sets: &[
+            args: &[
+                "run",
+                "scenarios/example1.toml",
+                "--quiet",
+                "--set",
                 "figures.width_mm=85",
+                "--set",
                 "figures.height_mm=55",
+                "--set",
                 "figures.font_pt=8",
+                "--set",
                 "figures.dpi=300",
+                "--set",
                 "figures.format=[\"png\"]",
             ],
             file: "inputs-2.png",
@@ -135,39 +149,17 @@ impl Sources {
                 self.torque()?;
                 Ok(workspace_root().join("target/torque-limit/torque-limit.png"))
             }
-            Source::Compare(file) => self.file(
-                &format!("target/docs/images/example2-compare/{file}"),
-                |s, path| {
+            Source::Run { tag, args, file } => {
+                self.file(&format!("target/docs/images/{tag}/{file}"), |s, path| {
                     let bin = s.host_sim()?;
                     run(Command::new(bin)
                         .current_dir(workspace_root())
-                        .args([
-                            "compare",
-                            "scenarios/example2.toml",
-                            "scenarios/example2-baseline.toml",
-                            "--out",
-                        ])
+                        .args(args)
+                        .arg("--out")
                         .arg(path.parent().unwrap_or(path)))
                     .map(|_| ())
-                },
-            ),
-            Source::Run {
-                tag,
-                scenario,
-                sets,
-                file,
-            } => self.file(&format!("target/docs/images/{tag}/{file}"), |s, path| {
-                let bin = s.host_sim()?;
-                let mut cmd = Command::new(bin);
-                cmd.current_dir(workspace_root())
-                    .args(["run", &format!("scenarios/{scenario}.toml"), "--quiet"])
-                    .arg("--out")
-                    .arg(path.parent().unwrap_or(path));
-                for set in sets {
-                    cmd.args(["--set", set]);
-                }
-                run(&mut cmd).map(|_| ())
-            }),
+                })
+            }
         }
     }
 }
