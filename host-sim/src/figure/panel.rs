@@ -235,10 +235,11 @@ impl Figure for Panels<'_> {
             if entries.iter().all(|e| named.contains(e)) {
                 p.legend = Legend::Hidden;
             }
+            let before = named.clone();
             if p.legend == Legend::Corner {
                 named.extend(entries);
             }
-            draw_panel(area, style, &p).map_err(drawing_error)?;
+            draw_panel(area, style, &p, &before).map_err(drawing_error)?;
         }
         Ok(())
     }
@@ -566,10 +567,12 @@ fn legend_corner(
     best
 }
 
+/// `named`: the legend entries of the panels drawn before; a print legend strip leaves them out.
 fn draw_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     page: &FigureStyle,
     p: &Panel,
+    named: &[String],
 ) -> Drawn<DB> {
     let from = p.x_from.unwrap_or(f64::NEG_INFINITY);
     let to = p.x_to.unwrap_or(f64::INFINITY);
@@ -683,7 +686,8 @@ fn draw_panel<DB: DrawingBackend>(
     let (title_area, area) = area.split_vertically(z(28));
     draw_title(&title_area, page, &p.title, p.marks_by_hand)?;
     let area = if strip {
-        let samples = legend_samples(p);
+        let mut samples = legend_samples(p);
+        samples.retain(|(_, label)| !named.contains(label));
         let (w, _) = area.dim_in_pixel();
         let (_, rows) = strip_layout(page, &samples, w);
         let (top, rest) = area.split_vertically(z(18) * rows as u32 + z(4));
@@ -853,8 +857,42 @@ fn draw_panel<DB: DrawingBackend>(
                 } else {
                     zi(-18 - 16 * rank)
                 };
-                // The note runs to the right of the peak, or to its left near the right edge.
-                let left = note_to_the_left(t, (x0, x1));
+                let name = if n_series > 1 {
+                    format!("{}: ", short_name(&s.label))
+                } else {
+                    String::new()
+                };
+                let (value, at) = (significant(v), secs(t));
+                let notes = [
+                    format!("{arrow} {name}peak {value} at t = {at} (clipped)"),
+                    format!("{arrow} {name}peak {value} at t = {at}"),
+                    format!("{arrow} {name}{value} at {at}"),
+                ];
+                // The note runs to the right of the peak, or to its left near the right edge;
+                // for print, where the text is large against the plot, the other side or a
+                // shorter note when it would leave the plot.
+                let mut left = note_to_the_left(t, (x0, x1));
+                let mut note = notes[0].clone();
+                if page.is_print() {
+                    let width = |n: &str| (n.chars().count() as f64 * 7.0 * zoom) as i32;
+                    let (px, _) = chart.backend_coord(&(t, edge));
+                    let (span, _) = chart.plotting_area().get_pixel_range();
+                    let room = |l: bool| {
+                        if l {
+                            px - span.start - zi(24)
+                        } else {
+                            span.end - px - zi(24)
+                        }
+                    };
+                    if width(&notes[0]) > room(left) && room(!left) > room(left) {
+                        left = !left;
+                    }
+                    note = notes
+                        .iter()
+                        .find(|n| width(n) <= room(left))
+                        .unwrap_or(&notes[2])
+                        .clone();
+                }
                 let (dx, h) = if left {
                     (zi(-24), HPos::Right)
                 } else {
@@ -863,18 +901,9 @@ fn draw_panel<DB: DrawingBackend>(
                 // Black text (the marker has the line's colour): readable in grayscale and for
                 // the lighter lines.
                 let text = page.font(12).color(&BLACK).pos(Pos::new(h, VPos::Top));
-                let note = format!(
-                    "{arrow} {}peak {} at t = {} (clipped)",
-                    if n_series > 1 {
-                        format!("{}: ", short_name(&s.label))
-                    } else {
-                        String::new()
-                    },
-                    significant(v),
-                    secs(t)
-                );
                 // A light backing keeps the note readable across grid and marker lines.
-                let w = (note.chars().count() as f64 * 6.4 * zoom) as i32 + zi(4);
+                let per_char = if page.is_print() { 7.0 } else { 6.4 };
+                let w = (note.chars().count() as f64 * per_char * zoom) as i32 + zi(4);
                 let (a, b) = if left {
                     (dx - w, dx + zi(2))
                 } else {
@@ -1099,6 +1128,52 @@ mod tests {
             svg.matches("agent 8").count(),
             1,
             "a new line gets its legend"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_print_figure_names_each_legend_entry_once() {
+        let dir = std::env::temp_dir().join(format!("host-sim-strip-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let panel = |label: &str| Panel {
+            series: vec![Series::styled(
+                label.into(),
+                0,
+                vec![(0.0, 0.0), (2.0, 1.0)],
+            )],
+            vlines: vec![(1.0, "deadline 1 s".into())],
+            ..Panel::default()
+        };
+        let output = crate::figure::Output {
+            formats: [false, true, false],
+            print: Some(crate::figure::Print {
+                width_mm: 85.0,
+                chart_mm: Some(40.0),
+                font_pt: 8.0,
+                dpi: 100.0,
+            }),
+            window: (None, None),
+        };
+        let style = FigureStyle::px(1000, 560).with(output);
+        render(
+            &dir,
+            "strip",
+            &[panel("agent 1"), panel("agent 2")],
+            (2, 1),
+            style,
+        )
+        .expect("figure");
+        let svg = std::fs::read_to_string(dir.join("strip.svg")).expect("svg");
+        assert_eq!(
+            svg.matches("deadline 1 s").count(),
+            1,
+            "the shared line once"
+        );
+        assert_eq!(
+            svg.matches("agent 2").count(),
+            1,
+            "the new line in its panel"
         );
         let _ = std::fs::remove_dir_all(&dir);
     }
