@@ -235,11 +235,10 @@ impl Figure for Panels<'_> {
             if entries.iter().all(|e| named.contains(e)) {
                 p.legend = Legend::Hidden;
             }
-            let before = named.clone();
+            draw_panel(area, style, &p, &named).map_err(drawing_error)?;
             if p.legend == Legend::Corner {
                 named.extend(entries);
             }
-            draw_panel(area, style, &p, &before).map_err(drawing_error)?;
         }
         Ok(())
     }
@@ -874,7 +873,7 @@ fn draw_panel<DB: DrawingBackend>(
                 let mut left = note_to_the_left(t, (x0, x1));
                 let mut note = notes[0].clone();
                 if page.is_print() {
-                    let width = |n: &str| (n.chars().count() as f64 * 7.0 * zoom) as i32;
+                    let width = |n: &str| strip_text_width(page, n.chars().count()) as i32;
                     let (px, _) = chart.backend_coord(&(t, edge));
                     let (span, _) = chart.plotting_area().get_pixel_range();
                     let room = |l: bool| {

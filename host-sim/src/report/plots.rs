@@ -196,9 +196,11 @@ impl Recorder {
             FigureStyle::px(1000, 800).with(setup.figures()),
         )?;
 
-        if FigureStyle::px(1400, 540).with(setup.figures()).is_print() {
-            // For print, one column read agent by agent, and a figure per agent (Figs. 3–6).
-            let mut inputs = Vec::with_capacity(2 * self.agents);
+        // For print, one column read agent by agent and a figure per agent (Figs. 3–6); on
+        // screen, two agents side by side.
+        let print = setup.figures().print.is_some();
+        let mut inputs = Vec::new();
+        if print {
             for i in 0..self.agents {
                 let pair = [
                     self.input_panel(setup, i, u_unit, &vline),
@@ -213,33 +215,24 @@ impl Recorder {
                 )?;
                 inputs.extend(pair);
             }
-            let rows = inputs.len().max(1);
-            render(
-                dir,
-                "inputs",
-                &inputs,
-                (rows, 1),
-                FigureStyle::px(1400, 270 * rows as u32).with(setup.figures()),
-            )?;
-            return self.estimates(dir, setup, &vline);
-        }
-        let mut inputs = Vec::new();
-        for row in 0..self.agents.div_ceil(2) {
-            let agents = (2 * row..(2 * row + 2).min(self.agents)).collect::<Vec<_>>();
-            for &i in &agents {
-                inputs.push(self.input_panel(setup, i, u_unit, &vline));
-            }
-            if agents.len() == 1 && self.agents > 1 {
-                inputs.push(Panel::default());
-            }
-            for &i in &agents {
-                inputs.push(self.quantization_panel(setup, i, u_unit));
-            }
-            if agents.len() == 1 && self.agents > 1 {
-                inputs.push(Panel::default());
+        } else {
+            for row in 0..self.agents.div_ceil(2) {
+                let agents = (2 * row..(2 * row + 2).min(self.agents)).collect::<Vec<_>>();
+                for &i in &agents {
+                    inputs.push(self.input_panel(setup, i, u_unit, &vline));
+                }
+                if agents.len() == 1 && self.agents > 1 {
+                    inputs.push(Panel::default());
+                }
+                for &i in &agents {
+                    inputs.push(self.quantization_panel(setup, i, u_unit));
+                }
+                if agents.len() == 1 && self.agents > 1 {
+                    inputs.push(Panel::default());
+                }
             }
         }
-        let cols = if self.agents > 1 { 2 } else { 1 };
+        let cols = if self.agents > 1 && !print { 2 } else { 1 };
         let rows = inputs.len().div_ceil(cols).max(1);
         render(
             dir,
@@ -248,11 +241,7 @@ impl Recorder {
             (rows, cols),
             FigureStyle::px(1400, 270 * rows as u32).with(setup.figures()),
         )?;
-        self.estimates(dir, setup, &vline)
-    }
 
-    /// `estimates`: the three adaptive estimates of every plotted agent.
-    fn estimates(&self, dir: &Path, setup: &Setup, vline: &(f64, String)) -> Result<()> {
         let names = ["μ̂", "ξ̂", "λ̂"];
         let what = [
             "bound of the MTN approximation weights",
