@@ -634,13 +634,10 @@ pub fn encode_config<const N: usize, const K: usize>(
     w.push(u32::from(ids.value_base()) | (u32::from(ids.heartbeat_base().unwrap_or(0xFFFF)) << 16));
     w.push(u32::from(ids.agents()));
     w.u64(node.heartbeat_period_us);
-    // Supervision: policy tag and ramp rate, timeouts (0: not supervised), loss tag, dwell.
+    // Supervision: policy tag and its rate, timeouts (0: not supervised), loss tag, dwell,
+    // sensor-loss policy tag and rate.
     let sup = &node.supervisor;
-    match sup.policy {
-        SafePolicy::Hold => w.f32s(&[0.0, 0.0]),
-        SafePolicy::Ramp { rate } => w.f32s(&[1.0, rate]),
-        SafePolicy::Off => w.f32s(&[2.0, 0.0]),
-    }
+    w.f32s(&policy_words(sup.policy));
     for t in [
         sup.leader_timeout_us,
         sup.neighbour_timeout_us,
@@ -653,6 +650,8 @@ pub fn encode_config<const N: usize, const K: usize>(
         NeighbourLoss::Any => 1.0,
     }]);
     w.u64(sup.recover_dwell_us);
+    w.f32s(&policy_words(sup.sensor_policy));
+    w.f32s(&[sup.reentry_rate]);
     w.f32s(&[ctrl.h, ctrl.ts, ctrl.zeta]);
     match ctrl.gains {
         GainSelection::Auto => w.f32s(&[0.0, 0.0, 0.0]),
@@ -705,6 +704,17 @@ pub fn encode_config<const N: usize, const K: usize>(
     w
 }
 
+/// A safe policy as a tag and its one parameter.
+fn policy_words(p: SafePolicy) -> [f32; 2] {
+    match p {
+        SafePolicy::Hold => [0.0, 0.0],
+        SafePolicy::Ramp { rate } => [1.0, rate],
+        SafePolicy::Off => [2.0, 0.0],
+        SafePolicy::HoldPosition => [3.0, 0.0],
+        SafePolicy::Stop { decel } => [4.0, decel],
+    }
+}
+
 struct Reader<'a> {
     words: &'a [u32],
     at: usize,
@@ -731,6 +741,19 @@ impl Reader<'_> {
             *x = self.f32()?;
         }
         Ok(a)
+    }
+
+    /// The words of [`policy_words`].
+    fn policy(&mut self) -> Result<SafePolicy, ConfigReject> {
+        let tag = self.tag(4)?;
+        let v = self.f32()?;
+        Ok(match tag {
+            0 => SafePolicy::Hold,
+            1 => SafePolicy::Ramp { rate: v },
+            2 => SafePolicy::Off,
+            3 => SafePolicy::HoldPosition,
+            _ => SafePolicy::Stop { decel: v },
+        })
     }
 
     fn tag(&mut self, max: u8) -> Result<u8, ConfigReject> {
@@ -765,17 +788,7 @@ pub fn decode_config<const N: usize, const K: usize>(
     )
     .map_err(|_| ConfigReject::BadTag)?;
     let heartbeat_period_us = r.u64()?;
-    let policy = match r.tag(2)? {
-        0 => {
-            r.f32()?;
-            SafePolicy::Hold
-        }
-        1 => SafePolicy::Ramp { rate: r.f32()? },
-        _ => {
-            r.f32()?;
-            SafePolicy::Off
-        }
-    };
+    let policy = r.policy()?;
     let mut timeout = || r.u64().map(|t| (t != 0).then_some(t));
     let (leader_timeout_us, neighbour_timeout_us, sensor_timeout_us) =
         (timeout()?, timeout()?, timeout()?);
@@ -790,6 +803,8 @@ pub fn decode_config<const N: usize, const K: usize>(
         neighbour_loss,
         sensor_timeout_us,
         recover_dwell_us: r.u64()?,
+        sensor_policy: r.policy()?,
+        reentry_rate: r.f32()?,
     };
     let [h, ts, zeta] = r.f32s()?;
     let gains = match r.tag(1)? {
@@ -957,8 +972,8 @@ mod tests {
         }
         let d = ControllerConfig::<2>::default();
         let w = encode_config(&node, &d);
-        // docs/NETWORK.md §9: Example 1's node (n = 2, 16 neighbour slots) in 62 words.
-        assert_eq!(w.as_slice().map(<[u32]>::len), Some(62));
+        // docs/NETWORK.md §9: Example 1's node (n = 2, 16 neighbour slots) in 65 words.
+        assert_eq!(w.as_slice().map(<[u32]>::len), Some(65));
         assert_eq!(
             decode_config::<2, 16>(w.as_slice().expect("fits")),
             Ok((node, d))
@@ -974,6 +989,16 @@ mod tests {
                 SafePolicy::Ramp { rate: 12.5 },
                 NeighbourLoss::All,
             ),
+            (
+                IdPlan::new(0x101, Some(0x780), 4),
+                SafePolicy::Stop { decel: 3.5 },
+                NeighbourLoss::All,
+            ),
+            (
+                IdPlan::new(0x101, None, 4),
+                SafePolicy::HoldPosition,
+                NeighbourLoss::Any,
+            ),
         ] {
             node.ids = ids.expect("valid plan");
             node.heartbeat_period_us = (1 << 33) | 100_000;
@@ -984,6 +1009,8 @@ mod tests {
                 neighbour_loss: loss,
                 sensor_timeout_us: Some(u64::MAX),
                 recover_dwell_us: 50_000,
+                sensor_policy: SafePolicy::Ramp { rate: 2.0 },
+                reentry_rate: f32::INFINITY,
             };
             let big = ControllerConfig::<4> {
                 neighbour_count: 2,

@@ -59,11 +59,14 @@
 //! still actuates (the held command) and broadcasts `NO_VALUE`. Actuator and CAN errors are
 //! counted in [`NodeStats`] and logged on their first occurrence after a success.
 
-use controller_core::{ConfigError, Controller, ControllerConfig, Link, StepFault, StepOutput};
+use controller_core::{
+    ConfigError, Controller, ControllerConfig, Link, SafetyConfig, StepFault, StepOutput,
+};
 use embedded_can::{nb::Can, Error as _, ErrorKind};
 
 use crate::supervisor::{
-    safe_command, NodeState, Observation, Supervisor, SupervisorConfig, SupervisorError,
+    safe_command, NodeState, Observation, SafePolicy, StopProfile, Supervisor, SupervisorConfig,
+    SupervisorError,
 };
 use crate::wire::{self, DecodeStats, Decoded, Heartbeat, IdPlan, SeqCheck, Source, WireError};
 
@@ -361,6 +364,43 @@ pub struct Node<C, Clk, S, A, const N: usize, const M: usize, const K: usize> {
     fault_pending: bool,
     /// Some source has a loss timeout.
     supervised: bool,
+    /// The last finite own output `y_i` and its clock (the stop profile's velocity).
+    last_y: Option<(f32, u64)>,
+    /// The reference of a closed-loop safe state.
+    safe_reference: SafeReference,
+    /// The controller was frozen during the present `Safe` stay (resume on exit).
+    frozen_in_safe: bool,
+}
+
+/// `controller` with the rate-limited re-entry a closed-loop safe state needs: a controller
+/// without `[safety]` gets the re-entry alone (no limits) at `sup.reentry_rate`, when some
+/// source is supervised (module `crate::supervisor`, *Safe policies*).
+fn with_reentry<const N: usize>(
+    controller: &ControllerConfig<N>,
+    sup: &SupervisorConfig,
+) -> ControllerConfig<N> {
+    let supervised = sup.leader_timeout_us.is_some()
+        || sup.neighbour_timeout_us.is_some()
+        || sup.sensor_timeout_us.is_some();
+    let mut c = *controller;
+    if supervised && sup.policy.is_closed_loop() && c.safety.is_none() {
+        c.safety = Some(SafetyConfig {
+            u_max: None,
+            du_max: None,
+            recovery_rate: sup.reentry_rate,
+            ..SafetyConfig::default()
+        });
+    }
+    c
+}
+
+/// What a closed-loop safe state tracks (`crate::supervisor`, *Safe policies*).
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum SafeReference {
+    /// [`SafePolicy::HoldPosition`]: the leader's last valid value, if it was ever heard.
+    Frozen(Option<f32>),
+    /// [`SafePolicy::Stop`].
+    Stop(StopProfile),
 }
 
 impl<C, Clk, S, A, const N: usize, const M: usize, const K: usize> Node<C, Clk, S, A, N, M, K>
@@ -421,7 +461,7 @@ where
         }
         let cfg_pinned = controller.pinned;
         let period_us = (f64::from(controller.h) * 1e6 + 0.5) as u64;
-        let controller = Controller::new(controller)?;
+        let controller = Controller::new(&with_reentry(controller, &cfg.supervisor))?;
         Ok(Self {
             can,
             clock,
@@ -453,6 +493,9 @@ where
             supervised: cfg.supervisor.leader_timeout_us.is_some()
                 || cfg.supervisor.neighbour_timeout_us.is_some()
                 || cfg.supervisor.sensor_timeout_us.is_some(),
+            last_y: None,
+            safe_reference: SafeReference::Frozen(None),
+            frozen_in_safe: false,
         })
     }
 
@@ -661,7 +704,13 @@ where
             NodeState::Boot | NodeState::Operational => {
                 self.controller.step(&x, neighbours, leader)
             }
-            state => self.frozen_output(state, now, &x, neighbours, leader),
+            NodeState::Safe if self.closed_loop_safe() => {
+                self.safe_step(now, &x, neighbours, leader)
+            }
+            state => {
+                self.frozen_in_safe |= state == NodeState::Safe;
+                self.frozen_output(state, now, &x, neighbours, leader)
+            }
         };
         self.log_fault(output.status.fault);
 
@@ -677,6 +726,9 @@ where
         }
         self.applied = output.q;
 
+        if x[0].is_finite() {
+            self.last_y = Some((x[0], now));
+        }
         let tx = self.broadcast(x[0]);
         self.seq = self.seq.wrapping_add(1) % wire::SEQ_MODULUS;
         self.heartbeat(now, first);
@@ -689,8 +741,41 @@ where
         }
     }
 
+    /// `Safe` with a closed-loop policy and a working sensor: the controller keeps stepping.
+    fn closed_loop_safe(&self) -> bool {
+        self.supervisor.config().policy.is_closed_loop() && !self.supervisor.lost().sensor()
+    }
+
+    /// One closed-loop safe step: the controller tracks the safe reference
+    /// ([`SafeReference`]) instead of the live leader (and, for `Stop`, the neighbours).
+    fn safe_step(
+        &mut self,
+        now: u64,
+        x: &[f32; N],
+        neighbours: &[Link],
+        leader: Link,
+    ) -> StepOutput<N, M> {
+        match self.safe_reference {
+            SafeReference::Frozen(frozen) => {
+                let leader = match (self.pinned, frozen) {
+                    (true, Some(v)) => Link::Stale(v),
+                    _ => leader,
+                };
+                self.controller.step(x, neighbours, leader)
+            }
+            SafeReference::Stop(profile) => {
+                let r = Link::Fresh(profile.at(now));
+                let all = [r; K];
+                let leader = if self.pinned { r } else { Link::Missing };
+                self.controller
+                    .step(x, all.get(..self.count).unwrap_or(&[]), leader)
+            }
+        }
+    }
+
     /// `Safe` or `Fault`: the error a copy of the frozen controller computes, with the
-    /// policy's command (zero in `Fault`). Out of line, so the copy's stack is used only there.
+    /// open-loop policy's command (zero in `Fault`). Out of line, so the copy's stack is used
+    /// only there.
     #[inline(never)]
     fn frozen_output(
         &self,
@@ -703,8 +788,14 @@ where
         let mut frozen = self.controller;
         let mut o = frozen.step(x, neighbours, leader);
         let dt = self.last_tick_us.map_or(0, |t| now.saturating_sub(t));
+        let cfg = self.supervisor.config();
+        let policy = if self.supervisor.lost().sensor() {
+            cfg.sensor_policy
+        } else {
+            cfg.policy
+        };
         let q = match state {
-            NodeState::Safe => safe_command(self.supervisor.config().policy, &self.applied, dt),
+            NodeState::Safe => safe_command(policy, &self.applied, dt),
             _ => [0.0; M],
         };
         o.u = q;
@@ -760,25 +851,53 @@ where
         };
         self.stats.safe_state_entries = self.supervisor.safe_entries();
         match t.to {
-            NodeState::Safe => warn!(
-                "agent {}: safe state (lost: leader {}, neighbours {}, sensor {})",
-                self.agent,
-                t.lost.leader(),
-                t.lost.neighbours(),
-                t.lost.sensor()
-            ),
+            NodeState::Safe => {
+                self.enter_safe(now, x[0]);
+                warn!(
+                    "agent {}: safe state (lost: leader {}, neighbours {}, sensor {})",
+                    self.agent,
+                    t.lost.leader(),
+                    t.lost.neighbours(),
+                    t.lost.sensor()
+                )
+            }
             NodeState::Fault => error!("agent {}: fault, outputs off", self.agent),
             NodeState::Operational if t.from == NodeState::Safe => {
-                self.controller.resume(x[0], &self.applied);
-                info!(
-                    "agent {}: operational again, controller resumed",
-                    self.agent
-                );
+                if core::mem::take(&mut self.frozen_in_safe) {
+                    self.controller.resume(x[0], &self.applied);
+                    info!(
+                        "agent {}: operational again, controller resumed",
+                        self.agent
+                    );
+                } else {
+                    if let SafeReference::Stop(_) = self.safe_reference {
+                        self.controller.reenter_links_from(x[0]);
+                    }
+                    info!("agent {}: operational again", self.agent);
+                }
             }
             NodeState::Operational | NodeState::Boot => {
                 debug!("agent {}: {}", self.agent, t.to.as_str());
             }
         }
+    }
+
+    /// Capture the safe reference on entering `Safe` at `now` with output `y`.
+    fn enter_safe(&mut self, now: u64, y: f32) {
+        self.frozen_in_safe = false;
+        self.safe_reference = match self.supervisor.config().policy {
+            SafePolicy::Stop { decel } => {
+                let (y0, w) = match self.last_y {
+                    Some((yp, tp)) if y.is_finite() && now > tp => {
+                        (y, (y - yp) / ((now - tp) as f32 * 1e-6))
+                    }
+                    Some((yp, _)) if !y.is_finite() => (yp, 0.0),
+                    _ => (y, 0.0),
+                };
+                SafeReference::Stop(StopProfile::new(y0, w, decel, now))
+            }
+            _ => SafeReference::Frozen(self.leader.value.map(|(v, _)| v)),
+        };
     }
 
     /// The heartbeat, when due: every period, agent `i`'s first `(i − 1)` samples after the

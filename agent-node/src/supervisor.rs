@@ -7,8 +7,29 @@
 //! |---|---|---|---|
 //! | `Boot` | at start | the controller's command | steps |
 //! | `Operational` | from `Boot` once every supervised source is healthy; from `Safe` after the recovery dwell | the controller's command | steps |
-//! | `Safe` | from `Boot` or `Operational` when a supervised source is lost | the [`SafePolicy`]'s command | frozen (see below) |
+//! | `Safe` | from `Boot` or `Operational` when a supervised source is lost | closed-loop [`SafePolicy`]: the controller's command towards the safe reference; open-loop policy, or the sensor lost: the open-loop command | closed loop: steps; open loop: frozen (see below) |
 //! | `Fault` | [`crate::Node::enter_fault`] (the board found a fault it cannot recover from) | zero | frozen; left only by a restart (a new `Node`) |
+//!
+//! ## Safe policies: closed loop first
+//!
+//! A plant may be unstable without feedback (Example 1's `ẋ₂ = u − 2x₁² + x₂³ + …` escapes in
+//! finite time under any constant input), so the default safe state keeps the loop closed and
+//! changes only the *reference* the controller tracks. The two closed-loop policies follow the
+//! drive profile CiA 402's *halt* and *quick stop*:
+//!
+//! | policy | kind | reference while `Safe` | on entry | on exit |
+//! |---|---|---|---|---|
+//! | [`SafePolicy::HoldPosition`] (default) | closed loop, CiA 402 *halt* | the leader's value frozen at its last valid value (pinned agents), silent neighbours frozen at theirs (the freshness policy's hold), live neighbours as they are | nothing jumps: the frozen values are the ones in use; estimates, differentiators and time go on | live values re-enter; with `[safety]` at its recovery rate |
+//! | [`SafePolicy::Stop`] | closed loop, CiA 402 *quick stop* | the agent's own output and velocity at entry, decelerated to rest at `decel` and held there; every consensus and leader term follows it | `e₁ = 0`, velocity matched; estimates, differentiators and time go on | every link re-enters from the agent's output; with `[safety]` at its recovery rate |
+//! | [`SafePolicy::Hold`] | open loop | – | the controller freezes; the last command stays | controller resumed ([`controller_core::Controller::resume`]) |
+//! | [`SafePolicy::Ramp`] | open loop | – | the last command ramps to zero | resumed |
+//! | [`SafePolicy::Off`] | open loop (CiA 402 *disable*) | – | zero | resumed |
+//!
+//! Open-loop policies suit plants that are stable without feedback (the manipulators of
+//! Example 2 under `off`). A lost **sensor** leaves nothing to close the loop with: whatever
+//! the policy, the node then applies [`SupervisorConfig::sensor_policy`], which must be open
+//! loop (default [`SafePolicy::Hold`], the command the controller itself holds on a non-finite
+//! state).
 //!
 //! ## Sources, loss and health
 //!
@@ -30,12 +51,13 @@
 //! ## Leaving the safe state
 //!
 //! Only when every supervised source has been healthy without interruption for
-//! `recover_dwell`; a loss during the dwell restarts it. On the way back the controller
-//! resumes ([`controller_core::Controller::resume`]): its estimates `μ̂`, `ξ̂`, `λ̂` are kept
-//! (they bound the plant's uncertainty, which did not change), while its time, `ϖ` and
-//! differentiators restart, so the predefined-time transient starts again from the state the
-//! plant is in rather than continuing one that the safe state interrupted. While `Safe`, the
-//! controller is not advanced: nothing is integrated against commands that were not applied.
+//! `recover_dwell`; a loss during the dwell restarts it. After a closed-loop safe state the
+//! controller simply goes on (it never stopped). After an open-loop one it resumes
+//! ([`controller_core::Controller::resume`]): its estimates `μ̂`, `ξ̂`, `λ̂` are kept (they bound
+//! the plant's uncertainty, which did not change), while its time, `ϖ` and differentiators
+//! restart, so the predefined-time transient starts again from the state the plant is in
+//! rather than continuing one that the safe state interrupted; nothing is integrated against
+//! commands that were not applied.
 
 /// The node's state; [`NodeState::code`] is what the heartbeat and the PIL report carry.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -85,20 +107,47 @@ impl NodeState {
     }
 }
 
-/// What the actuators get while the node is `Safe`.
+/// What the node does while `Safe` (module docs, *Safe policies*).
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum SafePolicy {
-    /// Keep the last command applied before entering.
+    /// Closed loop (CiA 402 *halt*): the controller keeps stepping with the leader's value
+    /// frozen at its last valid value and silent neighbours frozen at theirs.
+    HoldPosition,
+    /// Closed loop (CiA 402 *quick stop*): the controller keeps stepping towards the agent's
+    /// own reference, which starts at its output and velocity on entry and decelerates to rest.
+    Stop {
+        /// Deceleration of the reference (units of `y` per s², > 0, finite).
+        decel: f32,
+    },
+    /// Open loop: keep the last command applied before entering.
     Hold,
-    /// From the last command, each actuator moves towards zero at `rate` (command units per
-    /// second, > 0, finite) and stays there.
+    /// Open loop: from the last command, each actuator moves towards zero at `rate` (command
+    /// units per second, > 0, finite) and stays there.
     Ramp {
         /// Command units per second.
         rate: f32,
     },
-    /// Zero.
+    /// Open loop: zero.
     Off,
+}
+
+impl SafePolicy {
+    /// The controller keeps stepping (the loop stays closed around a safe reference).
+    pub const fn is_closed_loop(&self) -> bool {
+        matches!(self, Self::HoldPosition | Self::Stop { .. })
+    }
+
+    /// The lower-case name used in scenario and node files.
+    pub const fn as_str(&self) -> &'static str {
+        match self {
+            Self::HoldPosition => "hold_position",
+            Self::Stop { .. } => "stop",
+            Self::Hold => "hold",
+            Self::Ramp { .. } => "ramp",
+            Self::Off => "off",
+        }
+    }
 }
 
 /// Which neighbour silence is a loss.
@@ -116,8 +165,11 @@ pub enum NeighbourLoss {
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SupervisorConfig {
-    /// The safe-state command.
+    /// What the node does while `Safe` with its sensor working.
     pub policy: SafePolicy,
+    /// What the node commands while its sensor is lost (open loop only: nothing to close the
+    /// loop with).
+    pub sensor_policy: SafePolicy,
     /// Leader silent longer than this (µs, > 0) is a loss; `None`: not supervised.
     pub leader_timeout_us: Option<u64>,
     /// Neighbour silence longer than this (µs, > 0) is a loss (see `neighbour_loss`); `None`:
@@ -129,25 +181,46 @@ pub struct SupervisorConfig {
     pub sensor_timeout_us: Option<u64>,
     /// Every supervised source healthy this long (µs) before leaving `Safe`.
     pub recover_dwell_us: u64,
+    /// Speed (units of `y` per s, > 0; `∞`: at once) at which values that return after a loss
+    /// re-enter the consensus error, when the controller has no `[safety]` of its own: with a
+    /// closed-loop policy the node turns on the controller's rate-limited re-entry alone
+    /// ([`controller_core::safety`], no limits) at this rate, so that leaving `Safe` is
+    /// bumpless. A controller with `[safety]` uses its own `recovery_rate`.
+    pub reentry_rate: f32,
 }
 
 impl SupervisorConfig {
     /// Nothing supervised: the node never enters `Safe` (the default).
     pub const OFF: Self = Self {
-        policy: SafePolicy::Hold,
+        policy: SafePolicy::HoldPosition,
+        sensor_policy: SafePolicy::Hold,
         leader_timeout_us: None,
         neighbour_timeout_us: None,
         neighbour_loss: NeighbourLoss::All,
         sensor_timeout_us: None,
         recover_dwell_us: 0,
+        reentry_rate: 1.0,
     };
 
     /// Check every field once.
     pub fn validate(&self) -> Result<(), SupervisorError> {
-        if let SafePolicy::Ramp { rate } = self.policy {
-            if !(rate.is_finite() && rate > 0.0) {
-                return Err(SupervisorError::RampRate);
+        let positive = |v: f32| v.is_finite() && v > 0.0;
+        for p in [self.policy, self.sensor_policy] {
+            match p {
+                SafePolicy::Ramp { rate } if !positive(rate) => {
+                    return Err(SupervisorError::RampRate)
+                }
+                SafePolicy::Stop { decel } if !positive(decel) => {
+                    return Err(SupervisorError::StopDecel)
+                }
+                _ => {}
             }
+        }
+        if self.reentry_rate.is_nan() || self.reentry_rate <= 0.0 {
+            return Err(SupervisorError::ReentryRate);
+        }
+        if self.sensor_policy.is_closed_loop() {
+            return Err(SupervisorError::SensorPolicyClosedLoop);
         }
         for (t, e) in [
             (self.leader_timeout_us, SupervisorError::LeaderTimeout),
@@ -174,6 +247,12 @@ impl Default for SupervisorConfig {
 pub enum SupervisorError {
     /// `policy = Ramp { rate }` with a rate that is not finite and > 0.
     RampRate,
+    /// `policy = Stop { decel }` with a deceleration that is not finite and > 0.
+    StopDecel,
+    /// A closed-loop `sensor_policy`: without a sensor there is no loop to close.
+    SensorPolicyClosedLoop,
+    /// `reentry_rate` not > 0 (NaN included).
+    ReentryRate,
     /// `leader_timeout_us = Some(0)`.
     LeaderTimeout,
     /// `neighbour_timeout_us = Some(0)`.
@@ -186,10 +265,55 @@ impl core::fmt::Display for SupervisorError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         f.write_str(match self {
             Self::RampRate => "safe-state ramp rate must be finite and > 0",
+            Self::StopDecel => "safe-state stop deceleration must be finite and > 0",
+            Self::ReentryRate => "re-entry rate must be > 0 (infinite: at once)",
+            Self::SensorPolicyClosedLoop => {
+                "the sensor-loss policy must be open loop (hold, ramp or off): without a sensor \
+                 there is no loop to close"
+            }
             Self::LeaderTimeout => "leader timeout must be > 0",
             Self::NeighbourTimeout => "neighbour timeout must be > 0",
             Self::SensorTimeout => "sensor timeout must be > 0",
         })
+    }
+}
+
+impl core::error::Error for SupervisorError {}
+
+/// The reference of [`SafePolicy::Stop`]: from the output `y0` and velocity `w` at entry
+/// (`t0`), `y(τ) = y0 + w τ − sgn(w) d τ²/2` until rest at `τ = |w|/d`, then held.
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct StopProfile {
+    y0: f32,
+    w: f32,
+    decel: f32,
+    t0_us: u64,
+}
+
+impl StopProfile {
+    /// The profile from `y0` moving at `w` (units per s) at `t0_us`, decelerating at `decel`
+    /// (> 0, validated with the policy); a non-finite `w` counts as rest.
+    pub fn new(y0: f32, w: f32, decel: f32, t0_us: u64) -> Self {
+        let w = if w.is_finite() { w } else { 0.0 };
+        Self {
+            y0,
+            w,
+            decel,
+            t0_us,
+        }
+    }
+
+    /// The reference at `now_us`.
+    pub fn at(&self, now_us: u64) -> f32 {
+        let tau = now_us.saturating_sub(self.t0_us) as f32 * 1e-6;
+        let speed = self.w.abs();
+        let tau = if speed < self.decel * tau {
+            speed / self.decel
+        } else {
+            tau
+        };
+        self.y0 + self.w * tau - (0.5 * self.decel * tau * tau).copysign(self.w)
     }
 }
 
@@ -396,9 +520,10 @@ impl Supervisor {
 }
 
 /// The safe-state command after `dt_us` at `policy`, from the `last` one.
+/// Closed-loop policies have no command of their own: they return `last`.
 pub fn safe_command<const M: usize>(policy: SafePolicy, last: &[f32; M], dt_us: u64) -> [f32; M] {
     match policy {
-        SafePolicy::Hold => *last,
+        SafePolicy::Hold | SafePolicy::HoldPosition | SafePolicy::Stop { .. } => *last,
         SafePolicy::Off => [0.0; M],
         SafePolicy::Ramp { rate } => {
             let step = rate * (dt_us as f32 * 1e-6);

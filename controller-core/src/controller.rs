@@ -147,8 +147,31 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         s.differentiators = [DifferentiatorState::default(); N];
         s.u = *applied;
         s.q = *applied;
+        self.reenter_links_from(y);
+    }
+
+    /// Every neighbour and leader link re-enters from `y` (the agent's own output, usually):
+    /// with `[safety]`, the next fresh values are blended in from `y` at the recovery rate, so
+    /// `e_{i,1}` (10) starts near 0 instead of jumping; without safety (or for a non-finite
+    /// `y`) nothing changes.
+    ///
+    /// ```
+    /// use controller_core::{Controller, ControllerConfig, Link, SafetyConfig};
+    /// let cfg = ControllerConfig::<2> {
+    ///     neighbour_count: 1,
+    ///     pinned: false,
+    ///     safety: Some(SafetyConfig { recovery_rate: 1.0, ..SafetyConfig::default() }),
+    ///     ..ControllerConfig::default()
+    /// };
+    /// let mut c = Controller::<2, 2, 4>::new(&cfg).unwrap();
+    /// c.reenter_links_from(0.2);
+    /// // The neighbour says 0.7: at 1 per second and h = 1 ms, e₁ = y − ŷ moves by 1e-3.
+    /// let o = c.step(&[0.2, 0.0], &[Link::Fresh(0.7)], Link::Missing);
+    /// assert!((o.e[0] - -0.001).abs() < 1e-5);
+    /// ```
+    pub fn reenter_links_from(&mut self, y: f32) {
         if y.is_finite() && safety(&self.params).is_some() {
-            s.recovery.restart_from(y);
+            self.state.recovery.restart_from(y);
         }
     }
 

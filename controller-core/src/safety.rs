@@ -181,7 +181,12 @@ impl Safety {
     /// The limited command and whether a limit changed it.
     #[inline]
     pub(crate) fn limit(&self, u: f32, prev: f32) -> (f32, bool) {
-        let v = prev + clamp(u - prev, self.du_step);
+        // Without a rate limit `prev + (u − prev)` could round away from `u` and flag a limit.
+        let v = if self.du_step.is_finite() {
+            prev + clamp(u - prev, self.du_step)
+        } else {
+            u
+        };
         let v = clamp(v, self.u_max);
         (v, v != u)
     }

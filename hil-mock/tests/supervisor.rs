@@ -295,3 +295,147 @@ fn node_configuration_errors_are_named() {
         Some("sensor timeout must be > 0".to_string())
     );
 }
+
+/// Tick at `ms` with state `x`, the leader's value `leader` delivered just before (if any).
+fn tick_with(
+    n: &mut MockNode<2, 2, 4>,
+    ms: u64,
+    x: [f32; 2],
+    leader: Option<f32>,
+) -> agent_node::Tick<2, 2> {
+    n.clock_mut().set(ms * MS);
+    if let Some(y) = leader {
+        n.can_mut()
+            .push_rx(value(&IdPlan::DEFAULT, Source::Leader, y, (ms % 64) as u8));
+    }
+    n.sensor_mut().x = x;
+    let t = n.tick();
+    while n.can_mut().take_tx().is_some() {}
+    t
+}
+
+#[test]
+fn hold_position_keeps_the_loop_closed_on_the_frozen_leader_value_until_the_dwell_ends() {
+    let mut n = watching_leader(SafePolicy::HoldPosition, 10, 5);
+    // The same node unsupervised: what the law does with a silent leader on its own.
+    let mut free = node(NodeConfig::new(1, [0; 4], 2_500), 0);
+    let x = [0.05, 0.2];
+    for ms in 0..40 {
+        let leader = (ms < 20).then_some(0.1);
+        let t = tick_with(&mut n, ms, x, leader);
+        let f = tick_with(&mut free, ms, x, leader);
+        let want = if ms < 30 {
+            NodeState::Operational
+        } else {
+            NodeState::Safe
+        };
+        assert_eq!(t.state, want, "{ms} ms");
+        // Closed loop: the same commands as the unsupervised law, which holds y_d too.
+        assert_eq!(t.output.q, f.output.q, "{ms} ms");
+        assert_eq!(t.output.estimates, f.output.estimates, "{ms} ms");
+    }
+    assert!(
+        (n.controller().time() - 0.040).abs() < 1e-6,
+        "kept stepping"
+    );
+    // The leader returns at 0.3: frozen at 0.1 during the 5 ms dwell, then re-entering at the
+    // default re-entry rate of 1 per s (1e-3 per sample).
+    for ms in 40..50 {
+        let t = tick_with(&mut n, ms, x, Some(0.3));
+        let y_d = if ms < 45 {
+            0.1
+        } else {
+            0.1 + 1e-3 * (ms - 44) as f32
+        };
+        assert_eq!(t.state == NodeState::Safe, ms < 45, "{ms} ms");
+        assert!(
+            (t.output.e[0] - (x[0] - y_d)).abs() < 1e-4,
+            "{ms} ms: {:?}",
+            t.output.e
+        );
+    }
+    // Never resumed: the controller's time went on through the safe state.
+    assert!((n.controller().time() - 0.050).abs() < 1e-6);
+    assert_eq!(n.stats().safe_state_entries, 1);
+}
+
+#[test]
+fn stop_brings_the_agent_s_own_reference_to_rest_at_its_deceleration() {
+    let mut n = watching_leader(SafePolicy::Stop { decel: 2.0 }, 10, 0);
+    // The agent moves at 1 unit/s; the leader goes silent after 19 ms: safe at 30 ms.
+    let y = |ms: u64| 0.001 * ms as f32;
+    for ms in 0..30 {
+        let leader = (ms < 20).then_some(y(ms));
+        assert_eq!(
+            tick_with(&mut n, ms, [y(ms), 1.0], leader).state,
+            NodeState::Operational
+        );
+    }
+    // Reference y(30) + τ − τ²: the pinned agent's e₁ = y − ref = τ² while it keeps moving.
+    for ms in 30..600 {
+        let t = tick_with(&mut n, ms, [y(ms), 1.0], None);
+        assert_eq!(t.state, NodeState::Safe);
+        let tau = (ms - 30) as f32 * 1e-3;
+        let rest = tau.min(0.5);
+        let reference = y(30) + rest - rest * rest;
+        assert!(
+            (t.output.e[0] - (y(ms) - reference)).abs() < 2e-4,
+            "{ms} ms: e₁ {} want {}",
+            t.output.e[0],
+            y(ms) - reference
+        );
+    }
+    assert!(
+        n.controller().time() > 0.59,
+        "closed loop: the controller steps"
+    );
+}
+
+#[test]
+fn a_lost_sensor_gets_the_open_loop_sensor_policy_and_the_controller_resumes_after() {
+    let mut cfg = NodeConfig::new(1, [0; 4], 2_500);
+    cfg.supervisor = SupervisorConfig {
+        sensor_timeout_us: Some(3 * MS),
+        sensor_policy: SafePolicy::Off,
+        ..SupervisorConfig::OFF
+    };
+    assert_eq!(
+        cfg.supervisor.policy,
+        SafePolicy::HoldPosition,
+        "the default"
+    );
+    let mut n = node(cfg, 0);
+    for ms in 0..10 {
+        tick_with(&mut n, ms, [0.05, 0.2], Some(0.1));
+    }
+    assert_ne!(n.actuator().q, [0.0, 0.0]);
+    n.sensor_mut().fail = true;
+    for ms in 10..20 {
+        let t = tick_with(&mut n, ms, [0.05, 0.2], Some(0.1));
+        assert_eq!(t.state == NodeState::Safe, ms >= 14, "{ms} ms");
+        if ms >= 14 {
+            assert_eq!(n.actuator().q, [0.0, 0.0], "{ms} ms");
+        }
+    }
+    n.sensor_mut().fail = false;
+    let t = tick_with(&mut n, 20, [0.05, 0.2], Some(0.1));
+    assert_eq!(t.state, NodeState::Operational);
+    assert!(n.controller().time() < 0.0015, "resumed after an open loop");
+
+    // A closed-loop sensor policy is refused.
+    let mut cfg = NodeConfig::new(1, [0; 4], 2_500);
+    cfg.supervisor.sensor_policy = SafePolicy::HoldPosition;
+    assert!(matches!(
+        MockNode::<2, 2, 4>::new(
+            &cfg,
+            &controller_config(0),
+            MockCan::new(8),
+            MockClock::default(),
+            MockSensor::default(),
+            MockActuator::default(),
+        ),
+        Err(NodeError::Supervisor(
+            SupervisorError::SensorPolicyClosedLoop
+        ))
+    ));
+}

@@ -74,12 +74,20 @@ pub struct Supervision {
     pub agents: u8,
     /// Heartbeat period [µs]; 0: none.
     pub heartbeat_period_us: u64,
-    /// `"off"`, `"hold"`, `"ramp"` (with `ramp_rate`); absent: no supervision.
+    /// `"hold-position"`, `"stop"` (with `stop_decel`), `"hold"`, `"ramp"` (with `ramp_rate`),
+    /// `"off"`; absent: no supervision.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub policy: Option<String>,
-    /// Command units per second of `"ramp"`.
+    /// Command units per second of `"ramp"` (the policy or the sensor policy).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ramp_rate: Option<f32>,
+    /// Deceleration of `"stop"`'s reference [units of y / s²].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stop_decel: Option<f32>,
+    /// The open-loop policy while the sensor is lost: `"hold"`, `"ramp"`, `"off"`; absent:
+    /// `"hold"`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sensor_policy: Option<String>,
     /// Leader silence that enters the safe state [µs].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub leader_timeout_us: Option<u64>,
@@ -95,18 +103,27 @@ pub struct Supervision {
     /// Time everything must be healthy again before leaving the safe state [µs].
     #[serde(default)]
     pub recover_dwell_us: u64,
+    /// Speed of re-entry without `[safety]` [units of y / s]; absent: 1.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reentry_rate: Option<f32>,
 }
 
 impl Supervision {
     /// The settings of a node configuration.
     pub fn of<const K: usize>(c: &NodeConfig<K>) -> Self {
         let s = c.supervisor;
-        let (policy, ramp_rate) = match s.policy {
-            _ if s == SupervisorConfig::OFF => (None, None),
-            SafePolicy::Hold => (Some("hold"), None),
-            SafePolicy::Ramp { rate } => (Some("ramp"), Some(rate)),
-            SafePolicy::Off => (Some("off"), None),
+        let supervised = s != SupervisorConfig::OFF;
+        let rate_of = |p: SafePolicy| match p {
+            SafePolicy::Ramp { rate } => Some(rate),
+            _ => None,
         };
+        let policy = supervised.then_some(s.policy.as_str());
+        let ramp_rate = rate_of(s.policy).or(rate_of(s.sensor_policy));
+        let stop_decel = match s.policy {
+            SafePolicy::Stop { decel } => Some(decel),
+            _ => None,
+        };
+        let sensor_policy = supervised.then_some(s.sensor_policy.as_str());
         Self {
             id_base: c.ids.value_base(),
             heartbeat_id_base: c.ids.heartbeat_base(),
@@ -114,12 +131,40 @@ impl Supervision {
             heartbeat_period_us: c.heartbeat_period_us,
             policy: policy.map(str::to_owned),
             ramp_rate,
+            stop_decel,
+            sensor_policy: sensor_policy.map(str::to_owned),
             leader_timeout_us: s.leader_timeout_us,
             neighbour_timeout_us: s.neighbour_timeout_us,
             any_neighbour: s.neighbour_loss == NeighbourLoss::Any,
             sensor_timeout_us: s.sensor_timeout_us,
             recover_dwell_us: s.recover_dwell_us,
+            reentry_rate: supervised.then_some(s.reentry_rate),
         }
+    }
+
+    /// The policy called `name` under key `field`, with its rate.
+    fn policy_named(&self, name: &str, field: &str) -> Result<SafePolicy, ConfigError> {
+        let key = |k: &str| format!("node.supervision.{k}");
+        let needed = |k: &str, v: Option<f32>| {
+            v.ok_or_else(|| ConfigError::new(key(k), format!("needed by \"{name}\"")))
+        };
+        Ok(match name {
+            "hold-position" => SafePolicy::HoldPosition,
+            "stop" => SafePolicy::Stop {
+                decel: needed("stop_decel", self.stop_decel)?,
+            },
+            "hold" => SafePolicy::Hold,
+            "off" => SafePolicy::Off,
+            "ramp" => SafePolicy::Ramp {
+                rate: needed("ramp_rate", self.ramp_rate)?,
+            },
+            other => return Err(ConfigError::new(
+                key(field),
+                format!(
+                    "\"{other}\" is not \"hold-position\", \"stop\", \"hold\", \"ramp\" or \"off\""
+                ),
+            )),
+        })
     }
 
     /// Writes these settings into `cfg`.
@@ -128,21 +173,14 @@ impl Supervision {
         cfg.ids = IdPlan::new(self.id_base, self.heartbeat_id_base, self.agents)
             .map_err(|e| ConfigError::new(key("id_base"), e))?;
         cfg.heartbeat_period_us = self.heartbeat_period_us;
-        let policy = match (self.policy.as_deref(), self.ramp_rate) {
-            (None, _) => return Ok(()),
-            (Some("hold"), _) => SafePolicy::Hold,
-            (Some("off"), _) => SafePolicy::Off,
-            (Some("ramp"), Some(rate)) => SafePolicy::Ramp { rate },
-            (Some("ramp"), None) => {
-                return Err(ConfigError::new(key("ramp_rate"), "needed by \"ramp\""))
-            }
-            (Some(other), _) => {
-                return Err(ConfigError::new(
-                    key("policy"),
-                    format!("\"{other}\" is not \"off\", \"hold\" or \"ramp\""),
-                ))
-            }
+        let Some(name) = self.policy.as_deref() else {
+            return Ok(());
         };
+        let policy = self.policy_named(name, "policy")?;
+        let sensor_policy = self.policy_named(
+            self.sensor_policy.as_deref().unwrap_or("hold"),
+            "sensor_policy",
+        )?;
         cfg.supervisor = SupervisorConfig {
             policy,
             leader_timeout_us: self.leader_timeout_us,
@@ -154,6 +192,10 @@ impl Supervision {
             },
             sensor_timeout_us: self.sensor_timeout_us,
             recover_dwell_us: self.recover_dwell_us,
+            sensor_policy,
+            reentry_rate: self
+                .reentry_rate
+                .unwrap_or(SupervisorConfig::OFF.reentry_rate),
         };
         cfg.supervisor
             .validate()

@@ -29,8 +29,10 @@ pub const SAMPLE_PERIOD_US: u32 = 1_000;
 /// This agent, its neighbours, the stale timeout (2.5 `h`, as host-sim's `[network]`
 /// default), the default identifier plan (leader `0x101`, agent `i` at `0x101 + i`, its
 /// heartbeat at `0x780 + i`), a heartbeat every 100 ms, and the safe state: when both
-/// neighbours or the leader fall silent for 50 ms the commands ramp to zero at 40 per s;
-/// 200 ms of every source healthy again resume the law.
+/// neighbours or the leader fall silent for 50 ms the joint holds position in closed loop on
+/// the last valid values (`hold-position`, CiA 402 halt); a lost sensor switches the outputs
+/// off; 200 ms of every source healthy again and the returning values re-enter at `[safety]`'s
+/// recovery rate.
 pub const NODE: NodeConfig<K> = NodeConfig {
     agent: 4,
     neighbours: [1, 3, 0, 0],
@@ -38,12 +40,14 @@ pub const NODE: NodeConfig<K> = NodeConfig {
     ids: IdPlan::DEFAULT,
     heartbeat_period_us: 100_000,
     supervisor: SupervisorConfig {
-        policy: SafePolicy::Ramp { rate: 40.0 },
+        policy: SafePolicy::HoldPosition,
         leader_timeout_us: Some(50_000),
         neighbour_timeout_us: Some(50_000),
         neighbour_loss: NeighbourLoss::All,
         sensor_timeout_us: None,
         recover_dwell_us: 200_000,
+        sensor_policy: SafePolicy::Off,
+        reentry_rate: 1.0,
     },
 };
 

@@ -9,17 +9,50 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
 
-/// `node.safe_state.policy`.
+/// `node.safe_state.policy` and `node.safe_state.sensor_policy`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum PolicyName {
-    /// Keep the last command.
+    /// Closed loop: the controller tracks the leader's last valid value (CiA 402 halt).
     #[default]
+    HoldPosition,
+    /// Closed loop: the controller tracks the agent's own motion brought to rest at
+    /// `stop_decel` (CiA 402 quick stop).
+    Stop,
+    /// Open loop: keep the last command.
     Hold,
-    /// Ramp the commands to zero at `ramp_rate`.
+    /// Open loop: ramp the commands to zero at `ramp_rate`.
     Ramp,
-    /// Zero.
+    /// Open loop: zero.
     Off,
+}
+
+impl PolicyName {
+    /// The name in a scenario file.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::HoldPosition => "hold-position",
+            Self::Stop => "stop",
+            Self::Hold => "hold",
+            Self::Ramp => "ramp",
+            Self::Off => "off",
+        }
+    }
+
+    /// The controller stops stepping under this policy.
+    pub fn is_open_loop(self) -> bool {
+        matches!(self, Self::Hold | Self::Ramp | Self::Off)
+    }
+}
+
+/// `node.safe_state.sensor_policy`'s default: the command the controller itself holds on a
+/// non-finite state.
+fn default_sensor_policy() -> PolicyName {
+    PolicyName::Hold
+}
+
+fn is_default_sensor_policy(p: &PolicyName) -> bool {
+    *p == default_sensor_policy()
 }
 
 /// `node.safe_state.neighbour_loss`.
@@ -34,14 +67,23 @@ pub enum LossName {
 }
 
 /// `[node.safe_state]`.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SafeStateSpec {
-    /// `"hold"`, `"ramp"` or `"off"`.
+    /// `"hold-position"` (default), `"stop"`, `"hold"`, `"ramp"` or `"off"`.
     pub policy: PolicyName,
-    /// Units of command per second (`policy = "ramp"` only).
+    /// Units of command per second (a `"ramp"` policy or sensor policy only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub ramp_rate: Option<f64>,
+    /// Deceleration of the stop reference [units of y / s²] (`policy = "stop"` only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub stop_decel: Option<f64>,
+    /// The open-loop policy while the sensor is lost: `"hold"` (default), `"ramp"`, `"off"`.
+    #[serde(
+        default = "default_sensor_policy",
+        skip_serializing_if = "is_default_sensor_policy"
+    )]
+    pub sensor_policy: PolicyName,
     /// Leader silent longer than this is a loss [s]; absent: not supervised.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub leader_timeout: Option<f64>,
@@ -55,6 +97,26 @@ pub struct SafeStateSpec {
     pub sensor_timeout: Option<f64>,
     /// Every supervised source healthy this long before leaving the safe state [s].
     pub recover_dwell: f64,
+    /// Speed at which returning values re-enter without `[safety]` [units of y / s]; absent: 1.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reentry_rate: Option<f64>,
+}
+
+impl Default for SafeStateSpec {
+    fn default() -> Self {
+        Self {
+            policy: PolicyName::default(),
+            ramp_rate: None,
+            stop_decel: None,
+            sensor_policy: default_sensor_policy(),
+            leader_timeout: None,
+            neighbour_timeout: None,
+            neighbour_loss: LossName::default(),
+            sensor_timeout: None,
+            recover_dwell: 0.0,
+            reentry_rate: None,
+        }
+    }
 }
 
 impl SafeStateSpec {
@@ -158,33 +220,64 @@ fn plan(spec: &NodeSpec, agents: usize) -> Result<IdPlan> {
     })
 }
 
+/// A positive, finite `f32` rate under `key`, needed by `policy` (`None`: absent).
+fn rate(v: Option<f64>, key: &str, needed: bool, policy: &str, unit: &str) -> Result<Option<f32>> {
+    match (v, needed) {
+        (Some(r), true) if r.is_finite() && r > 0.0 && r <= f64::from(f32::MAX) => {
+            Ok(Some(r as f32))
+        }
+        (Some(r), true) => Err(Error::invalid(
+            key,
+            format!("must be finite and > 0 (got {r})"),
+        )),
+        (None, true) => Err(Error::invalid(
+            key,
+            format!("needed with {policy} ({unit})"),
+        )),
+        (Some(_), false) => Err(Error::invalid(key, format!("only for {policy}"))),
+        (None, false) => Ok(None),
+    }
+}
+
 /// The supervision of `[node.safe_state]`.
 fn supervisor(s: &SafeStateSpec) -> Result<SupervisorConfig> {
-    let policy = match (s.policy, s.ramp_rate) {
-        (PolicyName::Ramp, Some(r)) if r.is_finite() && r > 0.0 && r <= f64::from(f32::MAX) => {
-            SafePolicy::Ramp { rate: r as f32 }
-        }
-        (PolicyName::Ramp, Some(r)) => {
-            return Err(Error::invalid(
-                "node.safe_state.ramp_rate",
-                format!("must be finite and > 0 (got {r})"),
-            ))
-        }
-        (PolicyName::Ramp, None) => {
-            return Err(Error::invalid(
-                "node.safe_state.ramp_rate",
-                "needed with policy = \"ramp\" (command units per second)",
-            ))
-        }
-        (_, Some(_)) => {
-            return Err(Error::invalid(
-                "node.safe_state.ramp_rate",
-                "only for policy = \"ramp\"",
-            ))
-        }
-        (PolicyName::Hold, None) => SafePolicy::Hold,
-        (PolicyName::Off, None) => SafePolicy::Off,
+    if !s.sensor_policy.is_open_loop() {
+        return Err(Error::invalid(
+            "node.safe_state.sensor_policy",
+            format!(
+                "must be \"hold\", \"ramp\" or \"off\" (got \"{}\"): without a sensor there \
+                 is no loop to close",
+                s.sensor_policy.as_str()
+            ),
+        ));
+    }
+    let uses_ramp = s.policy == PolicyName::Ramp || s.sensor_policy == PolicyName::Ramp;
+    let ramp = rate(
+        s.ramp_rate,
+        "node.safe_state.ramp_rate",
+        uses_ramp,
+        "policy or sensor_policy = \"ramp\"",
+        "command units per second",
+    )?;
+    let decel = rate(
+        s.stop_decel,
+        "node.safe_state.stop_decel",
+        s.policy == PolicyName::Stop,
+        "policy = \"stop\"",
+        "units of y per second squared",
+    )?;
+    let policy = |name: PolicyName| match name {
+        PolicyName::HoldPosition => SafePolicy::HoldPosition,
+        PolicyName::Stop => SafePolicy::Stop {
+            decel: decel.unwrap_or(f32::INFINITY),
+        },
+        PolicyName::Hold => SafePolicy::Hold,
+        PolicyName::Ramp => SafePolicy::Ramp {
+            rate: ramp.unwrap_or(f32::INFINITY),
+        },
+        PolicyName::Off => SafePolicy::Off,
     };
+    let (policy, sensor_policy) = (policy(s.policy), policy(s.sensor_policy));
     if !(s.recover_dwell.is_finite() && (0.0..=MAX_SECONDS).contains(&s.recover_dwell)) {
         return Err(Error::invalid(
             "node.safe_state.recover_dwell",
@@ -204,6 +297,17 @@ fn supervisor(s: &SafeStateSpec) -> Result<SupervisorConfig> {
         },
         sensor_timeout_us: timeout(s.sensor_timeout, "node.safe_state.sensor_timeout")?,
         recover_dwell_us: seconds_to_us(s.recover_dwell),
+        sensor_policy,
+        reentry_rate: match s.reentry_rate {
+            None => SupervisorConfig::OFF.reentry_rate,
+            Some(r) if r > 0.0 => r as f32,
+            Some(r) => {
+                return Err(Error::invalid(
+                    "node.safe_state.reentry_rate",
+                    format!("must be > 0 units of y per s, inf for at once (got {r})"),
+                ))
+            }
+        },
     })
 }
 
@@ -261,7 +365,48 @@ mod tests {
 
     #[test]
     fn bad_keys_are_named() {
-        let cases: [(NodeSpec, &str); 8] = [
+        let cases: [(NodeSpec, &str); 12] = [
+            (
+                NodeSpec {
+                    safe_state: SafeStateSpec {
+                        policy: PolicyName::Stop,
+                        ..SafeStateSpec::default()
+                    },
+                    ..NodeSpec::default()
+                },
+                "node.safe_state.stop_decel",
+            ),
+            (
+                NodeSpec {
+                    safe_state: SafeStateSpec {
+                        policy: PolicyName::Stop,
+                        stop_decel: Some(0.0),
+                        ..SafeStateSpec::default()
+                    },
+                    ..NodeSpec::default()
+                },
+                "node.safe_state.stop_decel",
+            ),
+            (
+                NodeSpec {
+                    safe_state: SafeStateSpec {
+                        sensor_policy: PolicyName::HoldPosition,
+                        ..SafeStateSpec::default()
+                    },
+                    ..NodeSpec::default()
+                },
+                "node.safe_state.sensor_policy",
+            ),
+            (
+                NodeSpec {
+                    safe_state: SafeStateSpec {
+                        sensor_policy: PolicyName::Ramp,
+                        ..SafeStateSpec::default()
+                    },
+                    ..NodeSpec::default()
+                },
+                "node.safe_state.ramp_rate",
+            ),
             (
                 NodeSpec {
                     id_base: 0x800,

@@ -316,6 +316,18 @@ pub fn rk4<const N: usize, const M: usize, const B: usize, P: Plant<N, M>>(
     }
 }
 
+/// How a plant behaves without feedback: what an open-loop safe policy (`hold`, `ramp`,
+/// `off` of `[node.safe_state]`) can expect of it.
+#[derive(Debug, Clone, PartialEq)]
+pub enum WithoutFeedback {
+    /// It escapes under any input the node could hold: no open-loop policy is safe.
+    Unstable(&'static str),
+    /// Bounded at zero input (`off`, the end of a `ramp`); a held input may not be.
+    BoundedAtZero(String),
+    /// Dynamics host-sim cannot judge (custom or library plants).
+    Unknown,
+}
+
 /// The models a scenario can name (`plant.model`).
 #[derive(Debug, Clone, PartialEq)]
 pub enum PlantModel {
@@ -336,6 +348,21 @@ pub enum PlantModel {
 }
 
 impl PlantModel {
+    /// How the plant behaves without feedback (for `host-sim check`).
+    pub fn without_feedback(&self) -> WithoutFeedback {
+        match self {
+            Self::Example1(_) => WithoutFeedback::Unstable(
+                "Example 1 (ẋ₂ = u − 2x₁² + x₂³ + …) escapes in finite time without feedback",
+            ),
+            Self::Manipulator(m) => WithoutFeedback::BoundedAtZero(format!(
+                "the manipulator is an undamped pendulum: it swings within bounds at zero \
+                 torque, but a held torque above ½ m g l = {} spins it up without bound",
+                0.5 * m.mass * m.gravity * m.length
+            )),
+            Self::Custom(_) | Self::Library { .. } => WithoutFeedback::Unknown,
+        }
+    }
+
     /// From `[plant]`; manipulator and custom keys are rejected for other models.
     pub fn from_spec(spec: &PlantSpec) -> Result<Self> {
         let params = [
