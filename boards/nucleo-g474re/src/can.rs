@@ -29,24 +29,24 @@ use fdcan::{
 use nucleo_g474re::can_setup::{self, Accept, BIT_TIMING};
 use stm32g4xx_hal::{can::Can as HalCan, stm32::FDCAN1};
 
+/// A bit-timing field as the `fdcan` crate takes it (every field is at least 1: a compile-time
+/// check of `can_setup`).
+const fn non_zero(v: u8) -> NonZeroU8 {
+    match NonZeroU8::new(v) {
+        Some(n) => n,
+        None => NonZeroU8::MIN,
+    }
+}
+
 /// [`BIT_TIMING`] as the `fdcan` crate takes it.
 const NOMINAL: NominalBitTiming = NominalBitTiming {
     prescaler: match NonZeroU16::new(BIT_TIMING.prescaler) {
         Some(p) => p,
         None => NonZeroU16::MIN,
     },
-    seg1: match NonZeroU8::new(BIT_TIMING.seg1) {
-        Some(s) => s,
-        None => NonZeroU8::MIN,
-    },
-    seg2: match NonZeroU8::new(BIT_TIMING.seg2) {
-        Some(s) => s,
-        None => NonZeroU8::MIN,
-    },
-    sync_jump_width: match NonZeroU8::new(BIT_TIMING.sjw) {
-        Some(s) => s,
-        None => NonZeroU8::MIN,
-    },
+    seg1: non_zero(BIT_TIMING.seg1),
+    seg2: non_zero(BIT_TIMING.seg2),
+    sync_jump_width: non_zero(BIT_TIMING.sjw),
 };
 
 /// The standard filter slots, in the order [`can_setup::acceptance`] fills them.

@@ -9,8 +9,8 @@
 //! **Boot count** — kept in the backup register `TAMP_BKP0R` (RM0440 §38): the upper 16 bits
 //! a marker, the lower 16 the count. The backup domain keeps its registers through every
 //! system reset (pin, watchdog, software, brown-out while VBAT stays up) and loses them when
-//! both VDD and VBAT go away: on the NUCLEO-G474RE, whose VBAT is fed from the board's 3.3 V,
-//! a power cycle restarts the count at 1.
+//! both VDD and VBAT go away: a NUCLEO-64 board as shipped ties VBAT to the MCU's 3.3 V with a
+//! solder bridge, so a power cycle restarts the count at 1.
 //!
 //! **In the heartbeat** — the node's 16-bit boot-counter field (`agent_node::wire::Heartbeat`,
 //! bytes 2..3) carries [`heartbeat_word`]: byte 2 the boot count modulo 256, byte 3 the reset
