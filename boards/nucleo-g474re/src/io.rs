@@ -3,7 +3,7 @@
 //! reason).
 //!
 //! * [`DriverEnable`]: the motor driver's enable (PA8), held in a critical-section cell so
-//!   that the panic handler can pull it low whatever owns it ([`driver_off`]).
+//!   that the panic and hard-fault handlers can pull it low whatever owns it ([`driver_off`]).
 //! * [`Encoder`]: a quadrature encoder on TIM2 (32-bit) in encoder mode 3 (both edges of both
 //!   channels); the arithmetic is [`nucleo_g474re::scale::encoder_state`].
 //! * [`PwmPair`]: the `m = 2` commands as locked-antiphase PWM duty on TIM3 CH1/CH2
@@ -44,7 +44,9 @@ impl DriverEnable {
     pub fn install(mut pin: EnablePin) -> Self {
         pin.set_low();
         cortex_m::interrupt::free(|cs| {
-            DRIVER_ENABLE.borrow(cs).replace(Some(pin));
+            if let Ok(mut p) = DRIVER_ENABLE.borrow(cs).try_borrow_mut() {
+                *p = Some(pin);
+            }
         });
         Self(())
     }
@@ -77,6 +79,17 @@ pub fn driver_off() {
             }
         }
     });
+}
+
+/// A hard fault (a panic ends in one too, through `udf`): the driver enable low, then stay
+/// here above every task's priority until the watchdog resets the board (or the debugger
+/// stops it). `unsafe` only because cortex-m-rt requires the handler to be declared so.
+#[cortex_m_rt::exception]
+unsafe fn HardFault(_frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    driver_off();
+    loop {
+        cortex_m::asm::nop();
+    }
 }
 
 /// Microseconds from the DWT cycle counter (which wraps every 25 s at 170 MHz: the clock is
