@@ -2,6 +2,7 @@
 //! that it runs on the host: `cargo test --lib --target x86_64-unknown-linux-gnu` in this
 //! directory (the firmware itself, `src/main.rs`, builds only for `thumbv7em-none-eabihf`).
 //!
+//! * [`board`]: the decisions around each `Node::tick`, as the control task runs them;
 //! * [`gate`]: when the motor driver may be enabled (the output gate), the run command, the
 //!   freshness of a value counted in samples;
 //! * [`scale`]: encoder counts to `x_i`, commands to PWM duty;
@@ -17,6 +18,7 @@
 #![warn(missing_docs)]
 
 pub mod bench;
+pub mod board;
 pub mod bus_off;
 pub mod can_setup;
 pub mod config;

@@ -91,13 +91,10 @@ impl Cycles {
 }
 
 /// The board's own state beside the node: output gate, run command, leader freshness,
-/// bus-off recovery.
+/// bus-off recovery ([`nucleo_g474re::board::BoardLogic`]), and on the bench the state
+/// frames' schedule.
 struct Board {
-    gate: nucleo_g474re::gate::OutputGate,
-    run: nucleo_g474re::gate::RunCommand,
-    leader: nucleo_g474re::gate::Freshness,
-    uses_leader: bool,
-    bus_off: nucleo_g474re::bus_off::BusOffRecovery,
+    logic: nucleo_g474re::board::BoardLogic,
     #[cfg(feature = "bench")]
     state_frames: nucleo_g474re::bench::StateFrames,
 }
@@ -115,9 +112,9 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
 mod app {
     use cortex_m::peripheral::DWT;
     use nucleo_g474re::{
-        bus_off::{Action, BusOffRecovery},
+        board::BoardLogic,
+        bus_off::Action,
         can_setup,
-        gate::{Freshness, GateInputs, OutputGate, RunCommand},
         iwdg::{IwdgSetting, LSI_HZ},
         reset::{heartbeat_word, ResetFlags},
     };
@@ -226,11 +223,11 @@ mod app {
 
         let controller = config::controller();
         let board = Board {
-            gate: OutputGate::new(),
-            run: RunCommand::new(),
-            leader: Freshness::new(),
-            uses_leader: can_setup::uses_leader(&config::NODE, controller.pinned),
-            bus_off: BusOffRecovery::new(),
+            logic: BoardLogic::new(
+                can_setup::uses_leader(&config::NODE, controller.pinned),
+                config::SAMPLE_PERIOD_US,
+                config::NODE.stale_timeout_us,
+            ),
             #[cfg(feature = "bench")]
             state_frames: nucleo_g474re::bench::StateFrames::new(),
         };
@@ -326,11 +323,11 @@ mod app {
         };
         let board = cx.local.board;
         timer.clear_interrupt(Event::TimeOut);
-        if board.bus_off.update(node.can().bus_off()) == Action::Restart {
+        if board.logic.before_tick(node.can().bus_off()) == Action::Restart {
             node.can_mut().restart();
             defmt::warn!(
                 "FDCAN1 bus-off ({} so far): driver disabled, recovering after 128 x 11 recessive bits",
-                board.bus_off.bus_offs()
+                board.logic.bus_off().bus_offs()
             );
         }
         #[cfg(feature = "bench")]
@@ -343,23 +340,17 @@ mod app {
         let cycles = cx.local.cycles;
         cycles.record(DWT::cycle_count().wrapping_sub(start));
 
-        board.leader.tick(node.can_mut().take_leader_heard());
         #[cfg(not(feature = "bench"))]
         let sensor_fresh = true; // the encoder cannot fail a read
         #[cfg(feature = "bench")]
         let sensor_fresh = node.sensor_mut().is_fresh();
-        let inputs = GateInputs {
-            run_commanded: board.run.update(tick.state),
-            state: tick.state,
-            policy: config::NODE.supervisor.policy,
+        let leader_heard = node.can_mut().take_leader_heard();
+        let out = board.logic.after_tick(
+            tick.state,
+            config::NODE.supervisor.policy,
+            leader_heard,
             sensor_fresh,
-            leader_fresh: !board.uses_leader
-                || board
-                    .leader
-                    .is_fresh(config::SAMPLE_PERIOD_US, config::NODE.stale_timeout_us),
-            bus_off: board.bus_off.is_off(),
-        };
-        let out = board.gate.update(&inputs);
+        );
         #[cfg(not(feature = "bench"))]
         node.actuator_mut().apply(out);
         #[cfg(feature = "bench")]
@@ -389,8 +380,8 @@ mod app {
                 "t = {} us, {}: gate {} (enables {}), step {} cycles (mean {}, max {}), overruns {}, u = {}, rx {} accepted {} heartbeats {}, stale {} missing {}, tx busy {} err {}, fifo overruns {}, TEC {} REC {}, bus-off {} recovered {}",
                 tick.now_us,
                 tick.state,
-                board.gate.state(),
-                board.gate.enables(),
+                board.logic.gate().state(),
+                board.logic.gate().enables(),
                 cycles.last,
                 cycles.mean(),
                 cycles.max,
@@ -406,8 +397,8 @@ mod app {
                 node.can().overruns(),
                 tec,
                 rec,
-                board.bus_off.bus_offs(),
-                board.bus_off.recoveries()
+                board.logic.bus_off().bus_offs(),
+                board.logic.bus_off().recoveries()
             );
             *cycles = Cycles::default();
         }
