@@ -1,6 +1,7 @@
 //! The board's decisions around each `Node::tick`, composed as the firmware's control task
 //! runs them: bus-off recovery before the tick; after it, the run command, the leader's
-//! freshness and the output gate. The firmware (`src/main.rs`) only moves register values in
+//! freshness and the output gate; at the end, whether the step ended in time and so may feed
+//! the watchdog ([`BoardLogic::step_ended`]). The firmware (`src/main.rs`) only moves register values in
 //! and out of [`BoardLogic`], so the host tests below drive it with a real `agent_node::Node`.
 
 use agent_node::{NodeState, SafePolicy};
@@ -20,6 +21,7 @@ pub struct BoardLogic {
     bus_off: BusOffRecovery,
     period_us: u32,
     stale_timeout_us: u64,
+    late_steps: u32,
 }
 
 impl BoardLogic {
@@ -34,6 +36,7 @@ impl BoardLogic {
             bus_off: BusOffRecovery::new(),
             period_us,
             stale_timeout_us,
+            late_steps: 0,
         }
     }
 
@@ -62,6 +65,22 @@ impl BoardLogic {
             bus_off: self.bus_off.is_off(),
         };
         self.gate.update(&inputs)
+    }
+
+    /// The step ended; `late`: the next release had already come (TIM6's update flag set
+    /// again before the step's end). Whether to feed the watchdog: only after a step that
+    /// ended in time, so that steps late for as many consecutive periods as the IWDG's timeout
+    /// spans (five) reset the board, while a single late step does not.
+    pub fn step_ended(&mut self, late: bool) -> bool {
+        if late {
+            self.late_steps = self.late_steps.saturating_add(1);
+        }
+        !late
+    }
+
+    /// Steps that ended after the next release since reset.
+    pub const fn late_steps(&self) -> u32 {
+        self.late_steps
     }
 
     /// The output gate (state, counters).
@@ -270,6 +289,17 @@ mod tests {
             );
         }
         assert_eq!(logic.gate().state(), GateState::Disabled);
+    }
+
+    #[test]
+    fn only_a_step_that_ended_in_time_feeds_the_watchdog() {
+        let mut logic = BoardLogic::new(true, 1_000, 2_500);
+        let feeds: Vec<bool> = [false, true, true, false, true]
+            .into_iter()
+            .map(|late| logic.step_ended(late))
+            .collect();
+        assert_eq!(feeds, [true, false, false, true, false]);
+        assert_eq!(logic.late_steps(), 3);
     }
 
     #[test]

@@ -123,6 +123,7 @@ mod app {
     use stm32g4xx_hal::{
         can::CanExt,
         gpio::GpioExt,
+        hal_02::timer::CountDown,
         pwr::{PwrExt, VoltageScale},
         rcc::{Config, PllConfig, PllMDiv, PllNMul, PllRDiv, PllSrc, RccExt},
         stm32::TIM6,
@@ -312,8 +313,9 @@ mod app {
     }
 
     /// Released by TIM6 every sample period: bus-off recovery, one `Node::tick` (timed), the
-    /// output gate, the outputs; the watchdog is fed only here, so a control task that stops
-    /// being released resets the board.
+    /// output gate, the outputs; the watchdog is fed only here and only when the step ended
+    /// before the next release, so a control task that stops being released, or is late five
+    /// periods in a row, resets the board.
     #[task(binds = TIM6_DACUNDER, shared = [node], local = [timer, watchdog, board, cycles])]
     fn control(cx: control::Context) {
         let (Some(node), Some(timer), Some(watchdog)) =
@@ -372,12 +374,20 @@ mod app {
                 let _ = node.can_mut().send(s.frame(agent));
             }
         }
-        watchdog.feed();
+        // The next release already came: this step was late. The watchdog is fed only after a
+        // step that ended in time (five late in a row reset the board).
+        let late = timer.wait().is_ok();
+        if late {
+            node.record_overrun();
+        }
+        if board.logic.step_ended(late) {
+            watchdog.feed();
+        }
         if cycles.count >= LOG_EVERY {
             let st = node.stats();
             let (tec, rec) = node.can().error_counters();
             defmt::info!(
-                "t = {} us, {}: gate {} (enables {}), step {} cycles (mean {}, max {}), overruns {}, u = {}, rx {} accepted {} heartbeats {}, stale {} missing {}, tx busy {} err {}, fifo overruns {}, TEC {} REC {}, bus-off {} recovered {}",
+                "t = {} us, {}: gate {} (enables {}), step {} cycles (mean {}, max {}), late steps {}, overruns {}, u = {}, rx {} accepted {} heartbeats {}, stale {} missing {}, tx busy {} err {}, fifo overruns {}, TEC {} REC {}, bus-off {} recovered {}",
                 tick.now_us,
                 tick.state,
                 board.logic.gate().state(),
@@ -385,6 +395,7 @@ mod app {
                 cycles.last,
                 cycles.mean(),
                 cycles.max,
+                board.logic.late_steps(),
                 st.overruns,
                 tick.output.u,
                 st.frames_rx,
