@@ -743,7 +743,7 @@ where
 
     /// `Safe` with a closed-loop policy and a working sensor: the controller keeps stepping.
     fn closed_loop_safe(&self) -> bool {
-        self.supervisor.config().policy.is_closed_loop() && !self.supervisor.lost().sensor()
+        self.supervisor.policy_in_force().is_closed_loop()
     }
 
     /// One closed-loop safe step: the controller tracks the safe reference
@@ -788,14 +788,8 @@ where
         let mut frozen = self.controller;
         let mut o = frozen.step(x, neighbours, leader);
         let dt = self.last_tick_us.map_or(0, |t| now.saturating_sub(t));
-        let cfg = self.supervisor.config();
-        let policy = if self.supervisor.lost().sensor() {
-            cfg.sensor_policy
-        } else {
-            cfg.policy
-        };
         let q = match state {
-            NodeState::Safe => safe_command(policy, &self.applied, dt),
+            NodeState::Safe => safe_command(self.supervisor.policy_in_force(), &self.applied, dt),
             _ => [0.0; M],
         };
         o.u = q;

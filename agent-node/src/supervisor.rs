@@ -432,6 +432,16 @@ impl Supervisor {
         self.lost
     }
 
+    /// The policy that applies while `Safe`: [`SupervisorConfig::sensor_policy`] while the
+    /// sensor is lost, [`SupervisorConfig::policy`] otherwise.
+    pub fn policy_in_force(&self) -> SafePolicy {
+        if self.lost.sensor() {
+            self.cfg.sensor_policy
+        } else {
+            self.cfg.policy
+        }
+    }
+
     /// Times the node entered `Safe`.
     pub fn safe_entries(&self) -> u32 {
         self.entries

@@ -287,7 +287,7 @@ pub const CATALOGUE: [(&str, &str); 45] = [
     ("sizes.KEY", "size_of in bytes (KEY: controller, params, state, controller-n3)"),
     ("campaign.NAME", "Ts x h map summary per Ts (NAME: example1-ts-h, example2-ts-h; out/campaigns/NAME/results.csv)"),
     ("campaign.example1-monte-carlo.KEY", "Monte Carlo figures (KEY: runs, diverged, bounded, error-min, error-max, error-median, error-p95)"),
-    ("board.KEY", "NUCLEO-G474RE firmware size in bytes (KEY: text, data, bss, flash, ram; target/board/size.json of cargo xtask board-size)"),
+    ("board.KEY", "NUCLEO-G474RE firmware size in bytes (KEY: text, data, bss, flash, ram, and bench_KEY for the --features bench build; target/board/size.json of cargo xtask board-size)"),
     ("clocks.NAME", "clock campaign table: error after 2Ts vs synchronous per sync, drift, jitter (NAME: clock-drift, clock-drift-example2)"),
     ("clocks.NAME.KEY", "clock campaign figures (KEY: runs, synchronous, synchronous-settling, worst-none, worst-leader, best-none, energy-max, diverged-none, diverged-leader)"),
     ("clocks.goal", "Example 1 over CAN for 60 s: synchronous, free-running clocks, leader sync"),

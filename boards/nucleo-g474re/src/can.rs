@@ -1,13 +1,22 @@
 //! FDCAN1 as the node's `embedded_can::nb::Can`: classic frames at 1 Mbit/s, acceptance filters
-//! for the frames the node uses (leader, neighbours' values and heartbeats) and for its own
-//! identifiers (another node using them is a misconfigured peer the node counts).
+//! for the frames the node uses (leader, neighbours' values and heartbeats), for its own
+//! identifiers (another node using them is a misconfigured peer the node counts) and, on the
+//! bench, for its plant-bus sensor frame. The values written are those of
+//! [`nucleo_g474re::can_setup`] (bit timing: prescaler 1, 24 quanta, sample point 83.3 %,
+//! SJW 4 from the 24 MHz HSE).
 //!
-//! Bit timing: the FDCAN kernel clock is the 24 MHz HSE; prescaler 1, 24 time quanta per bit
-//! (sync 1 + seg1 19 + seg2 4), sample point 83.3 %, SJW 4 → 1 Mbit/s.
+//! Besides the node's frames, [`Fdcan1`] notes what the board itself needs as frames pass:
+//! that a valid leader value arrived (for the output gate's freshness) and, on the bench, the
+//! latest sensor frame (kept here, never handed to the node). [`Fdcan1::restart`] clears
+//! `INIT` after a bus-off ([`nucleo_g474re::bus_off`]).
 
 use core::num::{NonZeroU16, NonZeroU8};
 
-use agent_node::{wire::Source, CanFrame, NodeConfig};
+use agent_node::{
+    plant_bus,
+    wire::{self, Decoded, IdPlan, Source},
+    CanFrame, NodeConfig,
+};
 use embedded_can::{ErrorKind, Frame as _, Id};
 use fdcan::{
     config::{FrameTransmissionConfig, GlobalFilter, NominalBitTiming},
@@ -17,19 +26,31 @@ use fdcan::{
     interrupt::{Interrupt, InterruptLine},
     ConfigMode, FdCan, NormalOperationMode, ReceiveErrorOverflow, ReceiveOverrun,
 };
+use nucleo_g474re::can_setup::{self, Accept, BIT_TIMING};
 use stm32g4xx_hal::{can::Can as HalCan, stm32::FDCAN1};
 
-/// 1 Mbit/s from the 24 MHz kernel clock.
-const BIT_TIMING: NominalBitTiming = NominalBitTiming {
-    prescaler: NonZeroU16::MIN,
-    seg1: NonZeroU8::new(19).unwrap(),
-    seg2: NonZeroU8::new(4).unwrap(),
-    sync_jump_width: NonZeroU8::new(4).unwrap(),
+/// A bit-timing field as the `fdcan` crate takes it (every field is at least 1: a compile-time
+/// check of `can_setup`).
+const fn non_zero(v: u8) -> NonZeroU8 {
+    match NonZeroU8::new(v) {
+        Some(n) => n,
+        None => NonZeroU8::MIN,
+    }
+}
+
+/// [`BIT_TIMING`] as the `fdcan` crate takes it.
+const NOMINAL: NominalBitTiming = NominalBitTiming {
+    prescaler: match NonZeroU16::new(BIT_TIMING.prescaler) {
+        Some(p) => p,
+        None => NonZeroU16::MIN,
+    },
+    seg1: non_zero(BIT_TIMING.seg1),
+    seg2: non_zero(BIT_TIMING.seg2),
+    sync_jump_width: non_zero(BIT_TIMING.sjw),
 };
 
-/// The standard filter slots, in the order they are filled: the leader, this agent, then one
-/// per neighbour (value and heartbeat identifiers in one dual-id filter each).
-const SLOTS: [StandardFilterSlot; 8] = [
+/// The standard filter slots, in the order [`can_setup::acceptance`] fills them.
+const SLOTS: [StandardFilterSlot; can_setup::SLOTS] = [
     StandardFilterSlot::_0,
     StandardFilterSlot::_1,
     StandardFilterSlot::_2,
@@ -39,11 +60,6 @@ const SLOTS: [StandardFilterSlot; 8] = [
     StandardFilterSlot::_6,
     StandardFilterSlot::_7,
 ];
-
-const _: () = assert!(
-    SLOTS.len() >= 2 + crate::config::K,
-    "a filter slot per source"
-);
 
 /// Why a frame was not sent or received.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -69,37 +85,37 @@ type Running = FdCan<HalCan<FDCAN1>, NormalOperationMode>;
 pub struct Fdcan1 {
     mode: Mode,
     overruns: u32,
+    ids: IdPlan,
+    agent: u8,
+    /// A valid leader value arrived since [`Fdcan1::take_leader_heard`].
+    leader_heard: bool,
+    /// The latest sensor frame since [`Fdcan1::take_sensor`] (bench).
+    sensor: Option<[f32; 2]>,
 }
 
 enum Mode {
     Configuring(Configuring),
     Running(Running),
-    /// Only while [`Fdcan1::join_bus`] swaps the two.
+    /// Only while [`Fdcan1::join_bus`] or [`Fdcan1::restart`] swaps the two.
     Switching,
 }
 
-/// The acceptance filter of `source`'s frames: its value identifier and, for an agent with a
-/// heartbeat identifier, that one too.
-fn filter_of<const K: usize>(node: &NodeConfig<K>, source: Source) -> Option<StandardFilter> {
-    let value = StandardId::new(node.ids.value_id(source)?)?;
-    let heartbeat = match source {
-        Source::Agent(a) => node.ids.heartbeat_id(a).and_then(StandardId::new),
-        Source::Leader => None,
+/// The `fdcan` filter of one acceptance entry, into FIFO 0.
+fn to_filter(a: Accept) -> Option<StandardFilter> {
+    let filter = match a {
+        Accept::Single(id) => FilterType::DedicatedSingle(StandardId::new(id)?),
+        Accept::Dual(a, b) => FilterType::DedicatedDual(StandardId::new(a)?, StandardId::new(b)?),
     };
     Some(StandardFilter {
-        filter: match heartbeat {
-            Some(hb) => FilterType::DedicatedDual(value, hb),
-            None => FilterType::DedicatedSingle(value),
-        },
+        filter,
         action: Action::StoreInFifo0,
     })
 }
 
-/// Bit timing, classic frames only, the filters of [`SLOTS`] into FIFO 0 (the leader's only
-/// when the node uses it: `pinned`, or a leader timeout supervised), every other frame
-/// rejected, the FIFO 0 new-message interrupt on line 0 (every interrupt's line after
-/// reset). The controller stays in its configuration mode (off the bus: nothing sent,
-/// nothing acknowledged) until [`Fdcan1::join_bus`].
+/// Bit timing, classic frames only, the filters of [`can_setup::acceptance`] into FIFO 0,
+/// every other frame rejected, the FIFO 0 new-message interrupt on line 0 (every interrupt's
+/// line after reset). The controller stays in its configuration mode (off the bus: nothing
+/// sent, nothing acknowledged) until [`Fdcan1::join_bus`].
 pub fn configure<const K: usize>(
     mut can: FdCan<HalCan<FDCAN1>, ConfigMode>,
     node: &NodeConfig<K>,
@@ -107,30 +123,25 @@ pub fn configure<const K: usize>(
     pinned: bool,
 ) -> Fdcan1 {
     can.set_protocol_exception_handling(false);
-    can.set_nominal_bit_timing(BIT_TIMING);
+    can.set_nominal_bit_timing(NOMINAL);
     can.set_frame_transmit(FrameTransmissionConfig::ClassicCanOnly);
     can.set_automatic_retransmit(true);
     can.set_global_filter(GlobalFilter::reject_all());
-    let leader = pinned || node.supervisor.leader_timeout_us.is_some();
-    let sources = leader
-        .then_some(Source::Leader)
-        .into_iter()
-        .chain(core::iter::once(Source::Agent(node.agent)))
-        .chain(
-            node.neighbours
-                .iter()
-                .take(neighbour_count)
-                .map(|&a| Source::Agent(a)),
-        );
-    let filters = sources.filter_map(|s| filter_of(node, s));
+    let filters = can_setup::acceptance(node, neighbour_count, pinned, cfg!(feature = "bench"));
     for (slot, filter) in SLOTS.into_iter().zip(filters) {
-        can.set_standard_filter(slot, filter);
+        if let Some(f) = filter.and_then(to_filter) {
+            can.set_standard_filter(slot, f);
+        }
     }
     can.enable_interrupt(Interrupt::RxFifo0NewMsg);
     can.enable_interrupt_line(InterruptLine::_0, true);
     Fdcan1 {
         mode: Mode::Configuring(can),
         overruns: 0,
+        ids: node.ids,
+        agent: node.agent,
+        leader_heard: false,
+        sensor: None,
     }
 }
 
@@ -139,6 +150,16 @@ impl Fdcan1 {
     pub fn join_bus(&mut self) {
         self.mode = match core::mem::replace(&mut self.mode, Mode::Switching) {
             Mode::Configuring(c) => Mode::Running(c.into_normal()),
+            other => other,
+        };
+    }
+
+    /// After bus-off: clear `INIT` (through the configuration mode, which keeps the bit
+    /// timing and the filters), so the FDCAN counts 128 × 11 recessive bits and returns to the
+    /// bus with its error counters at zero.
+    pub fn restart(&mut self) {
+        self.mode = match core::mem::replace(&mut self.mode, Mode::Switching) {
+            Mode::Running(c) => Mode::Running(c.into_config_mode().into_normal()),
             other => other,
         };
     }
@@ -169,7 +190,8 @@ impl Fdcan1 {
         (c.transmit_err, rec)
     }
 
-    /// The controller went bus-off (too many transmit errors) and stopped taking part.
+    /// `FDCAN_PSR.BO`: the controller is bus-off (too many transmit errors), or still counting
+    /// the recessive bits of its recovery.
     pub fn bus_off(&self) -> bool {
         match &self.mode {
             Mode::Running(c) => c.get_protocol_status().bus_off_status,
@@ -180,6 +202,41 @@ impl Fdcan1 {
     /// Receptions that found FIFO 0 had overflowed (frames lost before them).
     pub fn overruns(&self) -> u32 {
         self.overruns
+    }
+
+    /// A valid leader value was received since the last call.
+    pub fn take_leader_heard(&mut self) -> bool {
+        core::mem::take(&mut self.leader_heard)
+    }
+
+    /// The latest sensor frame received since the last call (bench).
+    #[cfg_attr(not(feature = "bench"), allow(dead_code))]
+    pub fn take_sensor(&mut self) -> Option<[f32; 2]> {
+        self.sensor.take()
+    }
+
+    /// Send a plant-bus frame (bench: command and state frames); `false` if not queued.
+    #[cfg_attr(not(feature = "bench"), allow(dead_code))]
+    pub fn send(&mut self, frame: Option<CanFrame>) -> bool {
+        frame.is_some_and(|f| embedded_can::nb::Can::transmit(self, &f).is_ok())
+    }
+
+    /// Note what the board needs from a received frame; `true` if it is the board's own
+    /// (a sensor frame) and not the node's.
+    fn tap(&mut self, frame: &CanFrame) -> bool {
+        if let Ok(Decoded::Value(m)) = wire::decode_in(&self.ids, frame) {
+            if m.source == Source::Leader && m.y.is_some() {
+                self.leader_heard = true;
+            }
+            return false;
+        }
+        match plant_bus::decode(frame) {
+            Some(plant_bus::PlantFrame::Sensor(a, x)) if a == self.agent => {
+                self.sensor = Some(x);
+                true
+            }
+            _ => false,
+        }
     }
 }
 
@@ -235,7 +292,20 @@ impl embedded_can::nb::Can for Fdcan1 {
         }
     }
 
+    /// The next frame for the node; sensor frames are kept for the board on the way.
     fn receive(&mut self) -> nb::Result<CanFrame, CanError> {
+        loop {
+            let frame = self.receive_one()?;
+            if !self.tap(&frame) {
+                return Ok(frame);
+            }
+        }
+    }
+}
+
+impl Fdcan1 {
+    /// One frame from FIFO 0, whatever it is.
+    fn receive_one(&mut self) -> nb::Result<CanFrame, CanError> {
         let mut buf = [0u8; 8];
         let Some(can) = self.running() else {
             return Err(nb::Error::WouldBlock);

@@ -1,36 +1,58 @@
 //! Node firmware for a NUCLEO-G474RE (STM32G474RE, Cortex-M4F at 170 MHz): `agent_node::Node`
-//! unchanged over FDCAN1 at 1 Mbit/s, a quadrature encoder and two PWM outputs, released every
-//! sample period by TIM6, guarded by the independent watchdog. RTIC 2 schedules the two
-//! hardware tasks; `defmt` logs over RTT.
+//! unchanged over FDCAN1 at 1 Mbit/s, a quadrature encoder and two PWM outputs (or, with the
+//! feature `bench`, the plant-bus sensor and command frames), released every sample period by
+//! TIM6, guarded by the independent watchdog. RTIC 2 schedules the two hardware tasks; `defmt`
+//! logs over RTT without ever blocking.
 //!
-//! Pins, wiring and what to expect on the bus: `docs/FIRMWARE.md`, "On a board". The
-//! configuration is compiled in from [`config`]; a rejected one leaves the board in its fault
-//! state: driver disabled, FDCAN never leaves its configuration mode (no frame sent or
-//! acknowledged), LD2 lit, the error logged by name, the watchdog never started.
+//! The motor driver's enable (PA8) is low from the first instruction of `init` until the
+//! output gate ([`nucleo_g474re::gate`]) arms it, is pulled low in every state that must not
+//! drive and first thing in the panic handler. Pins, wiring, the gate's table and what to
+//! expect on the bus: `docs/FIRMWARE.md`, "On a board". The configuration is compiled in from
+//! [`config`]; a rejected one leaves the board in its fault state: driver disabled, FDCAN
+//! never leaves its configuration mode (no frame sent or acknowledged), LD2 lit, the error
+//! logged by name, the watchdog never started.
 #![no_std]
 #![no_main]
 #![deny(unsafe_code)]
 
 mod can;
-mod config;
 #[allow(unsafe_code)]
 mod io;
 
 use defmt_rtt as _;
-use panic_probe as _;
+use nucleo_g474re::config;
+
+/// The agent's sensor: the encoder, or the bench's sensor frames.
+#[cfg(not(feature = "bench"))]
+type BoardSensor = io::Encoder;
+#[cfg(feature = "bench")]
+type BoardSensor = nucleo_g474re::bench::BusSensor;
+
+/// The agent's actuators: the PWM pair, or the bench's command frames.
+#[cfg(not(feature = "bench"))]
+type BoardActuator = Actuators;
+#[cfg(feature = "bench")]
+type BoardActuator = nucleo_g474re::bench::BusActuator;
+
+#[cfg(feature = "bench")]
+const _: () = assert!(
+    config::N == 2 && config::M == 2,
+    "plant-bus frames carry two states and two commands"
+);
 
 /// The node of this board.
 type BoardNode = agent_node::Node<
     can::Fdcan1,
     io::CycleClock,
-    io::Encoder,
-    Actuators,
+    BoardSensor,
+    BoardActuator,
     { config::N },
     { config::M },
     { config::K },
 >;
 
 /// One TIM3 PWM channel.
+#[cfg(not(feature = "bench"))]
 type Channel<C> = stm32g4xx_hal::pwm::Pwm<
     stm32g4xx_hal::stm32::TIM3,
     C,
@@ -39,12 +61,9 @@ type Channel<C> = stm32g4xx_hal::pwm::Pwm<
     stm32g4xx_hal::pwm::ActiveHigh,
 >;
 
-/// TIM3 CH1 (PB4), CH2 (PB5) and the driver enable (PA8).
-type Actuators = io::PwmPair<
-    Channel<stm32g4xx_hal::pwm::C1>,
-    Channel<stm32g4xx_hal::pwm::C2>,
-    stm32g4xx_hal::gpio::PA8<stm32g4xx_hal::gpio::Output<stm32g4xx_hal::gpio::PushPull>>,
->;
+/// TIM3 CH1 (PB4), CH2 (PB5); the driver enable (PA8) through [`io::DriverEnable`].
+#[cfg(not(feature = "bench"))]
+type Actuators = io::PwmPair<Channel<stm32g4xx_hal::pwm::C1>, Channel<stm32g4xx_hal::pwm::C2>>;
 
 /// Ticks between two status lines (1 s at `h = 1 ms`).
 const LOG_EVERY: u32 = 1_000_000 / config::SAMPLE_PERIOD_US;
@@ -71,14 +90,40 @@ impl Cycles {
     }
 }
 
+/// The board's own state beside the node: output gate, run command, leader freshness,
+/// bus-off recovery ([`nucleo_g474re::board::BoardLogic`]), and on the bench the state
+/// frames' schedule.
+struct Board {
+    logic: nucleo_g474re::board::BoardLogic,
+    #[cfg(feature = "bench")]
+    state_frames: nucleo_g474re::bench::StateFrames,
+}
+
+/// The panic handler: the driver enable low before anything else, then the message over RTT
+/// and a hard fault (the debugger stops there; without one the watchdog resets the board).
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    io::driver_off();
+    defmt::error!("panic: {}", defmt::Display2Format(info));
+    cortex_m::asm::udf()
+}
+
 #[rtic::app(device = stm32g4xx_hal::stm32, peripherals = true)]
 mod app {
     use cortex_m::peripheral::DWT;
+    use nucleo_g474re::{
+        board::BoardLogic,
+        bus_off::Action,
+        can_setup,
+        iwdg::{IwdgSetting, LSI_HZ},
+        reset::{heartbeat_word, ResetFlags},
+    };
+    #[cfg(not(feature = "bench"))]
+    use stm32g4xx_hal::pwm::PwmExt;
     use stm32g4xx_hal::{
         can::CanExt,
         gpio::GpioExt,
-        independent_watchdog::IndependentWatchdog,
-        pwm::PwmExt,
+        hal_02::timer::CountDown,
         pwr::{PwrExt, VoltageScale},
         rcc::{Config, PllConfig, PllMDiv, PllNMul, PllRDiv, PllSrc, RccExt},
         stm32::TIM6,
@@ -86,7 +131,7 @@ mod app {
         timer::{CountDownTimer, Event, Timer},
     };
 
-    use super::{can, config, io, Actuators, BoardNode, Cycles, LOG_EVERY};
+    use super::{can, config, io, Board, BoardNode, Cycles, LOG_EVERY};
 
     #[shared]
     struct Shared {
@@ -97,7 +142,8 @@ mod app {
     #[local]
     struct Local {
         timer: Option<CountDownTimer<TIM6>>,
-        watchdog: Option<IndependentWatchdog>,
+        watchdog: Option<io::Iwdg>,
+        board: Board,
         cycles: Cycles,
     }
 
@@ -105,9 +151,14 @@ mod app {
     fn init(cx: init::Context) -> (Shared, Local) {
         let dp = cx.device;
         let mut cp = cx.core;
+        // The driver enable first: PA8 push-pull low (from reset until here it is an analog
+        // input; the driver's enable input needs its pull-down, docs/FIRMWARE.md §7).
+        let mut rcc = dp.RCC.constrain();
+        let gpioa = dp.GPIOA.split(&mut rcc);
+        let enable = io::DriverEnable::install(gpioa.pa8.into_push_pull_output());
+
         cp.DCB.enable_trace();
         cp.DWT.enable_cycle_counter();
-
         let pll = PllConfig {
             mux: PllSrc::HSE(24.MHz()),
             m: PllMDiv::DIV_6,
@@ -121,36 +172,50 @@ mod app {
             .constrain()
             .vos(VoltageScale::Range1 { enable_boost: true })
             .freeze();
-        let mut rcc = dp
-            .RCC
-            .constrain()
-            .freeze(Config::pll().pll_cfg(pll).boost(true), pwr);
-        let csr = rcc.csr().read();
-        defmt::info!(
-            "sysclk {} Hz; reset by: watchdog {}, pin {}, brown-out {}, software {}",
-            rcc.clocks.sys_clk.raw(),
-            csr.iwdgrstf().bit_is_set(),
-            csr.pinrstf().bit_is_set(),
-            csr.borrstf().bit_is_set(),
-            csr.sftrstf().bit_is_set()
-        );
+        let mut rcc = rcc.freeze(Config::pll().pll_cfg(pll).boost(true), pwr);
+        let flags = ResetFlags::from_csr(rcc.csr().read().bits());
         rcc.csr().modify(|_, w| w.rmvf().set_bit());
+        let boot = io::boot_count(&dp.TAMP, &mut rcc);
+        defmt::info!(
+            "sysclk {} Hz; boot {}, reset by {} (RCC_CSR flags {=u8:#x})",
+            rcc.clocks.sys_clk.raw(),
+            boot,
+            flags.cause(),
+            flags.bits()
+        );
 
-        let gpioa = dp.GPIOA.split(&mut rcc);
         let gpiob = dp.GPIOB.split(&mut rcc);
         let mut led = gpioa.pa5.into_push_pull_output();
-        let _encoder_a = gpioa.pa0.into_alternate::<1>();
-        let _encoder_b = gpioa.pa1.into_alternate::<1>();
-        let encoder = io::Encoder::new(dp.TIM2, &mut rcc);
-        let (mut ch1, mut ch2) = dp.TIM3.pwm(
-            (gpiob.pb4.into_alternate(), gpiob.pb5.into_alternate()),
-            config::PWM_HZ.Hz(),
-            &mut rcc,
-        );
-        // The outputs run from here (at 50 %, zero command); the driver enable gates them.
-        ch1.enable();
-        ch2.enable();
-        let actuators: Actuators = io::PwmPair::new(ch1, ch2, gpioa.pa8.into_push_pull_output());
+        #[cfg(not(feature = "bench"))]
+        let (sensor, actuators) = {
+            let _encoder_a = gpioa.pa0.into_alternate::<1>();
+            let _encoder_b = gpioa.pa1.into_alternate::<1>();
+            let encoder = io::Encoder::new(dp.TIM2, &mut rcc);
+            let (ch1, ch2) = dp.TIM3.pwm(
+                (gpiob.pb4.into_alternate(), gpiob.pb5.into_alternate()),
+                config::PWM_HZ.Hz(),
+                &mut rcc,
+            );
+            // Both duties neutral (TIM3 starts at 0 %: full reverse in locked antiphase), then
+            // the channels' outputs, the driver still disabled.
+            let mut pair = io::PwmPair::new(ch1, ch2, enable);
+            let (c1, c2) = pair.channels_mut();
+            c1.enable();
+            c2.enable();
+            (encoder, pair)
+        };
+        #[cfg(feature = "bench")]
+        let (sensor, actuators) = {
+            // No driver on the bench: the enable stays low.
+            let _ = (enable, gpiob);
+            (
+                nucleo_g474re::bench::BusSensor::new(
+                    config::SAMPLE_PERIOD_US,
+                    config::NODE.stale_timeout_us,
+                ),
+                nucleo_g474re::bench::BusActuator::default(),
+            )
+        };
         let fdcan = dp.FDCAN1.fdcan(
             gpioa.pa12.into_alternate(),
             gpioa.pa11.into_alternate(),
@@ -158,12 +223,29 @@ mod app {
         );
 
         let controller = config::controller();
-        let node = match config::wiring_error() {
-            Some(e) => {
+        let board = Board {
+            logic: BoardLogic::new(
+                can_setup::uses_leader(&config::NODE, controller.pinned),
+                config::SAMPLE_PERIOD_US,
+                config::NODE.stale_timeout_us,
+            ),
+            #[cfg(feature = "bench")]
+            state_frames: nucleo_g474re::bench::StateFrames::new(),
+        };
+        let watchdog_setting = IwdgSetting::for_timeout(config::WATCHDOG_US, LSI_HZ);
+        let node = match (config::wiring_error(), watchdog_setting) {
+            (Some(e), _) => {
                 defmt::error!("config.rs: wiring rejected: {}", e);
                 None
             }
-            None => {
+            (None, None) => {
+                defmt::error!(
+                    "config.rs: wiring rejected: {}",
+                    config::WiringError::Watchdog
+                );
+                None
+            }
+            (None, Some(_)) => {
                 let bus = can::configure(
                     fdcan,
                     &config::NODE,
@@ -175,13 +257,13 @@ mod app {
                     &controller,
                     bus,
                     io::CycleClock::new(),
-                    encoder,
+                    sensor,
                     actuators,
                 )
                 .ok()
             }
         };
-        let Some(mut node) = node else {
+        let (Some(mut node), Some(setting)) = (node, watchdog_setting) else {
             let _ = embedded_hal::digital::OutputPin::set_high(&mut led);
             defmt::error!("fault state: outputs off, no bus traffic");
             return (
@@ -189,21 +271,21 @@ mod app {
                 Local {
                     timer: None,
                     watchdog: None,
+                    board,
                     cycles: Cycles::default(),
                 },
             );
         };
 
+        node.set_boot_count(heartbeat_word(boot, flags));
         node.can_mut().join_bus();
-        node.actuator_mut().arm();
-        let mut watchdog = IndependentWatchdog::new(dp.IWDG);
-        watchdog.start(config::WATCHDOG_US.micros());
+        let watchdog = io::Iwdg::start(dp.IWDG, setting);
         let mut timer =
             Timer::new(dp.TIM6, &rcc.clocks).start_count_down(config::SAMPLE_PERIOD_US.micros());
         timer.listen(Event::TimeOut);
         let agent = agent_node::wire::Source::Agent(config::NODE.agent);
         defmt::info!(
-            "agent {} (value id {=u16:#x}, heartbeat id {=u16:#x}) runs every {} us",
+            "agent {} (value id {=u16:#x}, heartbeat id {=u16:#x}) runs every {} us; driver enabled once operational with fresh sensor and leader",
             config::NODE.agent,
             config::NODE.ids.value_id(agent).unwrap_or(0),
             config::NODE
@@ -217,6 +299,7 @@ mod app {
             Local {
                 timer: Some(timer),
                 watchdog: Some(watchdog),
+                board,
                 cycles: Cycles::default(),
             },
         )
@@ -229,37 +312,90 @@ mod app {
         }
     }
 
-    /// Released by TIM6 every sample period: one `Node::tick`, timed; the watchdog is fed only
-    /// here, so a control task that stops being released resets the board. A bus-off FDCAN
-    /// latches the node's fault state (outputs zero) until the board is reset.
-    #[task(binds = TIM6_DACUNDER, shared = [node], local = [timer, watchdog, cycles, bus_off: bool = false])]
+    /// Released by TIM6 every sample period: bus-off recovery, one `Node::tick` (timed), the
+    /// output gate, the outputs; the watchdog is fed only here and only when the step ended
+    /// before the next release, so a control task that stops being released, or is late five
+    /// periods in a row, resets the board.
+    #[task(binds = TIM6_DACUNDER, shared = [node], local = [timer, watchdog, board, cycles])]
     fn control(cx: control::Context) {
         let (Some(node), Some(timer), Some(watchdog)) =
             (cx.shared.node, cx.local.timer, cx.local.watchdog)
         else {
             return;
         };
+        let board = cx.local.board;
         timer.clear_interrupt(Event::TimeOut);
-        if !*cx.local.bus_off && node.can().bus_off() {
-            *cx.local.bus_off = true;
-            defmt::error!("FDCAN1 bus-off: node latched in its fault state");
-            node.enter_fault();
+        if board.logic.before_tick(node.can().bus_off()) == Action::Restart {
+            node.can_mut().restart();
+            defmt::warn!(
+                "FDCAN1 bus-off ({} so far): driver disabled, recovering after 128 x 11 recessive bits",
+                board.logic.bus_off().bus_offs()
+            );
+        }
+        #[cfg(feature = "bench")]
+        {
+            let x = node.can_mut().take_sensor();
+            node.sensor_mut().offer(x);
         }
         let start = DWT::cycle_count();
         let tick = node.tick();
         let cycles = cx.local.cycles;
         cycles.record(DWT::cycle_count().wrapping_sub(start));
-        watchdog.feed();
+
+        #[cfg(not(feature = "bench"))]
+        let sensor_fresh = true; // the encoder cannot fail a read
+        #[cfg(feature = "bench")]
+        let sensor_fresh = node.sensor_mut().is_fresh();
+        let leader_heard = node.can_mut().take_leader_heard();
+        let out = board.logic.after_tick(
+            tick.state,
+            node.supervisor().policy_in_force(),
+            leader_heard,
+            sensor_fresh,
+        );
+        #[cfg(not(feature = "bench"))]
+        node.actuator_mut().apply(out);
+        #[cfg(feature = "bench")]
+        {
+            use agent_node::plant_bus::{self, Kind};
+            let agent = config::NODE.agent;
+            let q = node.actuator().command(out.drive);
+            let _ = node
+                .can_mut()
+                .send(plant_bus::pair_frame(Kind::Command, agent, q));
+            let links = tick.output.status.links;
+            let degraded = u32::from(links.stale_neighbours) + u32::from(links.missing_neighbours);
+            let now = plant_bus::NodeState {
+                mode: nucleo_g474re::bench::mode(node.sensor_mut()),
+                degraded_links: u8::try_from(degraded).unwrap_or(u8::MAX),
+                late_ticks: u16::try_from(node.stats().overruns).unwrap_or(u16::MAX),
+            };
+            if let Some(s) = board.state_frames.update(now) {
+                let _ = node.can_mut().send(s.frame(agent));
+            }
+        }
+        // The next release already came: this step was late. The watchdog is fed only after a
+        // step that ended in time (five late in a row reset the board).
+        let late = timer.wait().is_ok();
+        if late {
+            node.record_overrun();
+        }
+        if board.logic.step_ended(late) {
+            watchdog.feed();
+        }
         if cycles.count >= LOG_EVERY {
             let st = node.stats();
             let (tec, rec) = node.can().error_counters();
             defmt::info!(
-                "t = {} us, {}: step {} cycles (mean {}, max {}), overruns {}, u = {}, rx {} accepted {} heartbeats {}, stale {} missing {}, tx busy {} err {}, fifo overruns {}, TEC {} REC {}",
+                "t = {} us, {}: gate {} (enables {}), step {} cycles (mean {}, max {}), late steps {}, overruns {}, u = {}, rx {} accepted {} heartbeats {}, stale {} missing {}, tx busy {} err {}, fifo overruns {}, TEC {} REC {}, bus-off {} recovered {}",
                 tick.now_us,
                 tick.state,
+                board.logic.gate().state(),
+                board.logic.gate().enables(),
                 cycles.last,
                 cycles.mean(),
                 cycles.max,
+                board.logic.late_steps(),
                 st.overruns,
                 tick.output.u,
                 st.frames_rx,
@@ -271,7 +407,9 @@ mod app {
                 st.tx_errors,
                 node.can().overruns(),
                 tec,
-                rec
+                rec,
+                board.logic.bus_off().bus_offs(),
+                board.logic.bus_off().recoveries()
             );
             *cycles = Cycles::default();
         }

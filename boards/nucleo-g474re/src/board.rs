@@ -1,0 +1,388 @@
+//! The board's decisions around each `Node::tick`, composed as the firmware's control task
+//! runs them: bus-off recovery before the tick; after it, the run command, the leader's
+//! freshness and the output gate; at the end, whether the step ended in time and so may feed
+//! the watchdog ([`BoardLogic::step_ended`]). The firmware (`src/main.rs`) only moves register values in
+//! and out of [`BoardLogic`], so the host tests below drive it with a real `agent_node::Node`.
+
+use agent_node::{NodeState, SafePolicy};
+
+use crate::{
+    bus_off::{Action, BusOffRecovery},
+    gate::{Freshness, GateInputs, GateOutput, OutputGate, RunCommand},
+};
+
+/// What the board decides beside the node.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct BoardLogic {
+    gate: OutputGate,
+    run: RunCommand,
+    leader: Freshness,
+    uses_leader: bool,
+    bus_off: BusOffRecovery,
+    period_us: u32,
+    stale_timeout_us: u64,
+    late_steps: u32,
+}
+
+impl BoardLogic {
+    /// After reset: driver disabled, not commanded, leader never heard, on the bus.
+    /// `uses_leader`: the node takes the leader's frames (`can_setup::uses_leader`).
+    pub const fn new(uses_leader: bool, period_us: u32, stale_timeout_us: u64) -> Self {
+        Self {
+            gate: OutputGate::new(),
+            run: RunCommand::new(),
+            leader: Freshness::new(),
+            uses_leader,
+            bus_off: BusOffRecovery::new(),
+            period_us,
+            stale_timeout_us,
+            late_steps: 0,
+        }
+    }
+
+    /// Before the tick: this sample's `FDCAN_PSR.BO`; whether to restart the FDCAN.
+    pub fn before_tick(&mut self, bus_off: bool) -> Action {
+        self.bus_off.update(bus_off)
+    }
+
+    /// After the tick: the node's state, its safe-state policy, whether a valid leader value
+    /// arrived during the sample and whether the sensor value is fresh; the outputs to apply.
+    pub fn after_tick(
+        &mut self,
+        state: NodeState,
+        policy: SafePolicy,
+        leader_heard: bool,
+        sensor_fresh: bool,
+    ) -> GateOutput {
+        self.leader.tick(leader_heard);
+        let inputs = GateInputs {
+            run_commanded: self.run.update(state),
+            state,
+            policy,
+            sensor_fresh,
+            leader_fresh: !self.uses_leader
+                || self.leader.is_fresh(self.period_us, self.stale_timeout_us),
+            bus_off: self.bus_off.is_off(),
+        };
+        self.gate.update(&inputs)
+    }
+
+    /// The step ended; `late`: the next release had already come (TIM6's update flag set
+    /// again before the step's end). Whether to feed the watchdog: only after a step that
+    /// ended in time, so that steps late for as many consecutive periods as the IWDG's timeout
+    /// spans (five) reset the board, while a single late step does not.
+    pub fn step_ended(&mut self, late: bool) -> bool {
+        if late {
+            self.late_steps = self.late_steps.saturating_add(1);
+        }
+        !late
+    }
+
+    /// Steps that ended after the next release since reset.
+    pub const fn late_steps(&self) -> u32 {
+        self.late_steps
+    }
+
+    /// The output gate (state, counters).
+    pub const fn gate(&self) -> &OutputGate {
+        &self.gate
+    }
+
+    /// The bus-off recovery (counters).
+    pub const fn bus_off(&self) -> &BusOffRecovery {
+        &self.bus_off
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! The board's logic around a real `agent_node::Node` (the shipped configuration: agent 4
+    //! of Example 1, neighbours 1 and 3, leader supervised) on the bench's sensor and actuator,
+    //! over a CAN controller of the test's own.
+
+    use std::{cell::Cell, collections::VecDeque, rc::Rc};
+
+    use agent_node::{
+        wire::{self, Source},
+        CanFrame, Clock, Node, NodeState, SafePolicy,
+    };
+
+    use super::*;
+    use crate::{
+        bench::{BusActuator, BusSensor},
+        can_setup::uses_leader,
+        config::{self, NODE, SAMPLE_PERIOD_US},
+        gate::GateState,
+    };
+
+    /// Frames waiting for the node, and those it sent.
+    #[derive(Default)]
+    struct TestCan {
+        rx: VecDeque<CanFrame>,
+        tx: usize,
+    }
+
+    impl embedded_can::nb::Can for TestCan {
+        type Frame = CanFrame;
+        type Error = embedded_can::ErrorKind;
+
+        fn transmit(&mut self, _: &CanFrame) -> nb::Result<Option<CanFrame>, Self::Error> {
+            self.tx += 1;
+            Ok(None)
+        }
+
+        fn receive(&mut self) -> nb::Result<CanFrame, Self::Error> {
+            self.rx.pop_front().ok_or(nb::Error::WouldBlock)
+        }
+    }
+
+    /// Time set by the test.
+    struct TestClock(Rc<Cell<u64>>);
+
+    impl Clock for TestClock {
+        fn now_us(&mut self) -> u64 {
+            self.0.get()
+        }
+    }
+
+    type TestNode = Node<TestCan, TestClock, BusSensor, BusActuator, 2, 2, { config::K }>;
+
+    /// The shipped node with `policy`, and the board logic the firmware builds for it.
+    fn board(policy: SafePolicy) -> (TestNode, BoardLogic, Rc<Cell<u64>>) {
+        let mut cfg = NODE;
+        cfg.supervisor.policy = policy;
+        let controller = config::controller();
+        let now = Rc::new(Cell::new(0));
+        let node = Node::new(
+            &cfg,
+            &controller,
+            TestCan::default(),
+            TestClock(now.clone()),
+            BusSensor::new(SAMPLE_PERIOD_US, cfg.stale_timeout_us),
+            BusActuator::default(),
+        )
+        .expect("the shipped configuration is valid");
+        let logic = BoardLogic::new(
+            uses_leader(&cfg, controller.pinned),
+            SAMPLE_PERIOD_US,
+            cfg.stale_timeout_us,
+        );
+        (node, logic, now)
+    }
+
+    /// What reaches the bus in one sample.
+    #[derive(Clone, Copy)]
+    struct Sample {
+        leader: bool,
+        neighbours: bool,
+        sensor: bool,
+        bus_off: bool,
+    }
+
+    const ALL: Sample = Sample {
+        leader: true,
+        neighbours: true,
+        sensor: true,
+        bus_off: false,
+    };
+
+    /// One control-task release as `src/main.rs` runs it; the outputs and the node's state.
+    fn release(
+        node: &mut TestNode,
+        logic: &mut BoardLogic,
+        now: &Cell<u64>,
+        k: u64,
+        s: Sample,
+        policy: SafePolicy,
+    ) -> (GateOutput, NodeState) {
+        now.set(k * u64::from(SAMPLE_PERIOD_US));
+        let seq = (k % u64::from(wire::SEQ_MODULUS)) as u8;
+        let mut leader_heard = false;
+        let y = 0.01 * k as f32;
+        if !s.bus_off {
+            let ids = NODE.ids;
+            if s.leader {
+                let (f, _) = wire::encode_in(&ids, Source::Leader, y, seq).expect("frame");
+                node.can_mut().rx.push_back(f);
+                leader_heard = true;
+            }
+            if s.neighbours {
+                for a in [1, 3] {
+                    let (f, _) = wire::encode_in(&ids, Source::Agent(a), y, seq).expect("frame");
+                    node.can_mut().rx.push_back(f);
+                }
+            }
+        }
+        let _ = logic.before_tick(s.bus_off);
+        node.sensor_mut()
+            .offer((s.sensor && !s.bus_off).then_some([y, 0.0]));
+        let tick = node.tick();
+        let fresh = node.sensor_mut().is_fresh();
+        let out = logic.after_tick(tick.state, policy, leader_heard, fresh);
+        (out, tick.state)
+    }
+
+    #[test]
+    fn the_driver_is_enabled_the_sample_after_the_node_becomes_operational() {
+        let policy = SafePolicy::Ramp { rate: 40.0 };
+        let (mut node, mut logic, now) = board(policy);
+        // 20 ms of nothing but the sensor: Boot, driver off.
+        let quiet = Sample {
+            leader: false,
+            neighbours: false,
+            ..ALL
+        };
+        for k in 0..20 {
+            let (out, state) = release(&mut node, &mut logic, &now, k, quiet, policy);
+            assert!(!out.enable && !out.drive, "k = {k}: {state:?}");
+        }
+        // Every source: Operational at once, enabled one arming sample later.
+        let mut first_enabled = None;
+        let mut first_operational = None;
+        for k in 20..40 {
+            let (out, state) = release(&mut node, &mut logic, &now, k, ALL, policy);
+            if state == NodeState::Operational {
+                first_operational.get_or_insert(k);
+            }
+            if out.enable {
+                first_enabled.get_or_insert(k);
+            } else {
+                assert!(!out.drive);
+            }
+        }
+        let (op, en) = (
+            first_operational.expect("operational"),
+            first_enabled.expect("enabled"),
+        );
+        println!("operational at sample {op}, driver enabled at sample {en}");
+        assert_eq!(en, op + 1, "one neutral arming sample");
+        // The leader falls silent: after 50 ms the node is Safe (ramp) and stays enabled.
+        let silent = Sample {
+            leader: false,
+            ..ALL
+        };
+        let mut safe_at = None;
+        for k in 40..120 {
+            let (out, state) = release(&mut node, &mut logic, &now, k, silent, policy);
+            if state == NodeState::Safe {
+                safe_at.get_or_insert(k);
+            }
+            assert!(out.enable, "k = {k}: ramp drives through its safe state");
+        }
+        assert!(
+            safe_at.is_some_and(|k| (85..=95).contains(&k)),
+            "{safe_at:?}"
+        );
+        // Bus-off: disabled in that very sample and until the bus is back and re-armed.
+        let off = Sample {
+            bus_off: true,
+            ..ALL
+        };
+        let (out, _) = release(&mut node, &mut logic, &now, 120, off, policy);
+        assert!(!out.enable);
+        assert_eq!(logic.bus_off().bus_offs(), 1);
+        for k in 121..130 {
+            assert!(
+                !release(&mut node, &mut logic, &now, k, off, policy)
+                    .0
+                    .enable
+            );
+        }
+        assert_eq!(logic.gate().state(), GateState::Disabled);
+    }
+
+    #[test]
+    fn only_a_step_that_ended_in_time_feeds_the_watchdog() {
+        let mut logic = BoardLogic::new(true, 1_000, 2_500);
+        let feeds: Vec<bool> = [false, true, true, false, true]
+            .into_iter()
+            .map(|late| logic.step_ended(late))
+            .collect();
+        assert_eq!(feeds, [true, false, false, true, false]);
+        assert_eq!(logic.late_steps(), 3);
+    }
+
+    #[test]
+    fn the_open_loop_off_policy_disables_the_driver_in_the_safe_state() {
+        let policy = SafePolicy::Off;
+        let (mut node, mut logic, now) = board(policy);
+        for k in 0..10 {
+            release(&mut node, &mut logic, &now, k, ALL, policy);
+        }
+        assert!(logic.gate().state() == GateState::Enabled);
+        let silent = Sample {
+            neighbours: false,
+            ..ALL
+        };
+        for k in 10..100 {
+            let (out, state) = release(&mut node, &mut logic, &now, k, silent, policy);
+            assert_eq!(out.enable, state == NodeState::Operational, "k = {k}");
+        }
+        assert_eq!(node.state(), NodeState::Safe);
+        assert_eq!(logic.gate().disables(), 1);
+    }
+
+    /// Random bus traffic for 20 s of samples (seed printed; `BOARD_SEED` replays one): the
+    /// driver is enabled only when the node is `Operational` or `Safe` with a driving policy,
+    /// on the bus, with a fresh sensor, after an arming sample, and never before the node was
+    /// first `Operational`.
+    #[test]
+    fn random_traffic_never_enables_the_driver_where_it_must_not() {
+        let seed = std::env::var("BOARD_SEED")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(0x5EED_0B0A_4D00_0001_u64);
+        println!("BOARD_SEED={seed}");
+        let mut x = seed | 1;
+        let mut bit = |p_percent: u64| {
+            // xorshift64*
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x.wrapping_mul(0x2545_F491_4F6C_DD1D) % 100 < p_percent
+        };
+        let mut enabled_samples = 0;
+        for policy in [
+            SafePolicy::HoldPosition,
+            SafePolicy::Stop { decel: 2.0 },
+            SafePolicy::Hold,
+            SafePolicy::Ramp { rate: 40.0 },
+            SafePolicy::Off,
+        ] {
+            let (mut node, mut logic, now) = board(policy);
+            let mut was_operational = false;
+            let mut last = GateState::Disabled;
+            // Bursts: each source is present or absent for runs of samples.
+            let mut s = ALL;
+            for k in 0..20_000 {
+                if k % 50 == 0 {
+                    s = Sample {
+                        leader: bit(70),
+                        neighbours: bit(80),
+                        sensor: bit(90),
+                        bus_off: bit(5),
+                    };
+                }
+                let (out, state) = release(&mut node, &mut logic, &now, k, s, policy);
+                was_operational |= state == NodeState::Operational;
+                if out.enable {
+                    enabled_samples += 1;
+                    assert!(was_operational, "k = {k}");
+                    assert!(!s.bus_off && node.sensor_mut().is_fresh(), "k = {k}");
+                    assert!(
+                        state == NodeState::Operational
+                            || (state == NodeState::Safe && policy != SafePolicy::Off),
+                        "k = {k}: {state:?} {policy:?}"
+                    );
+                    assert_ne!(last, GateState::Disabled, "k = {k}: enabled without arming");
+                }
+                last = logic.gate().state();
+            }
+        }
+        println!("samples with the driver enabled: {enabled_samples} of 60,000");
+        assert!(
+            enabled_samples > 1_000,
+            "the traffic must enable the driver at times"
+        );
+    }
+}
