@@ -191,10 +191,15 @@ pub fn cargo() -> String {
 /// of its fingerprints, so `target_dir` must hold no build made without these flags: it is a
 /// directory of its own, not the crate's `target`.
 pub fn firmware_build(dir: &Path, target_dir: &Path) -> std::process::Command {
+    firmware_build_for(dir, target_dir, "thumbv7em-none-eabihf")
+}
+
+/// [`firmware_build`] for the Rust target `triple` (passed as `--target`).
+pub fn firmware_build_for(dir: &Path, target_dir: &Path, triple: &str) -> std::process::Command {
     let mut c = std::process::Command::new(cargo());
     c.current_dir(dir)
-        .args(["build", "--release", "--locked", "--config"])
-        .arg(remap_config())
+        .args(["build", "--release", "--locked", "--target", triple, "--config"])
+        .arg(remap_config(triple))
         .arg("--target-dir")
         .arg(target_dir)
         .env_remove("RUSTFLAGS")
@@ -206,7 +211,7 @@ pub fn firmware_build(dir: &Path, target_dir: &Path) -> std::process::Command {
 
 /// The `--config` value that adds the path remapping of [`firmware_build`] to the target's
 /// `rustflags` (cargo appends it to those of the crate's `.cargo/config.toml`).
-fn remap_config() -> String {
+fn remap_config(triple: &str) -> String {
     let cargo_home = std::env::var_os("CARGO_HOME")
         .map(PathBuf::from)
         .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cargo")));
@@ -219,9 +224,19 @@ fn remap_config() -> String {
     }
     // A JSON array of strings is a TOML inline array.
     format!(
-        "target.thumbv7em-none-eabihf.rustflags={}",
+        "target.{}.rustflags={}",
+        toml_key(triple),
         serde_json::Value::from(flags)
     )
+}
+
+/// A target triple as a TOML key: quoted when it holds a dot (`thumbv8m.main-none-eabihf`).
+fn toml_key(triple: &str) -> String {
+    if triple.contains('.') {
+        format!("\"{triple}\"")
+    } else {
+        triple.to_owned()
+    }
 }
 
 /// Result type of the tasks: a message for the user.
