@@ -27,6 +27,8 @@
 //! mean of the repeated timings.
 #![no_std]
 #![no_main]
+// The `node` variant times `Node::tick`; the step benchmark's functions stay unused there.
+#![cfg_attr(feature = "node", allow(dead_code))]
 
 use controller_core::{Controller, ControllerConfig, Link, StepOutput};
 use core::hint::black_box;
@@ -62,6 +64,9 @@ const PATTERN: u32 = 0xA5C3_5A3C;
 const CALIB_LOOPS: u32 = 499_999;
 
 type Ctrl = Controller<N, M, K>;
+
+#[cfg(feature = "node")]
+mod node;
 
 /// The replayed inputs, little-endian `f32` records of [`FIELDS`] values, written by the xtask.
 static TRACE: &[u8] = include_bytes!(env!("BENCH_TRACE_FILE"));
@@ -158,6 +163,32 @@ fn time_overhead(saved: &Ctrl, x: &[f32; N], neighbours: &[Link], leader: Link) 
     elapsed(t0, t1)
 }
 
+/// Paints the [`PAINT_BYTES`] below `sp` with [`PATTERN`]. Inlined into its caller, so no
+/// frame of its own lies in the painted region.
+#[inline(always)]
+fn paint_below(sp: usize) {
+    // SAFETY: [sp − PAINT_BYTES, sp) is below the live stack pointer, inside RAM (the smallest,
+    // the Cortex-M0's 16 KiB, holds it above the static data), and nothing else (no interrupts
+    // are enabled) uses it until the measured call.
+    for a in (sp - PAINT_BYTES..sp).step_by(4) {
+        unsafe { core::ptr::write_volatile(a as *mut u32, PATTERN) };
+    }
+}
+
+/// The bytes below `sp` a call overwrote since [`paint_below`].
+#[inline(always)]
+fn painted_depth(sp: usize) -> u32 {
+    let mut lowest = sp;
+    for a in (sp - PAINT_BYTES..sp).step_by(4) {
+        // SAFETY: as in `paint_below`; the call has returned, the region is plain RAM.
+        if unsafe { core::ptr::read_volatile(a as *const u32) } != PATTERN {
+            lowest = a;
+            break;
+        }
+    }
+    (sp - lowest) as u32
+}
+
 /// One step on `c` with the stack below the caller's stack pointer painted; returns the output,
 /// the stack bytes the step used (its frame included) and the step's SysTick ticks.
 #[inline(never)]
@@ -168,24 +199,11 @@ fn step_with_stack(
     leader: Link,
 ) -> (StepOutput<N, M>, u32, u32) {
     let sp = cortex_m::register::msp::read() as usize & !3;
-    let bottom = sp - PAINT_BYTES;
-    // SAFETY: [bottom, sp) is below the live stack pointer, inside the 4 MiB RAM, and nothing
-    // else (no interrupts are enabled) uses it until the call below.
-    for a in (bottom..sp).step_by(4) {
-        unsafe { core::ptr::write_volatile(a as *mut u32, PATTERN) };
-    }
+    paint_below(sp);
     let t0 = SYST::get_current();
     let out = step_entry(c, x, neighbours, leader);
     let t1 = SYST::get_current();
-    let mut lowest = sp;
-    for a in (bottom..sp).step_by(4) {
-        // SAFETY: as above; the step has returned, the region is plain RAM.
-        if unsafe { core::ptr::read_volatile(a as *const u32) } != PATTERN {
-            lowest = a;
-            break;
-        }
-    }
-    (out, (sp - lowest) as u32, elapsed(t0, t1))
+    (out, painted_depth(sp), elapsed(t0, t1))
 }
 
 #[entry]
@@ -201,13 +219,23 @@ fn main() -> ! {
     cortex_m::asm::delay(black_box(CALIB_LOOPS));
     let calib_ticks = elapsed(t0, SYST::get_current());
 
-    let Ok(mut ctrl) = config_entry(black_box(&config())) else {
-        fail("invalid configuration")
-    };
     let steps = TRACE.len() / (FIELDS * 4);
     if steps == 0 {
         fail("no trace (build through `cargo xtask bench-target`, which sets BENCH_TRACE)")
     }
+    #[cfg(feature = "node")]
+    node::run(&config(), steps, calib_ticks, 2 * (CALIB_LOOPS + 1));
+    #[cfg(not(feature = "node"))]
+    run_steps(steps, calib_ticks);
+    exit(debug::EXIT_SUCCESS)
+}
+
+/// The step benchmark over `steps` records; prints the step lines and the `BENCH` line.
+#[cfg(not(feature = "node"))]
+fn run_steps(steps: usize, calib_ticks: u32) {
+    let Ok(mut ctrl) = config_entry(black_box(&config())) else {
+        fail("invalid configuration")
+    };
     let mut stack_peak = 0u32;
     let mut faults = 0u32;
     let mut coarse_ticks = 0u64;
@@ -241,7 +269,6 @@ fn main() -> ! {
         calib_ticks,
         2 * (CALIB_LOOPS + 1)
     );
-    exit(debug::EXIT_SUCCESS)
 }
 
 /// Reports an error line and ends QEMU with a failure status.

@@ -107,6 +107,13 @@ pub struct Variant {
     pub core: Core,
 }
 
+impl Variant {
+    /// Whether it times a node's whole tick rather than the step.
+    pub fn is_node(&self) -> bool {
+        self.features.split(',').any(|f| f == "node")
+    }
+}
+
 const fn variant(name: &'static str, features: &'static str, core: Core) -> Variant {
     Variant {
         name,
@@ -118,8 +125,9 @@ const fn variant(name: &'static str, features: &'static str, core: Core) -> Vari
 
 /// The benchmark variants. On the Cortex-M4F (names without a core prefix): Example 1's agent
 /// (`n = m = 2`) per per-step math back-end, the prescribed-time baseline, `[safety]` on, and
-/// `n = m = 3`. On every other core: Example 1's agent per math back-end.
-pub const VARIANTS: [Variant; 18] = [
+/// `n = m = 3`. On every other core: Example 1's agent per math back-end. On every core: the
+/// whole node's tick (`node-n2m2`, agent-node's `Node::tick` around the `libm` step).
+pub const VARIANTS: [Variant; 23] = [
     variant("libm-n2m2", "libm", CORTEX_M4F),
     variant("micromath-n2m2", "micromath", CORTEX_M4F),
     variant("fast-math-n2m2", "fast-math", CORTEX_M4F),
@@ -131,6 +139,11 @@ pub const VARIANTS: [Variant; 18] = [
         core: CORTEX_M4F,
     },
     variant("safety-n2m2", "libm,safety", CORTEX_M4F),
+    variant("node-n2m2", "libm,node", CORTEX_M4F),
+    variant("cortex-m0-node-n2m2", "libm,node", CORTEX_M0),
+    variant("cortex-m3-node-n2m2", "libm,node", CORTEX_M3),
+    variant("cortex-m7-node-n2m2", "libm,node", CORTEX_M7),
+    variant("cortex-m33-node-n2m2", "libm,node", CORTEX_M33),
     variant("cortex-m0-libm-n2m2", "libm", CORTEX_M0),
     variant("cortex-m0-micromath-n2m2", "micromath", CORTEX_M0),
     variant("cortex-m0-fast-math-n2m2", "fast-math", CORTEX_M0),
@@ -184,7 +197,11 @@ pub fn bench_target(opts: &Options) -> Result<Value> {
         let output = run_qemu(&v.core, &elf)?;
         let fig = parse_output(&output, &v.core).map_err(|e| format!("{}: {e}", v.name))?;
         let data = fs::read(&elf).map_err(|e| format!("{}: {e}", elf.display()))?;
-        let fl = flash::controller_flash(&data)?;
+        let fl = if v.is_node() {
+            flash::flash_from(&data, flash::NODE_ENTRIES)?
+        } else {
+            flash::controller_flash(&data)?
+        };
         if opts.verbose {
             eprintln!("{}: {}", v.name, fig.line);
             for s in &fl.symbols {
@@ -200,6 +217,7 @@ pub fn bench_target(opts: &Options) -> Result<Value> {
         rows.push((v, fig.clone(), fl.total, fl.config_total));
         variants.push(json!({
             "name": v.name,
+            "measures": if v.is_node() { "Node::tick" } else { "Controller::step" },
             "core": v.core.id,
             "target": v.core.target,
             "machine": v.core.machine,
@@ -223,7 +241,7 @@ pub fn bench_target(opts: &Options) -> Result<Value> {
     }
     let doc = json!({
         "machine": "QEMU mps2-an386 (Cortex-M4F), -icount shift=0; the other cores' variants name their own (`core`, `target`, `machine`)",
-        "units": "instructions executed per Controller::step call (QEMU models no cycle timing); stack and flash in bytes; state_bytes = size_of Controller (settings + state), mutable_state_bytes = size_of State",
+        "units": "instructions executed per Controller::step call (per Node::tick for the node variants, `measures`) (QEMU models no cycle timing); stack and flash in bytes; state_bytes = size_of Controller (settings + state), mutable_state_bytes = size_of State",
         "method": "SysTick at the machine's core clock f (25 MHz on MPS2, 20 MHz on AN505, 16 MHz on the micro:bit; checked by a calibration loop of known length) = 1 tick per 1000/f_MHz instructions; each step timed `reps` times (40 with an FPU, 4 without) on copies of the same state, minus the copy loop, so the resolution is 2·1000/f_MHz/reps instructions; peak stack by painting below the caller's SP; flash = sizes of the ELF symbols of step and its callees (controller_core, libm, micromath, the soft-float routines); flash_config = those of Controller::new and its callees not counted for the step",
         "cores": CORES.iter().map(|c| json!({"core": c.id, "target": c.target, "machine": c.machine, "clock_mhz": c.clock_mhz, "fpu": c.fpu})).collect::<Vec<_>>(),
         "trace": trace.source,
