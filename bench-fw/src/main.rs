@@ -28,7 +28,7 @@
 #![no_std]
 #![no_main]
 // The `node` variant times `Node::tick`; the step benchmark's functions stay unused there.
-#![cfg_attr(feature = "node", allow(dead_code))]
+#![cfg_attr(any(feature = "node", feature = "ops"), allow(dead_code))]
 
 use controller_core::{Controller, ControllerConfig, Link, StepOutput};
 use core::hint::black_box;
@@ -62,11 +62,15 @@ const PATTERN: u32 = 0xA5C3_5A3C;
 /// Iterations of the clock calibration loop: `cortex_m::asm::delay(n)` runs `2 (n + 1)`
 /// instructions (`subs`, `bne`), so the xtask can check the SysTick clock it assumes.
 const CALIB_LOOPS: u32 = 499_999;
+/// Instructions of the calibration loop.
+const CALIB_INSNS: u32 = 2 * (CALIB_LOOPS + 1);
 
 type Ctrl = Controller<N, M, K>;
 
 #[cfg(feature = "node")]
 mod node;
+#[cfg(feature = "ops")]
+mod ops;
 
 /// The replayed inputs, little-endian `f32` records of [`FIELDS`] values, written by the xtask.
 static TRACE: &[u8] = include_bytes!(env!("BENCH_TRACE_FILE"));
@@ -219,15 +223,24 @@ fn main() -> ! {
     cortex_m::asm::delay(black_box(CALIB_LOOPS));
     let calib_ticks = elapsed(t0, SYST::get_current());
 
+    #[cfg(feature = "ops")]
+    ops::run(calib_ticks, CALIB_INSNS);
+    #[cfg(not(feature = "ops"))]
+    run_trace(calib_ticks);
+    exit(debug::EXIT_SUCCESS)
+}
+
+/// The step (or node) benchmark over the records of the trace.
+#[cfg(not(feature = "ops"))]
+fn run_trace(calib_ticks: u32) {
     let steps = TRACE.len() / (FIELDS * 4);
     if steps == 0 {
         fail("no trace (build through `cargo xtask bench-target`, which sets BENCH_TRACE)")
     }
     #[cfg(feature = "node")]
-    node::run(&config(), steps, calib_ticks, 2 * (CALIB_LOOPS + 1));
+    node::run(&config(), steps, calib_ticks, CALIB_INSNS);
     #[cfg(not(feature = "node"))]
     run_steps(steps, calib_ticks);
-    exit(debug::EXIT_SUCCESS)
 }
 
 /// The step benchmark over `steps` records; prints the step lines and the `BENCH` line.
@@ -267,7 +280,7 @@ fn run_steps(steps: usize, calib_ticks: u32) {
         overhead,
         coarse_ticks,
         calib_ticks,
-        2 * (CALIB_LOOPS + 1)
+        CALIB_INSNS
     );
 }
 

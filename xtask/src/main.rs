@@ -30,6 +30,7 @@ mod board;
 mod docs;
 mod flash;
 mod gate;
+mod softfloat;
 mod target;
 mod trace;
 mod vm;

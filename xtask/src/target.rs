@@ -194,7 +194,7 @@ pub fn bench_target(opts: &Options) -> Result<Value> {
         eprintln!("bench: variant {}/{}: {}", k + 1, VARIANTS.len(), v.name);
         let elf = build(&v, trace_file, &dir)?;
         eprintln!("bench: running {} on QEMU {}", v.name, v.core.machine);
-        let output = run_qemu(&v.core, &elf)?;
+        let output = run_qemu(&v.core, &elf, &[])?;
         let fig = parse_output(&output, &v.core).map_err(|e| format!("{}: {e}", v.name))?;
         let data = fs::read(&elf).map_err(|e| format!("{}: {e}", elf.display()))?;
         let fl = if v.is_node() {
@@ -253,6 +253,7 @@ pub fn bench_target(opts: &Options) -> Result<Value> {
     fs::write(&path, text + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
     print_table(&rows);
     println!("wrote {}", path.display());
+    crate::softfloat::run(&trace_n2, &dir)?;
     Ok(doc)
 }
 
@@ -318,7 +319,7 @@ fn qemu_version() -> String {
 }
 
 /// Builds the firmware for `v`; returns a copy of its ELF named after the variant.
-fn build(v: &Variant, trace: &Path, dir: &Path) -> Result<PathBuf> {
+pub fn build(v: &Variant, trace: &Path, dir: &Path) -> Result<PathBuf> {
     let fw = workspace_root().join("bench-fw");
     // One target directory per machine: the memory map is a build input cargo does not
     // fingerprint beyond the build script's rerun, and the M4F and M7 share a target.
@@ -355,10 +356,15 @@ pub fn qemu_args(core: &Core) -> Vec<&'static str> {
     args
 }
 
-/// Runs the firmware on QEMU and returns its semihosting output.
-fn run_qemu(core: &Core, elf: &Path) -> Result<String> {
+/// Runs the firmware on QEMU (with the `extra` options before `-kernel`) and returns its
+/// semihosting output.
+pub fn run_qemu(core: &Core, elf: &Path, extra: &[&str]) -> Result<String> {
+    let args = qemu_args(core);
+    let (options, kernel) = args.split_at(args.len() - 1);
     let mut child = Command::new(QEMU)
-        .args(qemu_args(core))
+        .args(options)
+        .args(extra)
+        .args(kernel)
         .arg(elf)
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
@@ -405,6 +411,23 @@ fn run_qemu(core: &Core, elf: &Path) -> Result<String> {
     Ok(out)
 }
 
+/// Checks the machine's assumed SysTick clock against the calibration loop of `calib_insns`
+/// instructions that took `calib_ticks` ticks.
+pub fn check_calibration(core: &Core, calib_ticks: u64, calib_insns: u64) -> Result<()> {
+    let mhz = core.clock_mhz;
+    // Instructions of `t` ticks: t · 1000 / f_MHz (1 ns per instruction).
+    let calibrated = calib_ticks * 1000 / mhz;
+    if (calibrated as f64 - calib_insns as f64).abs() > CALIBRATION_TOLERANCE * calib_insns as f64
+    {
+        return Err(format!(
+            "{}: the calibration loop of {calib_insns} instructions took {calib_ticks} SysTick \
+             ticks, {calibrated} instructions at the assumed {mhz} MHz: the clock is wrong",
+            core.machine
+        ));
+    }
+    Ok(())
+}
+
 /// Reads the firmware's output: one `T <ticks>` line per step, then the `BENCH key=value …`
 /// line; turns ticks into instructions at `core`'s clock after checking it against the
 /// calibration loop.
@@ -434,18 +457,8 @@ pub fn parse_output(output: &str, core: &Core) -> Result<Figures> {
         ));
     }
     let (reps, overhead) = (field("reps")?, field("overhead_ticks")?);
-    let (calib_ticks, calib_insns) = (field("calib_ticks")?, field("calib_insns")?);
+    check_calibration(core, field("calib_ticks")?, field("calib_insns")?)?;
     let mhz = core.clock_mhz;
-    // Instructions of `t` ticks: t · 1000 / f_MHz (1 ns per instruction).
-    let calibrated = calib_ticks * 1000 / mhz;
-    if (calibrated as f64 - calib_insns as f64).abs() > CALIBRATION_TOLERANCE * calib_insns as f64
-    {
-        return Err(format!(
-            "{}: the calibration loop of {calib_insns} instructions took {calib_ticks} SysTick \
-             ticks, {calibrated} instructions at the assumed {mhz} MHz: the clock is wrong",
-            core.machine
-        ));
-    }
     let per = mhz * reps;
     let mut counts: Vec<u64> = ticks
         .iter()
