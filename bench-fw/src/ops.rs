@@ -48,13 +48,25 @@ pub fn run(calib_ticks: u32, calib_insns: u32) {
         ("i16f16_add", time(ha, hb, I16F16::saturating_add)),
         ("i16f16_mul", time(ha, hb, I16F16::saturating_mul)),
         ("i16f16_mul_wrapping", time(ha, hb, I16F16::wrapping_mul)),
-        ("i16f16_div", time(ha, hb, |a, b| a.checked_div(b).unwrap_or(I16F16::MAX))),
-        ("i16f16_sqrt", time(ha, hb, |a, _| a.checked_sqrt().unwrap_or(I16F16::ZERO))),
+        (
+            "i16f16_div",
+            time(ha, hb, |a, b| a.checked_div(b).unwrap_or(I16F16::MAX)),
+        ),
+        (
+            "i16f16_sqrt",
+            time(ha, hb, |a, _| a.checked_sqrt().unwrap_or(I16F16::ZERO)),
+        ),
         ("i32f32_add", time(wa, wb, I32F32::saturating_add)),
         ("i32f32_mul", time(wa, wb, I32F32::saturating_mul)),
         ("i32f32_mul_wrapping", time(wa, wb, I32F32::wrapping_mul)),
-        ("i32f32_div", time(wa, wb, |a, b| a.checked_div(b).unwrap_or(I32F32::MAX))),
-        ("i32f32_sqrt", time(wa, wb, |a, _| a.checked_sqrt().unwrap_or(I32F32::ZERO))),
+        (
+            "i32f32_div",
+            time(wa, wb, |a, b| a.checked_div(b).unwrap_or(I32F32::MAX)),
+        ),
+        (
+            "i32f32_sqrt",
+            time(wa, wb, |a, _| a.checked_sqrt().unwrap_or(I32F32::ZERO)),
+        ),
     ];
     for (name, ticks) in ops {
         hprintln!("OP {} {}", name, ticks);

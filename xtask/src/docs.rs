@@ -393,7 +393,9 @@ fn parse(name: &str) -> Option<Figure<'_>> {
     Some(match parts.as_slice() {
         ["bench-table"] => Figure::BenchTable,
         ["bench", variant, key] => Figure::Bench(variant, key),
-        ["cores", ..] if cores::known(&name["cores.".len()..]) => Figure::Cores(&name["cores.".len()..]),
+        ["cores", ..] if cores::known(&name["cores.".len()..]) => {
+            Figure::Cores(&name["cores.".len()..])
+        }
         ["scenarios"] => Figure::Scenarios,
         ["stable-h"] => Figure::StableH,
         ["run", stem, key] if scenario(stem) && RUN_KEYS.contains(key) => Figure::Run(stem, key),
@@ -946,7 +948,11 @@ fn bench_table(step: &Value) -> Result<String> {
     for v in variants(step)?
         .iter()
         .filter(|v| v["core"].as_str().is_none_or(|c| c == "cortex-m4f"))
-        .filter(|v| v["measures"].as_str().is_none_or(|m| m == "Controller::step"))
+        .filter(|v| {
+            v["measures"]
+                .as_str()
+                .is_none_or(|m| m == "Controller::step")
+        })
     {
         let name = v["name"].as_str().ok_or("a variant without a name")?;
         let mut row = format!("| {} |", variant_label(name));

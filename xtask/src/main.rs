@@ -1,14 +1,15 @@
 //! Project tasks, run as `cargo xtask <task>` (the alias lives in `.cargo/config.toml`).
 //!
-//! * `bench-target`: the cost of one `Controller::step` on a Cortex-M4F: builds `bench-fw` per
-//!   variant, runs it on QEMU `mps2-an386` with `-icount shift=0`, reads instructions per step
-//!   (min / median / max), peak stack and state size from its semihosting output and the
-//!   controller's flash from the ELF's symbol sizes; writes `target/bench/step.json` and prints
-//!   a table.
+//! * `bench-target`: the cost of one `Controller::step` (and of a node's `Node::tick`) on every
+//!   Cortex-M class: builds `bench-fw` per core and variant, runs it on the core's QEMU machine
+//!   with `-icount shift=0`, reads instructions per step (min / median / max), peak stack and
+//!   state size from its semihosting output and the controller's flash from the ELF's symbol
+//!   sizes; writes `target/bench/step.json` and prints a table; then measures the cores without
+//!   an FPU further (`softfloat.rs`: operations, profile) into `target/bench/softfloat.json`.
 //! * `bench-gate`: `bench-target`, then fails when a variant's median or maximum instructions,
 //!   stack, step flash, configuration flash or state size are more than the budget's tolerance
-//!   (10 %) above `bench-fw/budget.json`, when an Example 1 variant's stack exceeds 512 B or
-//!   its step plus configuration flash exceeds 16 KiB, or when a replayed step faulted; it
+//!   (10 %) above `bench-fw/budget.json`, when an Example 1 step variant on a core with an FPU
+//!   has a stack above 512 B or a step plus configuration flash above 16 KiB, or when a replayed step faulted; it
 //!   prints the reasons the budget gives for raised figures. `--update-budget` rewrites the
 //!   budget and refuses a figure raised beyond the tolerance without `--reason` (details:
 //!   `gate.rs`).
@@ -45,14 +46,17 @@ usage: cargo xtask <task> [options]
 
 tasks:
   bench-target [--verbose]
-      build bench-fw for each variant, run it on QEMU mps2-an386 (-icount shift=0), write
-      target/bench/step.json and print a table
+      build bench-fw for each core and variant, run it on the core's QEMU machine (-icount
+      shift=0: microbit Cortex-M0, mps2-an385 M3, mps2-an386 M4F, mps2-an500 M7, mps2-an505
+      M33), write target/bench/step.json and print a table; then, on the cores without an
+      FPU, the instructions per f32 / fixed-point operation and the soft-float step's profile
+      (target/bench/softfloat.json)
   bench-gate [--no-run] [--update-budget [--reason TEXT]]
       bench-target (unless --no-run), then fail if
         - a variant's instructions (median, max), stack, step flash, configuration flash or
           state bytes exceed bench-fw/budget.json by more than its tolerance (10 %);
-        - an Example 1 (n2m2) variant's stack exceeds 512 B, or its step flash plus
-          configuration flash exceeds 16 KiB (16,384 B);
+        - an Example 1 (n2m2) step variant on a core with an FPU has a stack above 512 B,
+          or its step flash plus configuration flash exceeds 16 KiB (16,384 B);
         - a variant faulted on a step, ran no step or is missing;
       and print every reason the budget gives for a raised figure.
       --update-budget writes the budget from the measured figures instead; a figure above
@@ -199,7 +203,14 @@ pub fn firmware_build(dir: &Path, target_dir: &Path) -> std::process::Command {
 pub fn firmware_build_for(dir: &Path, target_dir: &Path, triple: &str) -> std::process::Command {
     let mut c = std::process::Command::new(cargo());
     c.current_dir(dir)
-        .args(["build", "--release", "--locked", "--target", triple, "--config"])
+        .args([
+            "build",
+            "--release",
+            "--locked",
+            "--target",
+            triple,
+            "--config",
+        ])
         .arg(remap_config(triple))
         .arg("--target-dir")
         .arg(target_dir)

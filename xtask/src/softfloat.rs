@@ -33,11 +33,26 @@ pub const PROFILE_STEPS: usize = 20;
 /// benchmark harness (not counted).
 pub fn class_of(name: &str) -> Option<&'static str> {
     const CLASSES: [(&str, &[&str]); 7] = [
-        ("f32_mul", &["__aeabi_fmul", "__mulsf3", "__aeabi_lmul", "__muldi3"]),
-        ("f32_add", &["__aeabi_fadd", "__aeabi_fsub", "__addsf3", "__subsf3"]),
+        (
+            "f32_mul",
+            &["__aeabi_fmul", "__mulsf3", "__aeabi_lmul", "__muldi3"],
+        ),
+        (
+            "f32_add",
+            &["__aeabi_fadd", "__aeabi_fsub", "__addsf3", "__subsf3"],
+        ),
         ("f32_div", &["__aeabi_fdiv", "__divsf3"]),
         ("f32_compare", &["__aeabi_fcmp", "sf2", "__unordsf2"]),
-        ("f32_convert", &["__aeabi_i2f", "__aeabi_ui2f", "__aeabi_f2", "__float", "__fix"]),
+        (
+            "f32_convert",
+            &[
+                "__aeabi_i2f",
+                "__aeabi_ui2f",
+                "__aeabi_f2",
+                "__float",
+                "__fix",
+            ],
+        ),
         ("f32_normalize", &["__clzsi2"]),
         ("memcpy", &["memcpy", "memset", "memmove"]),
     ];
@@ -143,8 +158,8 @@ pub fn parse_ops(output: &str, core: &Core) -> Result<Map<String, Value>> {
             .split_once(' ')
             .and_then(|(n, t)| Some((n, t.trim().parse::<u64>().ok()?)))
             .ok_or_else(|| format!("bad line `OP {l}`"))?;
-        let insns = ticks.saturating_sub(empty) as f64 * 1000.0
-            / (core.clock_mhz as f64 * reps as f64);
+        let insns =
+            ticks.saturating_sub(empty) as f64 * 1000.0 / (core.clock_mhz as f64 * reps as f64);
         ops.insert(name.to_owned(), json!((insns * 10.0).round() / 10.0));
     }
     if ops.is_empty() {

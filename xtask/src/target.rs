@@ -373,8 +373,14 @@ pub fn run_qemu(core: &Core, elf: &Path, extra: &[&str]) -> Result<String> {
         .map_err(|e| format!("cannot start {QEMU}: {e}"))?;
     // Read while QEMU runs: the per-step lines fill a pipe's buffer many times over.
     let readers = [
-        child.stdout.take().map(|s| Box::new(s) as Box<dyn Read + Send>),
-        child.stderr.take().map(|s| Box::new(s) as Box<dyn Read + Send>),
+        child
+            .stdout
+            .take()
+            .map(|s| Box::new(s) as Box<dyn Read + Send>),
+        child
+            .stderr
+            .take()
+            .map(|s| Box::new(s) as Box<dyn Read + Send>),
     ]
     .map(|pipe| {
         std::thread::spawn(move || {
@@ -417,8 +423,7 @@ pub fn check_calibration(core: &Core, calib_ticks: u64, calib_insns: u64) -> Res
     let mhz = core.clock_mhz;
     // Instructions of `t` ticks: t · 1000 / f_MHz (1 ns per instruction).
     let calibrated = calib_ticks * 1000 / mhz;
-    if (calibrated as f64 - calib_insns as f64).abs() > CALIBRATION_TOLERANCE * calib_insns as f64
-    {
+    if (calibrated as f64 - calib_insns as f64).abs() > CALIBRATION_TOLERANCE * calib_insns as f64 {
         return Err(format!(
             "{}: the calibration loop of {calib_insns} instructions took {calib_ticks} SysTick \
              ticks, {calibrated} instructions at the assumed {mhz} MHz: the clock is wrong",
@@ -447,7 +452,11 @@ pub fn parse_output(output: &str, core: &Core) -> Result<Figures> {
     let ticks: Vec<u64> = output
         .lines()
         .filter_map(|l| l.strip_prefix("T "))
-        .map(|t| t.trim().parse().map_err(|_| format!("bad step line `T {t}`")))
+        .map(|t| {
+            t.trim()
+                .parse()
+                .map_err(|_| format!("bad step line `T {t}`"))
+        })
         .collect::<Result<_>>()?;
     let steps = field("steps")?;
     if steps == 0 || ticks.len() as u64 != steps {
@@ -523,7 +532,12 @@ mod tests {
             assert!(VARIANTS.iter().any(|v| v.core == c), "{}", c.id);
         }
         for v in VARIANTS {
-            assert_eq!(v.core == CORTEX_M4F, !v.name.starts_with("cortex-"), "{}", v.name);
+            assert_eq!(
+                v.core == CORTEX_M4F,
+                !v.name.starts_with("cortex-"),
+                "{}",
+                v.name
+            );
         }
     }
 }

@@ -39,7 +39,12 @@ pub const PARTS: [(&str, &str, &str, f64); 5] = [
     ("cortex-m3", "STM32F103", "Cortex-M3, bxCAN, no FPU", 72.0),
     ("cortex-m4f", "STM32G474", "Cortex-M4F, FDCAN", 170.0),
     ("cortex-m7", "STM32H743", "Cortex-M7, FDCAN", 480.0),
-    ("cortex-m33", "STM32H563", "Cortex-M33 with FPU, FDCAN", 250.0),
+    (
+        "cortex-m33",
+        "STM32H563",
+        "Cortex-M33 with FPU, FDCAN",
+        250.0,
+    ),
 ];
 
 /// Keys of `cores.fixed-bound.KEY`.
@@ -289,7 +294,11 @@ fn profile_table(doc: &Value) -> Result<String> {
                 fixed(calls, 1)
             );
         }
-        let _ = writeln!(t, "| {core} | **total** | {} | 100 % | | |", grouped(total, 0));
+        let _ = writeln!(
+            t,
+            "| {core} | **total** | {} | 100 % | | |",
+            grouped(total, 0)
+        );
     }
     Ok(t)
 }
@@ -312,14 +321,24 @@ fn bound(c: &Value, mul: &str, add: &str, div: &str) -> Result<f64> {
 
 /// The fixed-point formats of the bound: label, multiply, add, divide.
 const FORMATS: [(&str, &str, &str, &str); 4] = [
-    ("`I16F16`, saturating", "i16f16_mul", "i16f16_add", "i16f16_div"),
+    (
+        "`I16F16`, saturating",
+        "i16f16_mul",
+        "i16f16_add",
+        "i16f16_div",
+    ),
     (
         "`I16F16`, wrapping multiply (ranges proven)",
         "i16f16_mul_wrapping",
         "i16f16_add",
         "i16f16_div",
     ),
-    ("`I32F32`, saturating", "i32f32_mul", "i32f32_add", "i32f32_div"),
+    (
+        "`I32F32`, saturating",
+        "i32f32_mul",
+        "i32f32_add",
+        "i32f32_div",
+    ),
     (
         "`I32F32`, wrapping multiply (ranges proven)",
         "i32f32_mul_wrapping",
