@@ -161,13 +161,7 @@ fn mcu(step: &Value) -> Result<String> {
             let worst = count(v, "instructions_max")? as f64;
             let (share_lo, rate_hi) = load(worst, mhz, low);
             let (share_hi, rate_lo) = load(worst, mhz, CPI_HIGH);
-            let verdict = if share_hi <= SHARE {
-                "fits, half the CPU free"
-            } else if share_lo <= SHARE {
-                "fits only if CPI ≤ 2 is not reached: measure on the part"
-            } else {
-                "does not fit with half the CPU free"
-            };
+            let verdict = verdict(worst, mhz, low);
             let _ = writeln!(
                 t,
                 "| {part} ({what}, {mhz:.0} MHz) | {label} on {core} | {} | {}–{} | {}–{} % | {}–{} Hz | {verdict} |",
@@ -182,6 +176,24 @@ fn mcu(step: &Value) -> Result<String> {
         }
     }
     Ok(t)
+}
+
+/// The verdict at 1 kHz with half the CPU free for `insns` at `mhz`, the CPI at the
+/// optimistic end being `low`: fits at the pessimistic CPI, fits only below the CPI that takes
+/// half the period (to be measured on the part), or does not fit at the optimistic CPI.
+fn verdict(insns: f64, mhz: f64, low: f64) -> String {
+    // The CPI at which the work takes exactly the allowed share of the period.
+    let limit = SHARE * mhz * 1e6 / (LOOP_HZ * insns);
+    if limit >= CPI_HIGH {
+        "fits, half the CPU free".to_owned()
+    } else if limit >= low {
+        format!(
+            "fits only at a CPI ≤ {}: measure on the part",
+            fixed(limit, 2)
+        )
+    } else {
+        "does not fit with half the CPU free".to_owned()
+    }
 }
 
 /// A rate rounded down to 3 significant digits (what a designer would pick).
@@ -400,6 +412,22 @@ mod tests {
         assert!((share - 0.1).abs() < 1e-12 && (rate - 5000.0).abs() < 1e-6);
         assert_eq!(round_rate(12_345.0), 12_300.0);
         assert_eq!(round_rate(987.6), 987.0);
+    }
+
+    #[test]
+    fn verdicts_at_both_ends_of_the_cpi_range() {
+        // 100 MHz, 1 kHz, half: 50,000 cycles allowed.
+        assert_eq!(verdict(25_000.0, 100.0, 1.0), "fits, half the CPU free");
+        assert_eq!(
+            verdict(40_000.0, 100.0, 1.0),
+            "fits only at a CPI ≤ 1.25: measure on the part"
+        );
+        assert_eq!(
+            verdict(60_000.0, 100.0, 1.0),
+            "does not fit with half the CPU free"
+        );
+        // The dual-issue core fits at half a cycle per instruction.
+        assert!(verdict(60_000.0, 100.0, 0.5).starts_with("fits only at a CPI ≤ 0.83"));
     }
 
     #[test]
