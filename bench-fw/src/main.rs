@@ -1,28 +1,34 @@
-//! Target benchmark of one `Controller::step` on a Cortex-M4F, run under QEMU `mps2-an386` with
-//! `-icount shift=0` by `cargo xtask bench-target` (which writes the replayed trace and reads
-//! the result line this firmware prints through semihosting).
+//! Target benchmark of one `Controller::step` on a Cortex-M core, run under QEMU with
+//! `-icount shift=0` by `cargo xtask bench-target` (which builds it per core — Cortex-M0 on
+//! `microbit`, M3 on `mps2-an385`, M4F on `mps2-an386`, M7 on `mps2-an500`, M33 on `mps2-an505` —,
+//! writes the replayed trace and reads the lines this firmware prints through semihosting).
 //!
 //! What is measured, per step of a recorded input sequence (agent 4 of Example 1: own state,
 //! the `y` of neighbours 1 and 3):
 //!
-//! * **Instructions.** SysTick runs from the 25 MHz core clock and `-icount shift=0` advances
-//!   the virtual clock 1 ns per instruction, so one tick is 40 instructions. To resolve single
-//!   instructions each step is run [`REPS`] times on copies of the same controller state; the
-//!   same loop without the call (the copy only) is timed too, and
-//!   `(ticks(step loop) − ticks(copy loop)) · 40 / REPS` is the step's count (resolution
-//!   `80 / REPS` instructions). The count includes the call and the return of the
-//!   `StepOutput`. QEMU models no pipeline or memory timing: these are instructions, not cycles.
+//! * **Instructions.** SysTick runs from the machine's core clock and `-icount shift=0` advances
+//!   the virtual clock 1 ns per instruction, so one tick is `1000 / f_MHz` instructions (40 at
+//!   the MPS2's 25 MHz). To resolve single instructions each step is run [`REPS`] times on copies
+//!   of the same controller state; the same loop without the call (the copy only) is timed too,
+//!   and `(ticks(step loop) − ticks(copy loop)) · (1000 / f_MHz) / REPS` is the step's count
+//!   (resolution `2 · 1000 / f_MHz / REPS` instructions), computed by the xtask, which knows the
+//!   machine's clock. The count includes the call and the return of the `StepOutput`. QEMU
+//!   models no pipeline or memory timing: these are instructions, not cycles.
 //! * **Stack.** Before the step that advances the controller, the stack below the current stack
 //!   pointer is painted with a pattern; afterwards the lowest overwritten word gives the step's
 //!   peak stack depth (including its call frame). The maximum over the sequence is reported.
 //! * **State.** `size_of` the `Controller` value (settings and state together), and of its
 //!   mutable part alone (`State`).
 //!
-//! Output: one line `BENCH steps=… reps=… min=… median=… max=… stack=… state=… faults=… mean=…
-//! coarse_mean=… overhead_ticks=…`; `coarse_mean` (one timing of each advancing step, averaged)
-//! cross-checks `mean` (of the repeated timings).
+//! Output: one line `T <ticks>` per step (the ticks of its [`REPS`] repetitions; streamed, so
+//! that the 16 KiB of the Cortex-M0's RAM need hold no per-step buffer), then one line
+//! `BENCH steps=… reps=… stack=… state=… mutable_state=… faults=… overhead_ticks=…
+//! coarse_ticks=…`; `coarse_ticks` (one timing of each advancing step, summed) cross-checks the
+//! mean of the repeated timings.
 #![no_std]
 #![no_main]
+// The `node` variant times `Node::tick`; the step benchmark's functions stay unused there.
+#![cfg_attr(any(feature = "node", feature = "ops"), allow(dead_code))]
 
 use controller_core::{Controller, ControllerConfig, Link, StepOutput};
 use core::hint::black_box;
@@ -43,17 +49,28 @@ const M: usize = N;
 const K: usize = 2;
 /// One record of the trace: `x_1..x_n`, `y` of the two neighbours, `y_d`.
 const FIELDS: usize = N + K + 1;
-/// Repetitions of each step for a single-instruction resolution.
+/// Repetitions of each step for a single-instruction resolution (1 k-instruction steps).
+#[cfg(not(soft_float))]
 const REPS: u32 = 40;
-/// Capacity of the per-step result buffer.
-const MAX_STEPS: usize = 12_000;
-/// Instructions per SysTick tick under `-icount shift=0` (25 MHz, 1 ns per instruction).
-const INSN_PER_TICK: u32 = 40;
-/// Bytes painted below the stack pointer for the high-water mark.
+/// Repetitions of each step: without an FPU a step is tens of thousands of instructions, so 4
+/// repetitions resolve 0.2 % of it and keep the QEMU run short.
+#[cfg(soft_float)]
+const REPS: u32 = 4;
+/// Bytes painted below the stack pointer for the high-water mark (half the Cortex-M0's RAM).
 const PAINT_BYTES: usize = 8 * 1024;
 const PATTERN: u32 = 0xA5C3_5A3C;
+/// Iterations of the clock calibration loop: `cortex_m::asm::delay(n)` runs `2 (n + 1)`
+/// instructions (`subs`, `bne`), so the xtask can check the SysTick clock it assumes.
+const CALIB_LOOPS: u32 = 499_999;
+/// Instructions of the calibration loop.
+const CALIB_INSNS: u32 = 2 * (CALIB_LOOPS + 1);
 
 type Ctrl = Controller<N, M, K>;
+
+#[cfg(feature = "node")]
+mod node;
+#[cfg(feature = "ops")]
+mod ops;
 
 /// The replayed inputs, little-endian `f32` records of [`FIELDS`] values, written by the xtask.
 static TRACE: &[u8] = include_bytes!(env!("BENCH_TRACE_FILE"));
@@ -150,6 +167,32 @@ fn time_overhead(saved: &Ctrl, x: &[f32; N], neighbours: &[Link], leader: Link) 
     elapsed(t0, t1)
 }
 
+/// Paints the [`PAINT_BYTES`] below `sp` with [`PATTERN`]. Inlined into its caller, so no
+/// frame of its own lies in the painted region.
+#[inline(always)]
+fn paint_below(sp: usize) {
+    // SAFETY: [sp − PAINT_BYTES, sp) is below the live stack pointer, inside RAM (the smallest,
+    // the Cortex-M0's 16 KiB, holds it above the static data), and nothing else (no interrupts
+    // are enabled) uses it until the measured call.
+    for a in (sp - PAINT_BYTES..sp).step_by(4) {
+        unsafe { core::ptr::write_volatile(a as *mut u32, PATTERN) };
+    }
+}
+
+/// The bytes below `sp` a call overwrote since [`paint_below`].
+#[inline(always)]
+fn painted_depth(sp: usize) -> u32 {
+    let mut lowest = sp;
+    for a in (sp - PAINT_BYTES..sp).step_by(4) {
+        // SAFETY: as in `paint_below`; the call has returned, the region is plain RAM.
+        if unsafe { core::ptr::read_volatile(a as *const u32) } != PATTERN {
+            lowest = a;
+            break;
+        }
+    }
+    (sp - lowest) as u32
+}
+
 /// One step on `c` with the stack below the caller's stack pointer painted; returns the output,
 /// the stack bytes the step used (its frame included) and the step's SysTick ticks.
 #[inline(never)]
@@ -160,24 +203,11 @@ fn step_with_stack(
     leader: Link,
 ) -> (StepOutput<N, M>, u32, u32) {
     let sp = cortex_m::register::msp::read() as usize & !3;
-    let bottom = sp - PAINT_BYTES;
-    // SAFETY: [bottom, sp) is below the live stack pointer, inside the 4 MiB RAM, and nothing
-    // else (no interrupts are enabled) uses it until the call below.
-    for a in (bottom..sp).step_by(4) {
-        unsafe { core::ptr::write_volatile(a as *mut u32, PATTERN) };
-    }
+    paint_below(sp);
     let t0 = SYST::get_current();
     let out = step_entry(c, x, neighbours, leader);
     let t1 = SYST::get_current();
-    let mut lowest = sp;
-    for a in (bottom..sp).step_by(4) {
-        // SAFETY: as above; the step has returned, the region is plain RAM.
-        if unsafe { core::ptr::read_volatile(a as *const u32) } != PATTERN {
-            lowest = a;
-            break;
-        }
-    }
-    (out, (sp - lowest) as u32, elapsed(t0, t1))
+    (out, painted_depth(sp), elapsed(t0, t1))
 }
 
 #[entry]
@@ -189,26 +219,48 @@ fn main() -> ! {
     p.SYST.set_reload(0x00FF_FFFF);
     p.SYST.clear_current();
     p.SYST.enable_counter();
+    let t0 = SYST::get_current();
+    cortex_m::asm::delay(black_box(CALIB_LOOPS));
+    let calib_ticks = elapsed(t0, SYST::get_current());
 
-    let Ok(mut ctrl) = config_entry(black_box(&config())) else {
-        fail("invalid configuration")
-    };
-    let steps = (TRACE.len() / (FIELDS * 4)).min(MAX_STEPS);
+    #[cfg(feature = "ops")]
+    ops::run(calib_ticks, CALIB_INSNS);
+    #[cfg(not(feature = "ops"))]
+    run_trace(calib_ticks);
+    exit(debug::EXIT_SUCCESS)
+}
+
+/// The step (or node) benchmark over the records of the trace.
+#[cfg(not(feature = "ops"))]
+fn run_trace(calib_ticks: u32) {
+    let steps = TRACE.len() / (FIELDS * 4);
     if steps == 0 {
         fail("no trace (build through `cargo xtask bench-target`, which sets BENCH_TRACE)")
     }
-    let mut counts = [0u32; MAX_STEPS];
+    #[cfg(feature = "node")]
+    node::run(&config(), steps, calib_ticks, CALIB_INSNS);
+    #[cfg(not(feature = "node"))]
+    run_steps(steps, calib_ticks);
+}
+
+/// The step benchmark over `steps` records; prints the step lines and the `BENCH` line.
+#[cfg(not(feature = "node"))]
+fn run_steps(steps: usize, calib_ticks: u32) {
+    let Ok(mut ctrl) = config_entry(black_box(&config())) else {
+        fail("invalid configuration")
+    };
     let mut stack_peak = 0u32;
     let mut faults = 0u32;
     let mut coarse_ticks = 0u64;
     // The copy loop's cost does not depend on the step: its minimum over the sequence is
-    // subtracted (robust to a tick boundary falling inside one measurement).
+    // subtracted by the xtask (robust to a tick boundary falling inside one measurement).
     let mut overhead = u32::MAX;
-    for (k, slot) in counts.iter_mut().enumerate().take(steps) {
+    for k in 0..steps {
         let (x, neighbours, leader) = record(k);
-        *slot = time_steps(&ctrl, &x, &neighbours, leader);
+        let ticks = time_steps(&ctrl, &x, &neighbours, leader);
+        hprintln!("T {}", ticks);
         overhead = overhead.min(time_overhead(&ctrl, &x, &neighbours, leader));
-        // The single coarse measurement of the advancing step (40-instruction resolution).
+        // The single coarse measurement of the advancing step (one-tick resolution).
         let (out, stack, ticks) = step_with_stack(&mut ctrl, &x, &neighbours, leader);
         coarse_ticks += u64::from(ticks);
         stack_peak = stack_peak.max(stack);
@@ -217,32 +269,19 @@ fn main() -> ! {
         }
         black_box(out);
     }
-    let counts = &mut counts[..steps];
-    let mut total = 0u64;
-    for c in counts.iter_mut() {
-        *c = (c.saturating_sub(overhead) * INSN_PER_TICK + REPS / 2) / REPS;
-        total += u64::from(*c);
-    }
-    let mean = total / steps as u64;
-    counts.sort_unstable();
-    let (min, median, max) = (counts[0], counts[steps / 2], counts[steps - 1]);
-    let coarse_mean = coarse_ticks * u64::from(INSN_PER_TICK) / steps as u64;
     hprintln!(
-        "BENCH steps={} reps={} min={} median={} max={} stack={} state={} mutable_state={} faults={} mean={} coarse_mean={} overhead_ticks={}",
+        "BENCH steps={} reps={} stack={} state={} mutable_state={} faults={} overhead_ticks={} coarse_ticks={} calib_ticks={} calib_insns={}",
         steps,
         REPS,
-        min,
-        median,
-        max,
         stack_peak,
         core::mem::size_of::<Ctrl>(),
         core::mem::size_of::<controller_core::State<N, M, K>>(),
         faults,
-        mean,
-        coarse_mean,
-        overhead
+        overhead,
+        coarse_ticks,
+        calib_ticks,
+        CALIB_INSNS
     );
-    exit(debug::EXIT_SUCCESS)
 }
 
 /// Reports an error line and ends QEMU with a failure status.

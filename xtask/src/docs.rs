@@ -30,6 +30,7 @@ use std::{
 
 mod back_end;
 mod clocks;
+mod cores;
 mod images;
 mod network;
 mod reliability;
@@ -261,8 +262,13 @@ fn short(s: &str) -> String {
 }
 
 /// The figure names (patterns) and what they render.
-pub const CATALOGUE: [(&str, &str); 45] = [
-    ("bench-table", "target bench table (target/bench/step.json)"),
+pub const CATALOGUE: [(&str, &str); 50] = [
+    ("bench-table", "target bench table, Cortex-M4F step variants (target/bench/step.json)"),
+    ("cores.table", "step per math back-end and node tick on every Cortex-M class (step.json)"),
+    ("cores.mcu", "named CAN parts: worst step and node tick at the part's clock, share of 1 kHz, verdict"),
+    ("cores.ops", "instructions per f32 / I16F16 / I32F32 operation on the cores without an FPU (target/bench/softfloat.json)"),
+    ("cores.profile", "where the soft-float step's instructions go, per class (softfloat.json)"),
+    ("cores.fixed-bound[.KEY]", "best-case fixed-point step per format (KEY: soft, i16f16-speedup, i16f16-wrapping-speedup, i32f32-speedup)"),
     ("bench.VARIANT.KEY", "one number of step.json's VARIANT (KEY also flash_total)"),
     ("scenarios", "shipped scenario table (host-sim run, stable-h)"),
     ("stable-h", "largest stable sample period per paper scenario (host-sim stable-h)"),
@@ -313,6 +319,7 @@ pub const CATALOGUE: [(&str, &str); 45] = [
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Figure<'a> {
     BenchTable,
+    Cores(&'a str),
     Bench(&'a str, &'a str),
     Scenarios,
     StableH,
@@ -386,6 +393,9 @@ fn parse(name: &str) -> Option<Figure<'_>> {
     Some(match parts.as_slice() {
         ["bench-table"] => Figure::BenchTable,
         ["bench", variant, key] => Figure::Bench(variant, key),
+        ["cores", ..] if cores::known(&name["cores.".len()..]) => {
+            Figure::Cores(&name["cores.".len()..])
+        }
         ["scenarios"] => Figure::Scenarios,
         ["stable-h"] => Figure::StableH,
         ["run", stem, key] if scenario(stem) && RUN_KEYS.contains(key) => Figure::Run(stem, key),
@@ -443,6 +453,7 @@ fn render(name: &str, src: &mut Sources) -> Result<Option<String>> {
     let text = match figure {
         Figure::BenchTable => bench_table(&src.bench()?)?,
         Figure::Bench(variant, key) => bench_figure(&src.bench()?, variant, key)?,
+        Figure::Cores(name) => cores::render(src, name)?,
         Figure::Scenarios => scenario_table(src)?,
         Figure::StableH => stable_h_table(src)?,
         Figure::Run(stem, key) => run_figure(&src.summary(stem)?, key)?,
@@ -598,6 +609,13 @@ impl Sources {
 
     fn bench(&mut self) -> Result<Value> {
         self.json_file("target/bench/step.json", |_, _| {
+            target::bench_target(&Options::default()).map(|_| ())
+        })
+    }
+
+    /// `target/bench/softfloat.json`, written by `cargo xtask bench-target` with `step.json`.
+    fn softfloat(&mut self) -> Result<Value> {
+        self.json_file("target/bench/softfloat.json", |_, _| {
             target::bench_target(&Options::default()).map(|_| ())
         })
     }
@@ -926,7 +944,16 @@ fn bench_table(step: &Value) -> Result<String> {
     let mut t = String::from(
         "| variant | instructions min | median | max | stack B | flash B (step) | + flash B (`new`) | state B (`Controller`) | of which `State` |\n|---|---|---|---|---|---|---|---|---|\n",
     );
-    for v in variants(step)? {
+    // The Cortex-M4F's step variants (the other cores and the node tick: `cores.table`).
+    for v in variants(step)?
+        .iter()
+        .filter(|v| v["core"].as_str().is_none_or(|c| c == "cortex-m4f"))
+        .filter(|v| {
+            v["measures"]
+                .as_str()
+                .is_none_or(|m| m == "Controller::step")
+        })
+    {
         let name = v["name"].as_str().ok_or("a variant without a name")?;
         let mut row = format!("| {} |", variant_label(name));
         for key in [

@@ -48,6 +48,8 @@ pub fn is_controller_data(name: &str) -> bool {
         "<controller_core::",
         "libm::",
         "micromath::",
+        "agent_node::",
+        "<agent_node::",
     ]
     .iter()
     .any(|p| name.starts_with(p))
@@ -75,8 +77,18 @@ struct Function {
     size: u64,
 }
 
+/// The entries of the `node` variant's call graphs: a node's tick and its construction.
+pub const NODE_ENTRIES: (&str, &str) = ("bench_fw::node::tick_entry", "bench_fw::node::new_entry");
+
 /// Sums the controller's code and data in the ELF `data`.
 pub fn controller_flash(data: &[u8]) -> Result<Flash> {
+    flash_from(data, (ENTRY, CONFIG_ENTRY))
+}
+
+/// Sums the code and data reached from `entries` (the measured call, the construction) in the
+/// ELF `data`.
+pub fn flash_from(data: &[u8], entries: (&str, &str)) -> Result<Flash> {
+    let (entry, config_entry) = entries;
     let file = object::File::parse(data).map_err(|e| format!("cannot parse the ELF: {e}"))?;
     let mut functions: BTreeMap<u64, Function> = BTreeMap::new();
     // Mapping symbols: address → true for data ($d), false for code ($t).
@@ -154,8 +166,8 @@ pub fn controller_flash(data: &[u8]) -> Result<Flash> {
         }
         Ok(reached)
     };
-    let step = reach(ENTRY)?;
-    let config: BTreeSet<u64> = reach(CONFIG_ENTRY)?.difference(&step).copied().collect();
+    let step = reach(entry)?;
+    let config: BTreeSet<u64> = reach(config_entry)?.difference(&step).copied().collect();
     let counted = |set: &BTreeSet<u64>| -> Vec<Counted> {
         set.iter()
             .filter_map(|a| functions.get(a))

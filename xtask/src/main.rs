@@ -1,14 +1,15 @@
 //! Project tasks, run as `cargo xtask <task>` (the alias lives in `.cargo/config.toml`).
 //!
-//! * `bench-target`: the cost of one `Controller::step` on a Cortex-M4F: builds `bench-fw` per
-//!   variant, runs it on QEMU `mps2-an386` with `-icount shift=0`, reads instructions per step
-//!   (min / median / max), peak stack and state size from its semihosting output and the
-//!   controller's flash from the ELF's symbol sizes; writes `target/bench/step.json` and prints
-//!   a table.
+//! * `bench-target`: the cost of one `Controller::step` (and of a node's `Node::tick`) on every
+//!   Cortex-M class: builds `bench-fw` per core and variant, runs it on the core's QEMU machine
+//!   with `-icount shift=0`, reads instructions per step (min / median / max), peak stack and
+//!   state size from its semihosting output and the controller's flash from the ELF's symbol
+//!   sizes; writes `target/bench/step.json` and prints a table; then measures the cores without
+//!   an FPU further (`softfloat.rs`: operations, profile) into `target/bench/softfloat.json`.
 //! * `bench-gate`: `bench-target`, then fails when a variant's median or maximum instructions,
 //!   stack, step flash, configuration flash or state size are more than the budget's tolerance
-//!   (10 %) above `bench-fw/budget.json`, when an Example 1 variant's stack exceeds 512 B or
-//!   its step plus configuration flash exceeds 16 KiB, or when a replayed step faulted; it
+//!   (10 %) above `bench-fw/budget.json`, when an Example 1 step variant on a core with an FPU
+//!   has a stack above 512 B or a step plus configuration flash above 16 KiB, or when a replayed step faulted; it
 //!   prints the reasons the budget gives for raised figures. `--update-budget` rewrites the
 //!   budget and refuses a figure raised beyond the tolerance without `--reason` (details:
 //!   `gate.rs`).
@@ -30,6 +31,7 @@ mod board;
 mod docs;
 mod flash;
 mod gate;
+mod softfloat;
 mod target;
 mod trace;
 mod vm;
@@ -44,14 +46,17 @@ usage: cargo xtask <task> [options]
 
 tasks:
   bench-target [--verbose]
-      build bench-fw for each variant, run it on QEMU mps2-an386 (-icount shift=0), write
-      target/bench/step.json and print a table
+      build bench-fw for each core and variant, run it on the core's QEMU machine (-icount
+      shift=0: microbit Cortex-M0, mps2-an385 M3, mps2-an386 M4F, mps2-an500 M7, mps2-an505
+      M33), write target/bench/step.json and print a table; then, on the cores without an
+      FPU, the instructions per f32 / fixed-point operation and the soft-float step's profile
+      (target/bench/softfloat.json)
   bench-gate [--no-run] [--update-budget [--reason TEXT]]
       bench-target (unless --no-run), then fail if
         - a variant's instructions (median, max), stack, step flash, configuration flash or
           state bytes exceed bench-fw/budget.json by more than its tolerance (10 %);
-        - an Example 1 (n2m2) variant's stack exceeds 512 B, or its step flash plus
-          configuration flash exceeds 16 KiB (16,384 B);
+        - an Example 1 (n2m2) step variant on a core with an FPU has a stack above 512 B,
+          or its step flash plus configuration flash exceeds 16 KiB (16,384 B);
         - a variant faulted on a step, ran no step or is missing;
       and print every reason the budget gives for a raised figure.
       --update-budget writes the budget from the measured figures instead; a figure above
@@ -192,10 +197,22 @@ pub fn cargo() -> String {
 /// of its fingerprints, so `target_dir` must hold no build made without these flags: it is a
 /// directory of its own, not the crate's `target`.
 pub fn firmware_build(dir: &Path, target_dir: &Path) -> std::process::Command {
+    firmware_build_for(dir, target_dir, "thumbv7em-none-eabihf")
+}
+
+/// [`firmware_build`] for the Rust target `triple` (passed as `--target`).
+pub fn firmware_build_for(dir: &Path, target_dir: &Path, triple: &str) -> std::process::Command {
     let mut c = std::process::Command::new(cargo());
     c.current_dir(dir)
-        .args(["build", "--release", "--locked", "--config"])
-        .arg(remap_config())
+        .args([
+            "build",
+            "--release",
+            "--locked",
+            "--target",
+            triple,
+            "--config",
+        ])
+        .arg(remap_config(triple))
         .arg("--target-dir")
         .arg(target_dir)
         .env_remove("RUSTFLAGS")
@@ -207,7 +224,7 @@ pub fn firmware_build(dir: &Path, target_dir: &Path) -> std::process::Command {
 
 /// The `--config` value that adds the path remapping of [`firmware_build`] to the target's
 /// `rustflags` (cargo appends it to those of the crate's `.cargo/config.toml`).
-fn remap_config() -> String {
+fn remap_config(triple: &str) -> String {
     let cargo_home = std::env::var_os("CARGO_HOME")
         .map(PathBuf::from)
         .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cargo")));
@@ -220,9 +237,19 @@ fn remap_config() -> String {
     }
     // A JSON array of strings is a TOML inline array.
     format!(
-        "target.thumbv7em-none-eabihf.rustflags={}",
+        "target.{}.rustflags={}",
+        toml_key(triple),
         serde_json::Value::from(flags)
     )
+}
+
+/// A target triple as a TOML key: quoted when it holds a dot (`thumbv8m.main-none-eabihf`).
+fn toml_key(triple: &str) -> String {
+    if triple.contains('.') {
+        format!("\"{triple}\"")
+    } else {
+        triple.to_owned()
+    }
 }
 
 /// Result type of the tasks: a message for the user.

@@ -1,6 +1,7 @@
-//! `cargo xtask bench-target`: build `bench-fw` per variant, run it on QEMU, collect the figures.
+//! `cargo xtask bench-target`: build `bench-fw` per core and variant, run it on QEMU, collect
+//! the figures.
 
-use crate::{bench_dir, firmware_build, flash, trace, workspace_root, Options, Result};
+use crate::{bench_dir, firmware_build_for, flash, trace, workspace_root, Options, Result};
 use serde_json::{json, Value};
 use std::{
     fs,
@@ -10,14 +11,76 @@ use std::{
     time::{Duration, Instant},
 };
 
-/// The firmware target.
-pub const TARGET: &str = "thumbv7em-none-eabihf";
-/// The QEMU invocation (the ELF follows `-kernel`).
-pub const QEMU_ARGS: [&str; 14] = [
-    "-M",
-    "mps2-an386",
-    "-cpu",
-    "cortex-m4",
+/// A Cortex-M class: its Rust target and the QEMU 7.2 machine that runs it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Core {
+    /// `cortex-m0`, …: the `core` of each variant in `step.json`.
+    pub id: &'static str,
+    /// The Rust target.
+    pub target: &'static str,
+    /// The QEMU machine (`-M`).
+    pub machine: &'static str,
+    /// `-cpu`, when the machine's default is not meant.
+    pub cpu: Option<&'static str>,
+    /// SysTick's clock (the machine's core clock), MHz: with `-icount shift=0` one tick is
+    /// `1000 / clock_mhz` instructions. The firmware's calibration loop checks it.
+    pub clock_mhz: u64,
+    /// Whether the core has a single-precision FPU (else every `f32` operation is a call).
+    pub fpu: bool,
+}
+
+/// Cortex-M0 on the BBC micro:bit's nRF51822 (256 KiB flash, 16 KiB RAM; 16 MHz).
+pub const CORTEX_M0: Core = Core {
+    id: "cortex-m0",
+    target: "thumbv6m-none-eabi",
+    machine: "microbit",
+    cpu: None,
+    clock_mhz: 16,
+    fpu: false,
+};
+/// Cortex-M3 on the MPS2 FPGA image AN385 (25 MHz).
+pub const CORTEX_M3: Core = Core {
+    id: "cortex-m3",
+    target: "thumbv7m-none-eabi",
+    machine: "mps2-an385",
+    cpu: None,
+    clock_mhz: 25,
+    fpu: false,
+};
+/// Cortex-M4F on the MPS2 FPGA image AN386 (25 MHz).
+pub const CORTEX_M4F: Core = Core {
+    id: "cortex-m4f",
+    target: "thumbv7em-none-eabihf",
+    machine: "mps2-an386",
+    cpu: Some("cortex-m4"),
+    clock_mhz: 25,
+    fpu: true,
+};
+/// Cortex-M7 on the MPS2 FPGA image AN500 (25 MHz).
+pub const CORTEX_M7: Core = Core {
+    id: "cortex-m7",
+    target: "thumbv7em-none-eabihf",
+    machine: "mps2-an500",
+    cpu: None,
+    clock_mhz: 25,
+    fpu: true,
+};
+/// Cortex-M33 (with FPU) on the MPS2 FPGA image AN505 (SSE-200; 20 MHz), run in the Secure
+/// state it starts in.
+pub const CORTEX_M33: Core = Core {
+    id: "cortex-m33",
+    target: "thumbv8m.main-none-eabihf",
+    machine: "mps2-an505",
+    cpu: None,
+    clock_mhz: 20,
+    fpu: true,
+};
+
+/// Every measured core, smallest first.
+pub const CORES: [Core; 5] = [CORTEX_M0, CORTEX_M3, CORTEX_M4F, CORTEX_M7, CORTEX_M33];
+
+/// The QEMU options after `-M machine [-cpu cpu]` (the ELF follows `-kernel`).
+pub const QEMU_ARGS: [&str; 10] = [
     "-nographic",
     "-monitor",
     "none",
@@ -32,48 +95,67 @@ pub const QEMU_ARGS: [&str; 14] = [
 const QEMU: &str = "qemu-system-arm";
 /// A run that takes longer than this is killed (a healthy one takes seconds).
 const QEMU_TIMEOUT: Duration = Duration::from_secs(600);
+/// How far the calibration loop's ticks may sit from the instructions it runs.
+const CALIBRATION_TOLERANCE: f64 = 0.01;
 
-/// One benchmark variant: a name and the firmware's cargo features.
+/// One benchmark variant: a name, the firmware's cargo features and the core it runs on.
 #[derive(Debug, Clone, Copy)]
 pub struct Variant {
     pub name: &'static str,
     pub features: &'static str,
     pub n3: bool,
+    pub core: Core,
 }
 
-/// The benchmark variants: Example 1's agent (`n = m = 2`) per per-step math back-end, the
-/// prescribed-time baseline and `[safety]` on, and `n = m = 3`.
-pub const VARIANTS: [Variant; 6] = [
+impl Variant {
+    /// Whether it times a node's whole tick rather than the step.
+    pub fn is_node(&self) -> bool {
+        self.features.split(',').any(|f| f == "node")
+    }
+}
+
+const fn variant(name: &'static str, features: &'static str, core: Core) -> Variant {
     Variant {
-        name: "libm-n2m2",
-        features: "libm",
+        name,
+        features,
         n3: false,
-    },
-    Variant {
-        name: "micromath-n2m2",
-        features: "micromath",
-        n3: false,
-    },
-    Variant {
-        name: "fast-math-n2m2",
-        features: "fast-math",
-        n3: false,
-    },
-    Variant {
-        name: "baseline-n2m2",
-        features: "libm,baseline",
-        n3: false,
-    },
+        core,
+    }
+}
+
+/// The benchmark variants. On the Cortex-M4F (names without a core prefix): Example 1's agent
+/// (`n = m = 2`) per per-step math back-end, the prescribed-time baseline, `[safety]` on, and
+/// `n = m = 3`. On every other core: Example 1's agent per math back-end. On every core: the
+/// whole node's tick (`node-n2m2`, agent-node's `Node::tick` around the `libm` step).
+pub const VARIANTS: [Variant; 23] = [
+    variant("libm-n2m2", "libm", CORTEX_M4F),
+    variant("micromath-n2m2", "micromath", CORTEX_M4F),
+    variant("fast-math-n2m2", "fast-math", CORTEX_M4F),
+    variant("baseline-n2m2", "libm,baseline", CORTEX_M4F),
     Variant {
         name: "libm-n3m3",
         features: "libm,n3",
         n3: true,
+        core: CORTEX_M4F,
     },
-    Variant {
-        name: "safety-n2m2",
-        features: "libm,safety",
-        n3: false,
-    },
+    variant("safety-n2m2", "libm,safety", CORTEX_M4F),
+    variant("node-n2m2", "libm,node", CORTEX_M4F),
+    variant("cortex-m0-node-n2m2", "libm,node", CORTEX_M0),
+    variant("cortex-m3-node-n2m2", "libm,node", CORTEX_M3),
+    variant("cortex-m7-node-n2m2", "libm,node", CORTEX_M7),
+    variant("cortex-m33-node-n2m2", "libm,node", CORTEX_M33),
+    variant("cortex-m0-libm-n2m2", "libm", CORTEX_M0),
+    variant("cortex-m0-micromath-n2m2", "micromath", CORTEX_M0),
+    variant("cortex-m0-fast-math-n2m2", "fast-math", CORTEX_M0),
+    variant("cortex-m3-libm-n2m2", "libm", CORTEX_M3),
+    variant("cortex-m3-micromath-n2m2", "micromath", CORTEX_M3),
+    variant("cortex-m3-fast-math-n2m2", "fast-math", CORTEX_M3),
+    variant("cortex-m7-libm-n2m2", "libm", CORTEX_M7),
+    variant("cortex-m7-micromath-n2m2", "micromath", CORTEX_M7),
+    variant("cortex-m7-fast-math-n2m2", "fast-math", CORTEX_M7),
+    variant("cortex-m33-libm-n2m2", "libm", CORTEX_M33),
+    variant("cortex-m33-micromath-n2m2", "micromath", CORTEX_M33),
+    variant("cortex-m33-fast-math-n2m2", "fast-math", CORTEX_M33),
 ];
 
 /// The figures of one variant.
@@ -90,6 +172,8 @@ pub struct Figures {
     pub state: u64,
     pub mutable_state: u64,
     pub faults: u64,
+    /// The firmware's `BENCH` line.
+    pub line: String,
 }
 
 /// Runs the whole benchmark; returns the `step.json` document.
@@ -109,13 +193,17 @@ pub fn bench_target(opts: &Options) -> Result<Value> {
         let trace_file = if v.n3 { &trace_n3 } else { &trace_n2 };
         eprintln!("bench: variant {}/{}: {}", k + 1, VARIANTS.len(), v.name);
         let elf = build(&v, trace_file, &dir)?;
-        eprintln!("bench: running {} on QEMU", v.name);
-        let output = run_qemu(&elf)?;
-        let fig = parse_output(&output).map_err(|e| format!("{}: {e}\n{output}", v.name))?;
+        eprintln!("bench: running {} on QEMU {}", v.name, v.core.machine);
+        let output = run_qemu(&v.core, &elf, &[])?;
+        let fig = parse_output(&output, &v.core).map_err(|e| format!("{}: {e}", v.name))?;
         let data = fs::read(&elf).map_err(|e| format!("{}: {e}", elf.display()))?;
-        let fl = flash::controller_flash(&data)?;
+        let fl = if v.is_node() {
+            flash::flash_from(&data, flash::NODE_ENTRIES)?
+        } else {
+            flash::controller_flash(&data)?
+        };
         if opts.verbose {
-            eprintln!("{}: {}", v.name, output.trim());
+            eprintln!("{}: {}", v.name, fig.line);
             for s in &fl.symbols {
                 eprintln!("  {:>6}  {}", s.size, s.name);
             }
@@ -126,9 +214,13 @@ pub fn bench_target(opts: &Options) -> Result<Value> {
                 v.name, fig.faults
             );
         }
-        rows.push((v.name, fig.clone(), fl.total, fl.config_total));
+        rows.push((v, fig.clone(), fl.total, fl.config_total));
         variants.push(json!({
             "name": v.name,
+            "measures": if v.is_node() { "Node::tick" } else { "Controller::step" },
+            "core": v.core.id,
+            "target": v.core.target,
+            "machine": v.core.machine,
             "instructions_min": fig.min,
             "instructions_median": fig.median,
             "instructions_max": fig.max,
@@ -141,19 +233,17 @@ pub fn bench_target(opts: &Options) -> Result<Value> {
             "mutable_state_bytes": fig.mutable_state,
             "features": v.features,
             "steps": fig.steps,
+            "reps": fig.reps,
             "faulted_steps": fig.faults,
             "flash_symbols": fl.symbols.iter().map(|s| json!({"name": s.name, "bytes": s.size})).collect::<Vec<_>>(),
             "flash_config_symbols": fl.config_symbols.iter().map(|s| json!({"name": s.name, "bytes": s.size})).collect::<Vec<_>>(),
         }));
     }
     let doc = json!({
-        "machine": "QEMU mps2-an386 (Cortex-M4F), -icount shift=0",
-        "units": "instructions executed per Controller::step call (QEMU models no cycle timing); stack and flash in bytes; state_bytes = size_of Controller (settings + state), mutable_state_bytes = size_of State",
-        "method": format!(
-            "SysTick at 25 MHz = 1 tick per 40 instructions; each step timed {} times on copies of the same state, minus the copy loop, so the resolution is 80/{} instructions; peak stack by painting below the caller's SP; flash = sizes of the ELF symbols of step and its callees (controller_core, libm, micromath); flash_config = those of Controller::new and its callees not counted for the step",
-            rows.first().map_or(0, |r| r.1.reps),
-            rows.first().map_or(0, |r| r.1.reps)
-        ),
+        "machine": "QEMU mps2-an386 (Cortex-M4F), -icount shift=0; the other cores' variants name their own (`core`, `target`, `machine`)",
+        "units": "instructions executed per Controller::step call (per Node::tick for the node variants, `measures`) (QEMU models no cycle timing); stack and flash in bytes; state_bytes = size_of Controller (settings + state), mutable_state_bytes = size_of State",
+        "method": "SysTick at the machine's core clock f (25 MHz on MPS2, 20 MHz on AN505, 16 MHz on the micro:bit; checked by a calibration loop of known length) = 1 tick per 1000/f_MHz instructions; each step timed `reps` times (40 with an FPU, 4 without) on copies of the same state, minus the copy loop, so the resolution is 2·1000/f_MHz/reps instructions; peak stack by painting below the caller's SP; flash = sizes of the ELF symbols of step and its callees (controller_core, libm, micromath, the soft-float routines); flash_config = those of Controller::new and its callees not counted for the step",
+        "cores": CORES.iter().map(|c| json!({"core": c.id, "target": c.target, "machine": c.machine, "clock_mhz": c.clock_mhz, "fpu": c.fpu})).collect::<Vec<_>>(),
         "trace": trace.source,
         "qemu_version": qemu_version(),
         "variants": variants,
@@ -163,6 +253,7 @@ pub fn bench_target(opts: &Options) -> Result<Value> {
     fs::write(&path, text + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
     print_table(&rows);
     println!("wrote {}", path.display());
+    crate::softfloat::run(&trace_n2, &dir)?;
     Ok(doc)
 }
 
@@ -174,10 +265,14 @@ pub fn check_prerequisites() -> Result<()> {
             "`{QEMU}` is not on PATH (Debian/Ubuntu: `sudo apt-get install qemu-system-arm`)"
         ));
     }
-    if !target_installed() {
-        missing.push(format!(
-            "the Rust target `{TARGET}` is not installed (`rustup target add {TARGET}`)"
-        ));
+    let mut targets: Vec<&str> = CORES.iter().map(|c| c.target).collect();
+    targets.dedup();
+    for target in targets {
+        if !target_installed(target) {
+            missing.push(format!(
+                "the Rust target `{target}` is not installed (`rustup target add {target}`)"
+            ));
+        }
     }
     if missing.is_empty() {
         Ok(())
@@ -197,10 +292,10 @@ fn find_in_path(program: &str) -> Option<PathBuf> {
 }
 
 /// The target's `core` is in the sysroot.
-fn target_installed() -> bool {
+fn target_installed(target: &str) -> bool {
     let rustc = std::env::var("RUSTC").unwrap_or_else(|_| "rustc".to_owned());
     let out = Command::new(rustc)
-        .args(["--print", "target-libdir", "--target", TARGET])
+        .args(["--print", "target-libdir", "--target", target])
         .current_dir(workspace_root().join("bench-fw"))
         .output();
     let Ok(out) = out else { return false };
@@ -224,34 +319,78 @@ fn qemu_version() -> String {
 }
 
 /// Builds the firmware for `v`; returns a copy of its ELF named after the variant.
-fn build(v: &Variant, trace: &Path, dir: &Path) -> Result<PathBuf> {
+pub fn build(v: &Variant, trace: &Path, dir: &Path) -> Result<PathBuf> {
     let fw = workspace_root().join("bench-fw");
-    let target_dir = dir.join("fw-remapped");
-    eprintln!("building {} (features {})", v.name, v.features);
-    let status = firmware_build(&fw, &target_dir)
+    // One target directory per machine: the memory map is a build input cargo does not
+    // fingerprint beyond the build script's rerun, and the M4F and M7 share a target.
+    let target_dir = dir.join("fw-remapped").join(v.core.machine);
+    eprintln!(
+        "building {} (features {}, {})",
+        v.name, v.features, v.core.target
+    );
+    let status = firmware_build_for(&fw, &target_dir, v.core.target)
         .args(["--no-default-features", "--features", v.features])
         .env("BENCH_TRACE", trace)
+        .env("BENCH_MACHINE", v.core.machine)
         .status()
         .map_err(|e| format!("cannot run cargo: {e}"))?;
     if !status.success() {
         return Err(format!("building bench-fw ({}) failed", v.name));
     }
-    let built = target_dir.join(TARGET).join("release").join("bench-fw");
+    let built = target_dir
+        .join(v.core.target)
+        .join("release")
+        .join("bench-fw");
     let elf = dir.join(format!("{}.elf", v.name));
     fs::copy(&built, &elf).map_err(|e| format!("{} → {}: {e}", built.display(), elf.display()))?;
     Ok(elf)
 }
 
-/// Runs the firmware on QEMU and returns its semihosting output.
-fn run_qemu(elf: &Path) -> Result<String> {
+/// The QEMU arguments for `core`, up to `-kernel` (the ELF follows).
+pub fn qemu_args(core: &Core) -> Vec<&'static str> {
+    let mut args = vec!["-M", core.machine];
+    if let Some(cpu) = core.cpu {
+        args.extend(["-cpu", cpu]);
+    }
+    args.extend(QEMU_ARGS);
+    args
+}
+
+/// Runs the firmware on QEMU (with the `extra` options before `-kernel`) and returns its
+/// semihosting output.
+pub fn run_qemu(core: &Core, elf: &Path, extra: &[&str]) -> Result<String> {
+    let args = qemu_args(core);
+    let (options, kernel) = args.split_at(args.len() - 1);
     let mut child = Command::new(QEMU)
-        .args(QEMU_ARGS)
+        .args(options)
+        .args(extra)
+        .args(kernel)
         .arg(elf)
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
         .map_err(|e| format!("cannot start {QEMU}: {e}"))?;
+    // Read while QEMU runs: the per-step lines fill a pipe's buffer many times over.
+    let readers = [
+        child
+            .stdout
+            .take()
+            .map(|s| Box::new(s) as Box<dyn Read + Send>),
+        child
+            .stderr
+            .take()
+            .map(|s| Box::new(s) as Box<dyn Read + Send>),
+    ]
+    .map(|pipe| {
+        std::thread::spawn(move || {
+            let mut text = String::new();
+            if let Some(mut p) = pipe {
+                let _ = p.read_to_string(&mut text);
+            }
+            text
+        })
+    });
     let start = Instant::now();
     let status = loop {
         if let Some(s) = child.try_wait().map_err(|e| e.to_string())? {
@@ -268,14 +407,7 @@ fn run_qemu(elf: &Path) -> Result<String> {
         }
         std::thread::sleep(Duration::from_millis(50));
     };
-    let mut out = String::new();
-    let mut err = String::new();
-    if let Some(mut s) = child.stdout.take() {
-        let _ = s.read_to_string(&mut out);
-    }
-    if let Some(mut s) = child.stderr.take() {
-        let _ = s.read_to_string(&mut err);
-    }
+    let [out, err] = readers.map(|r| r.join().unwrap_or_default());
     if !status.success() {
         return Err(format!(
             "{QEMU} exited with {status} on {}:\n{out}{err}",
@@ -285,51 +417,96 @@ fn run_qemu(elf: &Path) -> Result<String> {
     Ok(out)
 }
 
-/// Reads the firmware's `BENCH key=value …` line.
-pub fn parse_output(output: &str) -> Result<Figures> {
+/// Checks the machine's assumed SysTick clock against the calibration loop of `calib_insns`
+/// instructions that took `calib_ticks` ticks.
+pub fn check_calibration(core: &Core, calib_ticks: u64, calib_insns: u64) -> Result<()> {
+    let mhz = core.clock_mhz;
+    // Instructions of `t` ticks: t · 1000 / f_MHz (1 ns per instruction).
+    let calibrated = calib_ticks * 1000 / mhz;
+    if (calibrated as f64 - calib_insns as f64).abs() > CALIBRATION_TOLERANCE * calib_insns as f64 {
+        return Err(format!(
+            "{}: the calibration loop of {calib_insns} instructions took {calib_ticks} SysTick \
+             ticks, {calibrated} instructions at the assumed {mhz} MHz: the clock is wrong",
+            core.machine
+        ));
+    }
+    Ok(())
+}
+
+/// Reads the firmware's output: one `T <ticks>` line per step, then the `BENCH key=value …`
+/// line; turns ticks into instructions at `core`'s clock after checking it against the
+/// calibration loop.
+pub fn parse_output(output: &str, core: &Core) -> Result<Figures> {
     let line = output
         .lines()
         .find(|l| l.starts_with("BENCH "))
-        .ok_or("the firmware printed no BENCH line")?;
-    let mut f = Figures::default();
-    for kv in line.split_whitespace().skip(1) {
-        let (k, v) = kv
-            .split_once('=')
-            .ok_or_else(|| format!("bad field `{kv}`"))?;
-        let v: u64 = v.parse().map_err(|_| format!("bad value in `{kv}`"))?;
-        match k {
-            "steps" => f.steps = v,
-            "reps" => f.reps = v,
-            "min" => f.min = v,
-            "median" => f.median = v,
-            "max" => f.max = v,
-            "mean" => f.mean = v,
-            "coarse_mean" => f.coarse_mean = v,
-            "stack" => f.stack = v,
-            "state" => f.state = v,
-            "mutable_state" => f.mutable_state = v,
-            "faults" => f.faults = v,
-            _ => {}
-        }
+        .ok_or_else(|| format!("the firmware printed no BENCH line:\n{output}"))?;
+    let field = |key: &str| -> Result<u64> {
+        line.split_whitespace()
+            .skip(1)
+            .find_map(|kv| kv.strip_prefix(key).and_then(|r| r.strip_prefix('=')))
+            .ok_or_else(|| format!("the BENCH line has no `{key}`"))?
+            .parse()
+            .map_err(|_| format!("the BENCH line's `{key}` is not a number"))
+    };
+    let ticks: Vec<u64> = output
+        .lines()
+        .filter_map(|l| l.strip_prefix("T "))
+        .map(|t| {
+            t.trim()
+                .parse()
+                .map_err(|_| format!("bad step line `T {t}`"))
+        })
+        .collect::<Result<_>>()?;
+    let steps = field("steps")?;
+    if steps == 0 || ticks.len() as u64 != steps {
+        return Err(format!(
+            "the firmware ran {steps} steps but reported {} step timings",
+            ticks.len()
+        ));
     }
-    if f.steps == 0 {
-        return Err("the firmware ran no step".into());
-    }
-    Ok(f)
+    let (reps, overhead) = (field("reps")?, field("overhead_ticks")?);
+    check_calibration(core, field("calib_ticks")?, field("calib_insns")?)?;
+    let mhz = core.clock_mhz;
+    let per = mhz * reps;
+    let mut counts: Vec<u64> = ticks
+        .iter()
+        .map(|t| (t.saturating_sub(overhead) * 1000 + per / 2) / per)
+        .collect();
+    let mean = counts.iter().sum::<u64>() / steps;
+    counts.sort_unstable();
+    let at = |i: usize| counts.get(i).copied().unwrap_or_default();
+    Ok(Figures {
+        steps,
+        reps,
+        min: at(0),
+        median: at(counts.len() / 2),
+        max: at(counts.len() - 1),
+        mean,
+        coarse_mean: field("coarse_ticks")? * 1000 / (mhz * steps),
+        stack: field("stack")?,
+        state: field("state")?,
+        mutable_state: field("mutable_state")?,
+        faults: field("faults")?,
+        line: line.to_owned(),
+    })
 }
 
-fn print_table(rows: &[(&str, Figures, u64, u64)]) {
+fn print_table(rows: &[(Variant, Figures, u64, u64)]) {
     println!(
-        "{:<16} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>8}",
+        "{:<26} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>8}",
         "variant", "min", "median", "max", "stack B", "flash B", "+config", "state B"
     );
-    for (name, f, flash, config) in rows {
+    for (v, f, flash, config) in rows {
         println!(
-            "{:<16} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>8}",
-            name, f.min, f.median, f.max, f.stack, flash, config, f.state
+            "{:<26} {:>8} {:>8} {:>8} {:>8} {:>8} {:>9} {:>8}",
+            v.name, f.min, f.median, f.max, f.stack, flash, config, f.state
         );
     }
-    println!("(instructions per Controller::step on QEMU mps2-an386, Cortex-M4F; not cycles)");
+    println!(
+        "(instructions per Controller::step on QEMU, -icount shift=0; not cycles. Unprefixed: \
+         Cortex-M4F on mps2-an386)"
+    );
 }
 
 #[cfg(test)]
@@ -337,11 +514,30 @@ mod tests {
     use super::*;
 
     #[test]
-    fn parses_the_bench_line() {
-        let out = "noise\nBENCH steps=10 reps=40 min=1 median=2 max=3 stack=4 state=5 faults=0 mean=2 coarse_mean=2 overhead_ticks=9\n";
-        let f = parse_output(out).unwrap_or_default();
-        assert_eq!((f.steps, f.min, f.median, f.max), (10, 1, 2, 3));
-        assert_eq!((f.stack, f.state), (4, 5));
-        assert!(parse_output("nothing").is_err());
+    fn parses_the_step_lines_and_the_bench_line() {
+        // 25 MHz, 40 reps: (ticks − overhead) · 40 / 40 instructions.
+        let out = "noise\nT 19\nT 12\nT 14\nBENCH steps=3 reps=40 stack=4 state=5 mutable_state=3 faults=0 overhead_ticks=9 coarse_ticks=3 calib_ticks=25000 calib_insns=1000000\n";
+        let f = parse_output(out, &CORTEX_M4F).unwrap_or_default();
+        assert_eq!((f.steps, f.min, f.median, f.max, f.mean), (3, 3, 5, 10, 6));
+        assert_eq!((f.stack, f.state, f.coarse_mean), (4, 5, 40));
+        assert!(parse_output("nothing", &CORTEX_M4F).is_err());
+        // A step line missing, or a clock that is not the machine's, is an error.
+        assert!(parse_output(&out.replace("T 14\n", ""), &CORTEX_M4F).is_err());
+        assert!(parse_output(out, &CORTEX_M33).is_err());
+    }
+
+    #[test]
+    fn every_core_has_variants_and_the_m4f_names_are_unprefixed() {
+        for c in CORES {
+            assert!(VARIANTS.iter().any(|v| v.core == c), "{}", c.id);
+        }
+        for v in VARIANTS {
+            assert_eq!(
+                v.core == CORTEX_M4F,
+                !v.name.starts_with("cortex-"),
+                "{}",
+                v.name
+            );
+        }
     }
 }
