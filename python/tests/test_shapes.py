@@ -36,6 +36,7 @@ def test_polars_reads_the_trajectory_as_columns(tr):
     assert df.shape == (1000, 58) and df.columns == tr.columns
     assert df["q1_1"].dtype == pl.Float32
     assert tr.to_polars().equals(df)
+    assert np.shares_memory(df["q1_1"].to_numpy(), tr["q1_1"]), "polars copied"
 
 
 def test_stacked_arrays_are_agents_by_quantity_by_samples(tr):
