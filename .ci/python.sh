@@ -4,7 +4,11 @@
 # pyo3 extension with cargo, release profile) in a virtual environment, the pytest suite in
 # python/tests (against the host-sim binary: summary, trajectory, files, sweep, Controller,
 # errors through pickle and a process pool, Ctrl-C in a child process, Parquet vs CSV with
-# pyarrow), and the example notebooks executed headless with nbclient.
+# pyarrow), and the example notebooks executed headless with nbclient. The Python part takes
+# about 33 s on the 2-core machine (pytest 11 s; notebooks: example1 7 s, example2 7 s, study
+# 8 s), against 16 s before the study and Example 2 notebooks; the rest is the release build of
+# the extension and host-sim (34 min when cold at load 11, as measured on 2026-12-04; it shares
+# the release artifacts of the stages before it in .ci/run).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 start=$SECONDS
