@@ -607,3 +607,76 @@ pub fn stable_h(
         trials,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use super::{run, RunRequest, Watch};
+    use crate::{error::Error, scenario, Result};
+
+    fn example1(t_end: f64) -> Result<scenario::Setup> {
+        scenario::parse(
+            include_str!("../../scenarios/example1.toml"),
+            &[format!("simulation.t_end={t_end}")],
+        )
+    }
+
+    #[test]
+    fn a_stopped_watch_ends_the_run_before_any_file_is_in_place() -> Result<()> {
+        let setup = example1(1.0)?;
+        let dir = std::env::temp_dir().join(format!("host-sim-watch-{}", std::process::id()));
+        let mut opts = RunRequest {
+            out: Some(dir.clone()),
+            ..RunRequest::default()
+        }
+        .options(&setup)?;
+        let watch = Arc::new(Watch::default());
+        opts.watch = Some(Arc::clone(&watch));
+        watch.stop();
+        assert_eq!(run(&setup, &opts).err(), Some(Error::Interrupted));
+        let left: Vec<_> = std::fs::read_dir(&dir)
+            .map_err(|e| Error::io(&dir, e))?
+            .collect();
+        let _ = std::fs::remove_dir_all(&dir);
+        assert!(left.is_empty(), "{left:?}");
+        Ok(())
+    }
+
+    #[test]
+    fn a_watch_counts_the_samples_of_a_run() -> Result<()> {
+        let setup = example1(0.5)?;
+        let mut opts = RunRequest::default().options(&setup)?;
+        let watch = Arc::new(Watch::default());
+        opts.watch = Some(Arc::clone(&watch));
+        run(&setup, &opts)?;
+        assert_eq!(watch.done(), 500);
+        Ok(())
+    }
+
+    #[test]
+    fn the_size_limit_applies_where_the_trajectory_goes() -> Result<()> {
+        // 7,000 s of Example 1: trajectory.csv about 5.85 GB, the columns about 2.24 GB.
+        let setup = example1(7000.0)?;
+        let file = RunRequest {
+            out: Some("unused".into()),
+            ..RunRequest::default()
+        };
+        let memory = RunRequest {
+            table: true,
+            ..RunRequest::default()
+        };
+        let message = |r: RunRequest| r.options(&setup).err().map(|e| e.to_string());
+        assert!(message(file.clone()).is_some_and(|m| m.contains("trajectory.csv would take")));
+        assert!(message(memory.clone()).is_some_and(|m| m.contains("kept in memory")));
+        assert_eq!(message(RunRequest::default()), None);
+        for forced in [file, memory] {
+            let forced = RunRequest {
+                force: true,
+                ..forced
+            };
+            assert_eq!(message(forced), None);
+        }
+        Ok(())
+    }
+}
