@@ -12,6 +12,8 @@ pub enum Error {
     Io(String),
     /// Several independent problems of one scenario, each reported on its own line.
     Several(Vec<Error>),
+    /// Stopped at the caller's request ([`crate::run::Watch::stop`]) before the end.
+    Interrupted,
 }
 
 impl Error {
@@ -25,11 +27,13 @@ impl Error {
         Self::Io(format!("{}: {err}", path.display()))
     }
 
-    /// Process exit status of docs/SCENARIO.md §1: 2 invalid, 1 I/O.
+    /// Process exit status of docs/SCENARIO.md §1: 2 invalid, 1 I/O (130 interrupted, as a
+    /// shell reports SIGINT).
     pub fn exit_code(&self) -> u8 {
         match self {
             Self::Invalid(_) => 2,
             Self::Io(_) => 1,
+            Self::Interrupted => 130,
             Self::Several(all) => all.iter().map(Self::exit_code).max().unwrap_or(2),
         }
     }
@@ -38,6 +42,7 @@ impl Error {
     pub fn message(&self) -> String {
         match self {
             Self::Invalid(m) | Self::Io(m) => m.clone(),
+            Self::Interrupted => "interrupted".into(),
             Self::Several(all) => all.iter().map(Self::message).collect::<Vec<_>>().join("; "),
         }
     }
@@ -103,6 +108,7 @@ impl fmt::Display for Error {
             Self::Invalid(m) if m.starts_with("--") => write!(f, "invalid option: {}", one_line(m)),
             Self::Invalid(m) => write!(f, "invalid scenario: {}", one_line(m)),
             Self::Io(m) => write!(f, "I/O error: {}", one_line(m)),
+            Self::Interrupted => f.write_str("interrupted"),
             Self::Several(all) => {
                 for (i, e) in all.iter().enumerate() {
                     if i > 0 {

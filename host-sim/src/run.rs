@@ -1,7 +1,14 @@
 //! Commands on top of the loop: one run with its outputs, the stable-`h` search and the
 //! comparison of two scenarios.
 
-use std::{io::IsTerminal, path::PathBuf};
+use std::{
+    io::IsTerminal,
+    path::PathBuf,
+    sync::{
+        atomic::{AtomicBool, AtomicU64, Ordering},
+        Arc,
+    },
+};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
@@ -21,7 +28,7 @@ use crate::{
         self,
         csv::{
             check_size_of, default_decimate, estimated_size_of, human_bytes, parse_agents, Format,
-            Sink, TrajectoryObserver,
+            Sink, TrajectoryObserver, SIZE_LIMIT,
         },
         plots::Recorder,
         spread::Spread,
@@ -56,6 +63,52 @@ pub struct RunOptions {
     pub link_trace: Option<PathBuf>,
     /// Keep `(t, max_i |y_i − y_d|, max_{i,l} |u_{i,l}|)` of every sample in the result.
     pub worst: bool,
+    /// Shared with whoever waits for the run (another thread): a stop request, checked at every
+    /// sample, and the samples done.
+    pub watch: Option<Arc<Watch>>,
+}
+
+/// A run watched from another thread (the Python package's `run`, which waits for signals
+/// such as Ctrl-C while the run goes on): [`Watch::stop`] ends the run at its next sample with
+/// [`Error::Interrupted`], before any file is moved into place; [`Watch::done`] counts samples.
+#[derive(Debug, Default)]
+pub struct Watch {
+    stop: AtomicBool,
+    done: AtomicU64,
+}
+
+impl Watch {
+    /// Asks the run (or every run of a sweep) to stop.
+    pub fn stop(&self) {
+        self.stop.store(true, Ordering::Relaxed);
+    }
+
+    /// Whether a stop was asked for.
+    pub fn stopped(&self) -> bool {
+        self.stop.load(Ordering::Relaxed)
+    }
+
+    /// Samples done by the run.
+    pub fn done(&self) -> u64 {
+        self.done.load(Ordering::Relaxed)
+    }
+
+    /// `Err(Error::Interrupted)` once a stop was asked for.
+    pub fn check(&self) -> Result<()> {
+        if self.stopped() {
+            Err(Error::Interrupted)
+        } else {
+            Ok(())
+        }
+    }
+}
+
+impl<const N: usize, const M: usize> Observer<N, M> for &Watch {
+    fn sample(&mut self, s: &crate::sim::SampleView<'_, N, M>) -> Result<()> {
+        self.check()?;
+        self.done.store(s.k + 1, Ordering::Relaxed);
+        Ok(())
+    }
 }
 
 /// A finished run.
@@ -89,7 +142,7 @@ pub struct RunRequest {
     pub plots: bool,
     /// Show a progress bar.
     pub progress: bool,
-    /// Write a trajectory estimated above the size limit.
+    /// Write (or keep in memory) a trajectory estimated above the size limit.
     pub force: bool,
     /// `--trace`.
     pub trace: Option<PathBuf>,
@@ -99,8 +152,9 @@ pub struct RunRequest {
 
 impl RunRequest {
     /// The run options for `setup`: `--decimate` and `--agents` checked, the default
-    /// decimation of a large group chosen (with a note on standard error) and the trajectory's
-    /// size checked unless `force`.
+    /// decimation of a large group chosen (with a note on standard error) and, unless `force`,
+    /// the size of the trajectory checked where it goes: the file in `out`, else the columns
+    /// kept in memory (`table`); a run that keeps no trajectory has no limit.
     pub fn options(self, setup: &Setup) -> Result<RunOptions> {
         if self.decimate == Some(0) {
             return Err(Error::invalid("--decimate", "must be >= 1"));
@@ -127,7 +181,11 @@ impl RunRequest {
             }
         };
         if !self.force {
-            check_size_of(setup, decimate, columns)?;
+            if self.out.is_some() {
+                check_size_of(setup, decimate, columns)?;
+            } else if self.table {
+                check_memory_of(setup, decimate, columns)?;
+            }
         }
         Ok(RunOptions {
             out: self.out,
@@ -141,8 +199,41 @@ impl RunRequest {
             trace: self.trace,
             link_trace: self.link_trace,
             worst: false,
+            watch: None,
         })
     }
+}
+
+/// Estimated bytes of the trajectory's columns in memory ([`Table`]): 8 per `f64` value, 4 per
+/// `f32` value (the columns of [`crate::report::csv`]).
+pub fn estimated_memory_of(setup: &Setup, decimate: u64, columns: usize) -> u64 {
+    let (n, m) = (setup.n(), setup.m());
+    let row = 8 * (2 + columns * (1 + n + m)) + 4 * columns * (n + 2 * m + 3);
+    setup
+        .samples
+        .div_ceil(decimate.max(1))
+        .saturating_mul(row as u64)
+}
+
+/// `Err` (an invalid `--decimate`, naming the one that fits) when the trajectory kept in memory
+/// would exceed [`SIZE_LIMIT`].
+fn check_memory_of(setup: &Setup, decimate: u64, columns: usize) -> Result<()> {
+    let size = estimated_memory_of(setup, decimate, columns);
+    if size <= SIZE_LIMIT {
+        return Ok(());
+    }
+    let fit = size.div_ceil(SIZE_LIMIT).saturating_mul(decimate.max(1));
+    Err(Error::invalid(
+        "--decimate",
+        format!(
+            "the trajectory kept in memory would take about {} ({} samples, every {decimate}), \
+             above the limit of {}: use --decimate {fit}, keep no trajectory, or --force to keep \
+             it anyway",
+            human_bytes(size),
+            setup.samples,
+            human_bytes(SIZE_LIMIT),
+        ),
+    ))
 }
 
 /// The text of `summary.json`.
@@ -364,8 +455,12 @@ where
         .clocks
         .as_ref()
         .map(|plan| Clocks::new(plan, setup.samples));
+    let mut watch = opts.watch.as_deref();
     let divergence = {
         let mut obs: Vec<&mut dyn Observer<N, M>> = vec![&mut metrics];
+        if let Some(w) = watch.as_mut() {
+            obs.push(w);
+        }
         if let Some(w) = worst.as_mut() {
             obs.push(w);
         }
@@ -511,4 +606,77 @@ pub fn stable_h(
         band,
         trials,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use super::{run, RunRequest, Watch};
+    use crate::{error::Error, scenario, Result};
+
+    fn example1(t_end: f64) -> Result<scenario::Setup> {
+        scenario::parse(
+            include_str!("../../scenarios/example1.toml"),
+            &[format!("simulation.t_end={t_end}")],
+        )
+    }
+
+    #[test]
+    fn a_stopped_watch_ends_the_run_before_any_file_is_in_place() -> Result<()> {
+        let setup = example1(1.0)?;
+        let dir = std::env::temp_dir().join(format!("host-sim-watch-{}", std::process::id()));
+        let mut opts = RunRequest {
+            out: Some(dir.clone()),
+            ..RunRequest::default()
+        }
+        .options(&setup)?;
+        let watch = Arc::new(Watch::default());
+        opts.watch = Some(Arc::clone(&watch));
+        watch.stop();
+        assert_eq!(run(&setup, &opts).err(), Some(Error::Interrupted));
+        let left: Vec<_> = std::fs::read_dir(&dir)
+            .map_err(|e| Error::io(&dir, e))?
+            .collect();
+        let _ = std::fs::remove_dir_all(&dir);
+        assert!(left.is_empty(), "{left:?}");
+        Ok(())
+    }
+
+    #[test]
+    fn a_watch_counts_the_samples_of_a_run() -> Result<()> {
+        let setup = example1(0.5)?;
+        let mut opts = RunRequest::default().options(&setup)?;
+        let watch = Arc::new(Watch::default());
+        opts.watch = Some(Arc::clone(&watch));
+        run(&setup, &opts)?;
+        assert_eq!(watch.done(), 500);
+        Ok(())
+    }
+
+    #[test]
+    fn the_size_limit_applies_where_the_trajectory_goes() -> Result<()> {
+        // 7,000 s of Example 1: trajectory.csv about 5.85 GB, the columns about 2.24 GB.
+        let setup = example1(7000.0)?;
+        let file = RunRequest {
+            out: Some("unused".into()),
+            ..RunRequest::default()
+        };
+        let memory = RunRequest {
+            table: true,
+            ..RunRequest::default()
+        };
+        let message = |r: RunRequest| r.options(&setup).err().map(|e| e.to_string());
+        assert!(message(file.clone()).is_some_and(|m| m.contains("trajectory.csv would take")));
+        assert!(message(memory.clone()).is_some_and(|m| m.contains("kept in memory")));
+        assert_eq!(message(RunRequest::default()), None);
+        for forced in [file, memory] {
+            let forced = RunRequest {
+                force: true,
+                ..forced
+            };
+            assert_eq!(message(forced), None);
+        }
+        Ok(())
+    }
 }

@@ -13,7 +13,7 @@ pub mod spec;
 use std::{
     collections::BTreeMap,
     path::{Path, PathBuf},
-    sync::mpsc,
+    sync::{mpsc, Arc},
 };
 
 use indicatif::ProgressBar;
@@ -24,7 +24,7 @@ use crate::{
     error::{Error, Result},
     metrics::Summary,
     report::{self, csv::Format, parquet, table::Results, write_atomic},
-    run::{run, simulate, RunOptions},
+    run::{run, RunOptions, Watch},
 };
 use spec::{CampaignFile, Plan};
 
@@ -159,6 +159,10 @@ pub struct SweepOptions<'a> {
     /// [`Format::Parquet`]: also `results.parquet` (`results.csv` stays: resuming and `merge`
     /// read it).
     pub format: Format,
+    /// A stop request from another thread: once set, every run ends at its next sample, runs
+    /// not started are skipped and the sweep returns [`Error::Interrupted`]; the journal keeps
+    /// the runs finished before (resumable).
+    pub watch: Option<&'a Arc<Watch>>,
 }
 
 /// Runs the campaign `path` (this shard of it) into `out`; resumes from `out`'s journal.
@@ -234,7 +238,7 @@ pub fn sweep_with(
             journal.sync()
         });
         todo.par_iter().for_each_with(tx, |tx, &r| {
-            let _ = tx.send(run_row(&plan, out, r));
+            let _ = tx.send(run_row(&plan, out, r, opts.watch));
         });
         handle
             .join()
@@ -255,8 +259,13 @@ pub fn sweep_with(
     Ok(rep)
 }
 
-/// One run to its row; per-run outputs when the campaign asks for them.
-fn run_row(plan: &Plan, out: &Path, r: u64) -> Result<String> {
+/// One run to its row; per-run outputs when the campaign asks for them. An interrupted run
+/// (`watch`) is no row.
+fn run_row(plan: &Plan, out: &Path, r: u64, watch: Option<&Arc<Watch>>) -> Result<String> {
+    if let Some(w) = watch {
+        w.check()?;
+    }
+    let watch = watch.cloned();
     let p = plan.point(r);
     let outcome: Result<Summary> = plan.setup(&p).and_then(|setup| {
         if plan.file.output.runs.contains(&r) {
@@ -270,15 +279,22 @@ fn run_row(plan: &Plan, out: &Path, r: u64) -> Result<String> {
                 trace: None,
                 link_trace: None,
                 worst: false,
+                watch,
                 ..RunOptions::default()
             };
             run(&setup, &opts).map(|x| x.summary)
         } else {
-            simulate(&setup)
+            let opts = RunOptions {
+                watch,
+                ..RunOptions::default()
+            };
+            run(&setup, &opts).map(|x| x.summary)
         }
     });
-    if let Err(Error::Io(m)) = &outcome {
-        return Err(Error::Io(m.clone()));
+    match &outcome {
+        Err(Error::Io(m)) => return Err(Error::Io(m.clone())),
+        Err(Error::Interrupted) => return Err(Error::Interrupted),
+        _ => {}
     }
     Ok(results::row(plan, &p, &outcome))
 }
