@@ -137,6 +137,8 @@ pub struct Control {
     watchdog_periods: u32,
     /// The watchdog runs.
     watchdog_on: bool,
+    /// The watchdog's count while the control task is not running (see `control`).
+    frozen: Option<board::Frozen>,
     /// Duration of each step in units of [`link::SLOW_PERIOD_UNIT`] (`io::SLOW`); 0: as fast
     /// as it computes.
     slow: u32,
@@ -177,11 +179,10 @@ impl Control {
         b
     }
 
-    /// Watchdog counts from now to `late periods + ½` after this step's deadline (the next
-    /// release, `to_deadline` counts away); saturating.
-    fn watchdog_timeout(&self, to_deadline: u32) -> u32 {
+    /// The watchdog's timeout: `late periods + ½` sample periods of the node's time; saturating.
+    fn watchdog_timeout(&self) -> u32 {
         let p = u64::from(self.period_counts);
-        let t = u64::from(to_deadline) + u64::from(self.watchdog_periods) * p + p / 2;
+        let t = u64::from(self.watchdog_periods) * p + p / 2;
         u32::try_from(t).unwrap_or(u32::MAX)
     }
 
@@ -494,6 +495,7 @@ mod app {
                     period_counts: 0,
                     watchdog_periods: link::DEFAULT_WATCHDOG_PERIODS,
                     watchdog_on: false,
+                    frozen: None,
                     slow: 0,
                     sync_us: 0,
                     dt_us: 0,
@@ -558,13 +560,18 @@ mod app {
             let timer = SampleTimer::start(period_us);
             ctl.period_counts = timer.counts();
             if ctl.watchdog_periods != 0 {
-                // As if a step had just met its deadline at the first release.
-                let _ = Watchdog::enable(ctl.watchdog_timeout(timer.counts()));
+                // As if a step had just met its deadline; counting from the first release.
+                let _ = Watchdog::enable(ctl.watchdog_timeout());
                 ctl.watchdog_on = true;
+                ctl.frozen = Some(Watchdog::freeze());
             }
             cx.shared.timer.lock(|t| *t = Some(timer));
             board::unmask_interrupts();
             return;
+        }
+        // The watchdog counts while the task runs (less its waits for the host).
+        if let Some(f) = ctl.frozen.take() {
+            Watchdog::thaw(f);
         }
         // The releases that found the previous step running: the node counts them.
         let late_before = LATE_RELEASES.swap(0, Ordering::Relaxed);
@@ -577,8 +584,14 @@ mod app {
         // Ended before its deadline: no release found it running and none is waiting.
         let in_time =
             LATE_RELEASES.load(Ordering::Relaxed) == 0 && !NVIC::is_pending(pac::Interrupt::TIMER0);
-        if in_time && ctl.watchdog_on {
-            Watchdog::feed(ctl.watchdog_timeout(SampleTimer::value()));
+        if ctl.watchdog_on {
+            if in_time {
+                Watchdog::feed(ctl.watchdog_timeout());
+            }
+            // Frozen until the next release: while the core sleeps, QEMU (`-icount`,
+            // `sleep=on`) moves virtual time on by the host's real time, which a loaded host
+            // stretches to many periods; that time is not the node's.
+            ctl.frozen = Some(Watchdog::freeze());
         }
         board::unmask_interrupts();
     }

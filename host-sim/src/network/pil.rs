@@ -305,12 +305,12 @@ impl Emulator {
     /// Sends the watchdog's late periods (`WATCHDOG`) and the configuration words (`CONFIG` …
     /// `CONFIG_END`).
     fn send_config(&mut self) -> Result<()> {
-        self.queue_io(io::WATCHDOG, &self.watchdog_periods.to_le_bytes());
         let words = std::mem::take(&mut self.config);
         for pair in words.chunks(2) {
             let bytes: Vec<u8> = pair.iter().flat_map(|w| w.to_le_bytes()).collect();
             self.queue_io(io::CONFIG, &bytes);
         }
+        self.queue_io(io::WATCHDOG, &self.watchdog_periods.to_le_bytes());
         let count = u16::try_from(words.len()).unwrap_or(u16::MAX);
         self.queue_io(io::CONFIG_END, &count.to_le_bytes());
         self.config = words;
