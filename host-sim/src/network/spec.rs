@@ -413,13 +413,11 @@ pub fn validate(spec: &NetworkSpec, agents: usize, h: f64, t_end: f64) -> Result
             (EventName::Slow, Some(_)) | (_, None) => {}
             (_, Some(_)) => return Err(Error::invalid(key("periods"), "only for kind = \"slow\"")),
         }
-        if e.kind == EventName::Hang {
-            if e.until.is_some() {
-                return Err(Error::invalid(
-                    key("until"),
-                    "not for kind = \"hang\": only the node's watchdog ends a hang",
-                ));
-            }
+        if e.kind == EventName::Hang && e.until.is_some() {
+            return Err(Error::invalid(
+                key("until"),
+                "not for kind = \"hang\": only the node's watchdog ends a hang",
+            ));
         }
         match (e.kind, e.id) {
             (EventName::Silent | EventName::Hang | EventName::Slow, Some(_)) => {
