@@ -261,7 +261,7 @@ fn short(s: &str) -> String {
 }
 
 /// The figure names (patterns) and what they render.
-pub const CATALOGUE: [(&str, &str); 45] = [
+pub const CATALOGUE: [(&str, &str); 46] = [
     ("bench-table", "target bench table (target/bench/step.json)"),
     ("bench.VARIANT.KEY", "one number of step.json's VARIANT (KEY also flash_total)"),
     ("scenarios", "shipped scenario table (host-sim run, stable-h)"),
@@ -299,6 +299,7 @@ pub const CATALOGUE: [(&str, &str); 45] = [
     ("network.lossy.KEY", "example1-lossy by window (KEY: before, silent, return, after, max-u-return, ideal-after, after-vs-ideal)"),
     ("network.trace.KEY", "0.3 s of example1-can --trace decoded by cantools with docs/wire.dbc (KEY: frames, max-diff)"),
     ("network.pil-lossy.KEY", "example1-lossy over 7.5 s, which PIL matches (KEY: lost, stale, suppressed, can-sent)"),
+    ("network.watchdog.KEY", "example1-pil 3 s, agent 3 hung at 0.5 s or slowed to 5 periods per step on [0.5, 0.55) s, against example1-can (KEY: hang-overruns, hang-reset-ms, hang-recovered-s, slow-resets, slow-reset-ms, slow-recovered-s)"),
     ("reliability.soak", "soak windows, first and last 10 min (controller-core/tests/soak.rs with SOAK_OUT, target/soak/soak.json)"),
     ("reliability.soak.growth", "largest change of a soak figure from the first window to the last"),
     ("reliability.stable-h", "Example 1's largest stable sample period (host-sim stable-h)"),
