@@ -302,8 +302,8 @@ impl Emulator {
         })
     }
 
-    /// Sends the watchdog's late periods (`WATCHDOG`) and the configuration words (`CONFIG` …
-    /// `CONFIG_END`).
+    /// Sends the configuration words (`CONFIG` …), the watchdog's late periods (`WATCHDOG`)
+    /// and `CONFIG_END`.
     fn send_config(&mut self) -> Result<()> {
         let words = std::mem::take(&mut self.config);
         for pair in words.chunks(2) {
