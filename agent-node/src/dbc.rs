@@ -251,7 +251,7 @@ const HEARTBEAT_COMMENT: &str =
     "Node heartbeat: state, lost sources and counters, once per heartbeat period";
 
 /// The messages of the serial link, in the order of a run: start-up, samples, statistics.
-pub const IO_MESSAGES: [Message; 12] = [
+pub const IO_MESSAGES: [Message; 14] = [
     Message {
         name: "Boot",
         id: io::BOOT,
@@ -378,6 +378,24 @@ pub const IO_MESSAGES: [Message; 12] = [
         signals: &[Signal::unsigned("overruns", 0, 32)],
         comment: Some(
             "PIL link: the sample timer released the control task while its previous step still ran; overruns since boot",
+        ),
+    },
+    Message {
+        name: "Slow",
+        id: io::SLOW,
+        sender: "Host",
+        signals: &[Signal::unsigned("periods_q16", 0, 32)],
+        comment: Some(
+            "PIL link, network.event kind = slow: from the next tick each control step takes periods_q16 / 65536 sample periods; 0 ends it",
+        ),
+    },
+    Message {
+        name: "Watchdog",
+        id: io::WATCHDOG,
+        sender: "Host",
+        signals: &[Signal::unsigned("late_periods", 0, 32)],
+        comment: Some(
+            "PIL link, start-up before ConfigEnd (node.watchdog_periods): reset after this many periods (and a half) without a step that met its deadline; 0 no watchdog",
         ),
     },
 ];
@@ -710,6 +728,8 @@ mod tests {
             io::STATS,
             io::HANG,
             io::OVERRUN,
+            io::SLOW,
+            io::WATCHDOG,
         ];
         for id in ids {
             assert_eq!(

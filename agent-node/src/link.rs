@@ -99,10 +99,38 @@ pub mod io {
     /// node → host: the sample timer released the control task while its previous step was
     /// still running (a deadline overrun); the overruns so far (`u32` LE).
     pub const OVERRUN: u32 = 0x0001_00A1;
+    /// host → node: from the next tick record on, each control step takes this many sample
+    /// periods of the node's time (`u32` LE, in units of 2⁻¹⁶ period, see
+    /// [`super::slow_periods`]; 0 ends it): a step that is too slow for its deadline
+    /// (`[[network.event]] kind = "slow"`).
+    pub const SLOW: u32 = 0x0001_00A2;
+    /// host → node, before `CONFIG_END`: the watchdog's late periods (`u32` LE; 0: no
+    /// watchdog). Without it the node uses [`super::DEFAULT_WATCHDOG_PERIODS`].
+    pub const WATCHDOG: u32 = 0x0001_0014;
 }
 
 /// Version of this link protocol, sent in the node's [`io::BOOT`] frame.
-pub const PROTOCOL_VERSION: u8 = 2;
+pub const PROTOCOL_VERSION: u8 = 3;
+
+/// Late periods of a node's watchdog when the host sends no [`io::WATCHDOG`]: a node none of
+/// whose steps has ended before its deadline for this many sample periods (and half of one)
+/// is reset.
+pub const DEFAULT_WATCHDOG_PERIODS: u32 = 10;
+
+/// One sample period in the units of [`io::SLOW`].
+pub const SLOW_PERIOD_UNIT: u32 = 1 << 16;
+
+/// A step's duration of `periods` sample periods in the units of [`io::SLOW`] (rounded to
+/// 2⁻¹⁶ period; at least one unit for any `periods > 0`; saturating), or `None` for a value
+/// that is not finite and > 0.
+pub fn slow_periods(periods: f64) -> Option<u32> {
+    if !(periods.is_finite() && periods > 0.0) {
+        return None;
+    }
+    // `as` saturates at `u32::MAX`; `+ 0.5` rounds the positive value to the nearest unit.
+    let units = periods * f64::from(SLOW_PERIOD_UNIT) + 0.5;
+    Some((units as u32).max(1))
+}
 
 /// A classical CAN frame (standard or extended id, data or remote, 0..=8 bytes): the frames
 /// of SLCAN, of `hil-mock`'s mocked CAN controller and of its bus model.
@@ -918,6 +946,18 @@ pub fn decode_config<const N: usize, const K: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn slow_periods_are_fixed_point_and_refuse_what_is_not_a_duration() {
+        assert_eq!(slow_periods(1.0), Some(SLOW_PERIOD_UNIT));
+        assert_eq!(slow_periods(5.0), Some(5 * SLOW_PERIOD_UNIT));
+        assert_eq!(slow_periods(0.5), Some(SLOW_PERIOD_UNIT / 2));
+        assert_eq!(slow_periods(1e-9), Some(1));
+        assert_eq!(slow_periods(1e12), Some(u32::MAX));
+        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            assert_eq!(slow_periods(bad), None, "{bad}");
+        }
+    }
 
     #[test]
     fn config_round_trips() {

@@ -48,9 +48,14 @@
 //! is not advanced (the tick still reports the error the frozen controller would see). With
 //! [`NodeConfig::heartbeat_period_us`] > 0 the node sends a heartbeat
 //! ([`wire::Heartbeat`]) after its value frame every period, agent `i`'s `i − 1` samples after
-//! the first tick (modulo the period) so that the heartbeats of a bus are spread over samples. A tick that comes more than 1.5 sample periods after the previous
-//! one counts the samples skipped as deadline overruns ([`NodeStats::overruns`]); the board
-//! reports overruns it detects itself with [`Node::record_overrun`].
+//! the first tick (modulo the period) so that the heartbeats of a bus are spread over samples.
+//!
+//! A deadline overrun ([`NodeStats::overruns`]) is a sample period whose release found the
+//! previous step still running. A board with a release timer reports each one as it sees it
+//! ([`Node::record_overrun`]), so every late step is counted, however little it was late; a
+//! tick that comes more than 1.5 sample periods after the previous one counts the samples
+//! skipped in between, less those the board reported since that tick, so a board that reports
+//! and the skipped samples of the same late step are counted once.
 //!
 //! ## Faults and errors
 //!
@@ -359,6 +364,8 @@ pub struct Node<C, Clk, S, A, const N: usize, const M: usize, const K: usize> {
     period_us: u64,
     first_tick_us: Option<u64>,
     last_tick_us: Option<u64>,
+    /// Overruns the board reported since the last tick.
+    reported_overruns: u32,
     /// The command written at the last tick.
     applied: [f32; M],
     fault_pending: bool,
@@ -487,6 +494,7 @@ where
             boot_count: 0,
             period_us,
             first_tick_us: None,
+            reported_overruns: 0,
             last_tick_us: None,
             applied: [0.0; M],
             fault_pending: false,
@@ -519,9 +527,12 @@ where
         self.boot_count = count;
     }
 
-    /// The board saw a sample miss its slot (a timer that fired before the last tick ended).
+    /// The board saw a sample miss its slot: a release of its sample timer found the step still
+    /// running (one call per such release). Counted at once; the samples the next tick finds
+    /// skipped are not counted again (see the module docs).
     pub fn record_overrun(&mut self) {
         self.stats.overruns = self.stats.overruns.saturating_add(1);
+        self.reported_overruns = self.reported_overruns.saturating_add(1);
     }
 
     /// The board found a fault it cannot recover from: the node latches `Fault` at the next
@@ -797,19 +808,20 @@ where
         o
     }
 
-    /// Samples skipped since the last tick: more than 1.5 periods apart counts every whole
-    /// period beyond the first.
+    /// Samples skipped since the last tick (more than 1.5 periods apart: every whole period
+    /// beyond the first) that the board has not reported with [`Self::record_overrun`].
     fn count_overruns(&mut self, now: u64) {
+        let reported = core::mem::take(&mut self.reported_overruns);
         let (Some(last), p) = (self.last_tick_us, self.period_us) else {
             return;
         };
         let gap = now.saturating_sub(last);
         if p > 0 && gap > p + p / 2 {
-            let missed = (gap + p / 2) / p - 1;
+            let missed = u32::try_from((gap + p / 2) / p - 1).unwrap_or(u32::MAX);
             self.stats.overruns = self
                 .stats
                 .overruns
-                .saturating_add(u32::try_from(missed).unwrap_or(u32::MAX));
+                .saturating_add(missed.saturating_sub(reported));
         }
     }
 

@@ -116,6 +116,7 @@ pub fn cells(n_agents: usize, t_f: f64) -> Vec<Cell> {
                 id: None,
                 from,
                 until: Some(until),
+                periods: None,
             })
         }
     };

@@ -727,6 +727,7 @@ fn validate_plant(
             sim.h,
             sim.t_end,
         ));
+        problems.take(node_section::check_watchdog_timeout(&scenario.node, sim.h));
     }
     if let Some(g) = &graph {
         problems.take(node_section::validate(&scenario.node, g.len()));

@@ -8,9 +8,11 @@
 //! * **Sample timer**: CMSDK APB timer 0 at `0x4000_0000` (IRQ 8), clocked at 25 MHz: CTRL
 //!   `0x0` (bit 0 enable, bit 3 interrupt enable), VALUE `0x4`, RELOAD `0x8`, INTSTATUS /
 //!   INTCLEAR `0xC`.
-//! * **Watchdog**: CMSDK APB watchdog at `0x4000_8000`, 25 MHz: LOAD `0x0`, CONTROL `0x8` (bit 0
-//!   INTEN: interrupt on the first expiry, the NMI; bit 1 RESEN: QEMU resets the machine on the
-//!   second expiry without a clear in between), INTCLR `0xC`.
+//! * **Watchdog**: CMSDK APB watchdog at `0x4000_8000`, 25 MHz: LOAD `0x0` (a write reloads the
+//!   count), VALUE `0x4` (the count), CONTROL `0x8` (bit 0 INTEN: interrupt on the first
+//!   expiry, the NMI; bit 1 RESEN: QEMU resets the machine on the second expiry without a clear
+//!   in between). The NMI resets the core at the first expiry (`SYSRESETREQ`); the second
+//!   expiry's reset stays as the backstop of a core that cannot take the NMI.
 //! * **Instruction counter**: SysTick from the 25 MHz core clock; with QEMU's `-icount shift=0`
 //!   one instruction is 1 ns of virtual time, so one SysTick count is [`INSN_PER_TICK`]
 //!   instructions (the method of `bench-fw`, there refined by repetition; here a closed-loop
@@ -45,8 +47,8 @@ const TIMER_PAUSED: u32 = 0b1000;
 
 const WDOG: usize = 0x4000_8000;
 const WDOG_LOAD: usize = 0x0;
+const WDOG_VALUE: usize = 0x4;
 const WDOG_CONTROL: usize = 0x8;
-const WDOG_INTCLR: usize = 0xC;
 /// Watchdog CONTROL: INTEN | RESEN.
 const WDOG_ON: u32 = 0b11;
 
@@ -181,38 +183,59 @@ impl SampleTimer {
     pub fn resume() {
         write(TIMER0 + TIMER_CTRL, TIMER_RUN);
     }
+
+    /// Counts left in the current period (down to 0 at the next release).
+    pub fn value() -> u32 {
+        read(TIMER0 + TIMER_VALUE)
+    }
 }
 
-/// The CMSDK APB watchdog: armed with a short timeout while the control task works, parked
-/// (the longest timeout) while the node waits on the host.
+/// The CMSDK APB watchdog as the deadline watchdog of the control task: fed only by a step
+/// that ended before its deadline, frozen (neither fed nor counting on) while the node waits
+/// for the host, and resetting the node at its first expiry.
 #[derive(Debug)]
 pub struct Watchdog;
 
+/// The watchdog's count kept while it is frozen ([`Watchdog::freeze`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Frozen(u32);
+
 impl Watchdog {
-    /// Interrupt on the first expiry, machine reset on the second; starts parked.
-    pub fn enable() -> Self {
-        Self::park();
+    /// Starts it with `counts` (25 MHz counts) to its expiry: interrupt (the NMI, which resets
+    /// the core) on the first expiry, machine reset on the second.
+    pub fn enable(counts: u32) -> Self {
+        Self::feed(counts);
         write(WDOG + WDOG_CONTROL, WDOG_ON);
         Self
     }
 
-    /// Reloads with `counts` (25 MHz counts): the reset follows `2 · counts` later unless
-    /// [`Self::park`] comes first.
-    pub fn arm(counts: u32) {
-        write(WDOG + WDOG_LOAD, counts);
+    /// Feeds it: the expiry (the reset) comes `counts` (at least 1) from now.
+    pub fn feed(counts: u32) {
+        write(WDOG + WDOG_LOAD, counts.max(1));
     }
 
-    /// Feeds: clears a first expiry and reloads with the longest timeout (2³² counts, 172 s).
-    pub fn park() {
+    /// Stops its count where it is (reloads it with the longest timeout, 2³² counts, 172 s, and
+    /// keeps what was left): the wait for the host is not the node's time. Not a feed:
+    /// [`Self::thaw`] puts the count back.
+    pub fn freeze() -> Frozen {
+        let left = read(WDOG + WDOG_VALUE);
         write(WDOG + WDOG_LOAD, u32::MAX);
-        write(WDOG + WDOG_INTCLR, 1);
+        Frozen(left)
+    }
+
+    /// Counts on from where [`Self::freeze`] stopped it.
+    pub fn thaw(f: Frozen) {
+        Self::feed(f.0);
     }
 }
 
-/// The watchdog's first expiry (QEMU's mps2 wires WDOGINT to the NMI): nothing to do, the
-/// second expiry resets the machine unless the control task feeds it first.
+/// The watchdog's first expiry (QEMU's mps2 wires WDOGINT to the NMI): no step ended in time
+/// for the configured late periods, so the node resets now (`SYSRESETREQ`, which QEMU turns
+/// into a machine reset; the watchdog's own reset at the second expiry is the backstop).
 #[cortex_m_rt::exception]
-unsafe fn NonMaskableInt() {}
+unsafe fn NonMaskableInt() {
+    cortex_m::peripheral::SCB::sys_reset();
+}
 
 /// SysTick as the instruction counter of one tick: it runs only between [`Counter::start`] and
 /// [`Counter::stop`]. Stopped, it leaves QEMU no timer to move virtual time to while the core

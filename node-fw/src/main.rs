@@ -10,10 +10,11 @@
 //!
 //! Tasks (RTIC 2, `docs/FIRMWARE.md` §6): the UART receive interrupt (priority 3) moves each
 //! byte into a bounded queue; CMSDK timer 0 (priority 2) releases the control task once per
-//! sample period, counts a deadline overrun when the previous step is still running, and arms
-//! the watchdog; the control task (priority 1) takes the sample's lines from the queue, runs
-//! `Node::tick`, sends the node's frame and the report, and feeds the watchdog when the step
-//! ended before the next release.
+//! sample period and counts a deadline overrun when the previous step is still running; the
+//! control task (priority 1) takes the sample's lines from the queue, runs `Node::tick`, sends
+//! the node's frame and the report, and feeds the watchdog only when the step ended before its
+//! deadline (the next release). A node none of whose steps meets its deadline for the
+//! configured late periods is reset by the watchdog.
 //!
 //! Measured per tick: the instructions of `Node::tick` (SysTick, 40-instruction resolution;
 //! the UART traffic before and after and the wait for the host are not counted: the tick only
@@ -37,7 +38,8 @@ use agent_node::{
 };
 use board::{SampleTimer, Watchdog};
 use controller_core::StepFault;
-use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use core::sync::atomic::{AtomicU32, Ordering};
+use cortex_m::peripheral::NVIC;
 use embedded_can::Frame as _;
 use heapless::spsc::Consumer;
 use panic_semihosting as _;
@@ -53,14 +55,10 @@ const RX_DEPTH: usize = 64;
 /// Bytes the UART receive queue holds: a sample's input is at most 17 timestamped frames
 /// (26 bytes each) and the tick record (17), so the host never sends more ahead of the node.
 const RX_QUEUE: usize = 1024;
-/// Watchdog timeout in sample periods: a control task stopped for `2 ·` this many periods
-/// (the second expiry) resets the node.
-const WATCHDOG_PERIODS: u32 = 10;
-
 /// Bytes the receive interrupt dropped because the queue was full.
 static RX_DROPPED: AtomicU32 = AtomicU32::new(0);
-/// Set by the release when it found the previous step still running.
-static LATE: AtomicBool = AtomicBool::new(false);
+/// Releases that found the control task still running, since the start of its current step.
+static LATE_RELEASES: AtomicU32 = AtomicU32::new(0);
 
 /// Transmit mailboxes: the value frame and the heartbeat of one tick.
 const TX_MAILBOXES: usize = 2;
@@ -133,8 +131,17 @@ pub struct Control {
     node: Option<BoardNode>,
     counter: Option<board::Counter>,
     painted: board::Painted,
-    /// Watchdog counts while the task works; 0 until the sample timer runs.
-    watchdog_counts: u32,
+    /// Timer counts per sample period; 0 until the sample timer runs.
+    period_counts: u32,
+    /// The watchdog's late periods (`io::WATCHDOG`); 0: no watchdog.
+    watchdog_periods: u32,
+    /// The watchdog runs.
+    watchdog_on: bool,
+    /// The watchdog's count while the control task is not running (see `control`).
+    frozen: Option<board::Frozen>,
+    /// Duration of each step in units of [`link::SLOW_PERIOD_UNIT`] (`io::SLOW`); 0: as fast
+    /// as it computes.
+    slow: u32,
     /// Time of the last tick, the origin of timestamps [µs], and the interval before it.
     sync_us: u64,
     dt_us: u32,
@@ -144,17 +151,18 @@ pub struct Control {
 
 impl Control {
     /// The next received byte. While the sample timer runs, waiting for the host stops the
-    /// timer and parks the watchdog, so the wait (host time, not the node's) takes no part of
-    /// the period: everything the node can observe stays a function of its instructions.
+    /// timer and freezes the watchdog (its count is kept, not fed), so the wait (host time,
+    /// not the node's) takes no part of the period or of the watchdog's timeout: everything
+    /// the node can observe stays a function of its instructions.
     fn byte(&mut self) -> u8 {
         if let Some(b) = self.rx.dequeue() {
             return b;
         }
-        let frozen = self.watchdog_counts != 0;
-        if frozen {
+        let timed = self.period_counts != 0;
+        if timed {
             SampleTimer::pause();
-            Watchdog::park();
         }
+        let frozen = (timed && self.watchdog_on).then(Watchdog::freeze);
         let b = loop {
             if let Some(b) = self.rx.dequeue() {
                 break b;
@@ -162,11 +170,20 @@ impl Control {
             let rx = &self.rx;
             board::sleep_unless(|| rx.ready());
         };
-        if frozen {
+        if let Some(f) = frozen {
+            Watchdog::thaw(f);
+        }
+        if timed {
             SampleTimer::resume();
-            Watchdog::arm(self.watchdog_counts);
         }
         b
+    }
+
+    /// The watchdog's timeout: `late periods + ½` sample periods of the node's time; saturating.
+    fn watchdog_timeout(&self) -> u32 {
+        let p = u64::from(self.period_counts);
+        let t = u64::from(self.watchdog_periods) * p + p / 2;
+        u32::try_from(t).unwrap_or(u32::MAX)
     }
 
     /// The next command; malformed lines are answered with BEL (`\a`) and skipped, as is a
@@ -228,6 +245,16 @@ impl Control {
                     }
                     continue;
                 }
+                Some(io::WATCHDOG) => match link::unpack_u32(f.data()) {
+                    Some(periods) => {
+                        self.watchdog_periods = periods;
+                        continue;
+                    }
+                    None => {
+                        count = 0;
+                        ConfigReject::Unexpected
+                    }
+                },
                 Some(io::CONFIG_END) => {
                     let sent = match *f.data() {
                         [lo, hi] => usize::from(u16::from_le_bytes([lo, hi])),
@@ -280,10 +307,12 @@ impl Control {
                 Slcan::Tick(t) => {
                     if self.hang {
                         // The stopped control task: only the watchdog ends this. The
-                        // release keeps running (and counting overruns).
+                        // release keeps running (and counting overruns). A `nop`, not
+                        // `spin_loop` (`yield`), which makes QEMU leave its execution loop
+                        // each time round: 300 times slower on the host.
                         board::unmask_interrupts();
                         loop {
-                            core::hint::spin_loop();
+                            cortex_m::asm::nop();
                         }
                     }
                     self.dt_us = t.dt_us.unwrap_or(self.dt_us);
@@ -293,7 +322,14 @@ impl Control {
                     };
                     node.clock_mut().0 = self.sync_us;
                     node.sensor_mut().0 = t.x;
-                    tick(send, node, &mut self.counter);
+                    let busy = (self.slow != 0).then(|| {
+                        let counts = u64::from(self.period_counts) * u64::from(self.slow);
+                        (
+                            self.period_counts,
+                            counts / u64::from(link::SLOW_PERIOD_UNIT),
+                        )
+                    });
+                    tick(send, node, &mut self.counter, busy);
                     return true;
                 }
                 _ => continue,
@@ -316,6 +352,7 @@ impl Control {
                     *c = link::extend_clock(*c, t);
                 }
                 (Some(io::HANG), _) => self.hang = true,
+                (Some(io::SLOW), Some(units)) => self.slow = units,
                 (Some(io::STATS_REQUEST), _) => {
                     let stack = board::stack_high_water(self.painted).to_le_bytes();
                     let bad = node.stats().malformed.total().to_le_bytes();
@@ -345,11 +382,44 @@ fn send_io(send: &mut impl FnMut(&[u8]), id: u32, data: &[u8]) {
     }
 }
 
-/// Runs one `Node::tick` and sends the bus frame and the report.
-fn tick(send: &mut impl FnMut(&[u8]), node: &mut BoardNode, counter: &mut Option<board::Counter>) {
+/// Busy (interrupts on, so that each release that finds the step running counts as it comes)
+/// until more than `target` timer counts of the node's time have passed since this step's
+/// release: the whole periods of the releases that found it running (`period` counts each)
+/// and the part of the current one. `[[network.event]] kind = "slow"`: a step that computes
+/// for `periods` sample periods.
+fn busy_until(period: u32, target: u64) {
+    board::unmask_interrupts();
+    loop {
+        let late = LATE_RELEASES.load(Ordering::Relaxed);
+        let left = SampleTimer::value();
+        // A release between the two reads restarted the period: read both again.
+        if LATE_RELEASES.load(Ordering::Relaxed) != late {
+            continue;
+        }
+        let elapsed = u64::from(late) * u64::from(period) + u64::from(period.saturating_sub(left));
+        if elapsed > target {
+            break;
+        }
+        // Not `spin_loop` (`yield`: QEMU leaves its execution loop at each one).
+        cortex_m::asm::nop();
+    }
+    board::mask_interrupts();
+}
+
+/// Runs one `Node::tick`, stays busy for `busy` (`(period counts, step counts)`) when the step
+/// is slowed, and sends the bus frame and the report (the step's outputs, at its end).
+fn tick(
+    send: &mut impl FnMut(&[u8]),
+    node: &mut BoardNode,
+    counter: &mut Option<board::Counter>,
+    busy: Option<(u32, u64)>,
+) {
     let start = counter.as_mut().map_or(0, board::Counter::start);
     let tick = node.tick();
     let end = counter.as_mut().map_or(0, board::Counter::stop);
+    if let Some((period, target)) = busy {
+        busy_until(period, target);
+    }
     for f in &node.can_mut().tx {
         send_frame(send, f);
     }
@@ -422,7 +492,11 @@ mod app {
                     node: None,
                     counter,
                     painted,
-                    watchdog_counts: 0,
+                    period_counts: 0,
+                    watchdog_periods: link::DEFAULT_WATCHDOG_PERIODS,
+                    watchdog_on: false,
+                    frozen: None,
+                    slow: 0,
                     sync_us: 0,
                     dt_us: 0,
                     hang: false,
@@ -450,22 +524,20 @@ mod app {
         }
     }
 
-    /// Timer 0, once per sample period: releases the control task and arms the watchdog, or,
-    /// with the previous step still running, counts an overrun and tells the host.
+    /// Timer 0, once per sample period: releases the control task or, with the previous step
+    /// still running, counts an overrun and tells the host. It never touches the watchdog.
     #[task(binds = TIMER0, priority = 2, shared = [uart, timer], local = [overruns: u32 = 0])]
     fn release(mut cx: release::Context) {
-        let Some(counts) = cx.shared.timer.lock(|t| {
-            t.as_ref().map(|t| {
-                t.restart();
-                t.counts()
-            })
-        }) else {
+        if cx
+            .shared
+            .timer
+            .lock(|t| t.as_ref().map(SampleTimer::restart))
+            .is_none()
+        {
             return;
-        };
-        if control::spawn().is_ok() {
-            Watchdog::arm(counts.saturating_mul(WATCHDOG_PERIODS));
-        } else {
-            LATE.store(true, Ordering::Relaxed);
+        }
+        if control::spawn().is_err() {
+            LATE_RELEASES.fetch_add(1, Ordering::Relaxed);
             *cx.local.overruns += 1;
             let n = cx.local.overruns.to_le_bytes();
             cx.shared
@@ -486,18 +558,40 @@ mod app {
         if ctl.node.is_none() {
             let period_us = ctl.configure(&mut send);
             let timer = SampleTimer::start(period_us);
-            ctl.watchdog_counts = timer.counts().saturating_mul(WATCHDOG_PERIODS);
-            let _ = Watchdog::enable();
+            ctl.period_counts = timer.counts();
+            if ctl.watchdog_periods != 0 {
+                // As if a step had just met its deadline; counting from the first release.
+                let _ = Watchdog::enable(ctl.watchdog_timeout());
+                ctl.watchdog_on = true;
+                ctl.frozen = Some(Watchdog::freeze());
+            }
             cx.shared.timer.lock(|t| *t = Some(timer));
             board::unmask_interrupts();
             return;
         }
-        LATE.store(false, Ordering::Relaxed);
+        // The watchdog counts while the task runs (less its waits for the host).
+        if let Some(f) = ctl.frozen.take() {
+            Watchdog::thaw(f);
+        }
+        // The releases that found the previous step running: the node counts them.
+        let late_before = LATE_RELEASES.swap(0, Ordering::Relaxed);
+        if let Some(node) = ctl.node.as_mut() {
+            for _ in 0..late_before {
+                node.record_overrun();
+            }
+        }
         ctl.sample(&mut send);
-        let late = LATE.load(Ordering::Relaxed)
-            || cortex_m::peripheral::NVIC::is_pending(pac::Interrupt::TIMER0);
-        if !late {
-            Watchdog::park();
+        // Ended before its deadline: no release found it running and none is waiting.
+        let in_time =
+            LATE_RELEASES.load(Ordering::Relaxed) == 0 && !NVIC::is_pending(pac::Interrupt::TIMER0);
+        if ctl.watchdog_on {
+            if in_time {
+                Watchdog::feed(ctl.watchdog_timeout());
+            }
+            // Frozen until the next release: while the core sleeps, QEMU (`-icount`,
+            // `sleep=on`) moves virtual time on by the host's real time, which a loaded host
+            // stretches to many periods; that time is not the node's.
+            ctl.frozen = Some(Watchdog::freeze());
         }
         board::unmask_interrupts();
     }

@@ -262,7 +262,7 @@ fn short(s: &str) -> String {
 }
 
 /// The figure names (patterns) and what they render.
-pub const CATALOGUE: [(&str, &str); 50] = [
+pub const CATALOGUE: [(&str, &str); 51] = [
     ("bench-table", "target bench table, Cortex-M4F step variants (target/bench/step.json)"),
     ("cores.table", "step per math back-end and node tick on every Cortex-M class (step.json)"),
     ("cores.mcu", "named CAN parts: worst step and node tick at the part's clock, share of 1 kHz, verdict"),
@@ -305,6 +305,7 @@ pub const CATALOGUE: [(&str, &str); 50] = [
     ("network.lossy.KEY", "example1-lossy by window (KEY: before, silent, return, after, max-u-return, ideal-after, after-vs-ideal)"),
     ("network.trace.KEY", "0.3 s of example1-can --trace decoded by cantools with docs/wire.dbc (KEY: frames, max-diff)"),
     ("network.pil-lossy.KEY", "example1-lossy over 7.5 s, which PIL matches (KEY: lost, stale, suppressed, can-sent)"),
+    ("network.watchdog.KEY", "example1-pil 3 s, agent 3 hung at 0.5 s or slowed to 5 periods per step on [0.5, 0.55) s, against example1-can (KEY: hang-overruns, hang-reset-ms, hang-recovered-s, slow-resets, slow-reset-ms, slow-recovered-s)"),
     ("reliability.soak", "soak windows, first and last 10 min (controller-core/tests/soak.rs with SOAK_OUT, target/soak/soak.json)"),
     ("reliability.soak.growth", "largest change of a soak figure from the first window to the last"),
     ("reliability.stable-h", "Example 1's largest stable sample period (host-sim stable-h)"),

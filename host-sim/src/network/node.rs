@@ -136,6 +136,10 @@ pub struct NodeSpec {
     pub heartbeat_id_base: i64,
     /// Heartbeat period [s]; 0: no heartbeat.
     pub heartbeat_period: f64,
+    /// `kind = "pil"`: sample periods after the deadline of its last step that ended in time
+    /// (and half a period more) at which the node firmware's watchdog resets it; 0: no
+    /// watchdog.
+    pub watchdog_periods: i64,
     /// `[node.safe_state]`.
     #[serde(skip_serializing_if = "SafeStateSpec::is_default")]
     pub safe_state: SafeStateSpec,
@@ -147,6 +151,7 @@ impl Default for NodeSpec {
             id_base: i64::from(IdPlan::DEFAULT.value_base()),
             heartbeat_id_base: IdPlan::DEFAULT.heartbeat_base().map_or(0x780, i64::from),
             heartbeat_period: 0.0,
+            watchdog_periods: i64::from(agent_node::link::DEFAULT_WATCHDOG_PERIODS),
             safe_state: SafeStateSpec::default(),
         }
     }
@@ -325,10 +330,55 @@ fn heartbeat_period(spec: &NodeSpec) -> Result<u64> {
     Ok(seconds_to_us(p))
 }
 
+/// Largest `node.watchdog_periods`.
+pub const MAX_WATCHDOG_PERIODS: i64 = 100_000;
+
+/// Longest watchdog timeout of the emulated board [s]: 2³² counts of its 25 MHz clock.
+pub const MAX_WATCHDOG_SECONDS: f64 = 4_294_967_295.0 / 25e6;
+
+/// `node.watchdog_periods` of the validated `spec` (0: no watchdog), checked against the
+/// sample period `h` when given: the longest timeout, `watchdog_periods + 1.5` periods from
+/// the end of a step, must fit the emulated watchdog's counter.
+pub fn watchdog_periods(spec: &NodeSpec, h: Option<f64>) -> Result<u32> {
+    let n = spec.watchdog_periods;
+    let periods = u32::try_from(n)
+        .ok()
+        .filter(|_| n <= MAX_WATCHDOG_PERIODS)
+        .ok_or_else(|| {
+            Error::invalid(
+                "node.watchdog_periods",
+                format!("must be 0 (no watchdog) or in 1..={MAX_WATCHDOG_PERIODS} (got {n})"),
+            )
+        })?;
+    if let Some(h) = h {
+        let longest = (f64::from(periods) + 2.0) * h;
+        if periods > 0 && longest > MAX_WATCHDOG_SECONDS {
+            return Err(Error::invalid(
+                "node.watchdog_periods",
+                format!(
+                    "(watchdog_periods + 2) h = {longest} s exceeds the emulated watchdog's \
+                     longest timeout, {MAX_WATCHDOG_SECONDS:.1} s (2^32 counts at 25 MHz)"
+                ),
+            ));
+        }
+    }
+    Ok(periods)
+}
+
+/// The check of `node.watchdog_periods` against the sample period `h` (a value out of range is
+/// [`validate`]'s to report).
+pub fn check_watchdog_timeout(spec: &NodeSpec, h: f64) -> Result<()> {
+    if watchdog_periods(spec, None).is_err() {
+        return Ok(());
+    }
+    watchdog_periods(spec, Some(h)).map(|_| ())
+}
+
 /// Checks `[node]` for `agents` agents (every key, whatever the network kind; a bus carries
 /// at most 255 agents, which `[network]`'s check reports, so a larger group is checked as 255).
 pub fn validate(spec: &NodeSpec, agents: usize) -> Result<()> {
     let agents = agents.min(usize::from(u8::MAX));
+    watchdog_periods(spec, None)?;
     configure(spec, agents, &mut NodeConfig::<0>::new(1, [], 1))
 }
 
@@ -481,6 +531,29 @@ mod tests {
             let m = message(&spec);
             assert!(m.contains(&format!("{key}:")), "{key}: {m}");
         }
+    }
+
+    #[test]
+    fn watchdog_periods_are_checked_against_the_range_and_the_counter() {
+        let with = |n: i64| NodeSpec {
+            watchdog_periods: n,
+            ..NodeSpec::default()
+        };
+        assert_eq!(
+            watchdog_periods(&NodeSpec::default(), Some(1e-3)).ok(),
+            Some(10)
+        );
+        assert_eq!(watchdog_periods(&with(0), Some(1e6)).ok(), Some(0));
+        for bad in [-1, MAX_WATCHDOG_PERIODS + 1] {
+            assert!(
+                message(&with(bad)).contains("node.watchdog_periods:"),
+                "{bad}"
+            );
+        }
+        // 1,000 periods of 0.2 s do not fit 2^32 counts at 25 MHz (171.8 s); of 0.1 s they do.
+        let e = watchdog_periods(&with(1000), Some(0.2)).expect_err("too long");
+        assert!(e.to_string().contains("node.watchdog_periods:"), "{e}");
+        assert!(watchdog_periods(&with(1000), Some(0.1)).is_ok());
     }
 
     #[test]

@@ -53,7 +53,7 @@ use crate::{
     figures::{FirmwareSummary, NetworkSummary},
     graph::Graph,
     network::{
-        node::NodeSpec,
+        node::{self, NodeSpec},
         spec::{bus_config, node_config, ns, EventName, NetworkKind, NetworkSpec},
         trace::{candump_fd_line, candump_line, TraceWriter, Traces, INTERFACE},
     },
@@ -231,6 +231,10 @@ struct Emulator {
     link_log: Option<Vec<String>>,
     /// The configuration words, sent again when the node boots after a watchdog reset.
     config: Vec<u32>,
+    /// The watchdog's late periods (`node.watchdog_periods`), sent with the configuration.
+    watchdog_periods: u32,
+    /// The step duration the node was last told (`io::SLOW` units; 0: not slowed).
+    slow: u32,
     /// The control task stopped (an `OVERRUN` came instead of the report): the host sends
     /// nothing and takes one line per sample until the report or the boot frame.
     hung: bool,
@@ -292,17 +296,21 @@ impl Emulator {
             tick_dt_us: None,
             link_log: log_link.then(Vec::new),
             config: Vec::new(),
+            watchdog_periods: 0,
+            slow: 0,
             hung: false,
         })
     }
 
-    /// Sends the configuration words (`CONFIG` … `CONFIG_END`).
+    /// Sends the configuration words (`CONFIG` …), the watchdog's late periods (`WATCHDOG`)
+    /// and `CONFIG_END`.
     fn send_config(&mut self) -> Result<()> {
         let words = std::mem::take(&mut self.config);
         for pair in words.chunks(2) {
             let bytes: Vec<u8> = pair.iter().flat_map(|w| w.to_le_bytes()).collect();
             self.queue_io(io::CONFIG, &bytes);
         }
+        self.queue_io(io::WATCHDOG, &self.watchdog_periods.to_le_bytes());
         let count = u16::try_from(words.len()).unwrap_or(u16::MAX);
         self.queue_io(io::CONFIG_END, &count.to_le_bytes());
         self.config = words;
@@ -342,6 +350,7 @@ impl Emulator {
     fn rejoin(&mut self, f: &CanFrame) -> Result<()> {
         self.check_boot(f)?;
         self.hung = false;
+        self.slow = 0;
         self.sync_us = 0;
         self.tick_dt_us = None;
         self.send_config()?;
@@ -594,6 +603,9 @@ pub struct PilAgents<const N: usize, const M: usize> {
     link_trace: Option<TraceWriter>,
     /// Per agent, the sample times of its `hang` events not yet sent.
     hang_at: Vec<Vec<Nanos>>,
+    /// Per agent, its `slow` events: `[from, until)` [ns] and the step duration (`io::SLOW`
+    /// units).
+    slow_at: Vec<Vec<(Nanos, Nanos, u32)>>,
     /// Per agent, the output of its last report: what a hung node's actuators hold.
     held: Vec<StepOutput<N, M>>,
     /// Per agent, its overruns and the times of its hangs and resets (kept when the
@@ -606,6 +618,8 @@ pub struct PilAgents<const N: usize, const M: usize> {
 struct NodeEvents {
     overruns: u32,
     hangs: Vec<f64>,
+    /// Slow intervals `[from, until)` [s] (`until` `None`: to the end of the run).
+    slow: Vec<(f64, Option<f64>)>,
     resets: Vec<f64>,
     /// Safe-state intervals `[from, to)` [s]; `to` is `None` while the node is in it.
     safe: Vec<(f64, Option<f64>)>,
@@ -650,6 +664,7 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
                 format!("\"pil\" needs {QEMU} on PATH; install it: {QEMU_INSTALL}"),
             ));
         }
+        let watchdog_periods = node::watchdog_periods(node_spec, Some(h))?;
         let firmware = std::env::var_os(FIRMWARE_ENV).map_or_else(default_firmware, PathBuf::from);
         let timeout = answer_timeout()?;
         let launch = Launch::new();
@@ -694,6 +709,7 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
                     Error::invalid("network.kind", "configuration too large for the PIL link")
                 })?
                 .to_vec();
+            emu.watchdog_periods = watchdog_periods;
             emu.send_config()?;
             emus.push(emu);
         }
@@ -707,6 +723,19 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
             let a = e.agent.and_then(|a| usize::try_from(a).ok()).unwrap_or(0);
             if let Some(v) = hang_at.get_mut(a.wrapping_sub(1)) {
                 v.push(ns(e.from));
+            }
+        }
+        let mut slow_at = vec![Vec::new(); agents];
+        let mut events = vec![NodeEvents::default(); agents];
+        for e in spec.event.iter().filter(|e| e.kind == EventName::Slow) {
+            let a = e.agent.and_then(|a| usize::try_from(a).ok()).unwrap_or(0);
+            let units = e.periods.and_then(link::slow_periods).unwrap_or(0);
+            if let (Some(v), Some(ev)) = (
+                slow_at.get_mut(a.wrapping_sub(1)),
+                events.get_mut(a.wrapping_sub(1)),
+            ) {
+                v.push((ns(e.from), e.until.map_or(Nanos::MAX, ns), units));
+                ev.slow.push((e.from, e.until));
             }
         }
         let accept = neighbours
@@ -756,8 +785,9 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
             trace,
             link_trace,
             hang_at,
+            slow_at,
             held: vec![super::unreported_output(); agents],
-            events: vec![NodeEvents::default(); agents],
+            events,
         };
         agents.write_link_log();
         Ok(agents)
@@ -898,15 +928,26 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
             }
         }
         let t_us = t_ns / 1000;
-        for (((emu, xi), hangs), events) in self
+        for ((((emu, xi), hangs), slows), events) in self
             .emus
             .iter_mut()
             .zip(x)
             .zip(&mut self.hang_at)
+            .zip(&self.slow_at)
             .zip(&mut self.events)
         {
             if emu.hung {
                 continue;
+            }
+            // The step duration of this sample's window (the first that holds it), told to
+            // the node when it differs from what it was last told (also after a reset).
+            let slow = slows
+                .iter()
+                .find(|(from, until, _)| (*from..*until).contains(&t_ns))
+                .map_or(0, |w| w.2);
+            if slow != emu.slow {
+                emu.queue_io(io::SLOW, &slow.to_le_bytes());
+                emu.slow = slow;
             }
             if let Some(pos) = hangs.iter().position(|&from| from <= t_ns) {
                 hangs.swap_remove(pos);
@@ -997,6 +1038,18 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
                     },
                     label: format!("agent {}: control task stopped", i + 1),
                     hatch: true,
+                });
+            }
+            for &(from, until) in &ev.slow {
+                shades.push(Shade {
+                    from,
+                    to: until.unwrap_or(end).min(end),
+                    color: {
+                        let c = color(i);
+                        RGBColor(c.0, c.1, c.2).mix(0.10)
+                    },
+                    label: format!("agent {}: slow steps", i + 1),
+                    hatch: false,
                 });
             }
             for &t in &ev.resets {

@@ -50,10 +50,29 @@ pub enum EventName {
     /// `kind = "pil"` only: the node firmware's control task stops at `from` (as a firmware
     /// bug would) and only its watchdog brings the node back.
     Hang,
+    /// `kind = "pil"` only: on `[from, until)` each control step of the node firmware takes
+    /// `periods` sample periods; its watchdog decides what follows.
+    Slow,
 }
 
-/// One `[[network.event]]`: a node silent or babbling on `[from, until)`, or hanging from
-/// `from` until its watchdog resets it.
+impl EventName {
+    /// The TOML spelling.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Silent => "silent",
+            Self::Babbling => "babbling",
+            Self::Hang => "hang",
+            Self::Slow => "slow",
+        }
+    }
+}
+
+/// Largest `periods` of a `slow` event: far beyond any watchdog that resets the node, and
+/// within the link's fixed point ([`agent_node::link::slow_periods`]).
+pub const MAX_SLOW_PERIODS: f64 = 1000.0;
+
+/// One `[[network.event]]`: a node silent, babbling or slow on `[from, until)`, or hanging
+/// from `from` until its watchdog resets it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct NetworkEvent {
@@ -63,7 +82,7 @@ pub struct NetworkEvent {
     /// Bus node: 0 is the leader, `i` is agent `i` (or give `agent`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub node: Option<i64>,
-    /// `silent`, `babbling` or `hang`.
+    /// `silent`, `babbling`, `hang` or `slow`.
     pub kind: EventName,
     /// Babbling only: 11-bit identifier of the flood (default 0).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -74,6 +93,9 @@ pub struct NetworkEvent {
     /// End [s] (exclusive); absent: until the end of the run.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub until: Option<f64>,
+    /// Slow only: sample periods each control step takes (> 0; below 1 it ends in time).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub periods: Option<f64>,
 }
 
 /// `network.nodes` (`kind = "socketcan"`): who starts the node processes.
@@ -349,13 +371,18 @@ pub fn validate(spec: &NetworkSpec, agents: usize, h: f64, t_end: f64) -> Result
                 ))
             }
         }
-        if e.kind == EventName::Hang {
+        if matches!(e.kind, EventName::Hang | EventName::Slow) {
+            let what = if e.kind == EventName::Hang {
+                "stops a node firmware's control task"
+            } else {
+                "slows a node firmware's control steps"
+            };
             if spec.kind != NetworkKind::Pil {
                 return Err(Error::invalid(
                     key("kind"),
                     format!(
-                        "\"hang\" stops a node firmware's control task and needs network.kind = \
-                         \"pil\" (got \"{}\")",
+                        "\"{}\" {what} and needs network.kind = \"pil\" (got \"{}\")",
+                        e.kind.as_str(),
                         spec.kind.as_str()
                     ),
                 ));
@@ -363,18 +390,37 @@ pub fn validate(spec: &NetworkSpec, agents: usize, h: f64, t_end: f64) -> Result
             if e.agent.is_none() {
                 return Err(Error::invalid(
                     key("agent"),
-                    "kind = \"hang\" names a follower by `agent` (the leader has no firmware)",
-                ));
-            }
-            if e.until.is_some() {
-                return Err(Error::invalid(
-                    key("until"),
-                    "not for kind = \"hang\": only the node's watchdog ends a hang",
+                    format!(
+                        "kind = \"{}\" names a follower by `agent` (the leader has no firmware)",
+                        e.kind.as_str()
+                    ),
                 ));
             }
         }
+        match (e.kind, e.periods) {
+            (EventName::Slow, None) => {
+                return Err(Error::invalid(
+                    key("periods"),
+                    "needed with kind = \"slow\": sample periods each control step takes",
+                ))
+            }
+            (EventName::Slow, Some(p)) if !(p.is_finite() && p > 0.0 && p <= MAX_SLOW_PERIODS) => {
+                return Err(Error::invalid(
+                    key("periods"),
+                    format!("must be > 0 and <= {MAX_SLOW_PERIODS} sample periods (got {p})"),
+                ))
+            }
+            (EventName::Slow, Some(_)) | (_, None) => {}
+            (_, Some(_)) => return Err(Error::invalid(key("periods"), "only for kind = \"slow\"")),
+        }
+        if e.kind == EventName::Hang && e.until.is_some() {
+            return Err(Error::invalid(
+                key("until"),
+                "not for kind = \"hang\": only the node's watchdog ends a hang",
+            ));
+        }
         match (e.kind, e.id) {
-            (EventName::Silent | EventName::Hang, Some(_)) => {
+            (EventName::Silent | EventName::Hang | EventName::Slow, Some(_)) => {
                 return Err(Error::invalid(key("id"), "only for kind = \"babbling\""))
             }
             (EventName::Babbling, Some(id)) if !(0..=0x7FF).contains(&id) => {
@@ -498,7 +544,7 @@ pub fn bus_config(spec: &NetworkSpec, h: f64) -> BusConfig {
                     EventName::Babbling => EventKind::Babbling {
                         id: u16::try_from(e.id.unwrap_or(0)).unwrap_or(0),
                     },
-                    EventName::Hang => return None,
+                    EventName::Hang | EventName::Slow => return None,
                 };
                 Some(BusEvent {
                     node: usize::try_from(e.agent.or(e.node).unwrap_or(0)).unwrap_or(0),

@@ -105,6 +105,24 @@ pub const PIL_LOSSY_KEYS: [&str; 4] = ["lost", "stale", "suppressed", "can-sent"
 /// Inline figures of the bus trace decoded with cantools (`network.trace.KEY`).
 pub const TRACE_KEYS: [&str; 2] = ["frames", "max-diff"];
 
+/// Figures of the node firmware's watchdog (`network.watchdog.KEY`): agent 3 of Example 1
+/// over `kind = "pil"`, hung at [`WATCHDOG_EVENT_AT`] or slowed to 5 sample periods per step
+/// for 50 ms from then, against `example1-can` (which the PIL run reproduces bit for bit).
+pub const WATCHDOG_KEYS: [&str; 6] = [
+    "hang-overruns",
+    "hang-reset-ms",
+    "hang-recovered-s",
+    "slow-resets",
+    "slow-reset-ms",
+    "slow-recovered-s",
+];
+
+/// Start of the hang or slow window [s], its runs' horizon, and the recovery tolerance (those
+/// of `host-sim/tests/pil.rs`).
+const WATCHDOG_EVENT_AT: f64 = 0.5;
+const WATCHDOG_T_END: &str = "simulation.t_end=3";
+const WATCHDOG_RECOVERED: f64 = 0.005;
+
 /// Horizon of the lossy run compared with the emulated nodes [s].
 const PIL_LOSSY_T_END: &str = "simulation.t_end=7.5";
 
@@ -122,6 +140,7 @@ pub fn known(name: &str) -> bool {
         Some(("lossy", k)) => lossy_key(k),
         Some(("pil-lossy", k)) => PIL_LOSSY_KEYS.contains(&k),
         Some(("trace", k)) => TRACE_KEYS.contains(&k),
+        Some(("watchdog", k)) => WATCHDOG_KEYS.contains(&k),
         Some(_) => false,
     }
 }
@@ -135,6 +154,7 @@ pub fn render(src: &mut Sources, name: &str) -> Result<String> {
         Some(("starved", k)) => starved(src, k),
         Some(("lossy", k)) => lossy(src, k),
         Some(("pil-lossy", k)) => pil_lossy(src, k),
+        Some(("watchdog", k)) => watchdog(src, k),
         Some(("trace", k)) => {
             let (frames, diff) = parse_decoded(&src.decoded_trace()?)?;
             match k {
@@ -531,6 +551,86 @@ pub fn pil_lossy(src: &mut Sources, key: &str) -> Result<String> {
         "stale" => count(n, "stale_samples"),
         "suppressed" => count(n, "suppressed"),
         other => Err(format!("no lossy-run figure `{other}`")),
+    }
+}
+
+/// `summary.json` and `trajectory.csv` of `example1-pil` run to [`WATCHDOG_T_END`] with
+/// `event` (a `network.event=…` setting), in `target/docs/run/example1-pil-<tag>/`.
+fn pil_event_run(src: &mut Sources, tag: &str, event: &str) -> Result<(Value, Trajectory)> {
+    let dir = format!("target/docs/run/example1-pil-{tag}");
+    let summary = src.json_file(&format!("{dir}/summary.json"), |s, file| {
+        let out = file.parent().unwrap_or(file);
+        s.run_scenario(
+            "example1-pil",
+            &["--set", WATCHDOG_T_END, "--set", event],
+            out,
+        )
+    })?;
+    Ok((summary, trajectory_at(&dir)?))
+}
+
+fn trajectory_at(dir: &str) -> Result<Trajectory> {
+    let path = workspace_root().join(dir).join("trajectory.csv");
+    Trajectory::parse(&fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?)
+}
+
+/// One watchdog figure: agent 3's firmware counts, the time from the event's start to the
+/// node's first reset (the sample whose commands are the booting node's zeros) [ms], and to
+/// the last sample at which some output `y_i` is more than [`WATCHDOG_RECOVERED`] from the run
+/// without the event [s].
+pub fn watchdog(src: &mut Sources, key: &str) -> Result<String> {
+    let (run, figure) = key.split_once('-').ok_or("no run")?;
+    let event = match run {
+        "hang" => format!("network.event=[{{kind=\"hang\", agent=3, from={WATCHDOG_EVENT_AT}}}]"),
+        "slow" => format!(
+            "network.event=[{{kind=\"slow\", agent=3, from={WATCHDOG_EVENT_AT}, until={}, periods=5}}]",
+            WATCHDOG_EVENT_AT + 0.05
+        ),
+        other => return Err(format!("no watchdog run `{other}`")),
+    };
+    let (summary, t) = pil_event_run(src, run, &event)?;
+    let agent3 = summary["firmware"]
+        .get(2)
+        .ok_or("summary.json: no firmware[2]")?
+        .clone();
+    let time = t.column("t")?;
+    let after = |r: &&Vec<f64>| r[time] >= WATCHDOG_EVENT_AT;
+    match figure {
+        "overruns" => count(&agent3, "overruns"),
+        "resets" => count(&agent3, "resets"),
+        "reset-ms" => {
+            let (u1, u2) = (t.column("u3_1")?, t.column("u3_2")?);
+            let reset = t
+                .rows
+                .iter()
+                .filter(after)
+                .find(|r| r[u1] == 0.0 && r[u2] == 0.0)
+                .ok_or("agent 3 was never reset")?;
+            Ok(fixed(1e3 * (reset[time] - WATCHDOG_EVENT_AT), 0))
+        }
+        "recovered-s" => {
+            src.summary_with("example1-can", "-3s", &[WATCHDOG_T_END])?;
+            let nominal = trajectory_at("target/docs/run/example1-can-3s")?;
+            let ys = ["y1", "y2", "y3", "y4"];
+            let columns = |tr: &Trajectory| -> Result<Vec<usize>> {
+                ys.iter().map(|y| tr.column(y)).collect()
+            };
+            let (a, b) = (columns(&t)?, columns(&nominal)?);
+            if t.rows.len() != nominal.rows.len() {
+                return Err("the run and the run without the event differ in length".into());
+            }
+            let mut last_off = WATCHDOG_EVENT_AT;
+            for (ra, rb) in t.rows.iter().zip(&nominal.rows) {
+                if a.iter()
+                    .zip(&b)
+                    .any(|(&ca, &cb)| (ra[ca] - rb[cb]).abs() > WATCHDOG_RECOVERED)
+                {
+                    last_off = last_off.max(ra[time]);
+                }
+            }
+            Ok(fixed(last_off - WATCHDOG_EVENT_AT, 2))
+        }
+        other => Err(format!("no watchdog figure `{other}`")),
     }
 }
 
