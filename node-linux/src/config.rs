@@ -158,12 +158,14 @@ impl Supervision {
             "ramp" => SafePolicy::Ramp {
                 rate: needed("ramp_rate", self.ramp_rate)?,
             },
-            other => return Err(ConfigError::new(
-                key(field),
-                format!(
+            other => {
+                return Err(ConfigError::new(
+                    key(field),
+                    format!(
                     "\"{other}\" is not \"hold-position\", \"stop\", \"hold\", \"ramp\" or \"off\""
                 ),
-            )),
+                ))
+            }
         })
     }
 
