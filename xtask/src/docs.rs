@@ -264,7 +264,7 @@ fn short(s: &str) -> String {
 }
 
 /// The figure names (patterns) and what they render.
-pub const CATALOGUE: [(&str, &str); 49] = [
+pub const CATALOGUE: [(&str, &str); 50] = [
     ("bench-table", "target bench table (target/bench/step.json)"),
     ("bench.VARIANT.KEY", "one number of step.json's VARIANT (KEY also flash_total)"),
     ("scenarios", "shipped scenario table (host-sim run, stable-h)"),
@@ -313,6 +313,7 @@ pub const CATALOGUE: [(&str, &str); 49] = [
     ("claims.readings", "every claim's verdict under each reading (D1 printed gains at h = 1 us, D7 permanent faults); minutes, skipped by --check"),
     ("claims.bands", "settling time of both schemes of Example 2 at bands 0.5x to 2x the final residual"),
     ("claims.ablations", "Example 1's bound after 2Ts with one cause of error removed at a time, and its fit over Ts"),
+    ("claims.convergence", "the claims' figures with h halved until they change by less than 1 %"),
     ("claims.further", "checks the paper does not claim: effort of Fig. 8, the baseline tuned to the same settling time"),
 ];
 
@@ -355,6 +356,7 @@ enum Figure<'a> {
     Claims,
     ClaimsBands,
     ClaimsReadings,
+    ClaimsConvergence,
     ClaimsFurther,
     ClaimsAblations,
 }
@@ -444,6 +446,7 @@ fn parse(name: &str) -> Option<Figure<'_>> {
         ["claims"] => Figure::Claims,
         ["claims", "bands"] => Figure::ClaimsBands,
         ["claims", "readings"] => Figure::ClaimsReadings,
+        ["claims", "convergence"] => Figure::ClaimsConvergence,
         ["claims", "further"] => Figure::ClaimsFurther,
         ["claims", "ablations"] => Figure::ClaimsAblations,
         _ => return None,
@@ -492,6 +495,7 @@ fn render(name: &str, src: &mut Sources) -> Result<Option<String>> {
         Figure::Claims => claims::table(src)?,
         Figure::ClaimsBands => claims::bands_table(src)?,
         Figure::ClaimsReadings => claims::readings_table(src)?,
+        Figure::ClaimsConvergence => claims::convergence_table(src)?,
         Figure::ClaimsFurther => claims::further_table(src)?,
         Figure::ClaimsAblations => claims::ablations_table(src)?,
     };

@@ -15,8 +15,6 @@ use super::{fixed, Sources};
 use crate::{workspace_root, Result};
 use std::{fmt::Write as _, fs};
 
-/// Blocks of this module.
-
 /// What a rule decides.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Verdict {
@@ -215,16 +213,19 @@ pub fn any_delta(margin: f64, sweep: &[Option<f64>], plain: Option<f64>) -> Verd
     }
 }
 
-/// `pairs`: settling times (proposed, baseline) per band; `None`: never settled.
-pub fn faster(pairs: &[(Option<f64>, Option<f64>)]) -> Verdict {
+/// `pairs`: settling times (proposed, baseline) per band; `None`: never settled; `diverged`: a
+/// run of the two diverged.
+pub fn faster(pairs: &[(Option<f64>, Option<f64>)], diverged: bool) -> Verdict {
     let sooner = |(p, b): &(Option<f64>, Option<f64>)| match (p, b) {
         (Some(p), Some(b)) => p < b,
         (Some(_), None) => true,
         (None, _) => false,
     };
     let n = pairs.iter().filter(|p| sooner(p)).count();
-    if pairs.is_empty() {
+    if diverged {
         Verdict::Diverged
+    } else if pairs.is_empty() {
+        Verdict::Undecided
     } else if n == pairs.len() {
         Verdict::Holds
     } else if n == 0 {
@@ -286,6 +287,8 @@ pub struct Run {
     deadline: f64,
     /// The run diverged.
     diverged: bool,
+    /// When it diverged.
+    divergence: Option<f64>,
     /// `max |y_d|`.
     amplitude: f64,
     /// Quantizer output changes per sample and actuator.
@@ -302,6 +305,14 @@ impl Run {
     /// Definition 1's bound after the deadline; `None` when the run diverged.
     pub fn gamma(&self) -> Option<f64> {
         (!self.diverged).then(|| self.gamma.unwrap_or_else(|| self.max_from(self.deadline)))
+    }
+
+    /// "diverged at t = … s".
+    fn diverged_at(&self) -> String {
+        match self.divergence {
+            Some(t) => format!("diverged at t = {} ms", fixed(1e3 * t, 3)),
+            None => "diverged".to_owned(),
+        }
     }
 
     /// The final residual: max error over the run's last `deadline` seconds.
@@ -400,6 +411,7 @@ fn run_with(
         per_agent,
         deadline,
         diverged: !s["divergence"].is_null(),
+        divergence: s["divergence"]["time"].as_f64(),
         amplitude,
         changes,
         energy: super::num(&s, "total_u_energy")?,
@@ -566,6 +578,22 @@ fn reading_runs(src: &mut Sources, r: &Reading) -> Result<ReadingRuns> {
     })
 }
 
+/// `γ̌ / final residual` of a run, or where it diverged.
+fn bound_and_residual(r: &Run) -> String {
+    match r.gamma() {
+        Some(g) => format!("{} / {}", fixed(g, 3), fixed(r.residual(), 3)),
+        None => r.diverged_at(),
+    }
+}
+
+/// `γ̌ / leader amplitude` of a run, or where it diverged.
+fn bound_and_amplitude(r: &Run) -> String {
+    match r.gamma() {
+        Some(g) => format!("{} / {}", fixed(g, 3), fixed(r.amplitude, 2)),
+        None => r.diverged_at(),
+    }
+}
+
 fn g3(g: Option<f64>) -> String {
     g.map_or("diverged".to_owned(), |g| fixed(g, 3))
 }
@@ -580,12 +608,14 @@ struct Cell {
     measured: String,
 }
 
-/// The claims of the paper, quoted: (claim, rule, judge).
+/// The claims of the paper: (short name, the claim quoted, rule, judge).
 type Judge = fn(Rule, &ReadingRuns, &Run) -> Option<Cell>;
+type Claim = (&'static str, &'static str, Rule, Judge);
 
-fn claims() -> Vec<(&'static str, Rule, Judge)> {
+fn claims() -> Vec<Claim> {
     vec![
         (
+            "Theorem 1(1), the time",
             "Theorem 1(1): the errors \"converge to a small range within a predefined-time 2Tₛ\" — the time (Definition 1; Figs. 2, 7)",
             DEF1,
             |rule, r, _| {
@@ -596,16 +626,15 @@ fn claims() -> Vec<(&'static str, Rule, Judge)> {
                 Some(Cell {
                     verdict: v,
                     measured: format!(
-                        "γ̌ / final residual: Example 1 {} / {}, Example 2 {} / {}",
-                        g3(r.e1.gamma()),
-                        fixed(r.e1.residual(), 3),
-                        g3(r.e2.gamma()),
-                        fixed(r.e2.residual(), 3)
+                        "γ̌ / final residual: Example 1 {}, Example 2 {}",
+                        bound_and_residual(&r.e1),
+                        bound_and_residual(&r.e2)
                     ),
                 })
             },
         ),
         (
+            "Theorem 1(1), the size",
             "Theorem 1(1): \"a small range\" — the size (Figs. 2, 7)",
             SMALL,
             |rule, r, _| {
@@ -616,16 +645,15 @@ fn claims() -> Vec<(&'static str, Rule, Judge)> {
                 Some(Cell {
                     verdict: v,
                     measured: format!(
-                        "γ̌ / leader amplitude: Example 1 {} / {}, Example 2 {} / {}",
-                        g3(r.e1.gamma()),
-                        fixed(r.e1.amplitude, 2),
-                        g3(r.e2.gamma()),
-                        fixed(r.e2.amplitude, 2)
+                        "γ̌ / leader amplitude: Example 1 {}, Example 2 {}",
+                        bound_and_amplitude(&r.e1),
+                        bound_and_amplitude(&r.e2)
                     ),
                 })
             },
         ),
         (
+            "Remark 9(3), Tₛ and speed",
             "Remark 9(3): \"the smaller the Tₛ, the faster the convergence speed\" (Figs. 2, 7; judged on Example 2, whose initial error of 1 rad makes convergence visible: Example 1 starts within 0.02 of the leader, inside every band)",
             MONOTONE,
             |rule, r, _| {
@@ -651,6 +679,7 @@ fn claims() -> Vec<(&'static str, Rule, Judge)> {
             },
         ),
         (
+            "faults (Assumption 4)",
             "Theorem 1 under Assumption 4: tracking \"despite the presence of actuator faults\" (Figs. 3–6, 9–12)",
             ROBUST,
             |rule, r, _| {
@@ -665,6 +694,7 @@ fn claims() -> Vec<(&'static str, Rule, Judge)> {
             },
         ),
         (
+            "Remark 2, communication load",
             "Remark 2: the hysteresis quantizer \"alleviate[s] the communication load\" (Figs. 3–6)",
             SAVES,
             |rule, r, _| {
@@ -687,6 +717,7 @@ fn claims() -> Vec<(&'static str, Rule, Judge)> {
             },
         ),
         (
+            "Remark 2, any δ",
             "Remark 2: \"the restrictive conditions imposed on the quantizer parameter δ … are eliminated\"",
             ANY_DELTA,
             |rule, r, _| {
@@ -708,6 +739,7 @@ fn claims() -> Vec<(&'static str, Rule, Judge)> {
             },
         ),
         (
+            "Fig. 8, response speed",
             "Fig. 8: \"the response speed of the prescribed-time control scheme is slower compared to the proposed scheme\"",
             Rule::Faster,
             |_, r, base| {
@@ -719,11 +751,15 @@ fn claims() -> Vec<(&'static str, Rule, Judge)> {
                 let pairs: Vec<(Option<f64>, Option<f64>)> =
                     pairs.iter().map(|(_, p, q)| (*p, *q)).collect();
                 Some(Cell {
-                    verdict: faster(&pairs),
-                    measured: format!(
-                        "Example 2, settling (proposed vs prescribed-time [39]) at band {}",
-                        list.join("; ")
-                    ),
+                    verdict: faster(&pairs, r.e2.diverged || base.diverged),
+                    measured: if r.e2.diverged {
+                        format!("Example 2 {}", r.e2.diverged_at())
+                    } else {
+                        format!(
+                            "Example 2, settling (proposed vs prescribed-time [39]) at band {}",
+                            list.join("; ")
+                        )
+                    },
                 })
             },
         ),
@@ -764,7 +800,7 @@ pub fn table(src: &mut Sources) -> Result<String> {
     let base = run(src, "example2-baseline", "", &[])?;
     let r = reading_runs(src, &READINGS[0])?;
     let mut t = String::from("| claim (paper) | rule | measured | verdict |\n|---|---|---|---|\n");
-    for (claim, rule, judge) in claims() {
+    for (_, claim, rule, judge) in claims() {
         let cell = judge(rule, &r, &base).ok_or("the project's reading runs every claim")?;
         let _ = writeln!(
             t,
@@ -798,9 +834,8 @@ pub fn readings_table(src: &mut Sources) -> Result<String> {
         t.push_str("---|");
     }
     t.push_str("---|\n");
-    for (claim, rule, judge) in claims() {
+    for (short, _, rule, judge) in claims() {
         let cells: Vec<Option<Cell>> = per_reading.iter().map(|r| judge(rule, r, &base)).collect();
-        let short = claim.split(':').next().unwrap_or(claim);
         let _ = write!(t, "| {short} |");
         for (k, c) in cells.iter().enumerate() {
             match c {
@@ -992,9 +1027,77 @@ fn student_t95(dof: usize) -> f64 {
     ];
     match dof {
         0 => f64::INFINITY,
-        d if d <= T.len() => T[d - 1],
-        d => 1.96 + 2.4 / d as f64,
+        d => T.get(d - 1).copied().unwrap_or(1.96 + 2.4 / d as f64),
     }
+}
+
+/// A figure of the claims table as a function of `h`: label, shipped scenario, and the
+/// figure from a run and the band of the same-settling comparison.
+type HFigure = (&'static str, &'static str, fn(&Run, f64) -> Option<f64>);
+
+/// Figures whose convergence in `h` `fig:claims.convergence` checks.
+const H_FIGURES: [HFigure; 4] = [
+    ("Example 1: γ̌", "example1", |r, _| r.gamma()),
+    ("Example 2: γ̌", "example2", |r, _| r.gamma()),
+    (
+        "Example 2: settling time into 1.5× its final residual",
+        "example2",
+        |r, b| r.settling(b, DWELL),
+    ),
+    (
+        "prescribed-time [39] (Example 2): settling time into the same band",
+        "example2-baseline",
+        |r, b| r.settling(b, DWELL),
+    ),
+];
+
+/// Halvings of `h` tried at most.
+const MAX_HALVINGS: u32 = 3;
+/// Relative change below which a figure counts as converged in `h`.
+const H_TOLERANCE: f64 = 0.01;
+
+/// `fig:claims.convergence`: each figure at the shipped `h`, halved until it changes by less
+/// than 1 % (at most three times).
+pub fn convergence_table(src: &mut Sources) -> Result<String> {
+    let mut t = String::from(
+        "| figure | shipped h | value at h, h/2, h/4, … | converged at h (change < 1 %) |\n|---|---|---|---|\n",
+    );
+    let band = SAME_SETTLING_BAND * run(src, "example2", "", &[])?.residual();
+    for (label, stem, figure) in H_FIGURES {
+        let h0 = super::num(&src.summary(stem)?, "h")?;
+        let mut values: Vec<Option<f64>> = Vec::new();
+        let mut converged = None;
+        for k in 0..=MAX_HALVINGS {
+            let h = h0 / f64::from(1u32 << k);
+            let tag = if k == 0 {
+                String::new()
+            } else {
+                format!("-h{h}")
+            };
+            let r = run(src, stem, &tag, &[format!("simulation.h={h}")])?;
+            let v = figure(&r, band);
+            if let (Some(Some(prev)), Some(v)) = (values.last(), v) {
+                if (v - prev).abs() <= H_TOLERANCE * prev.abs() {
+                    converged = Some(2.0 * h);
+                    values.push(Some(v));
+                    break;
+                }
+            }
+            values.push(v);
+        }
+        let list: Vec<String> = values
+            .iter()
+            .map(|v| v.map_or("–".to_owned(), |v| fixed(v, 4)))
+            .collect();
+        let _ = writeln!(
+            t,
+            "| {label} | {} | {} | {} |",
+            super::ms(h0),
+            list.join(", "),
+            converged.map_or(format!("not within {MAX_HALVINGS} halvings"), super::ms)
+        );
+    }
+    Ok(t)
 }
 
 /// `fig:claims.further`: checks of the comparison the paper never states as claims.
@@ -1164,10 +1267,11 @@ mod tests {
     #[test]
     fn faster_returns_each_verdict() {
         let (a, b) = (Some(0.5), Some(1.0));
-        assert_eq!(faster(&[(a, b), (a, None)]), Verdict::Holds);
-        assert_eq!(faster(&[(b, a), (None, a)]), Verdict::DoesNotHold);
-        assert_eq!(faster(&[(a, b), (b, a)]), Verdict::DependsOnBand);
-        assert_eq!(faster(&[]), Verdict::Diverged);
+        assert_eq!(faster(&[(a, b), (a, None)], false), Verdict::Holds);
+        assert_eq!(faster(&[(b, a), (None, a)], false), Verdict::DoesNotHold);
+        assert_eq!(faster(&[(a, b), (b, a)], false), Verdict::DependsOnBand);
+        assert_eq!(faster(&[(a, b)], true), Verdict::Diverged);
+        assert_eq!(faster(&[], false), Verdict::Undecided);
     }
 
     #[test]
@@ -1203,6 +1307,7 @@ mod tests {
             per_agent: vec![],
             deadline: 2.0,
             diverged: false,
+            divergence: None,
             amplitude: 1.0,
             changes: 0.0,
             energy: 0.0,
@@ -1235,7 +1340,7 @@ mod tests {
 
     #[test]
     fn every_rule_states_its_thresholds() {
-        for (_, rule, _) in claims() {
+        for (_, _, rule, _) in claims() {
             let s = rule.statement();
             assert!(
                 s.starts_with("holds if") || s.starts_with("Definition 1"),
