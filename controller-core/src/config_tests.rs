@@ -24,7 +24,7 @@ fn quantizer(rho: f32, u_min: f32) -> Option<QuantizerConfig> {
 }
 
 /// One configuration per way to be wrong, and the error it must give.
-fn cases() -> [(Result<C, ConfigError>, ConfigError); 25] {
+fn cases() -> [(Result<C, ConfigError>, ConfigError); 26] {
     use Param as P;
     use Reason as R;
     let e = ConfigError::new;
@@ -112,6 +112,14 @@ fn cases() -> [(Result<C, ConfigError>, ConfigError); 25] {
         ),
         (sections::<2>(|c| c.c1 = Some(9.0)), e(P::C2, R::Unpaired)),
         (
+            sections::<2>(|c| {
+                c.c1 = Some(9.0);
+                c.c2 = Some(9.0);
+                c.gain_reading = crate::GainReading::Printed;
+            }),
+            e(P::GainReading, R::Conflicts(P::C1)),
+        ),
+        (
             sections::<2>(|c| c.kappa = Some(2.0)),
             e(P::Kappa, R::BaselineOnly),
         ),
@@ -139,7 +147,7 @@ fn default_controller() -> C {
 
 #[test]
 fn every_reason_is_reached() {
-    let mut seen = [false; 16];
+    let mut seen = [false; 17];
     for (i, (got, want)) in cases().into_iter().enumerate() {
         assert_eq!(got.err(), Some(want), "case {i}");
         let slot = match want.reason() {
@@ -159,12 +167,32 @@ fn every_reason_is_reached() {
             Reason::Unpaired => 13,
             Reason::BaselineOnly => 14,
             Reason::NotBuilt => 15,
+            Reason::Conflicts(_) => 16,
         };
         seen[slot] = true;
     }
     // The one of the two a build cannot reach: with the `safety` feature or without it.
     seen[if cfg!(feature = "safety") { 15 } else { 8 }] = true;
     assert!(seen.iter().all(|&s| s), "{seen:?}");
+}
+
+#[test]
+fn the_printed_gain_reading_gives_the_printed_gains() {
+    let printed = sections::<2>(|c| c.gain_reading = crate::GainReading::Printed)
+        .expect("Example 1 with the printed reading is valid");
+    let want = crate::Gains::printed(2.0, 0.1, 2, 80.0, 50.0, 50.0).expect("valid");
+    assert_eq!(printed.params().gains().c1, want.c1);
+    assert!((printed.params().gains().c1 - 2862.0).abs() < 1.0);
+    let reconstructed = sections::<2>(|_| {}).expect("valid");
+    assert!((reconstructed.params().gains().c1 - 16.26).abs() < 0.01);
+    assert_eq!(
+        sections::<2>(|c| {
+            c.gain_reading = crate::GainReading::Printed;
+            c.tau = -1.0;
+        })
+        .err(),
+        Some(ConfigError::new(Param::Tau, Reason::NonPositive))
+    );
 }
 
 #[test]

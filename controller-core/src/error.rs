@@ -113,6 +113,7 @@ impl fmt::Display for ConfigError {
             Reason::NotBuilt => {
                 f.write_str("is set, but controller-core was built without its `safety` feature")
             }
+            Reason::Conflicts(q) => write!(f, "cannot be used with `{}`", q.key()),
         }
     }
 }

@@ -61,6 +61,25 @@ impl Gains {
         Self::explicit(c2 / theta, c2, zeta)
     }
 
+    /// Gains from `T_s` with the factor `r` of Theorem 1 as the paper prints it (D1, the
+    /// reading `controller.gain_reading = "printed"`): `c_1 = π/(r ζ T_s)`, `c_2 = π/(ζ T_s)`
+    /// with [`printed_factor`] for `r`. For Example 1 `c_1 ≈ 2,862` (the reconstruction of
+    /// [`Self::predefined_time`] gives 16.26).
+    pub fn printed(
+        ts: f32,
+        zeta: f32,
+        n: usize,
+        p: f32,
+        eta: f32,
+        tau: f32,
+    ) -> Result<Self, ConfigError> {
+        Param::Zeta.check(zeta)?;
+        Param::Ts.check(ts)?;
+        let r = printed_factor(zeta, n, p, eta, tau)?;
+        let c2 = PI / (zeta * ts);
+        Self::explicit(c2 / r, c2, zeta)
+    }
+
     /// Explicit `c_1`, `c_2`; `k_1`, `k_2` follow from `ζ`.
     pub fn explicit(c1: f32, c2: f32, zeta: f32) -> Result<Self, ConfigError> {
         Param::Zeta.check(zeta)?;
@@ -99,6 +118,26 @@ pub fn theta(zeta: f32, n: usize, p: f32, eta: f32, tau: f32) -> Result<f32, Con
     Ok(candidates.iter().fold(f32::INFINITY, |m, &c| m.min(c)))
 }
 
+/// The factor `r` of Theorem 1 as printed below (21): `r = min{ n^(ζ/2),
+/// (1/2)^(1+ζ/2)/(p (1+ζ)), (1/2)^(1+ζ/2)/(η (1+ζ)), (1/2)^(1+ζ/2)/(τ (1+2ζ)) }` (D1).
+pub fn printed_factor(zeta: f32, n: usize, p: f32, eta: f32, tau: f32) -> Result<f32, ConfigError> {
+    Param::Zeta.check(zeta)?;
+    Param::P.check(p)?;
+    Param::Eta.check(eta)?;
+    Param::Tau.check(tau)?;
+    if n == 0 {
+        return Err(ConfigError::new(Param::StateOrder, Reason::OutOfRange));
+    }
+    let half = scaled_power(1.0, 0.5, 1.0 + zeta / 2.0, 1.0, 1.0);
+    let candidates = [
+        scaled_power(1.0, n as f32, zeta / 2.0, 1.0, 1.0),
+        half / (p * (1.0 + zeta)),
+        half / (eta * (1.0 + zeta)),
+        half / (tau * (1.0 + 2.0 * zeta)),
+    ];
+    Ok(candidates.iter().fold(f32::INFINITY, |m, &c| m.min(c)))
+}
+
 /// `a x^y b / c`, rounded in that order (factors of 1 are exact). Out of line so that a
 /// firmware links one copy of `powf` for the five powers of `ϑ`, not five inlined ones.
 #[inline(never)]
@@ -133,6 +172,26 @@ mod tests {
         // ϑ = min(2^(−0.3), 2^1.3·30^0.3·1.6/2.6, same, 2^1.3·30^0.3·2.2/3.2) = 2^(−0.3).
         let theta = 2f64.powf(-0.3);
         assert!((g.c1 as f64 - c2 / theta).abs() < 1e-2, "c1 = {}", g.c1);
+    }
+
+    #[test]
+    fn printed_factor_gives_the_gains_of_deviation_d1() {
+        // Example 1: r = (1/2)^1.05 / (80 · 1.1), c1 = π / (r · 0.1 · 2) ≈ 2,862.
+        let g = Gains::printed(2.0, 0.1, 2, 80.0, 50.0, 50.0).unwrap();
+        let r = 0.5f64.powf(1.05) / (80.0 * 1.1);
+        let c1 = core::f64::consts::PI / (r * 0.2);
+        assert!((g.c1 as f64 - c1).abs() < 1e-3 * c1, "c1 = {}", g.c1);
+        assert!((g.c1 - 2862.0).abs() < 1.0, "c1 = {}", g.c1);
+        assert!((g.c2 - 15.7080).abs() < 1e-3, "c2 as reconstructed");
+        // Example 2: the τ branch, (1/2)^1.3 / (30 · 2.2); c1 ≈ 1,702.
+        let g2 = Gains::printed(0.5, 0.6, 2, 30.0, 30.0, 30.0).unwrap();
+        let r2 = 0.5f64.powf(1.3) / (30.0 * 2.2);
+        let c1 = core::f64::consts::PI / (r2 * 0.3);
+        assert!((g2.c1 as f64 - c1).abs() < 1e-3 * c1, "c1 = {}", g2.c1);
+        assert_eq!(
+            printed_factor(0.1, 2, -1.0, 50.0, 50.0),
+            Err(ConfigError::new(Param::P, Reason::NonPositive))
+        );
     }
 
     #[test]

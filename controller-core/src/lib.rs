@@ -120,4 +120,6 @@ pub use safety::SafetyConfig;
 pub use scheme::{BaselineConfig, SchemeConfig};
 #[cfg(feature = "serde")]
 pub use sections::ConfigFile;
-pub use sections::{Agent, ControllerSection, QuantizerSection, SafetySection, SchemeName};
+pub use sections::{
+    Agent, ControllerSection, GainReading, QuantizerSection, SafetySection, SchemeName,
+};

@@ -61,6 +61,8 @@ pub enum Param {
     C1,
     /// `controller.c2`: explicit `c_2`.
     C2,
+    /// `controller.gain_reading`: which reading of the gain factor of Theorem 1 (D1).
+    GainReading,
     /// `controller.kappa`: exponent `κ` of the baseline's `μ_T(t)`.
     Kappa,
     /// `controller.mu_max`: cap `μ_max` of `μ_T(t)`.
@@ -191,12 +193,14 @@ const fn with(s: Spec, condition: &'static str) -> Spec {
 pub const SCHEMES: &[&str] = &["predefined-time", "prescribed-time"];
 /// Names of `quantizer.direction`.
 pub const DIRECTIONS: &[&str] = &["signed", "magnitude"];
+/// Names of `controller.gain_reading`.
+pub const GAIN_READINGS: &[&str] = &["reconstructed", "printed"];
 
 const BASELINE_ONLY: &str = "; `prescribed-time` only";
 
 impl Param {
     /// Every parameter, in the order of docs/SCENARIO.md.
-    pub const ALL: [Self; 39] = [
+    pub const ALL: [Self; 40] = [
         Self::H,
         Self::Scheme,
         Self::Ts,
@@ -221,6 +225,7 @@ impl Param {
         Self::EstimateMax,
         Self::C1,
         Self::C2,
+        Self::GainReading,
         Self::Kappa,
         Self::MuMax,
         Self::TPrescribed,
@@ -294,6 +299,15 @@ impl Param {
             Self::C2 => with(
                 spec("controller.c2", "1/s", D::Computed, R::Positive),
                 ", with `c1`",
+            ),
+            Self::GainReading => with(
+                spec(
+                    "controller.gain_reading",
+                    "–",
+                    D::Name("reconstructed"),
+                    R::OneOf(GAIN_READINGS),
+                ),
+                ", without `c1`, `c2`",
             ),
             Self::Kappa => with(
                 spec("controller.kappa", "–", num(2.0), R::Positive),
@@ -491,6 +505,8 @@ pub enum Reason {
     BaselineOnly,
     /// Set, but controller-core was built without the feature that implements it (`safety`).
     NotBuilt,
+    /// Set together with this parameter, which overrides it.
+    Conflicts(Param),
 }
 
 #[cfg(test)]
@@ -529,6 +545,7 @@ mod tests {
                 | Param::EstimateMax
                 | Param::C1
                 | Param::C2
+                | Param::GainReading
                 | Param::Kappa
                 | Param::MuMax
                 | Param::TPrescribed

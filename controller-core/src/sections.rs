@@ -9,8 +9,8 @@
 use core::fmt;
 
 use crate::{
-    config::MAX_CONFIG_ERRORS, BaselineConfig, ConfigError, ControllerConfig, GainSelection, Param,
-    QuantizerConfig, QuantizerDirection, Reason, SafetyConfig, SchemeConfig,
+    config::MAX_CONFIG_ERRORS, BaselineConfig, ConfigError, ControllerConfig, GainSelection, Gains,
+    Param, QuantizerConfig, QuantizerDirection, Reason, SafetyConfig, SchemeConfig,
 };
 
 /// A number type a file is read in: `f32` on the target, `f64` on the host.
@@ -83,6 +83,34 @@ impl fmt::Display for SchemeName {
     }
 }
 
+/// `controller.gain_reading`: which reading of the gain factor of Theorem 1 (D1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "kebab-case"))]
+pub enum GainReading {
+    /// `ϑ` of LAW §3, reconstructed from the proof's (46)–(55).
+    #[default]
+    Reconstructed,
+    /// The factor `r` as printed below (21) ([`crate::gains::printed_factor`]).
+    Printed,
+}
+
+impl GainReading {
+    /// The default reading (left out when a section is written).
+    pub fn is_reconstructed(&self) -> bool {
+        *self == Self::Reconstructed
+    }
+}
+
+impl fmt::Display for GainReading {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::Reconstructed => crate::param::GAIN_READINGS[0],
+            Self::Printed => crate::param::GAIN_READINGS[1],
+        })
+    }
+}
+
 /// `[controller]`: the design values of LAW §3–§5, shared by all agents.
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -146,6 +174,12 @@ pub struct ControllerSection<F, S> {
     /// Explicit `c_2` (with `c1`).
     #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
     pub c2: Option<F>,
+    /// Reading of the gain factor when `c1`, `c2` are not given.
+    #[cfg_attr(
+        feature = "serde",
+        serde(skip_serializing_if = "GainReading::is_reconstructed")
+    )]
+    pub gain_reading: GainReading,
     /// Baseline `κ`.
     #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
     pub kappa: Option<F>,
@@ -185,6 +219,7 @@ impl<F: Number, S: PerStep<F>> Default for ControllerSection<F, S> {
             estimate_max: num(Param::EstimateMax),
             c1: None,
             c2: None,
+            gain_reading: GainReading::default(),
             kappa: None,
             mu_max: None,
             t_prescribed: None,
@@ -383,14 +418,29 @@ impl<const N: usize> ControllerConfig<N> {
         let mut errors = ConfigErrors::new();
         let gains = keep(
             &mut errors,
-            match (c.c1, c.c2) {
-                (None, None) => Ok(GainSelection::Auto),
-                (Some(c1), Some(c2)) => Ok(GainSelection::Explicit {
+            match (c.c1, c.c2, c.gain_reading) {
+                (None, None, GainReading::Reconstructed) => Ok(GainSelection::Auto),
+                // The printed reading is a pair of explicit gains computed here, so every
+                // reader of a `GainSelection` (firmware, node link) handles it unchanged.
+                (None, None, GainReading::Printed) => Gains::printed(
+                    c.ts.to_f32(),
+                    c.zeta.to_f32(),
+                    N,
+                    c.p.to_f32(),
+                    c.eta.to_f32(),
+                    c.tau.to_f32(),
+                )
+                .map(|g| GainSelection::Explicit { c1: g.c1, c2: g.c2 }),
+                (Some(_), Some(_), GainReading::Printed) => Err(ConfigError::new(
+                    Param::GainReading,
+                    Reason::Conflicts(Param::C1),
+                )),
+                (Some(c1), Some(c2), _) => Ok(GainSelection::Explicit {
                     c1: c1.to_f32(),
                     c2: c2.to_f32(),
                 }),
-                (Some(_), None) => Err(ConfigError::new(Param::C2, Reason::Unpaired)),
-                (None, Some(_)) => Err(ConfigError::new(Param::C1, Reason::Unpaired)),
+                (Some(_), None, _) => Err(ConfigError::new(Param::C2, Reason::Unpaired)),
+                (None, Some(_), _) => Err(ConfigError::new(Param::C1, Reason::Unpaired)),
             },
         );
         let scheme = match c.scheme {
@@ -586,6 +636,7 @@ impl<const N: usize> From<ControllerConfig<N>> for ConfigFile<heapless::Vec<f32,
                 estimate_max: c.estimate_max,
                 c1,
                 c2,
+                gain_reading: GainReading::Reconstructed,
                 kappa: baseline.map(|b| b.kappa),
                 mu_max: baseline.map(|b| b.mu_max),
                 t_prescribed: baseline.and_then(|b| b.t_prescribed),

@@ -17,7 +17,7 @@ use crate::{
     metrics::{self, Summary, WindowKind, WindowSpec},
     report::{self, fmt_time, plots::Recorder},
     run::{run, RunOptions},
-    scenario::Setup,
+    scenario::{SchemeName, Setup},
 };
 
 /// One scheme judged after its own deadline and after the common instant.
@@ -266,15 +266,37 @@ pub fn compare(a: &Setup, b: &Setup, out: &Path, progress: bool) -> Result<Strin
     Ok(t)
 }
 
-/// Each scheme's own deadline labelled with its rule and scenario; the later one is also the
+/// The settling band's label, with its unit unless the output has none.
+fn band_label(band: f64, y_unit: &str) -> String {
+    match y_unit {
+        "–" | "" => format!("settling band b = {band}"),
+        u => format!("settling band b = {band} {u}"),
+    }
+}
+
+/// The scheme of a run as the paper names it, for figure text: "predefined-time (proposed)",
+/// "prescribed-time [39]"; when both runs have the same scheme, "(a)"/"(b)" tells them apart.
+fn scheme_label(s: &Setup, other: &Setup, tag: &str) -> String {
+    let name = |s: &Setup| match s.scenario.controller.scheme {
+        SchemeName::PredefinedTime => "predefined-time (proposed)",
+        SchemeName::PrescribedTime => "prescribed-time [39]",
+    };
+    if name(s) == name(other) {
+        format!("{} {tag}", name(s))
+    } else {
+        name(s).to_owned()
+    }
+}
+
+/// Each scheme's own deadline labelled with its rule and scheme; the later one is also the
 /// common instant (one line when both deadlines coincide).
 fn deadline_lines(a: &Setup, b: &Setup) -> Vec<(f64, String)> {
-    let rule = |s: &Setup| {
+    let rule = |s: &Setup, other: &Setup, tag: &str| {
         let (t, r) = metrics::deadline(s);
-        let r = if r == "2Ts" { "2Tₛ" } else { r };
-        (t, format!("{r} ({})", s.scenario.name))
+        let r = if r == "2Ts" { "2Tₛ" } else { "T" };
+        (t, format!("{r} of {}", scheme_label(s, other, tag)))
     };
-    let ((ta, la), (tb, lb)) = (rule(a), rule(b));
+    let ((ta, la), (tb, lb)) = (rule(a, b, "(b)"), rule(b, a, "(a)"));
     if ta == tb {
         return vec![(ta, format!("{la} = {lb} = {}: common instant", secs(ta)))];
     }
@@ -289,7 +311,7 @@ fn deadline_lines(a: &Setup, b: &Setup) -> Vec<(f64, String)> {
 }
 
 fn overlay(out: &Path, a: &Setup, ra: &Recorder, b: &Setup, rb: &Recorder) -> Result<()> {
-    let (na, nb) = (&a.scenario.name, &b.scenario.name);
+    let (na, nb) = (&scheme_label(a, b, "(b)"), &scheme_label(b, a, "(a)"));
     let (y_unit, u_unit) = a.plant.units();
     let vlines = deadline_lines(a, b);
     let band = a.scenario.simulation.settle_band;
@@ -311,7 +333,7 @@ fn overlay(out: &Path, a: &Setup, ra: &Recorder, b: &Setup, rb: &Recorder) -> Re
             y_label: format!("maxᵢ |yᵢ − y_d| [{y_unit}]"),
             series: errs,
             vlines: vlines.clone(),
-            hlines: vec![(band, format!("b = {band}"))],
+            hlines: vec![(band, band_label(band, y_unit))],
             log_y: true,
             ..Panel::default()
         },
@@ -366,9 +388,12 @@ fn overlay(out: &Path, a: &Setup, ra: &Recorder, b: &Setup, rb: &Recorder) -> Re
 fn outputs(out: &Path, (a, ra): (&Setup, &Recorder), (b, rb): (&Setup, &Recorder)) -> Result<()> {
     let (y_unit, _) = a.plant.units();
     let vlines = deadline_lines(a, b);
-    let panel = |tag: &str, s: &Setup, r: &Recorder| {
+    let panel = |tag: &str, s: &Setup, other: &Setup, r: &Recorder| {
         let mut p = Panel {
-            title: format!("({tag}) {}: outputs yᵢ and leader y_d", s.scenario.name),
+            title: format!(
+                "({tag}) {}: outputs yᵢ and leader y_d",
+                scheme_label(s, other, &format!("({tag})"))
+            ),
             y_label: format!("output y [{y_unit}]"),
             vlines: vlines.clone(),
             ..Panel::default()
@@ -388,7 +413,7 @@ fn outputs(out: &Path, (a, ra): (&Setup, &Recorder), (b, rb): (&Setup, &Recorder
     render(
         out,
         "compare-outputs",
-        &[panel("a", b, rb), panel("b", a, ra)],
+        &[panel("a", b, a, rb), panel("b", a, b, ra)],
         (2, 1),
         FigureStyle::px(1000, 900).with(a.figures()),
     )

@@ -94,8 +94,8 @@ fn different_deadlines_are_reported_apart_and_the_later_is_common() {
     );
     let svg = std::fs::read_to_string(dir.join("compare.svg")).expect("compare.svg");
     for label in [
-        "2Tₛ (example2) = 2 s: common instant",
-        "t_prescribed (example2-baseline) = 1 s",
+        "2Tₛ of predefined-time (proposed) = 2 s: common instant",
+        "T of prescribed-time [39] = 1 s",
     ] {
         assert!(svg.contains(label), "{label}");
     }

@@ -111,8 +111,8 @@ fn compare_figure_draws_each_schemes_own_deadline() {
     assert_has(
         &svg(&dir, "compare"),
         &[
-            "2Tₛ (example2) = t_prescribed (example2-baseline) = 1 s: common instant",
-            "example2-baseline: peak −27337",
+            "2Tₛ of predefined-time (proposed) = T of prescribed-time [39] = 1 s: common instant",
+            "prescribed-time [39]: peak −27337",
             "u₁ [N·m]",
         ],
         "compare",
@@ -121,8 +121,8 @@ fn compare_figure_draws_each_schemes_own_deadline() {
     assert_has(
         &svg(&dir, "compare-outputs"),
         &[
-            "(a) example2-baseline: outputs yᵢ and leader y_d",
-            "(b) example2: outputs yᵢ and leader y_d",
+            "(a) prescribed-time [39]: outputs yᵢ and leader y_d",
+            "(b) predefined-time (proposed): outputs yᵢ and leader y_d",
             "y₂",
             "common instant",
         ],

@@ -29,6 +29,7 @@ use std::{
 };
 
 mod back_end;
+mod claims;
 mod clocks;
 mod cores;
 mod images;
@@ -183,6 +184,8 @@ pub fn docs(opts: &Options) -> Result<()> {
     let only_figure = opts.only.as_deref().filter(|o| !o.ends_with(".md"));
     let keep = |name: &str| {
         (name.starts_with("wall.") && (opts.check || !opts.wall_clock))
+            || (name == "claims.readings"
+                && (opts.check || opts.only.as_deref() != Some("claims.readings")))
             || only_figure.is_some_and(|only| only != name)
     };
     process(&workspace_root(), only_file, opts.check, keep, |name| {
@@ -262,7 +265,7 @@ fn short(s: &str) -> String {
 }
 
 /// The figure names (patterns) and what they render.
-pub const CATALOGUE: [(&str, &str); 51] = [
+pub const CATALOGUE: [(&str, &str); 56] = [
     ("bench-table", "target bench table, Cortex-M4F step variants (target/bench/step.json)"),
     ("cores.table", "step per math back-end and node tick on every Cortex-M class (step.json)"),
     ("cores.mcu", "named CAN parts: worst step and node tick at the part's clock, share of 1 kHz, verdict"),
@@ -313,7 +316,12 @@ pub const CATALOGUE: [(&str, &str); 51] = [
     ("reliability.corruption.CASE.KEY", "Example 1's fault-matrix corruption cells run alone (CASE: 10, 30; KEY: bus-off, misses)"),
     ("reliability.matrix.CASE.KEY", "fault-matrix figures of the prose (KEY: band, band-off, on-max-u, off-max-u, off-diverged-min/max, off-back-max, not-met, not-met-min/max, outage-not-met-min/max, outage-off-back, outage-off-u, stuck-*, named cells)"),
     ("wall.example1-run", "wall time of host-sim run example1 (date and machine; --wall-clock)"),
-    ("claims", "the paper's claims with verdicts (Examples 1 and 2, faults off, the baseline-retune campaign)"),
+    ("claims", "the paper's claims: rule, figures and verdict under each reading (D1 printed gains, D7 permanent faults)"),
+    ("claims.readings", "every claim's verdict under each reading (D1 printed gains at h = 1 us, D7 permanent faults); minutes, skipped by --check"),
+    ("claims.bands", "settling time of both schemes of Example 2 at bands 0.5x to 2x the final residual"),
+    ("claims.ablations", "Example 1's bound after 2Ts with one cause of error removed at a time, and its fit over Ts"),
+    ("claims.convergence", "the claims' figures with h halved until they change by less than 1 %"),
+    ("claims.further", "checks the paper does not claim: effort of Fig. 8, the baseline tuned to the same settling time"),
 ];
 
 /// A figure a block can name.
@@ -354,6 +362,11 @@ enum Figure<'a> {
     Reliability(&'a str),
     WallExample1,
     Claims,
+    ClaimsBands,
+    ClaimsReadings,
+    ClaimsConvergence,
+    ClaimsFurther,
+    ClaimsAblations,
 }
 
 /// Figures of a `summary.json` that `run.SCENARIO.KEY` renders.
@@ -442,6 +455,11 @@ fn parse(name: &str) -> Option<Figure<'_>> {
         }
         ["wall", "example1-run"] => Figure::WallExample1,
         ["claims"] => Figure::Claims,
+        ["claims", "bands"] => Figure::ClaimsBands,
+        ["claims", "readings"] => Figure::ClaimsReadings,
+        ["claims", "convergence"] => Figure::ClaimsConvergence,
+        ["claims", "further"] => Figure::ClaimsFurther,
+        ["claims", "ablations"] => Figure::ClaimsAblations,
         _ => return None,
     })
 }
@@ -486,7 +504,12 @@ fn render(name: &str, src: &mut Sources) -> Result<Option<String>> {
         Figure::Network(name) => network::render(src, name)?,
         Figure::Reliability(name) => reliability::render(src, name)?,
         Figure::WallExample1 => wall_example1(src)?,
-        Figure::Claims => claims_table(src)?,
+        Figure::Claims => claims::table(src)?,
+        Figure::ClaimsBands => claims::bands_table(src)?,
+        Figure::ClaimsReadings => claims::readings_table(src)?,
+        Figure::ClaimsConvergence => claims::convergence_table(src)?,
+        Figure::ClaimsFurther => claims::further_table(src)?,
+        Figure::ClaimsAblations => claims::ablations_table(src)?,
     };
     Ok(Some(text))
 }
@@ -1072,16 +1095,6 @@ fn scenario_table(src: &mut Sources) -> Result<String> {
     Ok(t)
 }
 
-/// Largest `|y_i − y_d|` after `2 T_s` of a summary.
-fn after_2ts(s: &Value) -> Result<f64> {
-    num(s, "max_error_after_predefined_time")
-}
-
-/// A gain as written in a campaign (`5`, `2.5`).
-fn short_number(x: f64) -> String {
-    format!("{x}")
-}
-
 /// Actuators per follower of both paper examples.
 const EXAMPLE_ACTUATORS: f64 = 2.0;
 
@@ -1093,157 +1106,6 @@ fn change_rate(s: &Value) -> Result<f64> {
         .map(|a| num(a, "quantizer_changes"))
         .sum::<Result<f64>>()?;
     Ok(changes / (num(s, "samples")? * agents.len() as f64 * EXAMPLE_ACTUATORS))
-}
-
-/// The claims table of docs/REPRODUCTION.md: each claim of the paper, its verdict (decided here
-/// from the figures), the figure that decides it, the command that reproduces it.
-fn claims_table(src: &mut Sources) -> Result<String> {
-    let e1 = src.summary("example1")?;
-    let ts1 = src.summary("example1-ts1")?;
-    let healthy = src.summary_with("example1", "-no-faults", &["faults.enabled=false"])?;
-    let e2 = src.summary("example2")?;
-    let base = src.summary("example2-baseline")?;
-    let froms = [0.0, 0.01, 0.05];
-    let (ep, eb) = (
-        src.energy_after("example2", &froms)?,
-        src.energy_after("example2-baseline", &froms)?,
-    );
-    let total = num(&e2, "total_u_energy")?;
-    if (ep[0] - total).abs() > 1e-6 * total {
-        return Err(format!(
-            "energy from trajectory.csv {} differs from summary.json {total}",
-            ep[0]
-        ));
-    }
-    let ratio = |k: usize| eb[k] / ep[k];
-    let early = 100.0 * (1.0 - eb[1] / eb[0]);
-    let (s_p, s_b) = (opt(&e2, "settling_time"), opt(&base, "settling_time"));
-    let secs = |t: Option<f64>| t.map_or("never".to_owned(), |t| fixed(t, 2) + " s");
-    // The retuned baseline: among the runs spending at most example2's energy, the one that
-    // settles soonest.
-    let rows = src.campaign("example2-baseline-retune")?;
-    let mut best: Option<(f64, f64, f64, f64, f64)> = None;
-    for r in rows.iter().filter(|r| !diverged(r)) {
-        let (Some(c1), Some(c2), Some(e), Some(u)) = (
-            cell(r, "controller.c1")?,
-            cell(r, "controller.c2")?,
-            cell(r, "total_u_energy")?,
-            cell(r, "max_abs_u")?,
-        ) else {
-            continue;
-        };
-        let Some(ts) = cell(r, "settling_time")? else {
-            continue;
-        };
-        if e <= total && best.is_none_or(|b| ts < b.4) {
-            best = Some((c1, c2, e, u, ts));
-        }
-    }
-    let retune = match best {
-        Some((c1, c2, e, u, ts)) => format!(
-            "of {} baseline gain pairs, c1 = {}, c2 = {} (the soonest to settle within example2's energy) spends {}× example2's energy ({}× its \
-             peak \\|u\\|) and settles at {} vs {}",
-            rows.len(),
-            short_number(c1),
-            short_number(c2),
-            fixed(e / total, 2),
-            fixed(u / num(&e2, "max_abs_u")?, 2),
-            fixed(ts, 2) + " s",
-            secs(s_p)
-        ),
-        None => format!(
-            "none of {} baseline gain pairs spends at most example2's energy and settles",
-            rows.len()
-        ),
-    };
-    let faster = matches!((s_p, s_b), (Some(p), Some(b)) if p < b);
-    let fault_cost = 100.0 * (after_2ts(&e1)? / after_2ts(&healthy)? - 1.0);
-    let in_time = |s: &Value, deadline: f64| opt(s, "settling_time").is_some_and(|t| t <= deadline);
-    let holds = |b: bool| if b { "holds" } else { "does not hold" };
-    let rate = change_rate(&e1)?;
-    let mut t = String::from(
-        "| claim (paper) | verdict | measured | decided by | command |\n|---|---|---|---|---|\n",
-    );
-    let mut row = |claim: &str, verdict: &str, measured: String, fig: &str, cmd: &str| {
-        let _ = writeln!(t, "| {claim} | {verdict} | {measured} | {fig} | `{cmd}` |");
-    };
-    row(
-        "the outputs reach the leader within the predefined time 2 Ts (Theorem 1; Figs. 2, 7)",
-        holds(in_time(&e1, 4.0) && in_time(&e2, 1.0)),
-        format!(
-            "inside b = 0.05 from: Example 1 (2 Ts = 4 s) {}, Example 2 (2 Ts = 1 s) {}",
-            secs(opt(&e1, "settling_time")),
-            secs(s_p)
-        ),
-        "`errors.png` (log panel: settling line against 2Tₛ)",
-        "host-sim run scenarios/example2.toml --out out/example2",
-    );
-    row(
-        "after 2 Ts the error stays in a small band, smaller for smaller Ts (Figs. 2, 7)",
-        "holds with a caveat: the band is the float64 reference's (LAW §8), wider than b = 0.05",
-        format!(
-            "max \\|yᵢ − y_d\\| after 2 Ts: {} (Ts = 2), {} (Ts = 1); LAW §8 reference about 0.17 / 0.09",
-            fixed(after_2ts(&e1)?, 3),
-            fixed(after_2ts(&ts1)?, 3)
-        ),
-        "`errors.png` of `example1`, `example1-ts1`",
-        "host-sim run scenarios/example1-ts1.toml --out out/example1-ts1",
-    );
-    row(
-        "tracking holds despite intermittent actuator faults (Figs. 3–6)",
-        holds(fault_cost < 10.0),
-        format!(
-            "the recurring faults add {} % to the max error after 2 Ts ({} with, {} without)",
-            fixed(fault_cost, 1),
-            fixed(after_2ts(&e1)?, 4),
-            fixed(after_2ts(&healthy)?, 4)
-        ),
-        "`inputs.png` (qᶠ in the shaded windows), `errors.png`",
-        "host-sim run scenarios/example1.toml --set faults.enabled=false --out out/no-faults",
-    );
-    row(
-        "the hysteresis quantizer saves transmissions (Figs. 3–6)",
-        holds(rate < 1.0),
-        format!(
-            "the quantized output changes at {} % of samples per actuator (Example 1)",
-            fixed(100.0 * rate, 1)
-        ),
-        "`inputs.png` (q against u), `summary.json` `quantizer_changes`",
-        "host-sim run scenarios/example1.toml --out out/example1",
-    );
-    row(
-        "the predefined-time scheme responds faster than the prescribed-time scheme (Fig. 8)",
-        holds(faster),
-        format!(
-            "settling into b = 0.05: predefined-time {}, prescribed-time {}",
-            secs(s_p),
-            secs(s_b)
-        ),
-        "`compare-outputs.png`, `compare.md`",
-        "host-sim compare scenarios/example2.toml scenarios/example2-baseline.toml --out out/cmp",
-    );
-    row(
-        "the comparison of Fig. 8 is at comparable effort",
-        holds((0.8..=1.25).contains(&ratio(0))),
-        format!(
-            "baseline / predefined-time energy {}× overall, {}× after 10 ms, {}× after 50 ms; \
-             {} % of the baseline's energy is spent in the first 10 ms",
-            fixed(ratio(0), 2),
-            fixed(ratio(1), 2),
-            fixed(ratio(2), 2),
-            fixed(early, 1)
-        ),
-        "`compare.md` (energy rows), `trajectory.csv` `u` columns",
-        "host-sim compare scenarios/example2.toml scenarios/example2-baseline.toml --out out/cmp",
-    );
-    row(
-        "at equal effort the predefined-time scheme still wins (Fig. 8, retuned baseline)",
-        holds(best.is_none_or(|b| s_p.is_some_and(|p| p < b.4))),
-        retune,
-        "`out/campaigns/example2-baseline-retune/results.csv`, its map figure",
-        "host-sim sweep campaigns/example2-baseline-retune.toml --out out/campaigns/example2-baseline-retune",
-    );
-    Ok(t)
 }
 
 fn parse_stable_h(text: &str) -> Option<(f64, Option<f64>)> {
