@@ -180,8 +180,8 @@ fn check(cell: &Cell, id: &str) -> Result<String, String> {
     // The nominal twin over the host-compiled nodes: over `pil` the same run is bit-identical
     // to them, which the lossy run checks on the way.
     cell.run_as("can", &nominal, false);
+    let host = tmp(&format!("safe-{id}-can"));
     if cell.kind == "pil" {
-        let host = tmp(&format!("safe-{id}-can"));
         cell.run_as("can", &host, true);
         let same = |d: &Path| std::fs::read(d.join("trajectory.csv")).expect("trajectory.csv");
         if same(&lossy) != same(&host) {
@@ -209,6 +209,21 @@ fn check(cell: &Cell, id: &str) -> Result<String, String> {
                 i + 1,
                 n["state"]
             ));
+        }
+    }
+    if cell.kind == "pil" {
+        // The emulated nodes report no final state; their host-compiled twins, which command
+        // the same samples bit for bit, do.
+        let host = summary(&host);
+        let twins = host["network"]["nodes"].as_array().ok_or("no host nodes")?;
+        for (i, n) in twins.iter().enumerate() {
+            if n["state"] != "operational" {
+                return Err(format!(
+                    "agent {} ended {}, not operational",
+                    i + 1,
+                    n["state"]
+                ));
+            }
         }
     }
     let nominal_error = summary(&nominal)["max_error_after_predefined_time"]
