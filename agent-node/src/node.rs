@@ -386,11 +386,8 @@ fn with_reentry<const N: usize>(
     controller: &ControllerConfig<N>,
     sup: &SupervisorConfig,
 ) -> ControllerConfig<N> {
-    let supervised = sup.leader_timeout_us.is_some()
-        || sup.neighbour_timeout_us.is_some()
-        || sup.sensor_timeout_us.is_some();
     let mut c = *controller;
-    if supervised && sup.policy.is_closed_loop() && c.safety.is_none() {
+    if sup.supervises_any() && sup.policy.is_closed_loop() && c.safety.is_none() {
         c.safety = Some(SafetyConfig {
             u_max: None,
             du_max: None,
@@ -498,9 +495,7 @@ where
             last_tick_us: None,
             applied: [0.0; M],
             fault_pending: false,
-            supervised: cfg.supervisor.leader_timeout_us.is_some()
-                || cfg.supervisor.neighbour_timeout_us.is_some()
-                || cfg.supervisor.sensor_timeout_us.is_some(),
+            supervised: cfg.supervisor.supervises_any(),
             last_y: None,
             safe_reference: SafeReference::Frozen(None),
             frozen_in_safe: false,

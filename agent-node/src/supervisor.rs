@@ -202,6 +202,13 @@ impl SupervisorConfig {
         reentry_rate: 1.0,
     };
 
+    /// Some source has a loss timeout (otherwise the node never enters `Safe`).
+    pub const fn supervises_any(&self) -> bool {
+        self.leader_timeout_us.is_some()
+            || self.neighbour_timeout_us.is_some()
+            || self.sensor_timeout_us.is_some()
+    }
+
     /// Check every field once.
     pub fn validate(&self) -> Result<(), SupervisorError> {
         let positive = |v: f32| v.is_finite() && v > 0.0;

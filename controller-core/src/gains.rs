@@ -54,11 +54,7 @@ impl Gains {
         eta: f32,
         tau: f32,
     ) -> Result<Self, ConfigError> {
-        Param::Zeta.check(zeta)?;
-        Param::Ts.check(ts)?;
-        let theta = theta(zeta, n, p, eta, tau)?;
-        let c2 = PI / (zeta * ts);
-        Self::explicit(c2 / theta, c2, zeta)
+        Self::from_factor(ts, zeta, || theta(zeta, n, p, eta, tau))
     }
 
     /// Gains from `T_s` with the factor `r` of Theorem 1 as the paper prints it (D1, the
@@ -73,11 +69,20 @@ impl Gains {
         eta: f32,
         tau: f32,
     ) -> Result<Self, ConfigError> {
+        Self::from_factor(ts, zeta, || printed_factor(zeta, n, p, eta, tau))
+    }
+
+    /// `c_2 = π/(ζ T_s)` and `c_1 = c_2 / factor` (`ϑ` or `r`), `ζ` and `T_s` checked first.
+    fn from_factor(
+        ts: f32,
+        zeta: f32,
+        factor: impl FnOnce() -> Result<f32, ConfigError>,
+    ) -> Result<Self, ConfigError> {
         Param::Zeta.check(zeta)?;
         Param::Ts.check(ts)?;
-        let r = printed_factor(zeta, n, p, eta, tau)?;
+        let factor = factor()?;
         let c2 = PI / (zeta * ts);
-        Self::explicit(c2 / r, c2, zeta)
+        Self::explicit(c2 / factor, c2, zeta)
     }
 
     /// Explicit `c_1`, `c_2`; `k_1`, `k_2` follow from `ζ`.
@@ -99,13 +104,7 @@ impl Gains {
 
 /// The factor `ϑ` of LAW §3 (the paper's `r`).
 pub fn theta(zeta: f32, n: usize, p: f32, eta: f32, tau: f32) -> Result<f32, ConfigError> {
-    Param::Zeta.check(zeta)?;
-    Param::P.check(p)?;
-    Param::Eta.check(eta)?;
-    Param::Tau.check(tau)?;
-    if n == 0 {
-        return Err(ConfigError::new(Param::StateOrder, Reason::OutOfRange));
-    }
+    check_factor_inputs(zeta, n, p, eta, tau)?;
     let two = scaled_power(1.0, 2.0, 1.0 + zeta / 2.0, 1.0, 1.0);
     let half = zeta / 2.0;
     let f1 = (1.0 + zeta) / (2.0 + zeta);
@@ -121,13 +120,7 @@ pub fn theta(zeta: f32, n: usize, p: f32, eta: f32, tau: f32) -> Result<f32, Con
 /// The factor `r` of Theorem 1 as printed below (21): `r = min{ n^(ζ/2),
 /// (1/2)^(1+ζ/2)/(p (1+ζ)), (1/2)^(1+ζ/2)/(η (1+ζ)), (1/2)^(1+ζ/2)/(τ (1+2ζ)) }` (D1).
 pub fn printed_factor(zeta: f32, n: usize, p: f32, eta: f32, tau: f32) -> Result<f32, ConfigError> {
-    Param::Zeta.check(zeta)?;
-    Param::P.check(p)?;
-    Param::Eta.check(eta)?;
-    Param::Tau.check(tau)?;
-    if n == 0 {
-        return Err(ConfigError::new(Param::StateOrder, Reason::OutOfRange));
-    }
+    check_factor_inputs(zeta, n, p, eta, tau)?;
     let half = scaled_power(1.0, 0.5, 1.0 + zeta / 2.0, 1.0, 1.0);
     let candidates = [
         scaled_power(1.0, n as f32, zeta / 2.0, 1.0, 1.0),
@@ -136,6 +129,18 @@ pub fn printed_factor(zeta: f32, n: usize, p: f32, eta: f32, tau: f32) -> Result
         half / (tau * (1.0 + 2.0 * zeta)),
     ];
     Ok(candidates.iter().fold(f32::INFINITY, |m, &c| m.min(c)))
+}
+
+/// The parameters both readings of the gain factor use, in the order their errors are reported.
+fn check_factor_inputs(zeta: f32, n: usize, p: f32, eta: f32, tau: f32) -> Result<(), ConfigError> {
+    Param::Zeta.check(zeta)?;
+    Param::P.check(p)?;
+    Param::Eta.check(eta)?;
+    Param::Tau.check(tau)?;
+    if n == 0 {
+        return Err(ConfigError::new(Param::StateOrder, Reason::OutOfRange));
+    }
+    Ok(())
 }
 
 /// `a x^y b / c`, rounded in that order (factors of 1 are exact). Out of line so that a
