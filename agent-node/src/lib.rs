@@ -48,3 +48,8 @@ pub use link::CanFrame;
 pub use node::{Actuator, Clock, Node, NodeConfig, NodeError, NodeStats, Sensor, Tick, TxOutcome};
 pub use supervisor::{NeighbourLoss, NodeState, SafePolicy, SupervisorConfig};
 pub use wire::IdPlan;
+
+/// The crate README's examples, compiled and run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

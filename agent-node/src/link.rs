@@ -400,6 +400,17 @@ pub enum SlcanError {
     Malformed,
 }
 
+impl core::fmt::Display for SlcanError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::UnknownCommand => "an empty SLCAN line or an unknown command letter",
+            Self::Malformed => "a malformed SLCAN line (length, hex digit, identifier or DLC)",
+        })
+    }
+}
+
+impl core::error::Error for SlcanError {}
+
 const HEX: &[u8; 16] = b"0123456789ABCDEF";
 
 fn hex_digit(b: u8) -> Option<u8> {
@@ -638,6 +649,19 @@ pub enum ConfigReject {
     /// A frame other than `CONFIG` / `CONFIG_END` arrived before the configuration was complete.
     Unexpected = 4,
 }
+
+impl core::fmt::Display for ConfigReject {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::WordCount => "the configuration has fewer or more words than its layout",
+            Self::BadTag => "a configuration word holds an enum tag or a count out of range",
+            Self::Node => "the node refused the decoded configuration",
+            Self::Unexpected => "a frame other than a configuration word came before the end",
+        })
+    }
+}
+
+impl core::error::Error for ConfigReject {}
 
 /// The words of `node` and `ctrl` (see [`ConfigWords`]).
 pub fn encode_config<const N: usize, const K: usize>(

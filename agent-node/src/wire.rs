@@ -155,6 +155,8 @@ impl core::fmt::Display for IdPlanError {
     }
 }
 
+impl core::error::Error for IdPlanError {}
+
 impl IdPlan {
     /// Leader `0x101`, agents `0x102..=0x164`, heartbeats `0x781..=0x7E3`: 99 agents, clear of
     /// every CANopen predefined identifier and of LSS (`0x7E4`, `0x7E5`).
@@ -279,6 +281,20 @@ pub enum WireError {
     /// `NO_VALUE` set with non-zero value bytes; a heartbeat with an unknown state or lost bit.
     BadPayload,
 }
+
+impl core::fmt::Display for WireError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::ExtendedId => f.write_str("a 29-bit identifier (the protocol uses 11-bit ones)"),
+            Self::Remote => f.write_str("a remote frame (the protocol sends data frames only)"),
+            Self::UnknownId(id) => write!(f, "identifier {id:#05x} is none of the plan's"),
+            Self::WrongLength(n) => write!(f, "{n} data bytes where the frame has {PAYLOAD_LEN}"),
+            Self::BadPayload => f.write_str("a payload that breaks the frame's layout"),
+        }
+    }
+}
+
+impl core::error::Error for WireError {}
 
 /// Counts of rejected frames, per kind.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

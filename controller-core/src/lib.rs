@@ -46,13 +46,13 @@
 //! * `libm` (default): accurate math. Configuration-time `powf`, `expf`, `logf` from `libm`;
 //!   the per-step `x^ζ`, `√x`, `tanh` are this crate's own kernels ([`math`]), within a few ulp
 //!   of f64, because `libm`'s `powf` and software `sqrtf` dominated the step on a Cortex-M4F.
-//! * `micromath`: the `micromath` crate's `F32Ext` for the per-step functions ([`math::micro`]:
+//! * `micromath`: the `micromath` crate's `F32Ext` for the per-step functions (`math::micro`, with the feature:
 //!   `e^(y ln x)` with the crate's degree-4 `ln` and `exp`, its bit-level `√`), and the accurate
 //!   kernels at configuration time, so no `libm` is linked. Relative errors against f64 of
 //!   8e-4 for `x^ζ` at `x ≥ 1` but up to 1.2 % (`ζ = 0.1`) below 1, where the crate's `ln` goes
 //!   through an 8 % reciprocal; 6 % for `√`. The closed loop of both paper examples against
 //!   the default build: `docs/REPRODUCTION.md`, "Math back-ends".
-//! * `fast-math`: this crate's fast approximations for the per-step functions ([`math::fast`]:
+//! * `fast-math`: this crate's fast approximations for the per-step functions (`math::fast`, with the feature:
 //!   relative errors of a few 1e-6, no division in the powers and the smoothing function), and
 //!   the accurate kernels at configuration time, so no `libm` is linked.
 //! * `safety` (default): [`ControllerConfig::safety`] can be set. Without it a configuration
@@ -123,3 +123,8 @@ pub use sections::ConfigFile;
 pub use sections::{
     Agent, ControllerSection, GainReading, QuantizerSection, SafetySection, SchemeName,
 };
+
+/// The crate README's examples, compiled and run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeDoctests;

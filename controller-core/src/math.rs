@@ -5,8 +5,8 @@
 //! | feature | per-step functions | configuration ([`powf`], [`exp`], [`ln`]) |
 //! | --- | --- | --- |
 //! | `libm` (default) | this module's accurate kernels (`kernel`), a few ulp | `libm` |
-//! | `micromath` | the `micromath` crate's `F32Ext` ([`micro`]), 8e-4 to 21 % (tests) | the accurate kernels |
-//! | `fast-math` | this module's fast approximations ([`fast`]), a few 1e-6 | the accurate kernels |
+//! | `micromath` | the `micromath` crate's `F32Ext` (`micro`, with the feature), 8e-4 to 21 % (tests) | the accurate kernels |
+//! | `fast-math` | this module's fast approximations (`fast`, with the feature), a few 1e-6 | the accurate kernels |
 //!
 //! `micromath` and `fast-math` each take precedence over `libm` (which is on by default), so
 //! `--features micromath` needs no `--no-default-features`, and neither links `libm`. The two
@@ -34,12 +34,12 @@
 //! 1,163 to 1,092 instructions (`cargo xtask bench-target`) and from 11.9 to 9.9 divisions; the
 //! examples' figures moved within rounding (`docs/REPRODUCTION.md`).
 //!
-//! The fast approximations ([`fast`]) have the kernels' shapes with shorter polynomials: `log₂`
+//! The fast approximations (`fast`, with the feature) have the kernels' shapes with shorter polynomials: `log₂`
 //! by a degree-6 polynomial without the division, `2^r` of degree 4, `√x` without the final
 //! correction, a shorter `tanh` polynomial: relative errors of a few 1e-6 and one division less
 //! per power, at about the kernels' instruction count on a Cortex-M4F.
 //!
-//! The `micromath` crate ([`micro`]) trades accuracy for code size: `x^y = e^(y ln x)` with a
+//! The `micromath` crate (`micro`, with the feature) trades accuracy for code size: `x^y = e^(y ln x)` with a
 //! degree-4 `ln` on `[1, 2)` that reaches `x < 1` through an 8 % bit-level reciprocal, and a
 //! degree-4 Taylor `e^r`; `√x` is the bit-level estimate alone (up to 6 % high). Its edge values
 //! (0, subnormals, ∞, NaN) go the IEEE way here, as the crate's own are not IEEE's.

@@ -17,6 +17,18 @@ pub struct CapacityError {
     pub needed: usize,
 }
 
+impl core::fmt::Display for CapacityError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        write!(
+            f,
+            "the regressor has {} entries, more than the buffer holds",
+            self.needed
+        )
+    }
+}
+
+impl core::error::Error for CapacityError {}
+
 /// The regressor of one MTN order `m` (Lemma 4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]

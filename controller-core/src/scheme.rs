@@ -20,7 +20,7 @@ pub enum SchemeConfig {
 /// Parameters of the prescribed-time scaling `μ_T(t) = (T/(T−t))^κ`, clamped at `μ_max`.
 ///
 /// A representative member of the time-varying-scaling family the paper compares against in its
-/// Fig. 8, not a copy of its (unavailable) ref. [39].
+/// Fig. 8, not a copy of its (unavailable) ref. \[39\].
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]

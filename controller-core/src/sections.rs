@@ -128,7 +128,7 @@ impl fmt::Display for GainReading {
 pub struct ControllerSection<F, S> {
     /// Proposed law or baseline.
     pub scheme: SchemeName,
-    /// `T_s` [s].
+    /// `T_s` \[s\].
     pub ts: F,
     /// `ζ`.
     pub zeta: F,
@@ -336,7 +336,7 @@ impl<F: Number> SafetySection<F> {
 /// The agent-specific part of a configuration: sample period and topology.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Agent {
-    /// Sample period `h` [s].
+    /// Sample period `h` \[s\].
     pub h: f32,
     /// `S_i`: neighbours this agent hears.
     pub neighbour_count: usize,
