@@ -194,7 +194,7 @@ impl NodeState {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::CanFrame;
+    use crate::link::CanFrame;
 
     #[test]
     fn identifiers_classify_back_to_kind_and_agent() {

@@ -648,7 +648,7 @@ mod tests {
             safe_entries: 65535,
         };
         let plan = IdPlan::DEFAULT;
-        let f: crate::CanFrame = encode_heartbeat(&plan, 3, &hb).expect("in plan");
+        let f: crate::link::CanFrame = encode_heartbeat(&plan, 3, &hb).expect("in plan");
         assert_eq!(f.raw_id(), 0x783);
         assert_eq!(f.data(), &[2, 5, 1, 2, 7, 0, 255, 255]);
         assert_eq!(
@@ -665,11 +665,11 @@ mod tests {
         let mut bad = hb.to_bytes();
         bad[1] = 8;
         assert_eq!(Heartbeat::from_bytes(&bad), Err(WireError::BadPayload));
-        let short =
-            crate::CanFrame::new(StandardId::new(0x783).expect("id"), &[0; 4]).expect("frame");
+        let short = crate::link::CanFrame::new(StandardId::new(0x783).expect("id"), &[0; 4])
+            .expect("frame");
         assert_eq!(decode_in(&plan, &short), Err(WireError::WrongLength(4)));
         assert_eq!(
-            encode_heartbeat::<crate::CanFrame>(
+            encode_heartbeat::<crate::link::CanFrame>(
                 &IdPlan::new(0x101, None, 4).expect("valid"),
                 3,
                 &hb
@@ -681,9 +681,9 @@ mod tests {
     #[test]
     fn a_moved_plan_carries_the_same_payload() {
         let moved = IdPlan::new(0x020, Some(0x680), 8).expect("valid");
-        let (f, _): (crate::CanFrame, _) =
+        let (f, _): (crate::link::CanFrame, _) =
             encode_in(&moved, Source::Agent(2), 0.5, 9).expect("frame");
-        let (g, _): (crate::CanFrame, _) = encode(Source::Agent(2), 0.5, 9).expect("frame");
+        let (g, _): (crate::link::CanFrame, _) = encode(Source::Agent(2), 0.5, 9).expect("frame");
         assert_eq!(f.raw_id(), 0x022);
         assert_eq!(f.data(), g.data());
         assert!(

@@ -28,7 +28,7 @@
 #![no_std]
 #![no_main]
 // The `node` variant times `Node::tick`; the step benchmark's functions stay unused there.
-#![cfg_attr(any(feature = "node", feature = "ops"), allow(dead_code))]
+#![cfg_attr(any(feature = "node", feature = "ops"), allow(dead_code, unused_imports))]
 
 use controller_core::{Controller, ControllerConfig, Link, StepOutput};
 use core::hint::black_box;
@@ -37,18 +37,6 @@ use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 use panic_semihosting as _;
 
-/// State order `n`.
-#[cfg(not(feature = "n3"))]
-const N: usize = 2;
-/// State order `n`.
-#[cfg(feature = "n3")]
-const N: usize = 3;
-/// Actuators `m` (= `n` in the benchmark variants).
-const M: usize = N;
-/// Neighbours (agent 4 of the examples hears agents 1 and 3).
-const K: usize = 2;
-/// One record of the trace: `x_1..x_n`, `y` of the two neighbours, `y_d`.
-const FIELDS: usize = N + K + 1;
 /// Repetitions of each step for a single-instruction resolution (1 k-instruction steps).
 #[cfg(not(soft_float))]
 const REPS: u32 = 40;
@@ -56,9 +44,6 @@ const REPS: u32 = 40;
 /// repetitions resolve 0.2 % of it and keep the QEMU run short.
 #[cfg(soft_float)]
 const REPS: u32 = 4;
-/// Bytes painted below the stack pointer for the high-water mark (half the Cortex-M0's RAM).
-const PAINT_BYTES: usize = 8 * 1024;
-const PATTERN: u32 = 0xA5C3_5A3C;
 /// Iterations of the clock calibration loop: `cortex_m::asm::delay(n)` runs `2 (n + 1)`
 /// instructions (`subs`, `bne`), so the xtask can check the SysTick clock it assumes.
 const CALIB_LOOPS: u32 = 499_999;
@@ -67,13 +52,15 @@ const CALIB_INSNS: u32 = 2 * (CALIB_LOOPS + 1);
 
 type Ctrl = Controller<N, M, K>;
 
+mod measure;
 #[cfg(feature = "node")]
 mod node;
 #[cfg(feature = "ops")]
 mod ops;
+mod trace;
 
-/// The replayed inputs, little-endian `f32` records of [`FIELDS`] values, written by the xtask.
-static TRACE: &[u8] = include_bytes!(env!("BENCH_TRACE_FILE"));
+use measure::{elapsed, exit, fail, paint_below, painted_depth};
+use trace::{record, FIELDS, K, M, N, TRACE};
 
 /// Example 1's configuration for agent 4 (2 neighbours, not pinned), or the baseline.
 fn config() -> ControllerConfig<N> {
@@ -102,19 +89,6 @@ fn config() -> ControllerConfig<N> {
     cfg
 }
 
-fn record(k: usize) -> ([f32; N], [Link; K], Link) {
-    let mut v = [0.0f32; FIELDS];
-    let base = k * FIELDS * 4;
-    for (i, slot) in v.iter_mut().enumerate() {
-        let o = base + 4 * i;
-        *slot = f32::from_le_bytes([TRACE[o], TRACE[o + 1], TRACE[o + 2], TRACE[o + 3]]);
-    }
-    let mut x = [0.0; N];
-    x.copy_from_slice(&v[..N]);
-    let neighbours = [Link::Fresh(v[N]), Link::Fresh(v[N + 1])];
-    (x, neighbours, Link::Fresh(v[N + 2]))
-}
-
 /// The measured call: one step, not inlined into the timing loops.
 #[inline(never)]
 fn step_entry(c: &mut Ctrl, x: &[f32; N], neighbours: &[Link], leader: Link) -> StepOutput<N, M> {
@@ -126,11 +100,6 @@ fn step_entry(c: &mut Ctrl, x: &[f32; N], neighbours: &[Link], leader: Link) -> 
 #[inline(never)]
 fn config_entry(cfg: &ControllerConfig<N>) -> Result<Ctrl, controller_core::ConfigError> {
     Ctrl::new(cfg)
-}
-
-/// SysTick ticks elapsed between two readings of the down-counter (24 bits, reload 0xFF_FFFF).
-fn elapsed(start: u32, end: u32) -> u32 {
-    start.wrapping_sub(end) & 0x00FF_FFFF
 }
 
 /// Ticks of `REPS` steps, each on a fresh copy of `saved`.
@@ -165,32 +134,6 @@ fn time_overhead(saved: &Ctrl, x: &[f32; N], neighbours: &[Link], leader: Link) 
     }
     let t1 = SYST::get_current();
     elapsed(t0, t1)
-}
-
-/// Paints the [`PAINT_BYTES`] below `sp` with [`PATTERN`]. Inlined into its caller, so no
-/// frame of its own lies in the painted region.
-#[inline(always)]
-fn paint_below(sp: usize) {
-    // SAFETY: [sp − PAINT_BYTES, sp) is below the live stack pointer, inside RAM (the smallest,
-    // the Cortex-M0's 16 KiB, holds it above the static data), and nothing else (no interrupts
-    // are enabled) uses it until the measured call.
-    for a in (sp - PAINT_BYTES..sp).step_by(4) {
-        unsafe { core::ptr::write_volatile(a as *mut u32, PATTERN) };
-    }
-}
-
-/// The bytes below `sp` a call overwrote since [`paint_below`].
-#[inline(always)]
-fn painted_depth(sp: usize) -> u32 {
-    let mut lowest = sp;
-    for a in (sp - PAINT_BYTES..sp).step_by(4) {
-        // SAFETY: as in `paint_below`; the call has returned, the region is plain RAM.
-        if unsafe { core::ptr::read_volatile(a as *const u32) } != PATTERN {
-            lowest = a;
-            break;
-        }
-    }
-    (sp - lowest) as u32
 }
 
 /// One step on `c` with the stack below the caller's stack pointer painted; returns the output,
@@ -282,17 +225,4 @@ fn run_steps(steps: usize, calib_ticks: u32) {
         calib_ticks,
         CALIB_INSNS
     );
-}
-
-/// Reports an error line and ends QEMU with a failure status.
-fn fail(why: &str) -> ! {
-    hprintln!("BENCH-ERROR {}", why);
-    exit(debug::EXIT_FAILURE)
-}
-
-fn exit(status: debug::ExitStatus) -> ! {
-    debug::exit(status);
-    loop {
-        cortex_m::asm::wfi();
-    }
 }

@@ -13,7 +13,10 @@
 //! less the cost of an empty timing. The output lines are those of the step benchmark with
 //! `reps=1`.
 
-use crate::{elapsed, fail, paint_below, painted_depth, record, M, N};
+use crate::{
+    measure::{elapsed, fail, paint_below, painted_depth},
+    trace::{record, M, N},
+};
 use agent_node::{wire, wire::Source, Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
 use controller_core::{ControllerConfig, Link};
 use core::hint::black_box;

@@ -17,7 +17,7 @@ use cortex_m::peripheral::SYST;
 use cortex_m_semihosting::hprintln;
 use fixed::types::{I16F16, I32F32};
 
-use crate::elapsed;
+use crate::measure::elapsed;
 
 /// Operations per timing.
 const OPS_REPS: u32 = 64;

@@ -2,7 +2,12 @@
 //! (LAW §5; the paper's (15)–(19), (28)), shared by the proposed scheme and the baseline: the
 //! scheme enters only through its [`Feedback`] term.
 
-use crate::{math, mtn::MtnAccumulator, scheme::Feedback, smoothing::smooth, MtnRegressor};
+use crate::{
+    math,
+    mtn::{MtnAccumulator, MtnRegressor},
+    scheme::Feedback,
+    smoothing::smooth,
+};
 
 /// Step constants precomputed from the validated configuration.
 #[derive(Debug, Clone, Copy, PartialEq)]

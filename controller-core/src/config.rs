@@ -6,12 +6,17 @@ use crate::{
     backstepping::Backstepping,
     consensus::Consensus,
     differentiator::LevantDifferentiator,
+    error::{ConfigError, ConfigErrors},
+    gains::{GainSelection, Gains},
+    mtn::MtnRegressor,
+    param::{Param, Reason},
     quantizer::{HysteresisQuantizer, QuantizerConfig},
     safety::{Safety, SafetyConfig},
     scheme::{Scheme, SchemeConfig},
     smoothing::VarpiSchedule,
-    ConfigError, GainSelection, Gains, MtnRegressor, Param, Reason,
 };
+
+pub use crate::error::MAX_CONFIG_ERRORS;
 
 /// Everything one agent's controller needs, with the defaults of LAW §8 (Example 1, agent 1:
 /// pinned, no neighbours). Step-indexed arrays hold step `j` at index `j−1`.
@@ -109,17 +114,14 @@ impl<const N: usize> Default for ControllerConfig<N> {
     }
 }
 
-/// Most problems [`ControllerConfig::errors`] reports for one configuration.
-pub const MAX_CONFIG_ERRORS: usize = 16;
-
 impl<const N: usize> ControllerConfig<N> {
     /// Every problem of the configuration for neighbour capacity `capacity`, in the order
     /// [`Params::new`] meets them (its error is the first); empty when it is valid.
     ///
     /// Each rejected value is replaced by one that passes and the check repeated, so a problem
     /// is reported once whatever it makes of the later checks.
-    pub fn errors(&self, capacity: usize) -> crate::sections::ConfigErrors {
-        let mut found = crate::sections::ConfigErrors::new();
+    pub fn errors(&self, capacity: usize) -> ConfigErrors {
+        let mut found = ConfigErrors::new();
         let mut cfg = *self;
         while let Err(e) = Params::new(&cfg, capacity) {
             if found.contains(&e) || found.push(e).is_err() || !cfg.replace_rejected(&e) {
@@ -187,7 +189,7 @@ impl<const N: usize> ControllerConfig<N> {
             (Param::EstimateMax, ..) => self.estimate_max = f32::MAX,
             (Param::Kappa | Param::MuMax | Param::TPrescribed, ..) => match &mut self.scheme {
                 SchemeConfig::PrescribedTime(b) => {
-                    let def = crate::BaselineConfig::default();
+                    let def = crate::scheme::BaselineConfig::default();
                     match e.param() {
                         Param::Kappa => b.kappa = def.kappa,
                         Param::MuMax => b.mu_max = def.mu_max,

@@ -6,10 +6,10 @@ use crate::{
     config::{ControllerConfig, Params},
     consensus::{Link, LinkMemory, LinkReport},
     differentiator::DifferentiatorState,
+    error::ConfigError,
     math,
     quantizer::{HysteresisQuantizer, QuantizerState},
     safety::{reenter_link, Recovery, Safety},
-    ConfigError,
 };
 
 /// Why a step held the previous command instead of computing a new one.

@@ -4,7 +4,13 @@
 use core::fmt;
 
 pub use crate::param::Reason;
-use crate::{gains::MAX_GAIN, param::Range, sections::SchemeName, Param};
+use crate::param::{Param, Range, MAX_GAIN, SCHEMES};
+
+/// Most problems [`crate::ControllerConfig::errors`] reports for one configuration.
+pub const MAX_CONFIG_ERRORS: usize = 16;
+
+/// Problems of one configuration (see [`crate::ControllerConfig::errors`]).
+pub type ConfigErrors = heapless::Vec<ConfigError, MAX_CONFIG_ERRORS>;
 
 /// Why a controller configuration was rejected by [`crate::Controller::new`]: the parameter,
 /// the 1-based step `j` of a per-step parameter (as in the paper, `j = 1..n`) and the reason.
@@ -105,7 +111,8 @@ impl fmt::Display for ConfigError {
                 write!(f, "is required when `{other}` is given")
             }
             Reason::BaselineOnly => {
-                write!(f, "is only for scheme = \"{}\"", SchemeName::PrescribedTime)
+                let baseline = SCHEMES.get(1).copied().unwrap_or_default();
+                write!(f, "is only for scheme = \"{baseline}\"")
             }
             Reason::Isolated => {
                 f.write_str("is empty and the agent is not pinned to the leader (A_i = 0)")
@@ -119,3 +126,29 @@ impl fmt::Display for ConfigError {
 }
 
 impl core::error::Error for ConfigError {}
+
+/// The range checks of the parameter table, as errors that name the parameter.
+impl Param {
+    /// `v` if it lies in the parameter's [`Range`], else the error naming the parameter.
+    pub fn check(self, v: f32) -> Result<f32, ConfigError> {
+        self.spec()
+            .range
+            .check(v)
+            .map_err(|r| ConfigError::new(self, r))
+    }
+
+    /// [`Self::check`] of the entry for step `step` (1-based) of a per-step parameter.
+    pub fn check_step(self, step: u8, v: f32) -> Result<f32, ConfigError> {
+        self.check(v).map_err(|e| e.at_step(step))
+    }
+
+    /// `v` if the parameter's [`Range::Count`] holds it.
+    pub const fn check_count(self, v: usize) -> Result<usize, ConfigError> {
+        match self.spec().range {
+            Range::Count { min, max } if v < min || v > max => {
+                Err(ConfigError::new(self, Reason::OutOfRange))
+            }
+            _ => Ok(v),
+        }
+    }
+}

@@ -1,10 +1,13 @@
 //! Predefined-time gains `c_1`, `c_2`, `k_1`, `k_2` (LAW §3; the paper's Theorem 1).
 
-use crate::{math, ConfigError, Param, Reason};
+use crate::{
+    error::ConfigError,
+    math,
+    param::{Param, Reason},
+};
 use core::f32::consts::PI;
 
-/// `√f32::MAX`: the largest usable `c_1`, `c_2` (the recursion squares them).
-pub const MAX_GAIN: f32 = 1.844_674_3e19;
+pub use crate::param::MAX_GAIN;
 
 /// How `c_1`, `c_2` are chosen.
 #[derive(Debug, Clone, Copy, PartialEq)]

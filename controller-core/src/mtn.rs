@@ -4,10 +4,9 @@
 //! The law needs only `‖Φ‖² = Σ_{k=1..m} h_k(X₁², …, X_d²)` (complete homogeneous symmetric
 //! polynomials), which [`MtnAccumulator`] evaluates in `O(d·m)` without building `Φ`.
 
-use crate::{ConfigError, Param};
+use crate::{error::ConfigError, param::Param};
 
-/// Largest supported MTN order `m`.
-pub const MAX_MTN_ORDER: usize = 8;
+pub use crate::param::MAX_MTN_ORDER;
 
 /// `Φ` did not fit the caller's buffer.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -252,7 +251,10 @@ mod tests {
         assert_eq!(MtnRegressor::new(1).unwrap().len(4), 4);
         assert_eq!(MtnRegressor::new(3).unwrap().len(2), 9);
         assert_eq!(MtnRegressor::new(2).unwrap().len(0), 0);
-        let out_of_range = Err(ConfigError::new(Param::MtnOrder, crate::Reason::OutOfRange));
+        let out_of_range = Err(ConfigError::new(
+            Param::MtnOrder,
+            crate::param::Reason::OutOfRange,
+        ));
         assert_eq!(MtnRegressor::new(0), out_of_range);
         assert_eq!(MtnRegressor::new(9), out_of_range);
     }

@@ -7,7 +7,11 @@
 
 use core::fmt;
 
-use crate::{mtn::MAX_MTN_ORDER, ConfigError};
+/// Largest supported MTN order `m` (the upper bound of [`Param::MtnOrder`]).
+pub const MAX_MTN_ORDER: usize = 8;
+
+/// `√f32::MAX`: the largest usable `c_1`, `c_2` (the recursion squares them).
+pub const MAX_GAIN: f32 = 1.844_674_3e19;
 
 /// One configuration parameter, named after its scenario key (docs/SCENARIO.md).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -381,29 +385,6 @@ impl Param {
     /// [`Self::default_f64`] in the controller's `f32`.
     pub const fn default_f32(self) -> f32 {
         self.default_f64() as f32
-    }
-
-    /// `v` if it lies in the parameter's [`Range`], else the error naming the parameter.
-    pub fn check(self, v: f32) -> Result<f32, ConfigError> {
-        self.spec()
-            .range
-            .check(v)
-            .map_err(|r| ConfigError::new(self, r))
-    }
-
-    /// [`Self::check`] of the entry for step `step` (1-based) of a per-step parameter.
-    pub fn check_step(self, step: u8, v: f32) -> Result<f32, ConfigError> {
-        self.check(v).map_err(|e| e.at_step(step))
-    }
-
-    /// `v` if the parameter's [`Range::Count`] holds it.
-    pub const fn check_count(self, v: usize) -> Result<usize, ConfigError> {
-        match self.spec().range {
-            Range::Count { min, max } if v < min || v > max => {
-                Err(ConfigError::new(self, Reason::OutOfRange))
-            }
-            _ => Ok(v),
-        }
     }
 }
 

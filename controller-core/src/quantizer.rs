@@ -17,7 +17,11 @@
 //! [`HysteresisQuantizer::saturation`] (`u_c` or `u_c (1+δ)` of that top level). So every finite
 //! `u` gives a finite `q`; Lemma 3's sector holds for `|u|` up to the top level.
 
-use crate::{math, param::Range, ConfigError, Param, Reason};
+use crate::{
+    error::ConfigError,
+    math,
+    param::{Param, Range, Reason},
+};
 
 /// How the direction `d` of eq. (2) is read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

@@ -19,7 +19,7 @@
 //! the law and the limits inside it; with safety off (`None`) none of this code runs, and
 //! without the crate's `safety` feature none of it is linked.
 
-use crate::{ConfigError, Link, Param};
+use crate::{consensus::Link, error::ConfigError, param::Param};
 
 /// Safety settings as a user writes them (units of the command `u` and seconds).
 #[derive(Debug, Clone, Copy, PartialEq)]

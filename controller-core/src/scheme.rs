@@ -2,7 +2,7 @@
 //! `k_1 M(e) + k_2 N(e)` of (17)–(19), or the prescribed-time `(c_1 + c_2 μ_T(t)) e` of the
 //! LAW §10 baseline. Everything else of the backstepping design is shared.
 
-use crate::{math, powers::Powers, ConfigError, Gains, Param};
+use crate::{error::ConfigError, gains::Gains, math, param::Param, powers::Powers};
 
 /// Which scheme a controller runs.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

@@ -9,9 +9,16 @@
 use core::fmt;
 
 use crate::{
-    config::MAX_CONFIG_ERRORS, BaselineConfig, ConfigError, ControllerConfig, GainSelection, Gains,
-    Param, QuantizerConfig, QuantizerDirection, Reason, SafetyConfig, SchemeConfig,
+    config::ControllerConfig,
+    error::ConfigError,
+    gains::{GainSelection, Gains},
+    param::{Param, Reason},
+    quantizer::{QuantizerConfig, QuantizerDirection},
+    safety::SafetyConfig,
+    scheme::{BaselineConfig, SchemeConfig},
 };
+
+pub use crate::error::ConfigErrors;
 
 /// A number type a file is read in: `f32` on the target, `f64` on the host.
 pub trait Number: Copy + PartialEq {
@@ -376,9 +383,6 @@ fn baseline_only<F>(param: Param, v: Option<F>) -> Result<(), ConfigError> {
         None => Ok(()),
     }
 }
-
-/// Problems of one configuration (see [`ControllerConfig::errors`]).
-pub type ConfigErrors = heapless::Vec<ConfigError, MAX_CONFIG_ERRORS>;
 
 /// The value of `r`, or `None` with its error added to `errors`.
 fn keep<T>(errors: &mut ConfigErrors, r: Result<T, ConfigError>) -> Option<T> {
