@@ -13,6 +13,18 @@ use crate::{
 };
 
 /// Why a step held the previous command instead of computing a new one.
+///
+/// A NaN in the agent's own state holds the command of the last good sample (LAW §6):
+///
+/// ```
+/// use controller_core::{Controller, ControllerConfig, Link, StepFault};
+/// let mut c = Controller::<2, 2, 0>::new(&ControllerConfig::default())?;
+/// let good = c.step(&[0.02, 0.8], &[], Link::Fresh(0.0));
+/// let held = c.step(&[f32::NAN, 0.8], &[], Link::Fresh(0.0));
+/// assert_eq!(held.status.fault, Some(StepFault::InvalidState));
+/// assert_eq!(held.u, good.u);
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum StepFault {
@@ -24,6 +36,18 @@ pub enum StepFault {
 }
 
 /// Health of one step: the links as resolved, and a fault if the command was held.
+///
+/// ```
+/// use controller_core::{Controller, ControllerConfig, Link};
+/// // Agent 4 of the paper's examples: hears agents 1 and 3, not the leader.
+/// let cfg = ControllerConfig::<2> { neighbour_count: 2, pinned: false, ..Default::default() };
+/// let mut c = Controller::<2, 2, 2>::new(&cfg)?;
+/// let st = c.step(&[0.0, 0.7], &[Link::Fresh(0.02), Link::Stale(0.01)], Link::Missing).status;
+/// assert!(st.fault.is_none() && !st.limited);
+/// assert_eq!(st.links.stale_neighbours, 1);
+/// assert!(!st.links.is_clean());
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct StepStatus {
@@ -40,6 +64,22 @@ pub struct StepStatus {
 ///
 /// On a fault (`status.fault.is_some()`), `u` and `q` hold the last committed command, `e`,
 /// `alpha` and `beta` are 0 and the estimates are the held ones: every field is finite.
+///
+/// ```
+/// use controller_core::{Controller, ControllerConfig, Link};
+/// let mut c = Controller::<2, 2, 0>::new(&ControllerConfig::default())?;
+/// // Example 1, agent 1: y = 0.02 above the leader's y_d = 0, so e_1 = r_1 (y − y_d) = 0.02 (10).
+/// let out = c.step(&[0.02, 0.8], &[], Link::Fresh(0.0));
+/// assert!((out.e[0] - 0.02).abs() < 1e-7);
+/// // n = 2: one virtual control α_1 (15), the last entry is 0; e_2 = x_2 − α_1.
+/// assert_eq!(out.alpha[1], 0.0);
+/// assert!((out.e[1] - (0.8 - out.alpha[0])).abs() < 1e-5);
+/// // Both actuators get the same u (28); q is a level of the quantizer (2) or 0.
+/// assert_eq!(out.u[0], out.u[1]);
+/// assert!(out.u[0] < 0.0 && out.q[0] <= 0.0);
+/// assert_eq!(out.varpi, 0.1); // ϖ(0) of LAW §8
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct StepOutput<const N: usize, const M: usize> {
@@ -62,6 +102,20 @@ pub struct StepOutput<const N: usize, const M: usize> {
 }
 
 /// The mutable state of one agent's controller: small and plain.
+///
+/// ```
+/// use controller_core::{Controller, ControllerConfig, Link};
+/// let mut c = Controller::<2, 2, 0>::new(&ControllerConfig::default())?;
+/// assert_eq!(c.state().k, 0);
+/// assert_eq!(c.state().estimates.lambda, 1.0); // λ̂(0) = 1 (LAW §5)
+/// let out = c.step(&[0.02, 0.8], &[], Link::Fresh(0.0));
+/// let s = c.state();
+/// assert_eq!(s.k, 1);
+/// assert_eq!((s.u, s.q), (out.u, out.q)); // the committed command
+/// assert_eq!(s.estimates, out.estimates);
+/// assert!(s.varpi < out.varpi); // ϖ ← ϖ e^(−κh) (LAW §6 step 5)
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct State<const N: usize, const M: usize, const K: usize> {
@@ -103,7 +157,27 @@ pub struct Controller<const N: usize, const M: usize, const K: usize> {
 }
 
 impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
-    /// Validates `cfg` once; the controller starts at `t = 0`.
+    /// Validates `cfg` once; the controller starts at `t = 0`. A rejected configuration names
+    /// the parameter at fault (and the step `j` of a per-step one).
+    ///
+    /// ```
+    /// use controller_core::{param::Param, Controller, ControllerConfig, Reason};
+    /// // ζ must lie in (0, 1) (Theorem 1).
+    /// let cfg = ControllerConfig::<2> { zeta: 1.5, ..Default::default() };
+    /// let e = Controller::<2, 2, 4>::new(&cfg).unwrap_err();
+    /// assert_eq!((e.param(), e.reason()), (Param::Zeta, Reason::OutOfRange));
+    /// assert_eq!(e.to_string(), "`zeta` must be in (0, 1)");
+    ///
+    /// // ǎ_2 = 0 would divide (18) by zero: the error names step j = 2.
+    /// let cfg = ControllerConfig::<2> { a_check: [90.0, 0.0], ..Default::default() };
+    /// let e = Controller::<2, 2, 4>::new(&cfg).unwrap_err();
+    /// assert_eq!((e.param(), e.step()), (Param::ACheck, Some(2)));
+    ///
+    /// // Three neighbours do not fit a controller built for K = 2.
+    /// let cfg = ControllerConfig::<2> { neighbour_count: 3, ..Default::default() };
+    /// let e = Controller::<2, 2, 2>::new(&cfg).unwrap_err();
+    /// assert_eq!(e.reason(), Reason::OverCapacity);
+    /// ```
     pub fn new(cfg: &ControllerConfig<N>) -> Result<Self, ConfigError> {
         const { assert!(N > 0, "state order n must be at least 1") };
         const { assert!(M > 0, "an agent needs at least one actuator") };
@@ -130,6 +204,19 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
     }
 
     /// Back to `t = 0` with the initial estimates, keeping the configuration.
+    ///
+    /// ```
+    /// use controller_core::{Controller, ControllerConfig, Link};
+    /// let mut c = Controller::<2, 2, 0>::new(&ControllerConfig::default())?;
+    /// let first = c.step(&[0.5, 0.8], &[], Link::Fresh(0.0));
+    /// c.step(&[0.4, 0.1], &[], Link::Fresh(0.0));
+    /// assert_eq!(c.state().k, 2);
+    /// c.reset();
+    /// assert_eq!(c.time(), 0.0);
+    /// // The same sample gives the same output again: nothing of the run is left.
+    /// assert_eq!(c.step(&[0.5, 0.8], &[], Link::Fresh(0.0)), first);
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub fn reset(&mut self) {
         self.state = Self::initial_state(&self.params);
     }
@@ -140,6 +227,21 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
     /// there). With safety on, every link re-enters from `y` at the recovery rate, so the
     /// consensus error starts near zero instead of jumping (a bumpless transfer). The
     /// estimates `μ̂`, `ξ̂`, `λ̂` and the quantizers are kept.
+    ///
+    /// ```
+    /// use controller_core::{Controller, ControllerConfig, Link};
+    /// let mut c = Controller::<2, 2, 0>::new(&ControllerConfig::default())?;
+    /// for _ in 0..100 {
+    ///     c.step(&[0.3, 0.0], &[], Link::Fresh(0.0));
+    /// }
+    /// let learned = c.state().estimates;
+    /// c.resume(0.3, &[0.25, 0.25]); // the safe state applied 0.25 meanwhile
+    /// assert_eq!(c.time(), 0.0);
+    /// assert_eq!(c.state().varpi, 0.1); // ϖ back at ϖ(0)
+    /// assert_eq!(c.state().u, [0.25, 0.25]);
+    /// assert_eq!(c.state().estimates, learned); // μ̂, ξ̂, λ̂ kept
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub fn resume(&mut self, y: f32, applied: &[f32; M]) {
         let s = &mut self.state;
         s.k = 0;
@@ -176,16 +278,44 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
     }
 
     /// The validated settings.
+    ///
+    /// ```
+    /// use controller_core::{Controller, ControllerConfig};
+    /// let c = Controller::<2, 2, 0>::new(&ControllerConfig::default())?;
+    /// // The gains of Theorem 1 for Example 1 (T_s = 2): c_1 ≈ 16.26, c_2 = π/(ζ T_s) ≈ 15.71.
+    /// assert!((c.params().gains().c1 - 16.26).abs() < 0.01);
+    /// assert_eq!(c.params().h(), 1e-3);
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub const fn params(&self) -> &Params<N> {
         &self.params
     }
 
-    /// The current state.
+    /// The current state (see [`State`]).
+    ///
+    /// ```
+    /// use controller_core::{Controller, ControllerConfig};
+    /// let c = Controller::<2, 2, 0>::new(&ControllerConfig::default())?;
+    /// let s = c.state();
+    /// assert_eq!((s.k, s.u, s.q), (0, [0.0; 2], [0.0; 2])); // u_{−1} = 0 (LAW §4)
+    /// assert_eq!((s.estimates.mu, s.estimates.xi), (0.0, 0.0)); // μ̂(0) = ξ̂(0) = 0
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub const fn state(&self) -> &State<N, M, K> {
         &self.state
     }
 
-    /// `t = k h` of the next step.
+    /// `t = k h` of the next step: a sample counter times `h`, never an accumulated float.
+    ///
+    /// ```
+    /// use controller_core::{Controller, ControllerConfig, Link};
+    /// let mut c = Controller::<2, 2, 0>::new(&ControllerConfig::default())?;
+    /// for _ in 0..2000 {
+    ///     c.step(&[0.0, 0.0], &[], Link::Fresh(0.0));
+    /// }
+    /// assert_eq!(c.time(), 2000.0 * 1e-3); // exactly 2000 h, no drift
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub fn time(&self) -> f32 {
         self.state.k as f32 * self.params.h
     }
@@ -201,6 +331,23 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
     /// the adaptive laws pause while a limit is active, returning links are blended in and the
     /// differentiators restart after a held step ([`crate::safety`]); with it off this is the
     /// paper's law: none of that code runs.
+    ///
+    /// ```
+    /// use controller_core::{Controller, ControllerConfig, Link};
+    /// // Agent 2 of the paper's examples: hears agent 1 only, not the leader.
+    /// let cfg = ControllerConfig::<2> { neighbour_count: 1, pinned: false, ..Default::default() };
+    /// let mut c = Controller::<2, 2, 4>::new(&cfg)?;
+    /// // y_2 = 0.01 below y_1 = 0.03: e_1 = a_{2,1}(y_2 − y_1) = −0.02 (10), and the command
+    /// // pushes x_2 up (u > 0).
+    /// let out = c.step(&[0.01, 0.0], &[Link::Fresh(0.03)], Link::Missing);
+    /// assert!((out.e[0] + 0.02).abs() < 1e-7);
+    /// assert!(out.u[0] > 0.0);
+    /// // The neighbour's value goes missing: the last one received is used.
+    /// let out = c.step(&[0.01, 0.0], &[Link::Missing], Link::Missing);
+    /// assert!((out.e[0] + 0.02).abs() < 1e-7);
+    /// assert_eq!(out.status.links.missing_neighbours, 1);
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub fn step(&mut self, x: &[f32; N], neighbours: &[Link], leader: Link) -> StepOutput<N, M> {
         // With safety on: differentiators restart after a held step and returning links
         // re-enter at the recovery rate, each value as the law reads it (no copy of the
