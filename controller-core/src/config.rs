@@ -20,6 +20,27 @@ pub use crate::error::MAX_CONFIG_ERRORS;
 
 /// Everything one agent's controller needs, with the defaults of LAW §8 (Example 1, agent 1:
 /// pinned, no neighbours). Step-indexed arrays hold step `j` at index `j−1`.
+///
+/// ```
+/// use controller_core::{ControllerConfig, GainSelection, QuantizerConfig};
+/// // Example 2 of the paper (LAW §8), agent 3: hears agent 1, T_s = 0.5, ζ = 0.6.
+/// let cfg = ControllerConfig::<2> {
+///     neighbour_count: 1,
+///     pinned: false,
+///     ts: 0.5,
+///     zeta: 0.6,
+///     a_check: [100.0, 120.0],
+///     p: 30.0,
+///     eta: 30.0,
+///     tau: 30.0,
+///     ..ControllerConfig::default()
+/// };
+/// assert!(cfg.errors(4).is_empty());
+/// // What Example 1 and 2 share is the default: ρ = 0.9, u_min = 0.01, ϖ(0) = 0.1, κ = 0.7.
+/// assert_eq!(cfg.quantizer, Some(QuantizerConfig { rho: 0.9, u_min: 0.01, ..Default::default() }));
+/// assert_eq!((cfg.varpi0, cfg.varpi_decay), (0.1, 0.7));
+/// assert_eq!(cfg.gains, GainSelection::Auto); // c_1, c_2 from Theorem 1
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct ControllerConfig<const N: usize> {
@@ -120,6 +141,20 @@ impl<const N: usize> ControllerConfig<N> {
     ///
     /// Each rejected value is replaced by one that passes and the check repeated, so a problem
     /// is reported once whatever it makes of the later checks.
+    ///
+    /// ```
+    /// use controller_core::{param::Param, ControllerConfig, Reason};
+    /// let cfg = ControllerConfig::<2> {
+    ///     ts: -1.0,                // T_s > 0 (Theorem 1)
+    ///     phi_low: [1.0, 3.0],     // φ_low_2 above φ_up_2 = 1 (Assumption 3)
+    ///     gamma: 0.0,              // γ divides tanh(e_n/γ) (28)
+    ///     ..Default::default()
+    /// };
+    /// let found: Vec<_> = cfg.errors(4).iter().map(|e| (e.param(), e.step())).collect();
+    /// assert_eq!(found, [(Param::Ts, None), (Param::PhiLow, Some(2)), (Param::Gamma, None)]);
+    /// assert_eq!(cfg.errors(4)[1].reason(), Reason::Exceeds(Param::PhiUp));
+    /// assert!(ControllerConfig::<2>::default().errors(4).is_empty());
+    /// ```
     pub fn errors(&self, capacity: usize) -> ConfigErrors {
         let mut found = ConfigErrors::new();
         let mut cfg = *self;
@@ -228,6 +263,16 @@ impl<const N: usize> ControllerConfig<N> {
 
 /// The validated, read-only settings of one controller: everything the hot path needs,
 /// precomputed, so `step` repeats no check.
+///
+/// ```
+/// use controller_core::{ControllerConfig, Params};
+/// // Agent 4 of the examples: neighbours 1 and 3, not pinned, so A_4 = 2 (LAW §2).
+/// let cfg = ControllerConfig::<2> { neighbour_count: 2, pinned: false, ..Default::default() };
+/// let p = Params::new(&cfg, 4)?;
+/// assert_eq!(p.a(), 2.0);
+/// assert!(p.quantizer().is_some() && p.safety().is_none());
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Params<const N: usize> {
@@ -249,7 +294,17 @@ pub struct Params<const N: usize> {
 }
 
 impl<const N: usize> Params<N> {
-    /// Validates `cfg` for a controller with neighbour capacity `capacity`.
+    /// Validates `cfg` for a controller with neighbour capacity `capacity`; the first problem
+    /// [`ControllerConfig::errors`] would list.
+    ///
+    /// ```
+    /// use controller_core::{param::Param, ControllerConfig, Params, Reason};
+    /// // Neither neighbours nor the leader: A_i = 0, the agent cannot take part (Assumption 2).
+    /// let cfg = ControllerConfig::<2> { pinned: false, ..Default::default() };
+    /// let e = Params::new(&cfg, 4).unwrap_err();
+    /// assert_eq!((e.param(), e.reason()), (Param::Neighbours, Reason::Isolated));
+    /// assert_eq!(Some(e), cfg.errors(4).first().copied());
+    /// ```
     pub fn new(cfg: &ControllerConfig<N>, capacity: usize) -> Result<Self, ConfigError> {
         if N == 0 {
             return Err(ConfigError::new(Param::StateOrder, Reason::OutOfRange));
@@ -382,27 +437,77 @@ impl<const N: usize> Params<N> {
         })
     }
 
-    /// The gains in force.
+    /// The gains in force: those of Theorem 1, or the explicit `c_1`, `c_2`.
+    ///
+    /// ```
+    /// use controller_core::{ControllerConfig, GainSelection, Params};
+    /// let cfg = ControllerConfig::<2> {
+    ///     gains: GainSelection::Explicit { c1: 10.0, c2: 9.0 }, // the baseline of LAW §10
+    ///     ..Default::default()
+    /// };
+    /// let g = *Params::new(&cfg, 0)?.gains();
+    /// assert_eq!((g.c1, g.c2), (10.0, 9.0));
+    /// // k_1 = (1/2)^(1+ζ/2) c_1 with ζ = 0.1.
+    /// assert!((g.k1 - 0.5f32.powf(1.05) * 10.0).abs() < 1e-4);
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub const fn gains(&self) -> &Gains {
         &self.gains
     }
 
     /// The sample period `h`.
+    ///
+    /// ```
+    /// use controller_core::{ControllerConfig, Params};
+    /// let cfg = ControllerConfig::<2> { h: 2e-4, ..Default::default() }; // Example 2's stable h
+    /// assert_eq!(Params::new(&cfg, 0)?.h(), 2e-4);
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub const fn h(&self) -> f32 {
         self.h
     }
 
     /// The quantizer, if any.
+    ///
+    /// ```
+    /// use controller_core::{ControllerConfig, Params};
+    /// let p = Params::new(&ControllerConfig::<2>::default(), 0)?;
+    /// // δ = (1 − ρ)/(1 + ρ) of eq. (2) for ρ = 0.9.
+    /// assert!((p.quantizer().unwrap().delta() - 0.1 / 1.9).abs() < 1e-7);
+    /// let off = ControllerConfig::<2> { quantizer: None, ..Default::default() };
+    /// assert!(Params::new(&off, 0)?.quantizer().is_none());
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub const fn quantizer(&self) -> Option<&HysteresisQuantizer> {
         self.quantizer.as_ref()
     }
 
-    /// `A_i`.
+    /// `A_i = Σ_k a_{i,k} + r_i` (LAW §2).
+    ///
+    /// ```
+    /// use controller_core::{ControllerConfig, Params};
+    /// let cfg = ControllerConfig::<2> { neighbour_count: 3, pinned: true, ..Default::default() };
+    /// assert_eq!(Params::new(&cfg, 4)?.a(), 4.0);
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub const fn a(&self) -> f32 {
         self.consensus.a()
     }
 
     /// The safety settings, if on.
+    ///
+    /// ```
+    /// use controller_core::{ControllerConfig, Params, SafetyConfig};
+    /// let cfg = ControllerConfig::<2> {
+    ///     safety: Some(SafetyConfig { u_max: Some(5.0), ..Default::default() }),
+    ///     ..Default::default()
+    /// };
+    /// # #[cfg(feature = "safety")] {
+    /// assert_eq!(Params::new(&cfg, 0)?.safety().map(|s| s.u_max()), Some(5.0));
+    /// # }
+    /// assert!(Params::new(&ControllerConfig::<2>::default(), 0)?.safety().is_none());
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub const fn safety(&self) -> Option<&Safety> {
         self.safety.as_ref()
     }
