@@ -14,8 +14,22 @@ pub const MAX_MTN_ORDER: usize = 8;
 pub const MAX_GAIN: f32 = 1.844_674_3e19;
 
 /// One configuration parameter, named after its scenario key (docs/SCENARIO.md).
+///
+/// `#[non_exhaustive]`: the law gains parameters (each a new scenario key), so a `match` outside
+/// this crate needs a wildcard arm; [`Param::ALL`] lists the current ones.
+///
+/// ```
+/// use controller_core::param::{Param, Range};
+/// // ζ of (17)–(19): key, unit, default and range in one place.
+/// let p = Param::Zeta;
+/// assert_eq!((p.key(), p.name(), p.to_string()), ("controller.zeta", "zeta", "zeta".into()));
+/// assert_eq!(p.default_f32(), 0.1);
+/// assert_eq!(p.spec().range, Range::OpenUnit);
+/// assert!(Param::ALL.contains(&p));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum Param {
     /// `simulation.h`: sample period `h`.
     H,
@@ -100,6 +114,14 @@ pub enum Param {
 }
 
 /// A parameter's default as a scenario file states it.
+///
+/// ```
+/// use controller_core::param::{DefaultValue, Param};
+/// assert_eq!(Param::Ts.spec().default, DefaultValue::Num(2.0)); // Example 1's T_s
+/// assert_eq!(Param::ACheck.spec().default, DefaultValue::PerStep(90.0)); // ǎ_j
+/// assert_eq!(Param::C1.spec().default, DefaultValue::Computed); // c_1 of Theorem 1
+/// assert_eq!(Param::SafetyEnabled.spec().default, DefaultValue::Bool(false));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum DefaultValue {
     /// A number.
@@ -121,6 +143,19 @@ pub enum DefaultValue {
 }
 
 /// The values a parameter accepts; every number must also be finite unless stated.
+///
+/// ```
+/// use controller_core::param::{Param, Range};
+/// use controller_core::Reason;
+/// // ρ of the quantizer (2) lies in (0, 1); so does ζ.
+/// let r = Param::Rho.spec().range;
+/// assert_eq!(r, Range::OpenUnit);
+/// assert_eq!(r.to_string(), "in (0, 1)");
+/// assert_eq!(r.check(0.9), Ok(0.9));
+/// assert_eq!(r.check(1.0), Err(Reason::OutOfRange));
+/// // ϖ_min lies in (0, ϖ_0], compared by the constructor.
+/// assert_eq!(Param::VarpiMin.spec().range, Range::UpTo(Param::Varpi0));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Range {
     /// `> 0`.
@@ -155,6 +190,15 @@ pub enum Range {
 }
 
 /// Key, unit, default and range of one parameter.
+///
+/// ```
+/// use controller_core::param::{DefaultValue, Param, Range};
+/// let s = Param::UMin.spec(); // u_min of eq. (2)
+/// assert_eq!((s.key, s.unit, s.default), ("quantizer.u_min", "`[u]`", DefaultValue::Num(0.01)));
+/// assert_eq!(s.range, Range::Positive);
+/// assert!(!s.per_step && Param::PhiLow.spec().per_step);
+/// assert_eq!(Param::UMax.spec().condition, ", above `quantizer.u_min`");
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Spec {
     /// Scenario key, `section.name`.
@@ -204,6 +248,15 @@ const BASELINE_ONLY: &str = "; `prescribed-time` only";
 
 impl Param {
     /// Every parameter, in the order of docs/SCENARIO.md.
+    ///
+    /// ```
+    /// use controller_core::param::Param;
+    /// assert_eq!(Param::ALL[0], Param::H);
+    /// // Every scenario key once.
+    /// for p in Param::ALL {
+    ///     assert_eq!(Param::ALL.iter().filter(|q| q.key() == p.key()).count(), 1);
+    /// }
+    /// ```
     pub const ALL: [Self; 40] = [
         Self::H,
         Self::Scheme,
@@ -248,6 +301,19 @@ impl Param {
     ];
 
     /// The parameter table: scenario key, unit, default and range (docs/SCENARIO.md, LAW §8).
+    ///
+    /// ```
+    /// use controller_core::param::{DefaultValue, Param, Range, MAX_MTN_ORDER};
+    /// let s = Param::MtnOrder.spec(); // m of Lemma 4
+    /// assert_eq!(s.default, DefaultValue::Num(2.0));
+    /// assert_eq!(s.range, Range::Count { min: 1, max: MAX_MTN_ORDER });
+    /// // Every numeric default passes its own range.
+    /// for p in Param::ALL {
+    ///     if let DefaultValue::Num(v) | DefaultValue::PerStep(v) = p.spec().default {
+    ///         assert!(p.spec().range.check(v as f32).is_ok(), "{p:?}");
+    ///     }
+    /// }
+    /// ```
     pub const fn spec(self) -> Spec {
         use DefaultValue as D;
         use Range as R;
@@ -359,17 +425,37 @@ impl Param {
     }
 
     /// The scenario key, e.g. `controller.ts`.
+    ///
+    /// ```
+    /// use controller_core::param::Param;
+    /// assert_eq!(Param::Ts.key(), "controller.ts");
+    /// assert_eq!(Param::H.key(), "simulation.h");
+    /// assert_eq!(Param::Rho.key(), "quantizer.rho");
+    /// ```
     pub const fn key(self) -> &'static str {
         self.spec().key
     }
 
     /// The key without its section, e.g. `ts`.
+    ///
+    /// ```
+    /// use controller_core::param::Param;
+    /// assert_eq!(Param::ACheck.name(), "a_check"); // ǎ_j
+    /// assert_eq!(Param::RecoveryRate.name(), "recovery_rate");
+    /// ```
     pub fn name(self) -> &'static str {
         let key = self.key();
         key.rsplit_once('.').map_or(key, |(_, name)| name)
     }
 
     /// The numeric default (`NaN` for a parameter without one, which every range rejects).
+    ///
+    /// ```
+    /// use controller_core::param::Param;
+    /// assert_eq!(Param::VarpiMin.default_f64(), 1e-6); // ϖ_min of LAW §4
+    /// assert!(Param::C1.default_f64().is_nan()); // computed, not a number of the table
+    /// assert!(Param::C1.check(Param::C1.default_f32()).is_err());
+    /// ```
     pub const fn default_f64(self) -> f64 {
         match self.spec().default {
             DefaultValue::Num(v) | DefaultValue::PerStep(v) => v,
@@ -378,11 +464,24 @@ impl Param {
     }
 
     /// The default of a switch (`false` for a parameter that is not one).
+    ///
+    /// ```
+    /// use controller_core::param::Param;
+    /// assert!(Param::QuantizerEnabled.default_bool()); // eq. (2) is on
+    /// assert!(!Param::SafetyEnabled.default_bool()); // the paper's law as printed
+    /// assert!(!Param::Ts.default_bool());
+    /// ```
     pub const fn default_bool(self) -> bool {
         matches!(self.spec().default, DefaultValue::Bool(true))
     }
 
     /// [`Self::default_f64`] in the controller's `f32`.
+    ///
+    /// ```
+    /// use controller_core::{param::Param, ControllerConfig};
+    /// assert_eq!(Param::Tau.default_f32(), 50.0); // τ of (22), Example 1
+    /// assert_eq!(ControllerConfig::<2>::default().tau, Param::Tau.default_f32());
+    /// ```
     pub const fn default_f32(self) -> f32 {
         self.default_f64() as f32
     }
@@ -396,6 +495,15 @@ impl fmt::Display for Param {
 
 impl Range {
     /// The numeric part of the range: the reason `v` is outside it.
+    ///
+    /// ```
+    /// use controller_core::{param::Range, Reason};
+    /// assert_eq!(Range::Positive.check(0.0), Err(Reason::NonPositive));
+    /// assert_eq!(Range::NonNegative.check(-1e-9), Err(Reason::Negative));
+    /// assert_eq!(Range::Positive.check(f32::INFINITY), Err(Reason::NonFinite));
+    /// // recovery_rate = ∞ means "no blending" (safety).
+    /// assert_eq!(Range::PositiveOrInfinite.check(f32::INFINITY), Ok(f32::INFINITY));
+    /// ```
     pub fn check(self, v: f32) -> Result<f32, Reason> {
         let finite = match self {
             Self::PositiveOrInfinite => !v.is_nan(),
@@ -443,6 +551,17 @@ impl fmt::Display for Range {
 }
 
 /// Why a parameter was rejected.
+///
+/// `#[non_exhaustive]`: new checks bring new reasons.
+///
+/// ```
+/// use controller_core::{param::Param, ControllerConfig, Params, Reason};
+/// // φ_low_1 = 2 above φ_up_1 = 1 breaks φ_low ≤ φ ≤ φ_up (Assumption 3).
+/// let cfg = ControllerConfig::<2> { phi_low: [2.0, 1.0], ..Default::default() };
+/// let e = Params::new(&cfg, 0).unwrap_err();
+/// assert_eq!(e.reason(), Reason::Exceeds(Param::PhiUp));
+/// assert_eq!(e.to_string(), "`phi_low[1]` must not exceed `phi_up[1]`");
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
