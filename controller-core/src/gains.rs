@@ -10,6 +10,21 @@ use core::f32::consts::PI;
 pub use crate::param::MAX_GAIN;
 
 /// How `c_1`, `c_2` are chosen.
+///
+/// ```
+/// use controller_core::{Controller, ControllerConfig, GainSelection};
+/// // Example 2's baseline comparison sets c_1 = 10, c_2 = 9 directly (LAW §10).
+/// let cfg = ControllerConfig::<2> {
+///     gains: GainSelection::Explicit { c1: 10.0, c2: 9.0 },
+///     ..Default::default()
+/// };
+/// let c = Controller::<2, 2, 0>::new(&cfg)?;
+/// assert_eq!((c.params().gains().c1, c.params().gains().c2), (10.0, 9.0));
+/// // Auto: from T_s by Theorem 1, c_2 = π/(ζ T_s).
+/// let auto = Controller::<2, 2, 0>::new(&ControllerConfig::default())?;
+/// assert!((auto.params().gains().c2 - core::f32::consts::PI / 0.2).abs() < 1e-4);
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -33,6 +48,9 @@ pub enum GainSelection {
 /// // Example 1: n = 2, ζ = 0.1, p = 80, η = τ = 50, T_s = 2.
 /// let g = Gains::predefined_time(2.0, 0.1, 2, 80.0, 50.0, 50.0).unwrap();
 /// assert!((g.c1 - 16.26).abs() < 0.01 && (g.c2 - 15.71).abs() < 0.01);
+/// // k_1 = (1/2)^(1+ζ/2) c_1, k_2 = (1/2)^(1−ζ/2) c_2.
+/// assert!((g.k1 - 0.5f32.powf(1.05) * g.c1).abs() < 1e-4);
+/// assert!((g.k2 - 0.5f32.powf(0.95) * g.c2).abs() < 1e-4);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -49,6 +67,19 @@ pub struct Gains {
 
 impl Gains {
     /// Gains from the predefined time `T_s` (LAW §3, `ϑ` reconstructed from (46)–(55)).
+    ///
+    /// ```
+    /// use controller_core::{param::Param, Gains};
+    /// // Example 1 (n = 2, ζ = 0.1, p = 80, η = τ = 50): halving T_s doubles both gains,
+    /// // the settling time 2 T_s halves.
+    /// let ts2 = Gains::predefined_time(2.0, 0.1, 2, 80.0, 50.0, 50.0)?;
+    /// let ts1 = Gains::predefined_time(1.0, 0.1, 2, 80.0, 50.0, 50.0)?;
+    /// assert!((ts1.c1 - 2.0 * ts2.c1).abs() < 1e-3 && (ts1.c2 - 2.0 * ts2.c2).abs() < 1e-3);
+    /// // T_s must be positive; the error names it.
+    /// let e = Gains::predefined_time(0.0, 0.1, 2, 80.0, 50.0, 50.0).unwrap_err();
+    /// assert_eq!(e.param(), Param::Ts);
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub fn predefined_time(
         ts: f32,
         zeta: f32,
@@ -64,6 +95,14 @@ impl Gains {
     /// reading `controller.gain_reading = "printed"`): `c_1 = π/(r ζ T_s)`, `c_2 = π/(ζ T_s)`
     /// with [`printed_factor`] for `r`. For Example 1 `c_1 ≈ 2,862` (the reconstruction of
     /// [`Self::predefined_time`] gives 16.26).
+    ///
+    /// ```
+    /// use controller_core::Gains;
+    /// let g = Gains::printed(2.0, 0.1, 2, 80.0, 50.0, 50.0)?;
+    /// assert!((g.c1 - 2862.0).abs() < 1.0); // D1: the printed r is tiny
+    /// assert!((g.c2 - 15.708).abs() < 1e-3); // c_2 as in the reconstruction
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub fn printed(
         ts: f32,
         zeta: f32,
@@ -89,6 +128,18 @@ impl Gains {
     }
 
     /// Explicit `c_1`, `c_2`; `k_1`, `k_2` follow from `ζ`.
+    ///
+    /// ```
+    /// use controller_core::{gains::MAX_GAIN, param::Param, Gains, Reason};
+    /// // ζ = 0.5: k_1 = (1/2)^1.25 c_1, k_2 = (1/2)^0.75 c_2.
+    /// let g = Gains::explicit(10.0, 9.0, 0.5)?;
+    /// assert!((g.k1 - 10.0 * 0.5f32.powf(1.25)).abs() < 1e-4);
+    /// assert!((g.k2 - 9.0 * 0.5f32.powf(0.75)).abs() < 1e-4);
+    /// // A gain at √f32::MAX would overflow the second backstepping step.
+    /// let e = Gains::explicit(MAX_GAIN, 9.0, 0.5).unwrap_err();
+    /// assert_eq!((e.param(), e.reason()), (Param::C1, Reason::TooLarge));
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub fn explicit(c1: f32, c2: f32, zeta: f32) -> Result<Self, ConfigError> {
         Param::Zeta.check(zeta)?;
         for (c, param) in [(c1, Param::C1), (c2, Param::C2)] {
@@ -106,6 +157,18 @@ impl Gains {
 }
 
 /// The factor `ϑ` of LAW §3 (the paper's `r`).
+///
+/// ```
+/// use controller_core::gains::theta;
+/// // Example 1: the first candidate n^(−ζ/2) = 2^(−0.05) is the smallest.
+/// let t = theta(0.1, 2, 80.0, 50.0, 50.0)?;
+/// assert!((t - 2f32.powf(-0.05)).abs() < 1e-6);
+/// // A small adaptation gain p selects its own candidate 2^(1+ζ/2) p^(ζ/2) (1+ζ)/(2+ζ).
+/// let small_p = theta(0.1, 2, 0.01, 50.0, 50.0)?;
+/// let want = 2f32.powf(1.05) * 0.01f32.powf(0.05) * 1.1 / 2.1;
+/// assert!((small_p - want).abs() < 1e-5 && small_p < t);
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 pub fn theta(zeta: f32, n: usize, p: f32, eta: f32, tau: f32) -> Result<f32, ConfigError> {
     check_factor_inputs(zeta, n, p, eta, tau)?;
     let two = scaled_power(1.0, 2.0, 1.0 + zeta / 2.0, 1.0, 1.0);
@@ -122,6 +185,14 @@ pub fn theta(zeta: f32, n: usize, p: f32, eta: f32, tau: f32) -> Result<f32, Con
 
 /// The factor `r` of Theorem 1 as printed below (21): `r = min{ n^(ζ/2),
 /// (1/2)^(1+ζ/2)/(p (1+ζ)), (1/2)^(1+ζ/2)/(η (1+ζ)), (1/2)^(1+ζ/2)/(τ (1+2ζ)) }` (D1).
+///
+/// ```
+/// use controller_core::gains::printed_factor;
+/// // Example 1: the p term (1/2)^1.05 / (80 · 1.1) is the smallest.
+/// let r = printed_factor(0.1, 2, 80.0, 50.0, 50.0)?;
+/// assert!((r - 0.5f32.powf(1.05) / 88.0).abs() < 1e-7);
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 pub fn printed_factor(zeta: f32, n: usize, p: f32, eta: f32, tau: f32) -> Result<f32, ConfigError> {
     check_factor_inputs(zeta, n, p, eta, tau)?;
     let half = scaled_power(1.0, 0.5, 1.0 + zeta / 2.0, 1.0, 1.0);

@@ -24,6 +24,23 @@ use crate::{
 };
 
 /// How the direction `d` of eq. (2) is read.
+///
+/// ```
+/// use controller_core::{HysteresisQuantizer, QuantizerConfig, QuantizerDirection};
+/// let cfg = |direction| QuantizerConfig { rho: 0.5, u_min: 1.0, direction };
+/// let signed = HysteresisQuantizer::new(&cfg(QuantizerDirection::Signed))?;
+/// let magnitude = HysteresisQuantizer::new(&cfg(QuantizerDirection::Magnitude))?;
+/// // u goes −1.8 → −1.2: u rises (d > 0) but |u| falls.
+/// let (mut a, mut b) = (signed.state(), magnitude.state());
+/// for u in [-1.8, -1.2] {
+///     signed.quantize(&mut a, u);
+///     magnitude.quantize(&mut b, u);
+/// }
+/// // Signed reads "rising" thresholds: |q| = u_1 = 1; magnitude keeps u_1 (1+δ) = 4/3.
+/// assert_eq!(a.prev_q, -1.0);
+/// assert!((b.prev_q + 4.0 / 3.0).abs() < 1e-6);
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -37,6 +54,14 @@ pub enum QuantizerDirection {
 }
 
 /// Quantizer parameters as a user writes them.
+///
+/// ```
+/// use controller_core::{param::Param, HysteresisQuantizer, QuantizerConfig};
+/// let paper = QuantizerConfig::default(); // ρ = 0.9, u_min = 0.01 (LAW §8)
+/// assert_eq!((paper.rho, paper.u_min), (0.9, 0.01));
+/// let bad = QuantizerConfig { rho: 1.0, ..paper }; // eq. (2) needs 0 < ρ < 1
+/// assert_eq!(HysteresisQuantizer::new(&bad).unwrap_err().param(), Param::Rho);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -60,6 +85,25 @@ impl Default for QuantizerConfig {
 }
 
 /// Validated settings of the hysteresis quantizer (eq. 2).
+///
+/// With `ρ = 0.5`, `u_min = 1` the levels are `u_c = 1, 2, 4, …` and `δ = 1/3`. The output
+/// at `u = 0.9` depends on where `u` came from: 0 on the way up (`a ≤ u_min`), `u_1 = 1` on
+/// the way down (`a > u_min/(1+δ) = 0.75`). That band is the hysteresis that saves
+/// transmissions.
+///
+/// ```
+/// use controller_core::{HysteresisQuantizer, QuantizerConfig};
+/// let q = HysteresisQuantizer::new(&QuantizerConfig { rho: 0.5, u_min: 1.0, ..Default::default() })?;
+/// let mut s = q.state();
+/// let up: Vec<f32> = [0.9, 1.2, 1.8, 2.5].iter().map(|&u| q.quantize(&mut s, u)).collect();
+/// let down: Vec<f32> = [1.2, 0.9, 0.7].iter().map(|&u| q.quantize(&mut s, u)).collect();
+/// let close = |a: &[f32], b: &[f32]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-6);
+/// // Rising: 0 up to u_min, u_c while a ≤ u_c/(1−δ), then u_c (1+δ).
+/// assert!(close(&up, &[0.0, 1.0, 4.0 / 3.0, 2.0]));
+/// // Falling: u_c (1+δ) while a > u_c, u_c down to u_c/(1+δ), then the level below.
+/// assert!(close(&down, &[4.0 / 3.0, 1.0, 0.0]));
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct HysteresisQuantizer {
@@ -78,6 +122,17 @@ pub struct HysteresisQuantizer {
 }
 
 /// Per-actuator memory: the previous command and output, and the current level bracket.
+///
+/// ```
+/// use controller_core::{HysteresisQuantizer, QuantizerConfig};
+/// let q = HysteresisQuantizer::new(&QuantizerConfig::default())?;
+/// let mut s = q.state();
+/// let out = q.quantize(&mut s, 0.05);
+/// assert_eq!((s.prev_u, s.prev_q), (0.05, out));
+/// // The same command again (d = 0): the output is held.
+/// assert_eq!(q.quantize(&mut s, 0.05), out);
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct QuantizerState {
@@ -118,6 +173,14 @@ const SQUARINGS: usize = 8;
 
 impl HysteresisQuantizer {
     /// Checks `0 < ρ < 1`, `u_min > 0`.
+    ///
+    /// ```
+    /// use controller_core::{param::Param, HysteresisQuantizer, QuantizerConfig, Reason};
+    /// let cfg = QuantizerConfig { u_min: -0.01, ..Default::default() };
+    /// let e = HysteresisQuantizer::new(&cfg).unwrap_err();
+    /// assert_eq!((e.param(), e.reason()), (Param::UMin, Reason::NonPositive));
+    /// assert!(HysteresisQuantizer::new(&QuantizerConfig::default()).is_ok());
+    /// ```
     pub fn new(cfg: &QuantizerConfig) -> Result<Self, ConfigError> {
         Param::Rho.check(cfg.rho)?;
         Param::UMin.check(cfg.u_min)?;
@@ -165,18 +228,43 @@ impl HysteresisQuantizer {
         Ok(q)
     }
 
-    /// `δ = (1−ρ)/(1+ρ)`.
+    /// `δ = (1−ρ)/(1+ρ)`: the sector of Lemma 3 is `1−δ ≤ P ≤ 1+δ`, and (28) divides by `1−δ`.
+    ///
+    /// ```
+    /// use controller_core::{HysteresisQuantizer, QuantizerConfig};
+    /// let q = HysteresisQuantizer::new(&QuantizerConfig::default())?; // ρ = 0.9
+    /// assert!((q.delta() - 0.1 / 1.9).abs() < 1e-7);
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub const fn delta(&self) -> f32 {
         self.delta
     }
 
-    /// `u_min`.
+    /// `u_min`: the dead zone; commands up to it (on the way up) give 0.
+    ///
+    /// ```
+    /// use controller_core::{HysteresisQuantizer, QuantizerConfig};
+    /// let q = HysteresisQuantizer::new(&QuantizerConfig::default())?;
+    /// assert_eq!(q.u_min(), 0.01);
+    /// assert_eq!(q.quantize(&mut q.state(), q.u_min()), 0.0);
+    /// assert_eq!(q.quantize(&mut q.state(), 0.0101), q.u_min());
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub const fn u_min(&self) -> f32 {
         self.u_min
     }
 
     /// The largest output magnitude: the top finite level `u_c`, times `1+δ` where that stays
     /// finite. `|q|` never exceeds it.
+    ///
+    /// ```
+    /// use controller_core::{HysteresisQuantizer, QuantizerConfig};
+    /// let q = HysteresisQuantizer::new(&QuantizerConfig::default())?;
+    /// // The paper's ρ = 0.9, u_min = 0.01: the top level is about 3.5e36.
+    /// assert!(q.saturation() > 3e36 && q.saturation().is_finite());
+    /// assert_eq!(q.quantize(&mut q.state(), f32::MAX), q.saturation());
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub const fn saturation(&self) -> f32 {
         self.saturation
     }
@@ -184,6 +272,17 @@ impl HysteresisQuantizer {
     /// Level `u_c = u_min ρ^(1−c)` for `c ≥ 1`: `u_min · (1/ρ)^(c−1)` with the power formed
     /// exactly as [`math::powi`] forms it (the same bits), its low bits from the squarings. Out
     /// of line: called on level changes only, it keeps the quantizer small enough to inline.
+    ///
+    /// ```
+    /// use controller_core::{HysteresisQuantizer, QuantizerConfig};
+    /// let q = HysteresisQuantizer::new(&QuantizerConfig::default())?; // ρ = 0.9, u_min = 0.01
+    /// assert_eq!(q.level(1), 0.01);
+    /// for c in 1..50 {
+    ///     let ratio = q.level(c) / q.level(c + 1);
+    ///     assert!((ratio - 0.9).abs() < 1e-5); // successive levels differ by ρ
+    /// }
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     #[inline(never)]
     pub fn level(&self, c: u32) -> f32 {
         let k = c.saturating_sub(1);
@@ -203,7 +302,15 @@ impl HysteresisQuantizer {
         self.u_min * acc
     }
 
-    /// The initial state: `u_{−1} = 0`, `q_{−1} = 0`.
+    /// The initial state: `u_{−1} = 0`, `q_{−1} = 0`, so the first direction is `sign(u_0)`.
+    ///
+    /// ```
+    /// use controller_core::{HysteresisQuantizer, QuantizerConfig};
+    /// let q = HysteresisQuantizer::new(&QuantizerConfig::default())?;
+    /// let s = q.state();
+    /// assert_eq!((s.prev_u, s.prev_q), (0.0, 0.0));
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub fn state(&self) -> QuantizerState {
         QuantizerState {
             prev_u: 0.0,
@@ -215,6 +322,17 @@ impl HysteresisQuantizer {
     }
 
     /// Closed-form level index: the `c ≥ 1` with `u_c < b ≤ u_{c+1}` (`b > u_min`), or 1.
+    ///
+    /// ```
+    /// use controller_core::{HysteresisQuantizer, QuantizerConfig};
+    /// let q = HysteresisQuantizer::new(&QuantizerConfig { rho: 0.5, u_min: 1.0, ..Default::default() })?;
+    /// // Levels 1, 2, 4, 8: u_2 = 2 < 3 ≤ 4 = u_3, and the bracket is closed above.
+    /// assert_eq!(q.level_index(3.0), 2);
+    /// assert_eq!(q.level_index(4.0), 2);
+    /// assert_eq!(q.level_index(4.001), 3);
+    /// assert_eq!(q.level_index(0.5), 1);
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub fn level_index(&self, b: f32) -> u32 {
         if b <= self.u_min || !b.is_finite() {
             return 1;
@@ -266,7 +384,27 @@ impl HysteresisQuantizer {
         lo
     }
 
-    /// `q_k = Q(u_k)`, updating the state (eq. 2).
+    /// `q_k = Q(u_k)`, updating the state (eq. 2). The output is odd in `u`'s sign.
+    ///
+    /// Lemma 3: `q = P u + R` with `1−δ ≤ P ≤ 1+δ`, `|R| ≤ u_min`; outside the dead zone the
+    /// output is within the sector itself:
+    ///
+    /// ```
+    /// use controller_core::{HysteresisQuantizer, QuantizerConfig};
+    /// let q = HysteresisQuantizer::new(&QuantizerConfig::default())?;
+    /// let d = q.delta();
+    /// let mut s = q.state();
+    /// for k in 0..2000 {
+    ///     let u = 3.0 * (k as f32 * 0.01).sin(); // up and down through many levels
+    ///     let out = q.quantize(&mut s, u);
+    ///     assert!(out == 0.0 || out * u > 0.0);
+    ///     if u.abs() > 2.0 * q.u_min() {
+    ///         let p = out / u;
+    ///         assert!(p >= 1.0 - d - 1e-6 && p <= 1.0 + d + 1e-6, "u = {u}, q = {out}");
+    ///     }
+    /// }
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     #[inline]
     pub fn quantize(&self, s: &mut QuantizerState, u: f32) -> f32 {
         let q = self.output(s.prev_u, s.prev_q, u, |b| {
@@ -279,6 +417,19 @@ impl HysteresisQuantizer {
     }
 
     /// The same output as [`Self::quantize`] from the closed-form level index (the reference).
+    ///
+    /// ```
+    /// use controller_core::{HysteresisQuantizer, QuantizerConfig};
+    /// let q = HysteresisQuantizer::new(&QuantizerConfig::default())?;
+    /// let mut s = q.state();
+    /// let (mut prev_u, mut prev_q) = (0.0, 0.0);
+    /// for u in [0.02, 0.5, 40.0, 0.013, -7.0, -7.5, 0.0] {
+    ///     let reference = q.quantize_reference(prev_u, prev_q, u);
+    ///     assert_eq!(q.quantize(&mut s, u), reference);
+    ///     (prev_u, prev_q) = (u, reference);
+    /// }
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub fn quantize_reference(&self, prev_u: f32, prev_q: f32, u: f32) -> f32 {
         self.output(prev_u, prev_q, u, |b| self.level(self.level_index(b)))
     }
