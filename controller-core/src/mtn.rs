@@ -9,6 +9,15 @@ use crate::{error::ConfigError, param::Param};
 pub use crate::param::MAX_MTN_ORDER;
 
 /// `Φ` did not fit the caller's buffer.
+///
+/// ```
+/// use controller_core::{mtn::CapacityError, MtnRegressor};
+/// // d = 3 inputs, m = 2: C(5, 2) − 1 = 9 entries do not fit 8.
+/// let e = MtnRegressor::new(2)?.phi::<8>(&[1.0, 2.0, 3.0]).unwrap_err();
+/// assert_eq!(e, CapacityError { needed: 9 });
+/// assert_eq!(e.to_string(), "the regressor has 9 entries, more than the buffer holds");
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct CapacityError {
@@ -29,6 +38,17 @@ impl core::fmt::Display for CapacityError {
 impl core::error::Error for CapacityError {}
 
 /// The regressor of one MTN order `m` (Lemma 4).
+///
+/// ```
+/// use controller_core::MtnRegressor;
+/// // m = 2, X = (x_1, x_2) = (1, 2): Φ = (x_1, x_2, x_1², x_1 x_2, x_2²), C(4, 2) − 1 = 5 entries.
+/// let mtn = MtnRegressor::new(2)?;
+/// let phi = mtn.phi::<5>(&[1.0, 2.0]).unwrap();
+/// assert_eq!(phi.as_slice(), &[1.0, 2.0, 1.0, 2.0, 4.0]);
+/// // The law needs only ‖Φ‖² = 1 + 4 + 1 + 4 + 16, evaluated without building Φ.
+/// assert_eq!(mtn.norm_sq(&[1.0, 2.0]), 26.0);
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct MtnRegressor {
@@ -37,6 +57,13 @@ pub struct MtnRegressor {
 
 impl MtnRegressor {
     /// A regressor of order `1 ≤ m ≤ MAX_MTN_ORDER`.
+    ///
+    /// ```
+    /// use controller_core::{mtn::MAX_MTN_ORDER, param::Param, MtnRegressor};
+    /// assert_eq!(MtnRegressor::new(MAX_MTN_ORDER)?.order(), MAX_MTN_ORDER);
+    /// assert_eq!(MtnRegressor::new(0).unwrap_err().param(), Param::MtnOrder);
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub const fn new(order: usize) -> Result<Self, ConfigError> {
         match Param::MtnOrder.check_count(order) {
             Ok(order) => Ok(Self { order: order as u8 }),
@@ -45,6 +72,13 @@ impl MtnRegressor {
     }
 
     /// The order `m`.
+    ///
+    /// ```
+    /// use controller_core::{ControllerConfig, MtnRegressor};
+    /// let cfg = ControllerConfig::<2>::default();
+    /// assert_eq!(MtnRegressor::new(cfg.mtn_order)?.order(), 2); // the examples' order
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub const fn order(&self) -> usize {
         self.order as usize
     }
@@ -54,6 +88,9 @@ impl MtnRegressor {
     /// ```
     /// use controller_core::MtnRegressor;
     /// assert_eq!(MtnRegressor::new(2).unwrap().len(3), 9); // 3 linear + 6 quadratic
+    /// // C(d+m, m) − 1 for d = 4 neighbours' and own outputs, m = 3: C(7, 3) − 1 = 34.
+    /// assert_eq!(MtnRegressor::new(3).unwrap().len(4), 34);
+    /// assert_eq!(MtnRegressor::new(5).unwrap().len(0), 0);
     /// ```
     pub const fn len(&self, d: usize) -> usize {
         // C(d+m, m) built incrementally: C(d+k, k) = C(d+k−1, k−1)·(d+k)/k, exact at every k.
@@ -67,6 +104,18 @@ impl MtnRegressor {
     }
 
     /// A streaming evaluator of `‖Φ‖²`: push the inputs one by one.
+    ///
+    /// ```
+    /// use controller_core::MtnRegressor;
+    /// // Step j of (18) uses X_j = (x_1, …, x_j): one accumulator serves every step.
+    /// let mtn = MtnRegressor::new(2)?;
+    /// let mut acc = mtn.accumulator();
+    /// acc.push(1.0);
+    /// assert_eq!(acc.norm_sq(), mtn.norm_sq(&[1.0])); // ‖Φ_1‖²
+    /// acc.push(2.0);
+    /// assert_eq!(acc.norm_sq(), mtn.norm_sq(&[1.0, 2.0])); // ‖Φ_2‖²
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     #[inline]
     pub const fn accumulator(&self) -> MtnAccumulator {
         MtnAccumulator {
@@ -78,6 +127,17 @@ impl MtnRegressor {
     }
 
     /// `‖Φ(x)‖²` of a whole input vector.
+    ///
+    /// ```
+    /// use controller_core::MtnRegressor;
+    /// // Against the built vector for m = 3, d = 3.
+    /// let mtn = MtnRegressor::new(3)?;
+    /// let x = [0.5, -1.5, 2.0];
+    /// let phi = mtn.phi::<19>(&x).unwrap();
+    /// let built: f32 = phi.iter().map(|v| v * v).sum();
+    /// assert!((mtn.norm_sq(&x) - built).abs() < 1e-4 * built);
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub fn norm_sq(&self, x: &[f32]) -> f32 {
         let mut acc = self.accumulator();
         for &v in x {
@@ -88,6 +148,14 @@ impl MtnRegressor {
 
     /// The full vector `Φ(x)` (degree by degree, monomials in lexicographic order of their
     /// variable indices) into a fixed-capacity buffer: for inspection and tests, not the hot path.
+    ///
+    /// ```
+    /// use controller_core::MtnRegressor;
+    /// let phi = MtnRegressor::new(3)?.phi::<9>(&[2.0, 3.0]).unwrap();
+    /// // Degree 1, 2, 3 in turn: x_1, x_2 | x_1², x_1x_2, x_2² | x_1³, x_1²x_2, x_1x_2², x_2³.
+    /// assert_eq!(phi.as_slice(), &[2.0, 3.0, 4.0, 6.0, 9.0, 8.0, 12.0, 18.0, 27.0]);
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub fn phi<const CAP: usize>(
         &self,
         x: &[f32],
@@ -129,6 +197,17 @@ impl MtnRegressor {
 
 /// Running `h_k(z_1..z_j)`, `k = 1..=m`, of the squared inputs pushed so far: `h_1`, `h_2` as
 /// scalars (all the examples' order 2 needs), `h_3..h_m` in a short array.
+///
+/// ```
+/// use controller_core::MtnRegressor;
+/// let mut acc = MtnRegressor::new(2)?.accumulator();
+/// for x in [1.0, 2.0, 3.0] {
+///     acc.push(x);
+/// }
+/// // h_1(1, 4, 9) = 14, h_2(1, 4, 9) = 1 + 16 + 81 + 4 + 9 + 36 = 147.
+/// assert_eq!(acc.norm_sq(), 14.0 + 147.0);
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MtnAccumulator {
     h1: f32,
@@ -139,6 +218,15 @@ pub struct MtnAccumulator {
 
 impl MtnAccumulator {
     /// Add one input `x`: `h_k ← h_k + x² h_{k−1}` for rising `k` (`h_0 = 1`).
+    ///
+    /// ```
+    /// use controller_core::MtnRegressor;
+    /// let mut acc = MtnRegressor::new(1)?.accumulator();
+    /// acc.push(3.0);
+    /// acc.push(-4.0);
+    /// assert_eq!(acc.norm_sq(), 25.0); // m = 1: Φ = X, ‖Φ‖² = ‖X‖²
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     #[inline]
     pub fn push(&mut self, x: f32) {
         let z = x * x;
@@ -163,6 +251,16 @@ impl MtnAccumulator {
     }
 
     /// `‖Φ‖² = Σ_{k=1..m} h_k` of the inputs pushed so far (summed in rising `k`).
+    ///
+    /// ```
+    /// use controller_core::MtnRegressor;
+    /// let acc = MtnRegressor::new(4)?.accumulator();
+    /// assert_eq!(acc.norm_sq(), 0.0); // nothing pushed: Φ has no constant term
+    /// let mut acc = acc;
+    /// acc.push(2.0);
+    /// assert_eq!(acc.norm_sq(), 4.0 + 16.0 + 64.0 + 256.0); // x², x⁴, x⁶, x⁸
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     #[inline]
     pub fn norm_sq(&self) -> f32 {
         match self.order {

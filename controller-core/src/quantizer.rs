@@ -386,8 +386,8 @@ impl HysteresisQuantizer {
 
     /// `q_k = Q(u_k)`, updating the state (eq. 2). The output is odd in `u`'s sign.
     ///
-    /// Lemma 3: `q = P u + R` with `1−δ ≤ P ≤ 1+δ`, `|R| ≤ u_min`; outside the dead zone the
-    /// output is within the sector itself:
+    /// Lemma 3: `q = P u + R` with `1−δ ≤ P ≤ 1+δ`, `|R| ≤ u_min`; away from the dead zone
+    /// (here `|u| > 2 u_min`) the ratio `q/u` itself stays in that sector:
     ///
     /// ```
     /// use controller_core::{HysteresisQuantizer, QuantizerConfig};
