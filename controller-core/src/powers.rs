@@ -3,6 +3,18 @@
 use crate::math;
 
 /// `M` and `N` of one `ζ`, sharing one `|e|^ζ` per evaluation.
+///
+/// Near 0 `N` dominates (`|e|^(1−ζ) > |e|^(1+ζ)` for `|e| < 1`), far from it `M`: together
+/// they give the predefined-time convergence of Theorem 1.
+///
+/// ```
+/// use controller_core::powers::Powers;
+/// let p = Powers::new(0.1); // Example 1's ζ
+/// let (m_small, n_small) = p.m_n(0.01);
+/// let (m_large, n_large) = p.m_n(10.0);
+/// assert!(n_small > m_small && m_large > n_large);
+/// assert!((m_large - 10f32.powf(1.1)).abs() < 1e-4 * m_large);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Powers {
@@ -11,11 +23,25 @@ pub struct Powers {
 
 impl Powers {
     /// Powers for `ζ` (validated by the controller's configuration).
+    ///
+    /// ```
+    /// use controller_core::powers::Powers;
+    /// // ζ = 0.6 of Example 2: N(e) = sign(e)|e|^0.4, M(e) = sign(e)|e|^1.6.
+    /// let (m, n) = Powers::new(0.6).m_n(-2.0);
+    /// assert!((m + 2f32.powf(1.6)).abs() < 1e-4 && (n + 2f32.powf(0.4)).abs() < 1e-5);
+    /// ```
     pub const fn new(zeta: f32) -> Self {
         Self { zeta }
     }
 
     /// `x^ζ` for `x ≥ 0`, with `0^ζ = 0`.
+    ///
+    /// ```
+    /// use controller_core::powers::Powers;
+    /// let p = Powers::new(0.5);
+    /// assert!((p.pow_zeta(0.25) - 0.5).abs() < 1e-6);
+    /// assert_eq!(p.pow_zeta(0.0), 0.0);
+    /// ```
     #[inline]
     pub fn pow_zeta(&self, x: f32) -> f32 {
         if x > 0.0 {

@@ -30,6 +30,21 @@ pub fn smooth(x: f32, varpi: f32) -> f32 {
 }
 
 /// The `ϖ(t)` schedule: a per-sample decay factor `e^(−κh)` and the floor `ϖ_min`.
+///
+/// ```
+/// use controller_core::smoothing::VarpiSchedule;
+/// // LAW §8: ϖ = 0.1 e^(−0.7 t), floored at 1e-6, sampled at h = 1 ms.
+/// let s = VarpiSchedule::new(0.1, 0.7, 1e-6, 1e-3);
+/// let mut varpi = s.initial;
+/// for _ in 0..1000 {
+///     s.advance(&mut varpi);
+/// }
+/// assert!((varpi - 0.1 * (-0.7f32).exp()).abs() < 1e-6); // ϖ(1 s)
+/// for _ in 0..30_000 {
+///     s.advance(&mut varpi);
+/// }
+/// assert_eq!(varpi, s.floor); // 0.1 e^(−21) < 1e-6: the floor holds
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct VarpiSchedule {
@@ -43,6 +58,14 @@ pub struct VarpiSchedule {
 
 impl VarpiSchedule {
     /// Schedule for `ϖ_0`, decay rate `κ`, floor and sample period `h` (validated by the caller).
+    ///
+    /// ```
+    /// use controller_core::smoothing::VarpiSchedule;
+    /// let s = VarpiSchedule::new(0.1, 0.7, 1e-6, 1e-3);
+    /// assert!((s.decay_per_sample - (-0.7e-3f32).exp()).abs() < 1e-7);
+    /// // κ = 0: a constant width.
+    /// assert_eq!(VarpiSchedule::new(0.1, 0.0, 1e-6, 1e-3).decay_per_sample, 1.0);
+    /// ```
     pub fn new(varpi0: f32, kappa: f32, floor: f32, h: f32) -> Self {
         Self {
             initial: varpi0,
@@ -52,6 +75,16 @@ impl VarpiSchedule {
     }
 
     /// `ϖ ← max(ϖ e^(−κh), ϖ_min)` (LAW §6 step 5).
+    ///
+    /// ```
+    /// use controller_core::smoothing::VarpiSchedule;
+    /// let s = VarpiSchedule::new(1.0, 1.0, 0.5, 0.5); // e^(−0.5) ≈ 0.607 per sample
+    /// let mut varpi = 1.0;
+    /// s.advance(&mut varpi);
+    /// assert!((varpi - 0.60653).abs() < 1e-4);
+    /// s.advance(&mut varpi); // 0.368 would be below the floor
+    /// assert_eq!(varpi, 0.5);
+    /// ```
     #[inline]
     pub fn advance(&self, varpi: &mut f32) {
         // `max(floor)` written out (a call to `fmaxf` on a Cortex-M4 otherwise).
