@@ -10,6 +10,27 @@ use crate::{
 };
 
 /// Step constants precomputed from the validated configuration.
+///
+/// Built by [`crate::Params::new`] only; seen through the controller's output. With Example
+/// 1's agent 1 (`A_1 = 1`, `S_1 = 0`) and `μ̂(0) = 0` the first sample's step 1 is
+/// `β_1 = k_1 M(e_1) + k_2 N(e_1) + (1 + A_1 + S_1)/2 · e_1` (17) and
+/// `α_1 = −β_1 s_ϖ(e_1 β_1) / (A_1 φ_low_1)` (15):
+///
+/// ```
+/// use controller_core::powers::Powers;
+/// use controller_core::smoothing::smooth;
+/// use controller_core::{Controller, ControllerConfig, Link};
+/// let mut c = Controller::<2, 2, 0>::new(&ControllerConfig::default())?;
+/// let g = *c.params().gains();
+/// let out = c.step(&[0.3, 0.8], &[], Link::Fresh(0.0));
+/// let e1 = out.e[0];
+/// let (m, n) = Powers::new(0.1).m_n(e1);
+/// let beta1 = g.k1 * m + g.k2 * n + e1;
+/// assert!((out.beta[0] - beta1).abs() < 1e-5 * beta1.abs());
+/// let alpha1 = -beta1 * smooth(e1 * beta1, 0.1);
+/// assert!((out.alpha[0] - alpha1).abs() < 1e-4 * alpha1.abs());
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Backstepping<const N: usize> {
@@ -30,7 +51,21 @@ pub struct Backstepping<const N: usize> {
     pub(crate) command_gain: f32,
 }
 
-/// The signals of one sample's recursion, per step `j` (index `j−1`).
+/// The signals of one sample's recursion, per step `j` (index `j−1`); the controller's
+/// [`crate::StepOutput`] reports `e`, `α`, `β` and `u` of them.
+///
+/// ```
+/// use controller_core::{Controller, ControllerConfig, Link};
+/// // n = 3: two virtual controls α_1, α_2 and e_{j+1} = x_{j+1} − α_j.
+/// let mut c = Controller::<3, 1, 0>::new(&ControllerConfig::default())?;
+/// let x = [0.1, -0.2, 0.3];
+/// let out = c.step(&x, &[], Link::Fresh(0.0));
+/// for j in 1..3 {
+///     assert!((out.e[j] - (x[j] - out.alpha[j - 1])).abs() < 1e-5);
+/// }
+/// assert_eq!(out.alpha[2], 0.0); // there is no α_n
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Signals<const N: usize> {
     /// `e_j`.
@@ -48,6 +83,13 @@ pub struct Signals<const N: usize> {
 }
 
 /// Inputs of the recursion that come from the controller's state.
+///
+/// ```
+/// use controller_core::backstepping::Estimated;
+/// let alpha_dot = [0.0, 0.0];
+/// let est = Estimated { mu: 0.0, xi: 0.0, lambda: 1.0, varpi: 0.1, alpha_dot: &alpha_dot };
+/// assert_eq!(est.alpha_dot.len(), 2); // one χ_{j,2} per step, the last unused
+/// ```
 #[derive(Debug, Clone, Copy)]
 pub struct Estimated<'a, const N: usize> {
     /// `μ̂`.
@@ -64,6 +106,21 @@ pub struct Estimated<'a, const N: usize> {
 
 impl<const N: usize> Backstepping<N> {
     /// Runs steps `1..n` from `e_1` (with `phi1 = ‖Φ_1‖²`) and the local state `x`.
+    ///
+    /// The controller calls it once per step; its `u` is (28),
+    /// `u = −λ̂ β_n s_ϖ(e_n λ̂ β_n) / (1 − δ)`, the same for every actuator:
+    ///
+    /// ```
+    /// use controller_core::smoothing::smooth;
+    /// use controller_core::{Controller, ControllerConfig, Link};
+    /// let mut c = Controller::<2, 2, 0>::new(&ControllerConfig::default())?;
+    /// let delta = c.params().quantizer().unwrap().delta();
+    /// let out = c.step(&[0.3, 0.8], &[], Link::Fresh(0.0));
+    /// let (e2, beta2) = (out.e[1], out.beta[1]); // λ̂(0) = 1
+    /// let u = -beta2 * smooth(e2 * beta2, 0.1) / (1.0 - delta);
+    /// assert!((out.u[0] - u).abs() < 1e-4 * u.abs() && out.u[0] == out.u[1]);
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     #[inline]
     pub fn run(
         &self,

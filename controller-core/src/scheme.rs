@@ -5,6 +5,22 @@
 use crate::{error::ConfigError, gains::Gains, math, param::Param, powers::Powers};
 
 /// Which scheme a controller runs.
+///
+/// ```
+/// use controller_core::{param::Param, BaselineConfig, Controller, ControllerConfig, SchemeConfig};
+/// // Example 2's comparison (LAW §10): the prescribed-time baseline.
+/// let baseline = ControllerConfig::<2> {
+///     scheme: SchemeConfig::PrescribedTime(BaselineConfig::default()),
+///     ..Default::default()
+/// };
+/// assert!(Controller::<2, 2, 0>::new(&baseline).is_ok());
+/// // κ must be > 0: the error names the baseline's key.
+/// let bad = ControllerConfig::<2> {
+///     scheme: SchemeConfig::PrescribedTime(BaselineConfig { kappa: 0.0, ..Default::default() }),
+///     ..Default::default()
+/// };
+/// assert_eq!(Controller::<2, 2, 0>::new(&bad).unwrap_err().param(), Param::Kappa);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -21,6 +37,12 @@ pub enum SchemeConfig {
 ///
 /// A representative member of the time-varying-scaling family the paper compares against in its
 /// Fig. 8, not a copy of its (unavailable) ref. \[39\].
+///
+/// ```
+/// use controller_core::BaselineConfig;
+/// let b = BaselineConfig::default();
+/// assert_eq!((b.kappa, b.mu_max, b.t_prescribed), (2.0, 10.0, None)); // LAW §10; T = T_s
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -44,6 +66,18 @@ impl Default for BaselineConfig {
 }
 
 /// A validated scheme.
+///
+/// ```
+/// use controller_core::scheme::{Feedback, Scheme};
+/// use controller_core::{Gains, SchemeConfig};
+/// let g = Gains::predefined_time(2.0, 0.1, 2, 80.0, 50.0, 50.0)?;
+/// let s = Scheme::new(&SchemeConfig::PredefinedTime, &g, 0.1, 2.0)?;
+/// assert!(matches!(s, Scheme::PredefinedTime { k1, k2, .. } if k1 == g.k1 && k2 == g.k2));
+/// // The predefined-time term does not depend on t.
+/// assert_eq!(s.feedback_at(0.0), s.feedback_at(100.0));
+/// assert!(matches!(s.feedback_at(0.0), Feedback::PredefinedTime { .. }));
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Scheme {
@@ -72,6 +106,16 @@ pub enum Scheme {
 }
 
 /// The stabilising term of one sample (the time-varying gain of the baseline already evaluated).
+///
+/// ```
+/// use controller_core::powers::Powers;
+/// use controller_core::scheme::Feedback;
+/// let f = Feedback::PredefinedTime { k1: 2.0, k2: 3.0, powers: Powers::new(0.5) };
+/// // k_1 M(e) + k_2 N(e) at e = 4: 2 · 4^1.5 + 3 · 4^0.5 = 16 + 6.
+/// assert!((f.term(4.0) - 22.0).abs() < 1e-4);
+/// assert!((f.term(-4.0) + 22.0).abs() < 1e-4); // odd in e
+/// assert_eq!(Feedback::Linear(5.0).term(-0.5), -2.5);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Feedback {
     /// `k_1 M(e) + k_2 N(e)`.
@@ -89,6 +133,17 @@ pub enum Feedback {
 
 impl Scheme {
     /// Validates the scheme's own parameters; `ts` is the fallback `T` of the baseline.
+    ///
+    /// ```
+    /// use controller_core::scheme::Scheme;
+    /// use controller_core::{BaselineConfig, Gains, SchemeConfig};
+    /// let g = Gains::explicit(10.0, 9.0, 0.6)?;
+    /// let cfg = SchemeConfig::PrescribedTime(BaselineConfig::default());
+    /// // T_s = 1 of Example 2's baseline stands in for T.
+    /// let s = Scheme::new(&cfg, &g, 0.6, 1.0)?;
+    /// assert!(matches!(s, Scheme::PrescribedTime { t_prescribed, c1, .. } if t_prescribed == 1.0 && c1 == 10.0));
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub fn new(cfg: &SchemeConfig, gains: &Gains, zeta: f32, ts: f32) -> Result<Self, ConfigError> {
         Ok(match cfg {
             SchemeConfig::PredefinedTime => Self::PredefinedTime {
@@ -115,6 +170,22 @@ impl Scheme {
     }
 
     /// The stabilising term at time `t` (one `powf` per sample for the baseline before `T`).
+    ///
+    /// ```
+    /// use controller_core::scheme::{Feedback, Scheme};
+    /// use controller_core::{BaselineConfig, Gains, SchemeConfig};
+    /// let g = Gains::explicit(10.0, 9.0, 0.6)?;
+    /// let cfg = SchemeConfig::PrescribedTime(BaselineConfig::default());
+    /// let s = Scheme::new(&cfg, &g, 0.6, 1.0)?;
+    /// // (c_1 + c_2 μ_T(t)) with μ_T(0) = 1 and μ_T = μ_max = 10 from T on.
+    /// let gain = |t| match s.feedback_at(t) {
+    ///     Feedback::Linear(g) => g,
+    ///     _ => f32::NAN,
+    /// };
+    /// assert!((gain(0.0) - 19.0).abs() < 1e-4);
+    /// assert_eq!(gain(1.0), 100.0);
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     #[inline]
     pub fn feedback_at(&self, t: f32) -> Feedback {
         match *self {
@@ -156,7 +227,20 @@ pub fn scaling(t: f32, t_prescribed: f32, kappa: f32, mu_max: f32) -> f32 {
 }
 
 impl Feedback {
-    /// The stabilising term of one error `e`.
+    /// The stabilising term of one error `e`: the first terms of `β_j` in (17)–(19).
+    ///
+    /// ```
+    /// use controller_core::powers::Powers;
+    /// use controller_core::scheme::Feedback;
+    /// use controller_core::Gains;
+    /// let g = Gains::predefined_time(2.0, 0.1, 2, 80.0, 50.0, 50.0)?;
+    /// let f = Feedback::PredefinedTime { k1: g.k1, k2: g.k2, powers: Powers::new(0.1) };
+    /// let e = 0.5f32;
+    /// let want = g.k1 * e.powf(1.1) + g.k2 * e.powf(0.9);
+    /// assert!((f.term(e) - want).abs() < 1e-4 * want);
+    /// assert_eq!(f.term(0.0), 0.0);
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     #[inline]
     pub fn term(&self, e: f32) -> f32 {
         match *self {
