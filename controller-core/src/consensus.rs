@@ -13,6 +13,21 @@
 use crate::mtn::MtnAccumulator;
 
 /// One value received over the network, as the node hands it to the controller.
+///
+/// ```
+/// use controller_core::{Controller, ControllerConfig, Link};
+/// let cfg = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
+/// let mut c = Controller::<2, 2, 1>::new(&cfg)?;
+/// // e_1 = (y − y_1) + (y − y_d) = (0.1 − 0.3) + (0.1 − 0) (10).
+/// let out = c.step(&[0.1, 0.0], &[Link::Fresh(0.3)], Link::Fresh(0.0));
+/// assert!((out.e[0] + 0.1).abs() < 1e-6);
+/// // A NaN is counted as invalid and replaced by the last valid value.
+/// let out = c.step(&[0.1, 0.0], &[Link::Fresh(f32::NAN)], Link::Stale(0.0));
+/// assert!((out.e[0] + 0.1).abs() < 1e-6);
+/// assert_eq!(out.status.links.invalid_neighbours, 1);
+/// assert!(out.status.links.leader_stale);
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Link {
@@ -25,6 +40,17 @@ pub enum Link {
 }
 
 /// Counts of degraded links in one sample.
+///
+/// ```
+/// use controller_core::{Controller, ControllerConfig, Link};
+/// let cfg = ControllerConfig::<2> { neighbour_count: 2, ..Default::default() };
+/// let mut c = Controller::<2, 2, 2>::new(&cfg)?;
+/// // Neighbour 2 never sent anything: its term is left out of e_1, as if it agreed.
+/// let r = c.step(&[0.1, 0.0], &[Link::Fresh(0.1), Link::Missing], Link::Missing).status.links;
+/// assert_eq!((r.missing_neighbours, r.dropped_neighbours), (1, 1));
+/// assert!(r.leader_missing && r.leader_dropped && !r.count_mismatch);
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct LinkReport {
@@ -48,12 +74,32 @@ pub struct LinkReport {
 
 impl LinkReport {
     /// Every link fresh and valid.
+    ///
+    /// ```
+    /// use controller_core::{Controller, ControllerConfig, Link, LinkReport};
+    /// let mut c = Controller::<2, 2, 0>::new(&ControllerConfig::default())?;
+    /// assert!(c.step(&[0.0; 2], &[], Link::Fresh(0.0)).status.links.is_clean());
+    /// assert!(!c.step(&[0.0; 2], &[], Link::Stale(0.0)).status.links.is_clean());
+    /// assert!(LinkReport::default().is_clean());
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub fn is_clean(&self) -> bool {
         *self == Self::default()
     }
 }
 
 /// The last valid value of one link.
+///
+/// ```
+/// use controller_core::{Controller, ControllerConfig, Link};
+/// let cfg = ControllerConfig::<2> { neighbour_count: 1, pinned: false, ..Default::default() };
+/// let mut c = Controller::<2, 1, 1>::new(&cfg)?;
+/// c.step(&[0.0, 0.0], &[Link::Fresh(0.3)], Link::Missing);
+/// // An infinite value is not held: e_1 = y − 0.3 with the last valid y_1.
+/// let out = c.step(&[0.0, 0.0], &[Link::Fresh(f32::INFINITY)], Link::Missing);
+/// assert!((out.e[0] + 0.3).abs() < 1e-6);
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Held {
@@ -62,6 +108,21 @@ pub struct Held {
 }
 
 /// Remembered neighbour and leader values of one agent (`K` neighbour slots).
+///
+/// ```
+/// use controller_core::consensus::{Consensus, LinkMemory};
+/// use controller_core::{Link, LinkReport, MtnRegressor};
+/// let (graph, mut memory) = (Consensus::new(1, false), LinkMemory::<1>::default());
+/// let mtn = MtnRegressor::new(2)?;
+/// let mut e1 = |link| {
+///     let mut report = LinkReport::default();
+///     graph.consensus_error(&mut memory, 0.0, &[link], Link::Missing, &mut mtn.accumulator(),
+///                           &mut report, |_, l| l)
+/// };
+/// assert_eq!(e1(Link::Fresh(0.4)), -0.4);
+/// assert_eq!(e1(Link::Missing), -0.4); // remembered
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct LinkMemory<const K: usize> {
@@ -115,6 +176,14 @@ impl Held {
 }
 
 /// The agent's place in the graph: `S_i` neighbours, pinned or not (LAW §2).
+///
+/// ```
+/// use controller_core::consensus::Consensus;
+/// // The paper's examples: agent 1 hears the leader only, agent 4 hears agents 1 and 3.
+/// let (agent1, agent4) = (Consensus::new(0, true), Consensus::new(2, false));
+/// assert_eq!((agent1.a(), agent1.s()), (1.0, 0.0));
+/// assert_eq!((agent4.a(), agent4.s()), (2.0, 2.0));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Consensus {
@@ -124,21 +193,44 @@ pub struct Consensus {
 
 impl Consensus {
     /// `S_i` neighbours (at most `K`, checked by the controller's config) and the pinning `r_i`.
+    ///
+    /// ```
+    /// use controller_core::consensus::Consensus;
+    /// let c = Consensus::new(3, true);
+    /// assert_eq!((c.neighbour_count(), c.a()), (3, 4.0));
+    /// ```
     pub const fn new(neighbours: u8, pinned: bool) -> Self {
         Self { neighbours, pinned }
     }
 
     /// `S_i` as a count: the number of neighbour values `step` expects.
+    ///
+    /// ```
+    /// use controller_core::consensus::Consensus;
+    /// assert_eq!(Consensus::new(2, false).neighbour_count(), 2);
+    /// ```
     pub const fn neighbour_count(&self) -> usize {
         self.neighbours as usize
     }
 
-    /// `S_i = Σ_k a_{i,k}`.
+    /// `S_i = Σ_k a_{i,k}`: with `A_i` it sets step 1's damping `(1 + A_i + S_i)/2` (17).
+    ///
+    /// ```
+    /// use controller_core::consensus::Consensus;
+    /// let c = Consensus::new(2, true);
+    /// assert_eq!((1.0 + c.a() + c.s()) / 2.0, 3.0);
+    /// ```
     pub const fn s(&self) -> f32 {
         self.neighbours as f32
     }
 
     /// `A_i = S_i + r_i`.
+    ///
+    /// ```
+    /// use controller_core::consensus::Consensus;
+    /// assert_eq!(Consensus::new(1, true).a(), 2.0);
+    /// assert_eq!(Consensus::new(0, false).a(), 0.0); // isolated: rejected by the config
+    /// ```
     pub const fn a(&self) -> f32 {
         self.neighbours as f32 + if self.pinned { 1.0 } else { 0.0 }
     }
@@ -146,6 +238,24 @@ impl Consensus {
     /// `e_{i,1} = Σ_k a_{i,k}(y_i − y_k) + r_i(y_i − y_d)` (10); pushes `X_{i,1} = [y_i, y_k…]`
     /// into `phi` for `‖Φ_1‖²`. Each neighbour value the law reads passes first through
     /// `through(k, link)`: the identity, or the safety layer's re-entry of slot `k`.
+    ///
+    /// ```
+    /// use controller_core::consensus::{Consensus, LinkMemory};
+    /// use controller_core::{Link, LinkReport, MtnRegressor};
+    /// // Agent 4: neighbours 1 and 3, not pinned; y_4 = 0.5, y_1 = 0.2, y_3 = 0.1.
+    /// let graph = Consensus::new(2, false);
+    /// let mut memory = LinkMemory::<2>::default();
+    /// let mtn = MtnRegressor::new(1)?;
+    /// let (mut phi, mut report) = (mtn.accumulator(), LinkReport::default());
+    /// let links = [Link::Fresh(0.2), Link::Fresh(0.1)];
+    /// let e1 = graph.consensus_error(&mut memory, 0.5, &links, Link::Missing, &mut phi,
+    ///                                &mut report, |_, l| l);
+    /// assert!((e1 - 0.7).abs() < 1e-6); // (0.5 − 0.2) + (0.5 − 0.1)
+    /// // X_{4,1} = (y_4, y_1, y_3) went into Φ_1: with m = 1, ‖Φ_1‖² = ‖X‖².
+    /// assert!((phi.norm_sq() - 0.30).abs() < 1e-6);
+    /// assert!(report.is_clean());
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     #[allow(clippy::too_many_arguments)]
     pub fn consensus_error<const K: usize>(
         &self,

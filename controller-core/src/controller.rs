@@ -265,11 +265,13 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
     ///     safety: Some(SafetyConfig { recovery_rate: 1.0, ..SafetyConfig::default() }),
     ///     ..ControllerConfig::default()
     /// };
+    /// # #[cfg(feature = "safety")] {
     /// let mut c = Controller::<2, 2, 4>::new(&cfg).unwrap();
     /// c.reenter_links_from(0.2);
     /// // The neighbour says 0.7: at 1 per second and h = 1 ms, e₁ = y − ŷ moves by 1e-3.
     /// let o = c.step(&[0.2, 0.0], &[Link::Fresh(0.7)], Link::Missing);
     /// assert!((o.e[0] - -0.001).abs() < 1e-5);
+    /// # }
     /// ```
     pub fn reenter_links_from(&mut self, y: f32) {
         if y.is_finite() && safety(&self.params).is_some() {

@@ -22,6 +22,30 @@
 use crate::{consensus::Link, error::ConfigError, param::Param};
 
 /// Safety settings as a user writes them (units of the command `u` and seconds).
+///
+/// A magnitude limit on (28)'s command, and the adaptive laws paused while it acts
+/// (needs the crate's `safety` feature, on by default; without it the configuration is
+/// rejected):
+///
+/// ```
+/// use controller_core::{param::Param, Controller, ControllerConfig, Link, Reason, SafetyConfig};
+/// let cfg = ControllerConfig::<2> {
+///     safety: Some(SafetyConfig { u_max: Some(0.5), ..SafetyConfig::default() }),
+///     ..Default::default()
+/// };
+/// match Controller::<2, 2, 0>::new(&cfg) {
+///     Ok(mut c) => {
+///         let out = c.step(&[1.0, 2.0], &[], Link::Fresh(0.0)); // far from y_d = 0
+///         assert_eq!(out.u, [-0.5, -0.5]);
+///         assert!(out.status.limited);
+///         assert_eq!(out.estimates.mu, 0.0); // μ̂ not integrated in a limited sample
+///     }
+///     Err(e) => {
+///         assert!(!cfg!(feature = "safety"));
+///         assert_eq!((e.param(), e.reason()), (Param::SafetyEnabled, Reason::NotBuilt));
+///     }
+/// }
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
@@ -51,6 +75,14 @@ impl Default for SafetyConfig {
 }
 
 /// Validated safety settings for sample period `h`.
+///
+/// ```
+/// use controller_core::safety::Safety;
+/// use controller_core::SafetyConfig;
+/// let s = Safety::new(&SafetyConfig { u_max: Some(2.0), ..SafetyConfig::default() }, 1e-3)?;
+/// assert_eq!(s.u_max(), 2.0);
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Safety {
@@ -62,6 +94,17 @@ pub struct Safety {
 
 impl Safety {
     /// Validates `cfg` for sample period `h` (> 0, checked by the caller).
+    ///
+    /// ```
+    /// use controller_core::safety::Safety;
+    /// use controller_core::{param::Param, Reason, SafetyConfig};
+    /// let bad = SafetyConfig { du_max: Some(0.0), ..SafetyConfig::default() };
+    /// let e = Safety::new(&bad, 1e-3).unwrap_err();
+    /// assert_eq!((e.param(), e.reason()), (Param::DuMax, Reason::NonPositive));
+    /// // recovery_rate = ∞: returning values are used at once.
+    /// let at_once = SafetyConfig { recovery_rate: f32::INFINITY, ..SafetyConfig::default() };
+    /// assert!(Safety::new(&at_once, 1e-3).is_ok());
+    /// ```
     pub fn new(cfg: &SafetyConfig, h: f32) -> Result<Self, ConfigError> {
         let u_max = match cfg.u_max {
             Some(v) => Param::UMax.check(v)?,
@@ -80,12 +123,41 @@ impl Safety {
     }
 
     /// The magnitude limit (`∞` without one).
+    ///
+    /// ```
+    /// use controller_core::safety::Safety;
+    /// use controller_core::SafetyConfig;
+    /// assert_eq!(Safety::new(&SafetyConfig::default(), 1e-3)?.u_max(), f32::INFINITY);
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub const fn u_max(&self) -> f32 {
         self.u_max
     }
 }
 
 /// Re-entry memory of one link.
+///
+/// A neighbour that returns after an outage with a jump enters `e_{i,1}` (10) at the
+/// recovery rate (1 per second here, so 1e-3 per sample of 1 ms) instead of at once:
+///
+/// ```
+/// use controller_core::{Controller, ControllerConfig, Link, SafetyConfig};
+/// let cfg = ControllerConfig::<2> {
+///     neighbour_count: 1,
+///     pinned: false,
+///     safety: Some(SafetyConfig::default()),
+///     ..Default::default()
+/// };
+/// # #[cfg(feature = "safety")] {
+/// let mut c = Controller::<2, 2, 1>::new(&cfg)?;
+/// let x = [0.0, 0.0];
+/// assert_eq!(c.step(&x, &[Link::Fresh(0.0)], Link::Missing).e[0], 0.0);
+/// c.step(&x, &[Link::Missing], Link::Missing); // outage
+/// let back = c.step(&x, &[Link::Fresh(0.5)], Link::Missing); // returns 0.5 higher
+/// assert!((back.e[0] + 0.001).abs() < 1e-6); // not −0.5
+/// # }
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Reentry {
@@ -97,6 +169,16 @@ pub struct Reentry {
 
 /// Safety memory of one agent: re-entry of `K` neighbour links and the leader, and whether
 /// the previous step was held.
+///
+/// ```
+/// use controller_core::{Controller, ControllerConfig, Link};
+/// let mut c = Controller::<2, 2, 0>::new(&ControllerConfig::default())?;
+/// // Without safety the recovery memory stays untouched.
+/// let before = c.state().recovery;
+/// c.step(&[0.1, 0.0], &[], Link::Fresh(0.0));
+/// assert_eq!(c.state().recovery, before);
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Recovery<const K: usize> {
