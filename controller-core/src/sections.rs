@@ -21,10 +21,28 @@ use crate::{
 pub use crate::error::ConfigErrors;
 
 /// A number type a file is read in: `f32` on the target, `f64` on the host.
+///
+/// ```
+/// use controller_core::sections::{ControllerSection, Number};
+/// // The host reads f64, the controller takes each value `as f32`.
+/// let host: ControllerSection<f64, heapless::Vec<f64, 2>> = ControllerSection::default();
+/// assert_eq!(host.ts.to_f32(), 2.0);
+/// assert_eq!(f64::from_f64(0.1), 0.1);
+/// ```
 pub trait Number: Copy + PartialEq {
     /// A default of the parameter table.
+    ///
+    /// ```
+    /// use controller_core::sections::Number;
+    /// assert_eq!(<f32 as Number>::from_f64(1e-6), 1e-6f32); // ϖ_min as the target reads it
+    /// ```
     fn from_f64(v: f64) -> Self;
     /// The controller's `f32`.
+    ///
+    /// ```
+    /// use controller_core::sections::Number;
+    /// assert_eq!(0.1f64.to_f32(), 0.1f32);
+    /// ```
     fn to_f32(self) -> f32;
 }
 
@@ -47,8 +65,21 @@ impl Number for f64 {
 }
 
 /// The per-step values of a section (one per step `j = 1..n`).
+///
+/// ```
+/// use controller_core::sections::ControllerSection;
+/// // Firmware: a fixed-capacity vector; ǎ_j = 90 for both steps of Example 1.
+/// let c: ControllerSection<f32, heapless::Vec<f32, 2>> = ControllerSection::default();
+/// assert_eq!(c.a_check.as_slice(), &[90.0, 90.0]);
+/// ```
 pub trait PerStep<F>: AsRef<[F]> {
     /// The default: `v` for every step of the default plant.
+    ///
+    /// ```
+    /// use controller_core::sections::PerStep;
+    /// let v: heapless::Vec<f32, 3> = PerStep::filled(1.0);
+    /// assert_eq!(v.as_slice(), &[1.0; 3]);
+    /// ```
     fn filled(v: F) -> Self;
 }
 
@@ -70,6 +101,20 @@ impl<F: Copy> PerStep<F> for alloc::vec::Vec<F> {
 }
 
 /// `controller.scheme`: which control law.
+///
+/// ```
+/// use controller_core::sections::{Agent, ControllerSection, QuantizerSection, SafetySection};
+/// use controller_core::{ControllerConfig, SchemeConfig, SchemeName};
+/// assert_eq!(SchemeName::PrescribedTime.to_string(), "prescribed-time"); // the scenario value
+/// let c = ControllerSection::<f32, heapless::Vec<f32, 2>> {
+///     scheme: SchemeName::PrescribedTime,
+///     ..Default::default()
+/// };
+/// let cfg = ControllerConfig::<2>::from_sections(Agent::default(), &c,
+///     &QuantizerSection::default(), &SafetySection::default())?;
+/// assert!(matches!(cfg.scheme, SchemeConfig::PrescribedTime(b) if b.kappa == 2.0));
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(rename_all = "kebab-case"))]
@@ -91,9 +136,27 @@ impl fmt::Display for SchemeName {
 }
 
 /// `controller.gain_reading`: which reading of the gain factor of Theorem 1 (D1).
+///
+/// `#[non_exhaustive]`: LAW §9's stricter `ϑ` is a candidate for a further reading.
+///
+/// ```
+/// use controller_core::sections::{Agent, ControllerSection, QuantizerSection, SafetySection};
+/// use controller_core::{ControllerConfig, GainReading, GainSelection};
+/// let c = ControllerSection::<f32, heapless::Vec<f32, 2>> {
+///     gain_reading: GainReading::Printed,
+///     ..Default::default()
+/// };
+/// let cfg = ControllerConfig::<2>::from_sections(Agent::default(), &c,
+///     &QuantizerSection::default(), &SafetySection::default())?;
+/// // The printed r of Theorem 1 gives Example 1 c_1 ≈ 2,862 (the reconstruction: 16.26).
+/// assert!(matches!(cfg.gains, GainSelection::Explicit { c1, .. } if (c1 - 2862.0).abs() < 1.0));
+/// assert_eq!(GainReading::Printed.to_string(), "printed");
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(rename_all = "kebab-case"))]
+#[non_exhaustive]
 pub enum GainReading {
     /// `ϑ` of LAW §3, reconstructed from the proof's (46)–(55).
     #[default]
@@ -104,6 +167,12 @@ pub enum GainReading {
 
 impl GainReading {
     /// The default reading (left out when a section is written).
+    ///
+    /// ```
+    /// use controller_core::GainReading;
+    /// assert!(GainReading::default().is_reconstructed());
+    /// assert!(!GainReading::Printed.is_reconstructed());
+    /// ```
     pub fn is_reconstructed(&self) -> bool {
         *self == Self::Reconstructed
     }
@@ -119,6 +188,17 @@ impl fmt::Display for GainReading {
 }
 
 /// `[controller]`: the design values of LAW §3–§5, shared by all agents.
+///
+/// ```
+/// use controller_core::sections::{Agent, ControllerSection, QuantizerSection, SafetySection};
+/// use controller_core::{param::Param, ControllerConfig, Reason};
+/// type Section = ControllerSection<f32, heapless::Vec<f32, 3>>;
+/// // Three ǎ_j for a plant of order n = 2: the layout error names the key.
+/// let c = Section { a_check: heapless::Vec::from_array([90.0; 3]), ..Default::default() };
+/// let e = ControllerConfig::<2>::from_sections(Agent::default(), &c,
+///     &QuantizerSection::default(), &SafetySection::default()).unwrap_err();
+/// assert_eq!((e.param(), e.reason()), (Param::ACheck, Reason::StepCount { expected: 2, got: 3 }));
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(
@@ -235,6 +315,12 @@ impl<F: Number, S: PerStep<F>> Default for ControllerSection<F, S> {
 }
 
 /// `[quantizer]`: the hysteresis quantizer of eq. (2).
+///
+/// ```
+/// use controller_core::sections::QuantizerSection;
+/// let q = QuantizerSection::<f64>::default();
+/// assert!(q.enabled && q.rho == 0.9 && q.u_min == 0.01); // LAW §8
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(
@@ -269,6 +355,14 @@ impl<F: Number> Default for QuantizerSection<F> {
 
 impl<F: Number> QuantizerSection<F> {
     /// The quantizer's settings, `None` when off.
+    ///
+    /// ```
+    /// use controller_core::sections::QuantizerSection;
+    /// use controller_core::QuantizerConfig;
+    /// assert_eq!(QuantizerSection::<f64>::default().config(), Some(QuantizerConfig::default()));
+    /// let off = QuantizerSection::<f64> { enabled: false, ..Default::default() };
+    /// assert_eq!(off.config(), None); // actuators get u itself (δ = 0)
+    /// ```
     pub fn config(&self) -> Option<QuantizerConfig> {
         self.enabled.then(|| QuantizerConfig {
             rho: self.rho.to_f32(),
@@ -280,6 +374,13 @@ impl<F: Number> QuantizerSection<F> {
 
 /// `[safety]`: command limits, anti-windup and recovery of [`crate::safety`]. Off by default:
 /// the paper's law.
+///
+/// ```
+/// use controller_core::sections::SafetySection;
+/// let s = SafetySection::<f64>::default();
+/// assert!(!s.enabled && s.u_max.is_none() && s.du_max.is_none());
+/// assert_eq!((s.recovery_rate, s.recovery_jump), (1.0, 0.05));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(
@@ -320,16 +421,38 @@ impl<F: Number> Default for SafetySection<F> {
 
 impl<F: Number> SafetySection<F> {
     /// The default (off, nothing set).
+    ///
+    /// ```
+    /// use controller_core::sections::SafetySection;
+    /// assert!(SafetySection::<f32>::default().is_default());
+    /// assert!(!SafetySection::<f32> { u_max: Some(40.0), ..Default::default() }.is_default());
+    /// ```
     pub fn is_default(&self) -> bool {
         *self == Self::default()
     }
 
     /// The controller's settings, `None` when off.
+    ///
+    /// ```
+    /// use controller_core::sections::SafetySection;
+    /// let s = SafetySection::<f64> { enabled: true, u_max: Some(40.0), ..Default::default() };
+    /// assert_eq!(s.config().and_then(|c| c.u_max), Some(40.0));
+    /// assert_eq!(SafetySection::<f64>::default().config(), None);
+    /// ```
     pub fn config(&self) -> Option<SafetyConfig> {
         self.enabled.then(|| self.settings())
     }
 
     /// The controller's settings whether on or off (to check them while off).
+    ///
+    /// ```
+    /// use controller_core::safety::Safety;
+    /// use controller_core::{param::Param, sections::SafetySection};
+    /// // Off, but a wrong value is still worth reporting.
+    /// let s = SafetySection::<f64> { du_max: Some(-1.0), ..Default::default() };
+    /// assert_eq!(s.config(), None);
+    /// assert_eq!(Safety::new(&s.settings(), 1e-3).unwrap_err().param(), Param::DuMax);
+    /// ```
     pub fn settings(&self) -> SafetyConfig {
         SafetyConfig {
             u_max: self.u_max.map(F::to_f32),
@@ -341,6 +464,18 @@ impl<F: Number> SafetySection<F> {
 }
 
 /// The agent-specific part of a configuration: sample period and topology.
+///
+/// ```
+/// use controller_core::sections::{Agent, ControllerSection, QuantizerSection, SafetySection};
+/// use controller_core::ControllerConfig;
+/// // Agent 3 of the examples hears agent 1 only.
+/// let agent = Agent { neighbour_count: 1, pinned: false, ..Agent::default() };
+/// let c = ControllerSection::<f64, heapless::Vec<f64, 2>>::default();
+/// let cfg = ControllerConfig::<2>::from_sections(agent, &c,
+///     &QuantizerSection::default(), &SafetySection::default())?;
+/// assert_eq!((cfg.h, cfg.neighbour_count, cfg.pinned), (1e-3, 1, false));
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Agent {
     /// Sample period `h` \[s\].
@@ -397,6 +532,24 @@ impl<const N: usize> ControllerConfig<N> {
     /// The configuration of one agent from the scenario sections, each value `as f32`; only
     /// the layout is checked here (entries per step, `c1` with `c2`, baseline keys), the values
     /// by [`crate::Controller::new`]. The error is the first of [`Self::from_sections_all`].
+    ///
+    /// ```
+    /// use controller_core::sections::{Agent, ControllerSection, QuantizerSection, SafetySection};
+    /// use controller_core::{param::Param, Controller, ControllerConfig, Reason};
+    /// type Section = ControllerSection<f32, heapless::Vec<f32, 2>>;
+    /// let (q, s) = (QuantizerSection::default(), SafetySection::default());
+    /// // The defaults are Example 1's: the same configuration as ControllerConfig::default().
+    /// let cfg = ControllerConfig::<2>::from_sections(Agent::default(), &Section::default(), &q, &s)?;
+    /// assert_eq!(cfg, ControllerConfig::default());
+    /// // c1 without c2 is a layout error; a bad value passes here and is caught by the controller.
+    /// let c = Section { c1: Some(10.0), ..Default::default() };
+    /// let e = ControllerConfig::<2>::from_sections(Agent::default(), &c, &q, &s).unwrap_err();
+    /// assert_eq!((e.param(), e.reason()), (Param::C2, Reason::Unpaired));
+    /// let c = Section { zeta: 2.0, ..Default::default() };
+    /// let cfg = ControllerConfig::<2>::from_sections(Agent::default(), &c, &q, &s)?;
+    /// assert_eq!(Controller::<2, 2, 0>::new(&cfg).unwrap_err().param(), Param::Zeta);
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
     pub fn from_sections<F: Number, S: PerStep<F>>(
         agent: Agent,
         c: &ControllerSection<F, S>,
@@ -413,6 +566,21 @@ impl<const N: usize> ControllerConfig<N> {
     /// [`Self::from_sections`] with every layout problem, not only the first, and the
     /// configuration with the default in place of each rejected value (to check the values
     /// of the others with [`Self::errors`]).
+    ///
+    /// ```
+    /// use controller_core::sections::{Agent, ControllerSection, QuantizerSection, SafetySection};
+    /// use controller_core::{param::Param, ControllerConfig};
+    /// let c = ControllerSection::<f32, heapless::Vec<f32, 2>> {
+    ///     kappa: Some(2.0), // a baseline key for the predefined-time scheme
+    ///     c2: Some(9.0),    // without c1
+    ///     ..Default::default()
+    /// };
+    /// let (cfg, errors) = ControllerConfig::<2>::from_sections_all(Agent::default(), &c,
+    ///     &QuantizerSection::default(), &SafetySection::default());
+    /// let params: Vec<Param> = errors.iter().map(|e| e.param()).collect();
+    /// assert_eq!(params, [Param::C1, Param::Kappa]);
+    /// assert!(cfg.errors(0).is_empty()); // the rest is valid
+    /// ```
     pub fn from_sections_all<F: Number, S: PerStep<F>>(
         agent: Agent,
         c: &ControllerSection<F, S>,
@@ -509,6 +677,27 @@ impl<const N: usize> ControllerConfig<N> {
 /// A configuration file: a scenario file's `[simulation]` `h`, `[controller]`, `[quantizer]` and
 /// `[safety]` (its other tables and `[simulation]` keys are ignored), and an optional `[agent]`
 /// table (`neighbour_count`, `pinned`; default agent 1 of the examples: pinned, no neighbours).
+///
+/// ```
+/// use controller_core::{param::Param, Controller, ControllerConfig};
+/// let text = r#"
+///     [simulation]
+///     h = 2e-4
+///     [controller]
+///     ts = 0.5
+///     zeta = 0.6
+///     a_check = [100.0, 120.0]
+///     [agent]
+///     neighbour_count = 1
+///     pinned = false
+/// "#;
+/// let cfg: ControllerConfig<2> = toml::from_str(text).unwrap();
+/// assert_eq!((cfg.h, cfg.ts, cfg.a_check), (2e-4, 0.5, [100.0, 120.0]));
+/// assert!(Controller::<2, 2, 4>::new(&cfg).is_ok());
+/// // Two values for a plant of order 3: rejected with the key's name.
+/// let e = toml::from_str::<ControllerConfig<3>>(text).unwrap_err();
+/// assert!(e.to_string().contains("a_check"), "{e}");
+/// ```
 #[cfg(feature = "serde")]
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(
@@ -545,6 +734,13 @@ impl<S: PerStep<f32>> Default for ConfigFile<S> {
 }
 
 /// The `[simulation]` key a controller reads.
+///
+/// ```
+/// use controller_core::sections::FileSimulation;
+/// let s: FileSimulation = toml::from_str("h = 5e-4").unwrap();
+/// assert_eq!(s.h, 5e-4);
+/// assert_eq!(FileSimulation::default().h, 1e-3);
+/// ```
 #[cfg(feature = "serde")]
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default)]
@@ -563,6 +759,13 @@ impl Default for FileSimulation {
 }
 
 /// `[agent]`: the topology of the agent the file configures.
+///
+/// ```
+/// use controller_core::sections::FileAgent;
+/// assert!(toml::from_str::<FileAgent>("neighbours = 2").is_err()); // the key is neighbour_count
+/// let a: FileAgent = toml::from_str("neighbour_count = 2").unwrap();
+/// assert_eq!((a.neighbour_count, a.pinned), (2, true));
+/// ```
 #[cfg(feature = "serde")]
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields, default)]
