@@ -87,6 +87,13 @@ fn exact() -> bool {
 }
 
 /// `x^y` for `x ≥ 0`, at configuration time.
+///
+/// ```
+/// use controller_core::math::powf;
+/// // k_1 = (1/2)^(1+ζ/2) c_1 of Theorem 1 for ζ = 0.1 (accurate kernels in every build).
+/// assert!((powf(0.5, 1.05) - 0.482_968_5).abs() < 1e-6);
+/// assert_eq!(powf(4.0, 0.5), 2.0);
+/// ```
 #[inline]
 pub fn powf(x: f32, y: f32) -> f32 {
     #[cfg(any(feature = "micromath", feature = "fast-math"))]
@@ -103,6 +110,16 @@ pub fn powf(x: f32, y: f32) -> f32 {
 /// With `libm` the relative error is within `(2 + |y ln x|)` ulp (≤ 4 ulp for `|e|^ζ` over the
 /// range of the examples). `x = 0` gives 0 for `y > 0`, `x < 0` or NaN gives NaN, `x = ∞`
 /// gives `∞` for `y > 0`.
+///
+/// ```
+/// use controller_core::math::pow_pos;
+/// // |e|^ζ of M, N with ζ = 0.1; relative tolerance of the `micromath` back-end (1.2 %),
+/// // a few 1e-6 for the others.
+/// let tol = if cfg!(feature = "micromath") { 1.2e-2 } else { 1e-5 };
+/// assert!((pow_pos(0.02, 0.1) / 0.02f64.powf(0.1) as f32 - 1.0).abs() < tol);
+/// assert_eq!(pow_pos(0.0, 0.1), 0.0);
+/// assert!(pow_pos(-1.0, 0.1).is_nan());
+/// ```
 #[inline]
 pub fn pow_pos(x: f32, y: f32) -> f32 {
     #[cfg(test)]
@@ -113,6 +130,15 @@ pub fn pow_pos(x: f32, y: f32) -> f32 {
 }
 
 /// `√x` for `x ≥ 0` (NaN for `x < 0`).
+///
+/// ```
+/// use controller_core::math::sqrt;
+/// // The differentiator's |χ_1 − α|^(1/2); `micromath`'s root is up to 6 % high.
+/// let tol = if cfg!(feature = "micromath") { 6e-2 } else { 1e-5 };
+/// assert!((sqrt(2.0) / core::f32::consts::SQRT_2 - 1.0).abs() < tol);
+/// assert_eq!((sqrt(0.0), sqrt(f32::INFINITY)), (0.0, f32::INFINITY));
+/// assert!(sqrt(-1.0).is_nan());
+/// ```
 #[inline]
 pub fn sqrt(x: f32) -> f32 {
     #[cfg(test)]
@@ -126,6 +152,17 @@ pub fn sqrt(x: f32) -> f32 {
 /// holds for `|n| ≤ 1 ≤ d` with every back-end. `libm`: `n · (1/√d)` by three Newton steps
 /// on `1/√d` (1.6 ulp, `1/√1 = 1`); `fast-math`: two, which approach from below (5e-6);
 /// `micromath`: `n` divided by the crate's `√d`, which is at least 1 for `d ≥ 1`.
+///
+/// ```
+/// use controller_core::math::div_sqrt;
+/// // The bound the smoothing function relies on, with every back-end.
+/// for d in [1.0, 1.0 + f32::EPSILON, 2.0, 1e30] {
+///     assert!(div_sqrt(1.0, d).abs() <= 1.0 && div_sqrt(-1.0, d).abs() <= 1.0);
+/// }
+/// assert_eq!(div_sqrt(1.0, 1.0), 1.0);
+/// let tol = if cfg!(feature = "micromath") { 6e-2 } else { 1e-5 };
+/// assert!((div_sqrt(3.0, 4.0) - 1.5).abs() < 1.5 * tol);
+/// ```
 #[inline]
 pub fn div_sqrt(n: f32, d: f32) -> f32 {
     #[cfg(test)]
@@ -165,7 +202,13 @@ fn sqrt_special(x: f32, normal: impl Fn(f32) -> f32) -> f32 {
     }
 }
 
-/// `eˣ`.
+/// `eˣ`, at configuration time (the decay `e^(−κh)` of `ϖ`).
+///
+/// ```
+/// use controller_core::math::exp;
+/// assert!((exp(-0.7e-3) - 0.999_300_2).abs() < 1e-7);
+/// assert_eq!(exp(0.0), 1.0);
+/// ```
 #[inline]
 pub fn exp(x: f32) -> f32 {
     #[cfg(any(feature = "micromath", feature = "fast-math"))]
@@ -178,7 +221,13 @@ pub fn exp(x: f32) -> f32 {
     }
 }
 
-/// Natural logarithm.
+/// Natural logarithm, at configuration time (the quantizer's `ln(1/ρ)`).
+///
+/// ```
+/// use controller_core::math::ln;
+/// assert!((ln(1.0 / 0.9) - 0.105_360_5).abs() < 1e-6);
+/// assert_eq!(ln(1.0), 0.0);
+/// ```
 #[inline]
 pub fn ln(x: f32) -> f32 {
     #[cfg(any(feature = "micromath", feature = "fast-math"))]
@@ -194,12 +243,26 @@ pub fn ln(x: f32) -> f32 {
 /// Natural logarithm by the accurate kernel (`log₂ x · ln 2`, a few ulp) in every build: for
 /// an estimate the caller settles by comparisons (the quantizer's level index), at a fraction
 /// of `libm`'s cost.
+///
+/// ```
+/// use controller_core::math::ln_estimate;
+/// assert!((ln_estimate(core::f32::consts::E) - 1.0).abs() < 1e-6);
+/// assert!((ln_estimate(1e-2) + 4.605_170).abs() < 1e-5); // ln u_min
+/// ```
 #[inline]
 pub fn ln_estimate(x: f32) -> f32 {
     kernel::log2(x) * core::f32::consts::LN_2
 }
 
-/// Hyperbolic tangent.
+/// Hyperbolic tangent: the `tanh(e_n/γ)` of `β_n` and of `ξ̂`'s law (21).
+///
+/// ```
+/// use controller_core::math::tanh;
+/// let tol = if cfg!(feature = "micromath") { 1e-3 } else { 1e-5 };
+/// assert!((tanh(0.5) - 0.462_117_2).abs() < tol);
+/// assert!((tanh(-0.5) + tanh(0.5)).abs() < 1e-7); // odd
+/// assert_eq!((tanh(20.0), tanh(0.0)), (1.0, 0.0));
+/// ```
 #[inline]
 pub fn tanh(x: f32) -> f32 {
     #[cfg(test)]
@@ -209,13 +272,25 @@ pub fn tanh(x: f32) -> f32 {
     step::tanh(x)
 }
 
-/// `|x|`.
+/// `|x|`, by clearing the sign bit.
+///
+/// ```
+/// use controller_core::math::abs;
+/// assert_eq!((abs(-2.5), abs(2.5)), (2.5, 2.5));
+/// assert!(abs(-0.0).is_sign_positive());
+/// ```
 #[inline]
 pub fn abs(x: f32) -> f32 {
     f32::from_bits(x.to_bits() & 0x7fff_ffff)
 }
 
 /// `sign(x)` with `sign(0) = 0` (the paper's convention), NaN for NaN.
+///
+/// ```
+/// use controller_core::math::sign;
+/// assert_eq!((sign(-3.0), sign(0.0), sign(1e-30)), (-1.0, 0.0, 1.0));
+/// assert!(sign(f32::NAN).is_nan());
+/// ```
 #[inline]
 pub fn sign(x: f32) -> f32 {
     // Two predicated moves after one comparison; ±0 and NaN are returned as they are (the bits
@@ -230,6 +305,14 @@ pub fn sign(x: f32) -> f32 {
 }
 
 /// `x^k` for a non-negative integer `k`, by squaring (`O(log k)` products).
+///
+/// ```
+/// use controller_core::math::powi;
+/// assert_eq!(powi(2.0, 10), 1024.0);
+/// assert_eq!(powi(0.5, 0), 1.0);
+/// // The quantizer's level u_c = u_min (1/ρ)^(c−1), here u_3 for ρ = 0.5, u_min = 1.
+/// assert_eq!(powi(2.0, 2), 4.0);
+/// ```
 #[inline]
 pub fn powi(x: f32, k: u32) -> f32 {
     mul_powi(1.0, x, k)
@@ -237,6 +320,12 @@ pub fn powi(x: f32, k: u32) -> f32 {
 
 /// `acc · x^k` by squaring, the factors `x^(2^i)` multiplied into `acc` for rising `i`: how
 /// [`powi`] goes on after a caller has taken the low bits of `k` from a table of squarings.
+///
+/// ```
+/// use controller_core::math::{mul_powi, powi};
+/// assert_eq!(mul_powi(3.0, 2.0, 5), 96.0);
+/// assert_eq!(mul_powi(1.0, 1.1, 37), powi(1.1, 37)); // the same bits
+/// ```
 #[inline]
 pub fn mul_powi(mut acc: f32, mut x: f32, mut k: u32) -> f32 {
     while k > 0 {
@@ -446,6 +535,12 @@ pub mod fast {
     use super::kernel;
     /// `log₂ x`, error ≤ 2.2e-6 · max(1, |log₂ x|): `x = 2^e m`, `m ∈ [√½, √2)`, a degree-6 polynomial in
     /// `t = m − 1` (no division).
+    ///
+    /// ```
+    /// use controller_core::math::fast::log2;
+    /// assert!((log2(8.0) - 3.0).abs() < 3.0 * 2.2e-6);
+    /// assert!((log2(0.1) - 0.1f32.log2()).abs() < 3.4 * 2.2e-6);
+    /// ```
     #[inline]
     pub fn log2(x: f32) -> f32 {
         if !super::is_positive_normal(x) {
@@ -460,6 +555,12 @@ pub mod fast {
     }
 
     /// `2^t`, relative error ≤ 2.7e-6: `t = n + r`, `|r| ≤ ½`, a degree-4 polynomial in `r`.
+    ///
+    /// ```
+    /// use controller_core::math::fast::exp2;
+    /// assert!((exp2(0.5) / core::f32::consts::SQRT_2 - 1.0).abs() < 2.7e-6);
+    /// assert!((exp2(-3.0) - 0.125).abs() < 0.125 * 2.7e-6);
+    /// ```
     #[inline]
     pub fn exp2(t: f32) -> f32 {
         kernel::exp2_with(t, |r| {
@@ -469,12 +570,27 @@ pub mod fast {
     }
 
     /// `x^y = 2^(y log₂ x)` for `x ≥ 0`: relative error ≤ 6e-6 · max(1, y) for `x ∈ [1e-6, 1e6]`.
+    ///
+    /// ```
+    /// use controller_core::math::fast::pow;
+    /// // |e|^ζ for ζ = 0.1 over the range of the examples' errors.
+    /// for x in [1e-4f32, 0.02, 0.5, 3.0, 100.0] {
+    ///     let want = (x as f64).powf(0.1) as f32;
+    ///     assert!((pow(x, 0.1) / want - 1.0).abs() < 6e-6, "{x}");
+    /// }
+    /// ```
     #[inline]
     pub fn pow(x: f32, y: f32) -> f32 {
         exp2(y * log2(x))
     }
 
     /// `√x`, relative error ≤ 5e-6: two Newton steps on `1/√x` from the bit-level estimate.
+    ///
+    /// ```
+    /// use controller_core::math::fast::sqrt;
+    /// assert!((sqrt(2.0) / core::f32::consts::SQRT_2 - 1.0).abs() < 5e-6);
+    /// assert_eq!(sqrt(0.0), 0.0);
+    /// ```
     #[inline]
     pub fn sqrt(x: f32) -> f32 {
         super::sqrt_with(x, sqrt_normal)
@@ -486,6 +602,12 @@ pub mod fast {
     }
 
     /// `n / √d` as `n · (1/√d)`.
+    ///
+    /// ```
+    /// use controller_core::math::fast::div_sqrt;
+    /// assert!((div_sqrt(3.0, 4.0) - 1.5).abs() < 1.5 * 5e-6);
+    /// assert!(div_sqrt(1.0, 1.0) <= 1.0); // |n/√d| ≤ 1 for |n| ≤ 1 ≤ d
+    /// ```
     #[inline]
     pub fn div_sqrt(n: f32, d: f32) -> f32 {
         if super::is_positive_normal(d) {
@@ -497,6 +619,15 @@ pub mod fast {
 
     /// `tanh x`, relative error ≤ 5e-6: odd Taylor polynomial to `x⁷` for `|x| < 0.3`,
     /// `1 − 2/(2^(2|x| log₂e) + 1)` up to `|x| < 9`, then ±1.
+    ///
+    /// ```
+    /// use controller_core::math::fast::tanh;
+    /// for x in [0.1f32, 0.29, 0.31, 2.0, 8.9] {
+    ///     let want = (x as f64).tanh() as f32;
+    ///     assert!((tanh(x) / want - 1.0).abs() < 5e-6, "{x}");
+    /// }
+    /// assert_eq!(tanh(9.5), 1.0);
+    /// ```
     #[inline]
     pub fn tanh(x: f32) -> f32 {
         let a = super::abs(x);
@@ -523,6 +654,14 @@ pub mod micro {
     use micromath::F32Ext;
 
     /// `x^y = e^(y ln x)` (`F32Ext::powf`) for `x ≥ 0`.
+    ///
+    /// ```
+    /// use controller_core::math::micro::pow;
+    /// // 8e-4 relative for x ≥ 1, up to 1.2 % below 1 (ζ = 0.1).
+    /// assert!((pow(4.0, 0.5) / 2.0 - 1.0).abs() < 8e-4);
+    /// assert!((pow(0.02, 0.1) / 0.02f32.powf(0.1) - 1.0).abs() < 1.2e-2);
+    /// assert_eq!(pow(0.0, 0.5), 0.0); // IEEE, not the crate's 8e-20
+    /// ```
     #[inline]
     pub fn pow(x: f32, y: f32) -> f32 {
         if super::is_positive_normal(x) {
@@ -547,6 +686,14 @@ pub mod micro {
 
     /// `√x` (`F32Ext::sqrt`: the bit-level estimate, at most an ulp below `√x`, up to 6 %
     /// above; `√1 = 1`).
+    ///
+    /// ```
+    /// use controller_core::math::micro::sqrt;
+    /// assert_eq!(sqrt(1.0), 1.0);
+    /// let r = sqrt(2.0) / core::f32::consts::SQRT_2;
+    /// assert!(r > 1.0 - 1e-6 && r < 1.06);
+    /// assert_eq!(sqrt(0.0), 0.0);
+    /// ```
     #[inline]
     pub fn sqrt(x: f32) -> f32 {
         super::sqrt_with(x, F32Ext::sqrt)
@@ -554,12 +701,25 @@ pub mod micro {
 
     /// `n / √d`, divided by [`sqrt`]: that root is monotone and exact at 1, so it is at least 1
     /// for `d ≥ 1` and `|n / √d| ≤ 1` holds for `|n| ≤ 1 ≤ d`.
+    ///
+    /// ```
+    /// use controller_core::math::micro::div_sqrt;
+    /// for d in [1.0, 1.5, 2.0, 1e20] {
+    ///     assert!(div_sqrt(1.0, d) <= 1.0);
+    /// }
+    /// ```
     #[inline]
     pub fn div_sqrt(n: f32, d: f32) -> f32 {
         n / sqrt(d)
     }
 
     /// `tanh x = 1 − 2/(e^(2|x|) + 1)` on `F32Ext::exp`, ±1 from `|x| ≥ 9`.
+    ///
+    /// ```
+    /// use controller_core::math::micro::tanh;
+    /// assert!((tanh(0.5) - 0.462_117_2).abs() < 1e-3);
+    /// assert_eq!((tanh(9.0), tanh(-9.0)), (1.0, -1.0));
+    /// ```
     #[inline]
     pub fn tanh(x: f32) -> f32 {
         let a = super::abs(x);
