@@ -76,7 +76,7 @@
 //! constructors check against it, and a [`ConfigError`] names the [`Param`] at fault.
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
-#![warn(missing_docs)]
+#![deny(missing_docs)]
 
 #[cfg(feature = "alloc")]
 extern crate alloc;
