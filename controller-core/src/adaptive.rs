@@ -37,6 +37,7 @@ impl Estimates {
     /// assert!(!Estimates { mu: f32::NAN, xi: 2.0, lambda: 1.0 }.is_finite());
     /// ```
     #[inline]
+    #[must_use]
     pub fn is_finite(&self) -> bool {
         self.mu.is_finite() && self.xi.is_finite() && self.lambda.is_finite()
     }
@@ -106,6 +107,7 @@ impl AdaptiveLaws {
     /// let n = laws.next(&e, &Drives { mu: 1e9, xi: 0.0, lambda: 0.0 });
     /// assert_eq!(n.mu, 10.0);
     /// ```
+    #[must_use]
     pub const fn new(c1: f32, c2: f32, zeta: f32, h: f32, max: f32) -> Self {
         Self {
             c1,
@@ -132,6 +134,7 @@ impl AdaptiveLaws {
     /// assert!((n.lambda - 0.95).abs() < 1e-6);
     /// ```
     #[inline]
+    #[must_use]
     pub fn next(&self, est: &Estimates, drives: &Drives) -> Estimates {
         let mu_z = self.powers.pow_zeta(est.mu);
         let xi_z = self.powers.pow_zeta(est.xi);

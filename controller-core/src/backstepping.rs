@@ -122,6 +122,7 @@ impl<const N: usize> Backstepping<N> {
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
     #[inline]
+    #[must_use]
     pub fn run(
         &self,
         feedback: &Feedback,

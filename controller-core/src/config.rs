@@ -155,6 +155,7 @@ impl<const N: usize> ControllerConfig<N> {
     /// assert_eq!(cfg.errors(4)[1].reason(), Reason::Exceeds(Param::PhiUp));
     /// assert!(ControllerConfig::<2>::default().errors(4).is_empty());
     /// ```
+    #[must_use]
     pub fn errors(&self, capacity: usize) -> ConfigErrors {
         let mut found = ConfigErrors::new();
         let mut cfg = *self;
@@ -451,6 +452,7 @@ impl<const N: usize> Params<N> {
     /// assert!((g.k1 - 0.5f32.powf(1.05) * 10.0).abs() < 1e-4);
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
+    #[must_use]
     pub const fn gains(&self) -> &Gains {
         &self.gains
     }
@@ -463,6 +465,7 @@ impl<const N: usize> Params<N> {
     /// assert_eq!(Params::new(&cfg, 0)?.h(), 2e-4);
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
+    #[must_use]
     pub const fn h(&self) -> f32 {
         self.h
     }
@@ -478,6 +481,7 @@ impl<const N: usize> Params<N> {
     /// assert!(Params::new(&off, 0)?.quantizer().is_none());
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
+    #[must_use]
     pub const fn quantizer(&self) -> Option<&HysteresisQuantizer> {
         self.quantizer.as_ref()
     }
@@ -490,6 +494,7 @@ impl<const N: usize> Params<N> {
     /// assert_eq!(Params::new(&cfg, 4)?.a(), 4.0);
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
+    #[must_use]
     pub const fn a(&self) -> f32 {
         self.consensus.a()
     }
@@ -508,6 +513,7 @@ impl<const N: usize> Params<N> {
     /// assert!(Params::new(&ControllerConfig::<2>::default(), 0)?.safety().is_none());
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
+    #[must_use]
     pub const fn safety(&self) -> Option<&Safety> {
         self.safety.as_ref()
     }

@@ -83,6 +83,7 @@ impl LinkReport {
     /// assert!(LinkReport::default().is_clean());
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
+    #[must_use]
     pub fn is_clean(&self) -> bool {
         *self == Self::default()
     }
@@ -199,6 +200,7 @@ impl Consensus {
     /// let c = Consensus::new(3, true);
     /// assert_eq!((c.neighbour_count(), c.a()), (3, 4.0));
     /// ```
+    #[must_use]
     pub const fn new(neighbours: u8, pinned: bool) -> Self {
         Self { neighbours, pinned }
     }
@@ -209,6 +211,7 @@ impl Consensus {
     /// use controller_core::consensus::Consensus;
     /// assert_eq!(Consensus::new(2, false).neighbour_count(), 2);
     /// ```
+    #[must_use]
     pub const fn neighbour_count(&self) -> usize {
         self.neighbours as usize
     }
@@ -220,6 +223,7 @@ impl Consensus {
     /// let c = Consensus::new(2, true);
     /// assert_eq!((1.0 + c.a() + c.s()) / 2.0, 3.0);
     /// ```
+    #[must_use]
     pub const fn s(&self) -> f32 {
         self.neighbours as f32
     }
@@ -231,6 +235,7 @@ impl Consensus {
     /// assert_eq!(Consensus::new(1, true).a(), 2.0);
     /// assert_eq!(Consensus::new(0, false).a(), 0.0); // isolated: rejected by the config
     /// ```
+    #[must_use]
     pub const fn a(&self) -> f32 {
         self.neighbours as f32 + if self.pinned { 1.0 } else { 0.0 }
     }

@@ -37,6 +37,9 @@ pub enum StepFault {
 
 /// Health of one step: the links as resolved, and a fault if the command was held.
 ///
+/// `#[non_exhaustive]`: the step gains status flags (as `limited` came with safety); outside
+/// this crate it is built by `StepStatus::default()` and read field by field.
+///
 /// ```
 /// use controller_core::{Controller, ControllerConfig, Link};
 /// // Agent 4 of the paper's examples: hears agents 1 and 3, not the leader.
@@ -50,6 +53,7 @@ pub enum StepFault {
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub struct StepStatus {
     /// `Some` when `u` and `q` are the previous sample's, held.
     pub fault: Option<StepFault>,
@@ -289,6 +293,7 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
     /// assert_eq!(c.params().h(), 1e-3);
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
+    #[must_use]
     pub const fn params(&self) -> &Params<N> {
         &self.params
     }
@@ -303,6 +308,7 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
     /// assert_eq!((s.estimates.mu, s.estimates.xi), (0.0, 0.0)); // μ̂(0) = ξ̂(0) = 0
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
+    #[must_use]
     pub const fn state(&self) -> &State<N, M, K> {
         &self.state
     }
@@ -318,6 +324,7 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
     /// assert_eq!(c.time(), 2000.0 * 1e-3); // exactly 2000 h, no drift
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
+    #[must_use]
     pub fn time(&self) -> f32 {
         self.state.k as f32 * self.params.h
     }

@@ -61,6 +61,7 @@ impl LevantDifferentiator {
     /// }
     /// assert!((s.chi2 - 2.0).abs() < 0.02, "χ_2 = {}", s.chi2);
     /// ```
+    #[must_use]
     pub const fn new(l1: f32, l2: f32, h: f32) -> Self {
         Self { l1, l2, h }
     }
@@ -78,6 +79,7 @@ impl LevantDifferentiator {
     /// assert!((s.chi1 - 0.95).abs() < 1e-5 && (s.chi2 + 0.2).abs() < 1e-6);
     /// ```
     #[inline]
+    #[must_use]
     pub fn next(&self, s: &DifferentiatorState, alpha: f32) -> DifferentiatorState {
         if !s.primed {
             return DifferentiatorState {
@@ -107,6 +109,7 @@ impl DifferentiatorState {
     /// assert!(DifferentiatorState::default().is_finite());
     /// ```
     #[inline]
+    #[must_use]
     pub fn is_finite(&self) -> bool {
         self.chi1.is_finite() && self.chi2.is_finite()
     }

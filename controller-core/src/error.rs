@@ -44,6 +44,7 @@ impl ConfigError {
     /// assert_eq!((e.param(), e.step(), e.reason()), (Param::Gamma, None, Reason::NonPositive));
     /// assert_eq!(e.to_string(), "`gamma` must be > 0");
     /// ```
+    #[must_use]
     pub const fn new(param: Param, reason: Reason) -> Self {
         Self {
             param,
@@ -60,6 +61,7 @@ impl ConfigError {
     /// assert_eq!(e.step(), Some(2));
     /// assert_eq!(e.to_string(), "`a_check[2]` must not be 0");
     /// ```
+    #[must_use]
     pub const fn at_step(self, step: u8) -> Self {
         Self {
             step: Some(step),
@@ -75,6 +77,7 @@ impl ConfigError {
     /// let e = Controller::<2, 2, 0>::new(&cfg).unwrap_err();
     /// assert_eq!(e.param().key(), "controller.ts");
     /// ```
+    #[must_use]
     pub const fn param(&self) -> Param {
         self.param
     }
@@ -89,6 +92,7 @@ impl ConfigError {
     /// let cfg = ControllerConfig::<2> { gamma: -1.0, ..Default::default() };
     /// assert_eq!(Controller::<2, 2, 0>::new(&cfg).unwrap_err().step(), None);
     /// ```
+    #[must_use]
     pub const fn step(&self) -> Option<u8> {
         self.step
     }
@@ -100,6 +104,7 @@ impl ConfigError {
     /// let cfg = ControllerConfig::<2> { h: f32::NAN, ..Default::default() };
     /// assert_eq!(Controller::<2, 2, 0>::new(&cfg).unwrap_err().reason(), Reason::NonFinite);
     /// ```
+    #[must_use]
     pub const fn reason(&self) -> Reason {
         self.reason
     }

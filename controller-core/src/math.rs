@@ -95,6 +95,7 @@ fn exact() -> bool {
 /// assert_eq!(powf(4.0, 0.5), 2.0);
 /// ```
 #[inline]
+#[must_use]
 pub fn powf(x: f32, y: f32) -> f32 {
     #[cfg(any(feature = "micromath", feature = "fast-math"))]
     {
@@ -121,6 +122,7 @@ pub fn powf(x: f32, y: f32) -> f32 {
 /// assert!(pow_pos(-1.0, 0.1).is_nan());
 /// ```
 #[inline]
+#[must_use]
 pub fn pow_pos(x: f32, y: f32) -> f32 {
     #[cfg(test)]
     if exact() {
@@ -140,6 +142,7 @@ pub fn pow_pos(x: f32, y: f32) -> f32 {
 /// assert!(sqrt(-1.0).is_nan());
 /// ```
 #[inline]
+#[must_use]
 pub fn sqrt(x: f32) -> f32 {
     #[cfg(test)]
     if exact() {
@@ -164,6 +167,7 @@ pub fn sqrt(x: f32) -> f32 {
 /// assert!((div_sqrt(3.0, 4.0) - 1.5).abs() < 1.5 * tol);
 /// ```
 #[inline]
+#[must_use]
 pub fn div_sqrt(n: f32, d: f32) -> f32 {
     #[cfg(test)]
     if exact() {
@@ -210,6 +214,7 @@ fn sqrt_special(x: f32, normal: impl Fn(f32) -> f32) -> f32 {
 /// assert_eq!(exp(0.0), 1.0);
 /// ```
 #[inline]
+#[must_use]
 pub fn exp(x: f32) -> f32 {
     #[cfg(any(feature = "micromath", feature = "fast-math"))]
     {
@@ -229,6 +234,7 @@ pub fn exp(x: f32) -> f32 {
 /// assert_eq!(ln(1.0), 0.0);
 /// ```
 #[inline]
+#[must_use]
 pub fn ln(x: f32) -> f32 {
     #[cfg(any(feature = "micromath", feature = "fast-math"))]
     {
@@ -250,6 +256,7 @@ pub fn ln(x: f32) -> f32 {
 /// assert!((ln_estimate(1e-2) + 4.605_170).abs() < 1e-5); // ln u_min
 /// ```
 #[inline]
+#[must_use]
 pub fn ln_estimate(x: f32) -> f32 {
     kernel::log2(x) * core::f32::consts::LN_2
 }
@@ -264,6 +271,7 @@ pub fn ln_estimate(x: f32) -> f32 {
 /// assert_eq!((tanh(20.0), tanh(0.0)), (1.0, 0.0));
 /// ```
 #[inline]
+#[must_use]
 pub fn tanh(x: f32) -> f32 {
     #[cfg(test)]
     if exact() {
@@ -280,6 +288,7 @@ pub fn tanh(x: f32) -> f32 {
 /// assert!(abs(-0.0).is_sign_positive());
 /// ```
 #[inline]
+#[must_use]
 pub fn abs(x: f32) -> f32 {
     f32::from_bits(x.to_bits() & 0x7fff_ffff)
 }
@@ -292,6 +301,7 @@ pub fn abs(x: f32) -> f32 {
 /// assert!(sign(f32::NAN).is_nan());
 /// ```
 #[inline]
+#[must_use]
 pub fn sign(x: f32) -> f32 {
     // Two predicated moves after one comparison; ±0 and NaN are returned as they are (the bits
     // of the former `x · 0`).
@@ -314,6 +324,7 @@ pub fn sign(x: f32) -> f32 {
 /// assert_eq!(powi(2.0, 2), 4.0);
 /// ```
 #[inline]
+#[must_use]
 pub fn powi(x: f32, k: u32) -> f32 {
     mul_powi(1.0, x, k)
 }
@@ -327,6 +338,7 @@ pub fn powi(x: f32, k: u32) -> f32 {
 /// assert_eq!(mul_powi(1.0, 1.1, 37), powi(1.1, 37)); // the same bits
 /// ```
 #[inline]
+#[must_use]
 pub fn mul_powi(mut acc: f32, mut x: f32, mut k: u32) -> f32 {
     while k > 0 {
         if k & 1 == 1 {

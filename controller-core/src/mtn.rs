@@ -79,6 +79,7 @@ impl MtnRegressor {
     /// assert_eq!(MtnRegressor::new(cfg.mtn_order)?.order(), 2); // the examples' order
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
+    #[must_use]
     pub const fn order(&self) -> usize {
         self.order as usize
     }
@@ -92,6 +93,7 @@ impl MtnRegressor {
     /// assert_eq!(MtnRegressor::new(3).unwrap().len(4), 34);
     /// assert_eq!(MtnRegressor::new(5).unwrap().len(0), 0);
     /// ```
+    #[must_use]
     pub const fn len(&self, d: usize) -> usize {
         // C(d+m, m) built incrementally: C(d+k, k) = C(d+k−1, k−1)·(d+k)/k, exact at every k.
         let mut c = 1usize;
@@ -117,6 +119,7 @@ impl MtnRegressor {
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
     #[inline]
+    #[must_use]
     pub const fn accumulator(&self) -> MtnAccumulator {
         MtnAccumulator {
             h1: 0.0,
@@ -138,6 +141,7 @@ impl MtnRegressor {
     /// assert!((mtn.norm_sq(&x) - built).abs() < 1e-4 * built);
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
+    #[must_use]
     pub fn norm_sq(&self, x: &[f32]) -> f32 {
         let mut acc = self.accumulator();
         for &v in x {
@@ -262,6 +266,7 @@ impl MtnAccumulator {
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
     #[inline]
+    #[must_use]
     pub fn norm_sq(&self) -> f32 {
         match self.order {
             1 => self.h1,

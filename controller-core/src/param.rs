@@ -314,6 +314,7 @@ impl Param {
     ///     }
     /// }
     /// ```
+    #[must_use]
     pub const fn spec(self) -> Spec {
         use DefaultValue as D;
         use Range as R;
@@ -432,6 +433,7 @@ impl Param {
     /// assert_eq!(Param::H.key(), "simulation.h");
     /// assert_eq!(Param::Rho.key(), "quantizer.rho");
     /// ```
+    #[must_use]
     pub const fn key(self) -> &'static str {
         self.spec().key
     }
@@ -443,6 +445,7 @@ impl Param {
     /// assert_eq!(Param::ACheck.name(), "a_check"); // ǎ_j
     /// assert_eq!(Param::RecoveryRate.name(), "recovery_rate");
     /// ```
+    #[must_use]
     pub fn name(self) -> &'static str {
         let key = self.key();
         key.rsplit_once('.').map_or(key, |(_, name)| name)
@@ -456,6 +459,7 @@ impl Param {
     /// assert!(Param::C1.default_f64().is_nan()); // computed, not a number of the table
     /// assert!(Param::C1.check(Param::C1.default_f32()).is_err());
     /// ```
+    #[must_use]
     pub const fn default_f64(self) -> f64 {
         match self.spec().default {
             DefaultValue::Num(v) | DefaultValue::PerStep(v) => v,
@@ -471,6 +475,7 @@ impl Param {
     /// assert!(!Param::SafetyEnabled.default_bool()); // the paper's law as printed
     /// assert!(!Param::Ts.default_bool());
     /// ```
+    #[must_use]
     pub const fn default_bool(self) -> bool {
         matches!(self.spec().default, DefaultValue::Bool(true))
     }
@@ -482,6 +487,7 @@ impl Param {
     /// assert_eq!(Param::Tau.default_f32(), 50.0); // τ of (22), Example 1
     /// assert_eq!(ControllerConfig::<2>::default().tau, Param::Tau.default_f32());
     /// ```
+    #[must_use]
     pub const fn default_f32(self) -> f32 {
         self.default_f64() as f32
     }

@@ -33,6 +33,7 @@ impl Powers {
     /// let tol = if cfg!(feature = "micromath") { 1.2e-2 } else { 1e-5 }; // relative
     /// assert!((m / -2f32.powf(1.6) - 1.0).abs() < tol && (n / -2f32.powf(0.4) - 1.0).abs() < tol);
     /// ```
+    #[must_use]
     pub const fn new(zeta: f32) -> Self {
         Self { zeta }
     }
@@ -47,6 +48,7 @@ impl Powers {
     /// assert_eq!(p.pow_zeta(0.0), 0.0);
     /// ```
     #[inline]
+    #[must_use]
     pub fn pow_zeta(&self, x: f32) -> f32 {
         if x > 0.0 {
             math::pow_pos(x, self.zeta)
@@ -64,6 +66,7 @@ impl Powers {
     /// assert!((m / -8.0 - 1.0).abs() < tol && (n / -2.0 - 1.0).abs() < tol);
     /// ```
     #[inline]
+    #[must_use]
     pub fn m_n(&self, e: f32) -> (f32, f32) {
         let a = math::abs(e);
         if a > 0.0 {

@@ -236,6 +236,7 @@ impl HysteresisQuantizer {
     /// assert!((q.delta() - 0.1 / 1.9).abs() < 1e-7);
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
+    #[must_use]
     pub const fn delta(&self) -> f32 {
         self.delta
     }
@@ -250,6 +251,7 @@ impl HysteresisQuantizer {
     /// assert_eq!(q.quantize(&mut q.state(), 0.0101), q.u_min());
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
+    #[must_use]
     pub const fn u_min(&self) -> f32 {
         self.u_min
     }
@@ -265,6 +267,7 @@ impl HysteresisQuantizer {
     /// assert_eq!(q.quantize(&mut q.state(), f32::MAX), q.saturation());
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
+    #[must_use]
     pub const fn saturation(&self) -> f32 {
         self.saturation
     }
@@ -284,6 +287,7 @@ impl HysteresisQuantizer {
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
     #[inline(never)]
+    #[must_use]
     pub fn level(&self, c: u32) -> f32 {
         let k = c.saturating_sub(1);
         let mut acc = 1.0;
@@ -311,6 +315,7 @@ impl HysteresisQuantizer {
     /// assert_eq!((s.prev_u, s.prev_q), (0.0, 0.0));
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
+    #[must_use]
     pub fn state(&self) -> QuantizerState {
         QuantizerState {
             prev_u: 0.0,
@@ -333,6 +338,7 @@ impl HysteresisQuantizer {
     /// assert_eq!(q.level_index(0.5), 1);
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
+    #[must_use]
     pub fn level_index(&self, b: f32) -> u32 {
         if b <= self.u_min || !b.is_finite() {
             return 1;
@@ -430,6 +436,7 @@ impl HysteresisQuantizer {
     /// }
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
+    #[must_use]
     pub fn quantize_reference(&self, prev_u: f32, prev_q: f32, u: f32) -> f32 {
         self.output(prev_u, prev_q, u, |b| self.level(self.level_index(b)))
     }

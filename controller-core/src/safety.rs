@@ -130,6 +130,7 @@ impl Safety {
     /// assert_eq!(Safety::new(&SafetyConfig::default(), 1e-3)?.u_max(), f32::INFINITY);
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
+    #[must_use]
     pub const fn u_max(&self) -> f32 {
         self.u_max
     }

@@ -188,6 +188,7 @@ impl Scheme {
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
     #[inline]
+    #[must_use]
     pub fn feedback_at(&self, t: f32) -> Feedback {
         match *self {
             Self::PredefinedTime { k1, k2, powers } => Feedback::PredefinedTime { k1, k2, powers },
@@ -215,6 +216,7 @@ impl Scheme {
 /// assert_eq!(scaling(3.0, 1.0, 2.0, 10.0), 10.0);
 /// ```
 #[inline]
+#[must_use]
 pub fn scaling(t: f32, t_prescribed: f32, kappa: f32, mu_max: f32) -> f32 {
     if t >= t_prescribed {
         mu_max
@@ -245,6 +247,7 @@ impl Feedback {
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
     #[inline]
+    #[must_use]
     pub fn term(&self, e: f32) -> f32 {
         match *self {
             Self::PredefinedTime { k1, k2, powers } => {

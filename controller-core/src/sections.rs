@@ -173,6 +173,7 @@ impl GainReading {
     /// assert!(GainReading::default().is_reconstructed());
     /// assert!(!GainReading::Printed.is_reconstructed());
     /// ```
+    #[must_use]
     pub fn is_reconstructed(&self) -> bool {
         *self == Self::Reconstructed
     }

@@ -16,6 +16,7 @@ use crate::math;
 /// assert_eq!(smooth(0.0, 0.0), 0.0);
 /// ```
 #[inline]
+#[must_use]
 pub fn smooth(x: f32, varpi: f32) -> f32 {
     let a = math::abs(x);
     let b = math::abs(varpi);
@@ -68,6 +69,7 @@ impl VarpiSchedule {
     /// // κ = 0: a constant width.
     /// assert_eq!(VarpiSchedule::new(0.1, 0.0, 1e-6, 1e-3).decay_per_sample, 1.0);
     /// ```
+    #[must_use]
     pub fn new(varpi0: f32, kappa: f32, floor: f32, h: f32) -> Self {
         Self {
             initial: varpi0,

@@ -20,6 +20,9 @@
 //! * `board-size`: builds the board firmware `boards/nucleo-g474re` in release, as shipped and
 //!   with `--features bench`, and fails when either's flash (text + data) exceeds 64 KiB or its
 //!   RAM (data + bss) 16 KiB (details: `board.rs`).
+//! * `doc-coverage`: rustdoc's documentation coverage of controller-core with a pinned nightly;
+//!   fails on an undocumented item or fewer runnable examples than the count reached
+//!   (details: `doccov.rs`).
 //! * `vm`: runs a command in a Linux guest that has CAN (`vcan0`, optional SJA1000
 //!   controllers) with the repository at the same path (details: `vm.rs`).
 //!
@@ -28,6 +31,7 @@
 //! installs it.
 
 mod board;
+mod doccov;
 mod docs;
 mod flash;
 mod gate;
@@ -77,6 +81,10 @@ tasks:
       --no-run: the ELFs as last built), print their text, data and bss, and fail if either's
       text + data exceeds 64 KiB (65,536 B) or data + bss exceeds 16 KiB (16,384 B); writes
       target/board/size.json
+  doc-coverage
+      rustdoc's coverage report of controller-core (default features and serde) with the
+      pinned nightly-2026-05-19; fail if an item lacks documentation or fewer items than the
+      count reached (xtask/src/doccov.rs) carry a runnable example
   vm [--can N] [--bitrate B] [--mem MIB] [--smp N] [--timeout S] [--verbose] -- <command…>
       boot a QEMU x86_64 Linux guest (Debian kernel, busybox initramfs, cached under
       target/vm/) with vcan0 up (and can0..canN-1 on emulated Kvaser PCI SJA1000
@@ -108,6 +116,7 @@ fn main() -> ExitCode {
         "bench-gate" => gate::bench_gate(&opts),
         "docs" => docs::docs(&opts),
         "board-size" => board::board_size(&opts),
+        "doc-coverage" => doccov::doc_coverage(),
         "help" | "--help" | "-h" => {
             print!("{USAGE}");
             Ok(())
