@@ -484,6 +484,7 @@ mod kernel {
     /// `√x`: two Newton steps on `1/√x` from the bit-level estimate (relative error ≤ 5e-6),
     /// then one Newton correction of `x · (1/√x)`.
     #[inline]
+    #[must_use]
     pub fn sqrt(x: f32) -> f32 {
         super::sqrt_with(x, sqrt_normal)
     }
@@ -554,6 +555,7 @@ pub mod fast {
     /// assert!((log2(0.1) - 0.1f32.log2()).abs() < 3.4 * 2.2e-6);
     /// ```
     #[inline]
+    #[must_use]
     pub fn log2(x: f32) -> f32 {
         if !super::is_positive_normal(x) {
             return kernel::log2_special(x);
@@ -574,6 +576,7 @@ pub mod fast {
     /// assert!((exp2(-3.0) - 0.125).abs() < 0.125 * 2.7e-6);
     /// ```
     #[inline]
+    #[must_use]
     pub fn exp2(t: f32) -> f32 {
         kernel::exp2_with(t, |r| {
             0.999_999_3
@@ -592,6 +595,7 @@ pub mod fast {
     /// }
     /// ```
     #[inline]
+    #[must_use]
     pub fn pow(x: f32, y: f32) -> f32 {
         exp2(y * log2(x))
     }
@@ -604,6 +608,7 @@ pub mod fast {
     /// assert_eq!(sqrt(0.0), 0.0);
     /// ```
     #[inline]
+    #[must_use]
     pub fn sqrt(x: f32) -> f32 {
         super::sqrt_with(x, sqrt_normal)
     }
@@ -621,6 +626,7 @@ pub mod fast {
     /// assert!(div_sqrt(1.0, 1.0) <= 1.0); // |n/√d| ≤ 1 for |n| ≤ 1 ≤ d
     /// ```
     #[inline]
+    #[must_use]
     pub fn div_sqrt(n: f32, d: f32) -> f32 {
         if super::is_positive_normal(d) {
             n * kernel::rsqrt_normal(d)
@@ -641,6 +647,7 @@ pub mod fast {
     /// assert_eq!(tanh(9.5), 1.0);
     /// ```
     #[inline]
+    #[must_use]
     pub fn tanh(x: f32) -> f32 {
         let a = super::abs(x);
         let t = if a < 0.3 {
@@ -675,6 +682,7 @@ pub mod micro {
     /// assert_eq!(pow(0.0, 0.5), 0.0); // IEEE, not the crate's 8e-20
     /// ```
     #[inline]
+    #[must_use]
     pub fn pow(x: f32, y: f32) -> f32 {
         if super::is_positive_normal(x) {
             F32Ext::powf(x, y)
@@ -707,6 +715,7 @@ pub mod micro {
     /// assert_eq!(sqrt(0.0), 0.0);
     /// ```
     #[inline]
+    #[must_use]
     pub fn sqrt(x: f32) -> f32 {
         super::sqrt_with(x, F32Ext::sqrt)
     }
@@ -721,6 +730,7 @@ pub mod micro {
     /// }
     /// ```
     #[inline]
+    #[must_use]
     pub fn div_sqrt(n: f32, d: f32) -> f32 {
         n / sqrt(d)
     }
@@ -733,6 +743,7 @@ pub mod micro {
     /// assert_eq!((tanh(9.0), tanh(-9.0)), (1.0, -1.0));
     /// ```
     #[inline]
+    #[must_use]
     pub fn tanh(x: f32) -> f32 {
         let a = super::abs(x);
         let t = if a < 9.0 {
