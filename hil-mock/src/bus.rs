@@ -334,6 +334,8 @@ pub struct Delivery {
 struct Pending {
     frame: MockFrame,
     submitted: Nanos,
+    /// Data bytes on the wire (at least the frame's own).
+    len: usize,
 }
 
 #[derive(Debug, Clone, Default)]
@@ -435,9 +437,9 @@ impl Bus {
 
     /// The worst-case bits of `frame` on this bus: classical, or CAN FD with bit-rate switching
     /// when a data bit rate is set.
-    fn frame_bits(&self, frame: &MockFrame) -> FrameBits {
+    fn frame_bits(&self, frame: &MockFrame, len: usize) -> FrameBits {
         let format = self.rates().format();
-        bus_load::frame_bits(format, frame.is_extended(), data_len(frame), true)
+        bus_load::frame_bits(format, frame.is_extended(), len, true)
     }
 
     fn rates(&self) -> Bitrates {
@@ -495,6 +497,19 @@ impl Bus {
     /// Node `node` wants to send `frame` from `t` on (`t` ≥ the last `advance_to`). A frame of
     /// the node still pending is replaced (a deadline miss).
     pub fn submit(&mut self, node: usize, t: Nanos, frame: MockFrame) -> Result<(), SubmitError> {
+        self.submit_sized(node, t, frame, data_len(&frame))
+    }
+
+    /// [`Bus::submit`] of a frame that goes on the wire with `len` data bytes (a CAN FD frame
+    /// longer than a [`MockFrame`] holds, e.g. a packed sensor frame): the bus times it at
+    /// `len` bytes (at least the frame's own); receivers and the wire log get the frame.
+    pub fn submit_sized(
+        &mut self,
+        node: usize,
+        t: Nanos,
+        frame: MockFrame,
+        len: usize,
+    ) -> Result<(), SubmitError> {
         self.recover(t);
         let silent = self.is_silent(node, t);
         let bus_off = self.is_bus_off(node, t);
@@ -511,6 +526,7 @@ impl Bus {
         let new = Pending {
             frame,
             submitted: t,
+            len: len.max(data_len(&frame)),
         };
         match port
             .pending
@@ -631,7 +647,7 @@ impl Bus {
             self.free_at = s + 1;
             return;
         };
-        let (frame, submitted) = if babble {
+        let (frame, submitted, len) = if babble {
             let mut f = self.babble;
             if let Some(sid) = u16::try_from(id)
                 .ok()
@@ -639,14 +655,14 @@ impl Bus {
             {
                 f = MockFrame::new(sid, f.data()).unwrap_or(f);
             }
-            (f, s)
+            (f, s, data_len(&f))
         } else {
             match self.ports[node].first_pending(s) {
-                Some(p) => (p.frame, p.submitted),
+                Some(p) => (p.frame, p.submitted, p.len),
                 None => return,
             }
         };
-        let bits = self.frame_bits(&frame);
+        let bits = self.frame_bits(&frame, len);
         self.stats.transmissions += 1;
         if babble {
             self.stats.babble_frames += 1;
