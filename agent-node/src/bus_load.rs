@@ -249,10 +249,7 @@ impl FrameSet {
             frames,
             data_len: match self.rates.format() {
                 Format::Classical => data_len,
-                Format::Fd { .. } => match fd_len(data_len) {
-                    Some(n) => n,
-                    None => 64,
-                },
+                Format::Fd { .. } => fd_len(data_len).unwrap_or(64),
             },
             bits,
             ns_per_sample: frames * bits.time_ns(self.rates) as f64,

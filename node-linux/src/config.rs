@@ -58,6 +58,26 @@ pub struct NodeSection {
     /// plan, no heartbeat, no supervision.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub supervision: Option<Supervision>,
+    /// CAN FD with bit-rate switching: every frame the node sends is an FD frame with BRS (the
+    /// interface must be in FD mode); absent: classical CAN.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fd: Option<bool>,
+    /// The host packs 8 followers' states into one CAN FD sensor frame
+    /// (`agent_node::plant_bus::encode_packed`; needs `fd`); absent: one sensor frame per agent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub packed_sensors: Option<bool>,
+}
+
+impl NodeSection {
+    /// Whether the node sends CAN FD frames with bit-rate switching.
+    pub fn fd(&self) -> bool {
+        self.fd.unwrap_or(false)
+    }
+
+    /// Whether the sensor frames are packed.
+    pub fn packed_sensors(&self) -> bool {
+        self.packed_sensors.unwrap_or(false)
+    }
 }
 
 /// `[node.supervision]`: the node supervisor's settings as resolved numbers (host-sim writes
@@ -334,6 +354,12 @@ impl NodeFile {
                 format!("must be at least 2 h time_scale = {least} s"),
             ));
         }
+        if node.packed_sensors() && !node.fd() {
+            return Err(ConfigError::new(
+                "node.packed_sensors",
+                "packed sensor frames are CAN FD frames: needs node.fd = true",
+            ));
+        }
         let controller = ControllerConfig::<N>::try_from(file)
             .map_err(|e| ConfigError::new(e.param().key(), e))?;
         if let Some(e) = controller.errors(MAX_NEIGHBOURS).first() {
@@ -385,6 +411,8 @@ mod tests {
             host_timeout: 0.25,
             time_scale: 1.0,
             supervision: None,
+            fd: None,
+            packed_sensors: None,
         }
     }
 

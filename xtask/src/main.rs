@@ -34,6 +34,7 @@ mod gate;
 mod softfloat;
 mod target;
 mod trace;
+mod trace_load;
 mod vm;
 
 use std::{
@@ -77,6 +78,10 @@ tasks:
       --no-run: the ELFs as last built), print their text, data and bss, and fail if either's
       text + data exceeds 64 KiB (65,536 B) or data + bss exceeds 16 KiB (16,384 B); writes
       target/board/size.json
+  trace-load <candump log> --bitrate B [--data-bitrate D] [--h S]
+      the bus time per sample (one leader value frame) of the frames of a `--trace` log, by
+      frame kind, with the worst-case bit lengths of agent_node::bus_load at the given bit
+      rates (CAN FD lines with bit-rate switching at D), and its share of h (default 1 ms)
   vm [--can N] [--bitrate B] [--mem MIB] [--smp N] [--timeout S] [--verbose] -- <command…>
       boot a QEMU x86_64 Linux guest (Debian kernel, busybox initramfs, cached under
       target/vm/) with vcan0 up (and can0..canN-1 on emulated Kvaser PCI SJA1000
@@ -90,6 +95,15 @@ fn main() -> ExitCode {
         eprint!("{USAGE}");
         return ExitCode::from(2);
     };
+    if task == "trace-load" {
+        return match trace_load::trace_load(&args[1..]) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::FAILURE
+            }
+        };
+    }
     if task == "vm" {
         return vm::vm(&args[1..]).unwrap_or_else(|e| {
             eprintln!("error: {e}");

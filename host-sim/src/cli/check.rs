@@ -95,11 +95,7 @@ pub fn bus_load_lines(setup: &Setup) -> Vec<String> {
 }
 
 fn human_rate(r: u32) -> String {
-    if r % 1_000_000 == 0 {
-        format!("{} Mbit/s", r / 1_000_000)
-    } else {
-        format!("{} kbit/s", f64::from(r) / 1e3)
-    }
+    format!("{} Mbit/s", f64::from(r) / 1e6)
 }
 
 /// A warning when `[node.safe_state]` pairs an open-loop policy with a plant that may not be
