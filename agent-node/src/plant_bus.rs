@@ -129,11 +129,20 @@ pub fn pair_frame<F: Frame>(kind: Kind, agent: u8, v: [f32; 2]) -> Option<F> {
     F::new(kind.id(agent)?, &encode_pair(v))
 }
 
+/// The host's stop command for the node(s) whose sensor frames come under `sensor_agent`'s
+/// sensor identifier (the agent itself, or the first agent of its packed group): a sensor frame
+/// without data. The node ends its run ("a stop was commanded"). `None` for agent 0.
+pub fn stop_frame<F: Frame>(sensor_agent: u8) -> Option<F> {
+    F::new(Kind::Sensor.id(sensor_agent)?, &[])
+}
+
 /// A received plant-bus frame.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum PlantFrame {
     /// Agent's state from the host.
     Sensor(u8, [f32; 2]),
+    /// The host's stop command on agent's sensor identifier ([`stop_frame`]).
+    Stop(u8),
     /// Agent's commands from its node.
     Command(u8, [f32; 2]),
     /// Agent's node state.
@@ -151,6 +160,7 @@ pub fn decode<F: Frame>(frame: &F) -> Option<PlantFrame> {
     let (kind, agent) = Kind::classify(id.as_raw())?;
     let data = frame.data();
     Some(match kind {
+        Kind::Sensor if data.is_empty() => PlantFrame::Stop(agent),
         Kind::Sensor => PlantFrame::Sensor(agent, decode_pair(data)?),
         Kind::Command => PlantFrame::Command(agent, decode_pair(data)?),
         Kind::State => PlantFrame::State(agent, NodeState::from_bytes(data)?),
@@ -285,6 +295,13 @@ mod tests {
             firsts,
             [None, Some(1), Some(1), Some(9), Some(9), Some(249)]
         );
+    }
+
+    #[test]
+    fn a_sensor_frame_without_data_is_a_stop() {
+        let f: CanFrame = stop_frame(9).expect("frame");
+        assert_eq!(decode(&f), Some(PlantFrame::Stop(9)));
+        assert_eq!(stop_frame::<CanFrame>(0), None);
     }
 
     #[test]

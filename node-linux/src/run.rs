@@ -10,8 +10,10 @@
 //! monotonic clock, at absolute deadlines half a period after that frame's arrival (so the
 //! host's sample is on the bus before the node's and the command is back before the host's
 //! next one). A deadline missed by more than `h/2` counts as a late tick; when the process falls
-//! a whole period behind, the missed samples are skipped, not run in a burst. It stops on
-//! SIGINT/SIGTERM, and when no sensor frame came for `host_timeout` (the host is gone).
+//! a whole period behind, the missed samples are skipped, not run in a burst. It stops when the
+//! host commands it (the end of a run, [`stop_commanded`]), on SIGINT/SIGTERM, when no sensor
+//! frame came for `host_timeout` while running (the host is gone), and when none came within
+//! `start_timeout` of starting (the run never began).
 
 use std::{
     cell::RefCell,
@@ -41,10 +43,32 @@ pub const HEARTBEAT: Duration = Duration::from_millis(100);
 /// Why the node stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Stop {
+    /// The host commanded it: the normal end of a run ([`stop_commanded`]).
+    Commanded,
     /// SIGINT or SIGTERM.
     Signal,
-    /// No sensor frame within `host_timeout`.
+    /// No sensor frame within `host_timeout` while running.
     HostLost,
+    /// No sensor frame within `start_timeout` of starting: the run never began.
+    NeverStarted,
+}
+
+impl Stop {
+    /// The process exit status (docs/NETWORK.md §11): 0 for a commanded or signalled stop, 3
+    /// when the host went silent or never came.
+    pub fn exit_status(self) -> u8 {
+        match self {
+            Self::Commanded | Self::Signal => 0,
+            Self::HostLost | Self::NeverStarted => 3,
+        }
+    }
+}
+
+/// Whether `frame` (from the plant socket, whose filter passes only the sensor identifier the
+/// node listens to) is the host's command to stop: the one place that decides it, so a CANopen
+/// NMT stop can take over from today's frame ([`plant_bus::stop_frame`]).
+pub fn stop_commanded(frame: &CanAnyFrame, sensor_agent: u8) -> bool {
+    matches!(plant_bus::decode(frame), Some(PlantFrame::Stop(a)) if a == sensor_agent)
 }
 
 /// Opens a CAN socket on `interface` with the error a user can act on.
@@ -158,6 +182,8 @@ struct PlantIo {
     x: Option<[f32; N]>,
     last_rx: Option<Instant>,
     tx_errors: u64,
+    /// The host commanded a stop.
+    stop: bool,
 }
 
 impl PlantIo {
@@ -182,6 +208,10 @@ impl PlantIo {
     fn drain(&mut self) -> bool {
         let mut got = false;
         while let Ok(f) = self.socket.read_frame() {
+            if stop_commanded(&f, self.packed_first.unwrap_or(self.agent)) {
+                self.stop = true;
+                continue;
+            }
             if let Some(x) = self.sensor(&f) {
                 self.x = Some(x);
                 self.last_rx = Some(Instant::now());
@@ -269,6 +299,7 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
         x: None,
         last_rx: None,
         tx_errors: 0,
+        stop: false,
     }));
     let mut node: Node<BusSocket, MonoClock, BusSensor, BusActuator, N, N, MAX_NEIGHBOURS> =
         Node::new(
@@ -292,12 +323,24 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
     };
     log::info!("agent {agent}: on {iface}, waiting for the host's sensor frames");
     let mut next_beat = Instant::now();
+    let waiting_since = Instant::now();
+    let start_timeout = Duration::from_secs_f64(cfg.node.start_timeout());
     // Waiting: heartbeats until the first sensor frame.
     let first = loop {
         if stop.load(Ordering::Relaxed) {
             return finish(&io, agent, state, Stop::Signal);
         }
+        if io.borrow().stop {
+            return finish(&io, agent, state, Stop::Commanded);
+        }
         let now = Instant::now();
+        if now.saturating_duration_since(waiting_since) > start_timeout {
+            log::error!(
+                "agent {agent}: no sensor frame within node.start_timeout = {} s: the run never began",
+                start_timeout.as_secs_f64()
+            );
+            return finish(&io, agent, state, Stop::NeverStarted);
+        }
         if now >= next_beat {
             heartbeat(&io, &state);
             next_beat = now + HEARTBEAT;
@@ -323,6 +366,10 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
         }
         if stop.load(Ordering::Relaxed) {
             break Stop::Signal;
+        }
+        io.borrow_mut().drain();
+        if io.borrow().stop {
+            break Stop::Commanded;
         }
         let woke = Instant::now();
         let behind = woke.saturating_duration_since(deadline);
@@ -371,9 +418,12 @@ fn finish(
     reason: Stop,
 ) -> io::Result<Stop> {
     state.mode = match reason {
-        Stop::Signal => Mode::Stopping,
-        Stop::HostLost => Mode::HostLost,
+        Stop::Commanded | Stop::Signal => Mode::Stopping,
+        Stop::HostLost | Stop::NeverStarted => Mode::HostLost,
     };
+    if reason == Stop::Commanded {
+        log::info!("agent {agent}: the host commanded the end of the run");
+    }
     io.borrow_mut().send(state.frame(agent));
     log::info!("agent {agent}: stopped ({})", state.mode.as_str());
     Ok(reason)

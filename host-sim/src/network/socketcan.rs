@@ -49,7 +49,7 @@ use crate::{
     figures::{AgentCommands, SocketcanSummary},
     graph::Graph,
     network::{
-        spec::{node_config, NetworkSpec, NodesMode},
+        spec::{node_config, LostCommand, NetworkSpec, NodesMode},
         trace::{candump_fd_frame_line, candump_line, TraceWriter},
     },
     sim::{Agents, K},
@@ -137,7 +137,13 @@ struct Agent {
     state: Option<plant_bus::NodeState>,
     /// Cumulative late commands at each sample (the figure).
     late_series: Vec<u32>,
+    /// Command frames since the start of the current window of [`DUPLICATE_WINDOW`] samples.
+    window_received: u64,
 }
+
+/// Samples over which the command frames of each follower are counted for a duplicate
+/// identity: more than 1.5 per sample there means two nodes send as the same agent.
+const DUPLICATE_WINDOW: u64 = 200;
 
 /// The node processes of `nodes = "spawn"`, stopped when dropped.
 struct Spawned {
@@ -180,6 +186,25 @@ impl Spawned {
     }
 }
 
+impl Spawned {
+    /// Waits up to `limit` for every node process to exit by itself (after a stop command).
+    fn wait_for_exit(&mut self, limit: Duration) {
+        let until = Instant::now() + limit;
+        while Instant::now() < until {
+            let mut running = 0;
+            for (_, c) in &mut self.children {
+                if matches!(c.try_wait(), Ok(None)) {
+                    running += 1;
+                }
+            }
+            if running == 0 {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+}
+
 impl Drop for Spawned {
     fn drop(&mut self) {
         self.stop();
@@ -197,6 +222,8 @@ pub struct SocketcanAgents<const N: usize, const M: usize> {
     fd: bool,
     /// How the sensor frames are laid out.
     sensor_frames: SensorFrames,
+    /// What the plant applies to a lost follower.
+    lost_command: LostCommand,
     interface: String,
     mode: NodesMode,
     /// The sample period in wall time (`h time_scale`).
@@ -324,6 +351,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                 host_timeout: node_timeout,
                 time_scale: spec.time_scale(),
                 supervision: Some(Supervision::of(&nc)),
+                start_timeout: Some(spec.start_timeout() + node_timeout),
                 fd: spec.data_bitrate.map(|_| true),
                 packed_sensors: (spec.sensor_frames() == SensorFrames::Packed).then_some(true),
             };
@@ -384,6 +412,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
             trace,
             fd: spec.data_bitrate.is_some(),
             sensor_frames: spec.sensor_frames(),
+            lost_command: spec.lost_command.unwrap_or_default(),
             interface,
             mode,
             h: Duration::from_secs_f64(h * spec.time_scale()),
@@ -400,6 +429,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                     lost_at: None,
                     state: None,
                     late_series: Vec::new(),
+                    window_received: 0,
                 })
                 .collect(),
             lateness: Vec::new(),
@@ -430,7 +460,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                     .filter(|(_, a)| a.state.is_none())
                     .map(|(i, _)| (i + 1).to_string())
                     .collect();
-                return Err(Error::Io(format!(
+                return Err(Error::Bench(format!(
                     "no node of agent(s) {} on {} within network.start_timeout = {} s ({})",
                     missing.join(", "),
                     self.interface,
@@ -474,6 +504,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                     if let Some(ag) = self.agents.get_mut(usize::from(a) - 1) {
                         ag.q = q;
                         ag.received += 1;
+                        ag.window_received += 1;
                         ag.this_sample += 1;
                         ag.last_rx = Some(now);
                     }
@@ -495,6 +526,45 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
         }
         if let Some(Ok(mut t)) = self.trace.as_ref().map(|t| t.lock()) {
             t.drain();
+        }
+    }
+
+    /// A follower whose command frames came more than 1.5 times per sample over the last
+    /// window is two nodes with one identity (a CANopen node-ID duplicate): an error naming it.
+    fn check_duplicates(&mut self, t: f64) -> Result<()> {
+        let limit = DUPLICATE_WINDOW + DUPLICATE_WINDOW / 2;
+        let dup = self
+            .agents
+            .iter()
+            .enumerate()
+            .find(|(_, a)| a.window_received > limit)
+            .map(|(i, a)| (i + 1, a.window_received));
+        for a in &mut self.agents {
+            a.window_received = 0;
+        }
+        match dup {
+            Some((agent, n)) => Err(Error::Bench(format!(
+                "t = {t:.3} s: {n} command frames of agent {agent} in {DUPLICATE_WINDOW} samples: \
+                 two nodes send as agent {agent} (one identity, node.agent, on two nodes)"
+            ))),
+            None => Ok(()),
+        }
+    }
+
+    /// Stops the nodes at the end of a run: the one place that commands it, so a CANopen NMT
+    /// stop can take over from today's frame ([`plant_bus::stop_frame`], one per sensor
+    /// identifier).
+    fn stop_the_nodes(&mut self) {
+        let n = self.agents.len();
+        let firsts: Vec<u8> = match self.sensor_frames {
+            SensorFrames::PerAgent => (1..=n).filter_map(|i| u8::try_from(i).ok()).collect(),
+            SensorFrames::Packed => (1..=n)
+                .step_by(usize::from(PACKED_SENSOR_AGENTS))
+                .filter_map(|i| u8::try_from(i).ok())
+                .collect(),
+        };
+        for first in firsts {
+            self.send(plant_bus::stop_frame(first));
         }
     }
 
@@ -572,7 +642,12 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                     late: a.late,
                     missing: samples.saturating_sub(a.received),
                     lost_at_s: a.lost_at,
-                    state: a.state.map(|s| s.mode.as_str()),
+                    // A node silent at the end is lost, whatever its last state frame said.
+                    state: if a.lost_at.is_some() {
+                        Some("lost")
+                    } else {
+                        a.state.map(|s| s.mode.as_str())
+                    },
                     node_late_ticks: a.state.map(|s| s.late_ticks),
                 })
                 .collect(),
@@ -680,6 +755,9 @@ impl<const N: usize, const M: usize> Agents<N, M> for SocketcanAgents<N, M> {
                 eprintln!("host-sim: t = {t:.3} s: agent {} is back", i + 1);
             }
         }
+        if k > 0 && k.is_multiple_of(DUPLICATE_WINDOW) {
+            self.check_duplicates(t)?;
+        }
         let seq = (k % u64::from(wire::SEQ_MODULUS)) as u8;
         self.send(wire::encode::<CanAnyFrame>(Source::Leader, yd as f32, seq).map(|(f, _)| f));
         let pairs: Vec<[f64; 2]> = x
@@ -687,9 +765,15 @@ impl<const N: usize, const M: usize> Agents<N, M> for SocketcanAgents<N, M> {
             .map(|xi| [xi[0], xi.get(1).copied().unwrap_or(0.0)])
             .collect();
         self.send_sensors(&pairs);
+        let zero_lost = self.lost_command == LostCommand::Zero;
         out.extend(self.agents.iter().map(|a| {
             let mut o = super::unreported_output::<N, M>();
-            for (d, s) in o.q.iter_mut().zip(a.q) {
+            let q = if zero_lost && a.lost_at.is_some() {
+                [0.0; 2]
+            } else {
+                a.q
+            };
+            for (d, s) in o.q.iter_mut().zip(q) {
                 *d = s;
             }
             o.u = o.q;
@@ -765,6 +849,8 @@ impl<const N: usize, const M: usize> Agents<N, M> for SocketcanAgents<N, M> {
     }
 
     fn finish(&mut self) -> Result<()> {
+        self.stop_the_nodes();
+        self.nodes.wait_for_exit(Duration::from_secs(1));
         self.nodes.stop();
         self.drain(Instant::now(), self.last_t);
         let result = match self.trace.as_ref().map(|t| t.lock()) {

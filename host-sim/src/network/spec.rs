@@ -175,6 +175,10 @@ pub struct NetworkSpec {
     /// the host-sim executable, else on `PATH`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub node_program: Option<String>,
+    /// `kind = "socketcan"`: the command the plant applies to a lost follower (no command
+    /// frame for `node_timeout`): `"zero"` (default) or `"hold"` its last command.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lost_command: Option<LostCommand>,
     /// CAN FD with bit-rate switching: the data-phase bit rate [bit/s] (`bitrate` is then the
     /// nominal, arbitration, rate); absent: classical CAN.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -187,6 +191,28 @@ pub struct NetworkSpec {
     /// modelled bus, so it carries the frame set of `kind = "socketcan"`; absent: false.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub plant_frames: Option<bool>,
+}
+
+/// `network.lost_command`: what the plant applies to a lost follower.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LostCommand {
+    /// Zero on every actuator from the moment the node is lost (it held the last command
+    /// until then, as for any late command).
+    #[default]
+    Zero,
+    /// The last command, for as long as the node stays silent.
+    Hold,
+}
+
+impl LostCommand {
+    /// The TOML spelling.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Zero => "zero",
+            Self::Hold => "hold",
+        }
+    }
 }
 
 /// `network.sensor_frames`.
@@ -238,6 +264,7 @@ impl Default for NetworkSpec {
             start_timeout: None,
             node_dir: None,
             node_program: None,
+            lost_command: None,
             data_bitrate: None,
             sensor_frames: None,
             plant_frames: None,
@@ -600,6 +627,7 @@ fn check_socketcan(spec: &NetworkSpec, h: f64) -> Result<()> {
         ("network.start_timeout", spec.start_timeout.is_some()),
         ("network.node_dir", spec.node_dir.is_some()),
         ("network.node_program", spec.node_program.is_some()),
+        ("network.lost_command", spec.lost_command.is_some()),
     ];
     if spec.kind != NetworkKind::Socketcan {
         if let Some((key, _)) = given.iter().find(|(_, g)| *g) {
