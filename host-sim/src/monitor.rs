@@ -19,7 +19,7 @@ use agent_node::{
     wire::{self, Source},
 };
 use embedded_can::{Frame, Id};
-use socketcan::{CanFrame, CanSocket, Socket, SocketOptions};
+use socketcan::{CanAnyFrame, CanFdSocket, Socket, SocketOptions};
 
 use crate::error::{Error, Result};
 
@@ -64,8 +64,8 @@ struct View {
 }
 
 impl View {
-    fn take(&mut self, f: &CanFrame, now: Instant) {
-        if let CanFrame::Error(e) = f {
+    fn take(&mut self, f: &CanAnyFrame, now: Instant) {
+        if let CanAnyFrame::Error(e) = f {
             *self
                 .errors
                 .entry(format!("{}", (*e).into_error()))
@@ -343,9 +343,9 @@ pub fn monitor(opts: &MonitorOptions, out: &mut impl Write) -> Result<u64> {
     }
 }
 
-fn open(interface: &str) -> Result<CanSocket> {
+fn open(interface: &str) -> Result<CanFdSocket> {
     // An interface that cannot be opened is bad input, as `network.interface` is for `run`.
-    let s = node_linux::open(interface).map_err(|e| Error::invalid("<interface>", e))?;
+    let s = node_linux::open_fd(interface).map_err(|e| Error::invalid("<interface>", e))?;
     s.set_error_filter_accept_all()
         .map_err(|e| Error::Io(format!("{interface}: {e}")))?;
     Ok(s)
