@@ -3,7 +3,10 @@
 //! worst-case bit lengths of `agent_node::bus_load` at the given bit rates: the measured
 //! counterpart of the load `host-sim check` computes. Classical lines (`ID#DATA`) are timed as
 //! classical frames; CAN FD lines (`ID##<flags>DATA`) as FD frames, with bit-rate switching when
-//! their flags say so. A sample is one leader value frame (`agent_node::IdPlan::DEFAULT`).
+//! their flags say so. A sample is one leader value frame (`agent_node::IdPlan::DEFAULT`); frames
+//! outside the run's samples (before the first, after the last) are left out. Periodic frames
+//! timed by the wall clock (state frames) count per sample as often as a run slowed by
+//! `network.time_scale` lets them.
 
 use std::fmt::Write as _;
 
@@ -68,14 +71,46 @@ fn kind(f: &LogFrame) -> &'static str {
     }
 }
 
-/// Bus time per kind [ns], frames per kind, and samples (leader frames) of `text`.
+/// The stamp of a candump log line, in seconds.
+fn stamp(line: &str) -> Option<f64> {
+    line.split_whitespace()
+        .next()?
+        .strip_prefix('(')?
+        .strip_suffix(')')?
+        .parse()
+        .ok()
+}
+
+/// Bus time per kind [ns], frames per kind, and samples (leader frames) of `text`, counting the
+/// frames from the first leader frame up to the next one after the last (the run's samples, not
+/// the nodes' start-up or their last periods after the host's last sample).
 pub fn measure(text: &str, rates: Bitrates) -> (Vec<(&'static str, u64, f64)>, u64) {
     let mut kinds: Vec<(&'static str, u64, f64)> = Vec::new();
-    let mut samples = 0;
     let leader = IdPlan::DEFAULT.value_id(Source::Leader);
-    for f in text.lines().filter_map(parse_line) {
-        if !f.extended && Some(f.id as u16) == leader {
-            samples += 1;
+    let is_leader = |f: &LogFrame| !f.extended && Some(f.id as u16) == leader;
+    let frames: Vec<(f64, LogFrame)> = text
+        .lines()
+        .filter_map(|l| Some((stamp(l)?, parse_line(l)?)))
+        .collect();
+    let leaders: Vec<f64> = frames
+        .iter()
+        .filter(|f| is_leader(&f.1))
+        .map(|f| f.0)
+        .collect();
+    let (Some(&first), Some(&last)) = (leaders.first(), leaders.last()) else {
+        return (kinds, 0);
+    };
+    let samples = leaders.len() as u64;
+    // One period past the last sample: that sample's own frames.
+    let period = if samples > 1 {
+        (last - first) / (samples - 1) as f64
+    } else {
+        0.0
+    };
+    let until = last + period;
+    for (t, f) in frames {
+        if t < first || t >= until {
+            continue;
         }
         let format = match f.fd {
             None => Format::Classical,
@@ -173,6 +208,8 @@ mod tests {
             log += &format!("(0.000200) vcan0 {:03X}#0000000000000000\n", 0x200 + i);
             log += &format!("(0.000300) vcan0 {:03X}#0000000000000000\n", 0x300 + i);
         }
+        // The next sample's leader frame, and a node's frame after the host stopped.
+        log += "(0.001000) vcan0 101#00000000\n(0.003000) vcan0 302#0000000000000000\n";
         let (kinds, samples) = measure(
             &log,
             Bitrates {
@@ -180,8 +217,8 @@ mod tests {
                 data: None,
             },
         );
-        assert_eq!(samples, 1);
+        assert_eq!(samples, 2);
         let total: f64 = kinds.iter().map(|k| k.2).sum();
-        assert!((total - (5.0 * 95e3 + 8.0 * 135e3)).abs() < 1e-6, "{total}");
+        assert!((total - (6.0 * 95e3 + 8.0 * 135e3)).abs() < 1e-6, "{total}");
     }
 }
