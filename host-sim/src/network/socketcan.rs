@@ -137,13 +137,15 @@ struct Agent {
     state: Option<plant_bus::NodeState>,
     /// Cumulative late commands at each sample (the figure).
     late_series: Vec<u32>,
-    /// Command frames since the start of the current window of [`DUPLICATE_WINDOW`] samples.
+    /// Command frames since the start of the current duplicate window.
     window_received: u64,
 }
 
-/// Samples over which the command frames of each follower are counted for a duplicate
-/// identity: more than 1.5 per sample there means two nodes send as the same agent.
-const DUPLICATE_WINDOW: u64 = 200;
+/// Sample periods of wall time (`h time_scale`) over which the command frames of each follower
+/// are counted for a duplicate identity: a node sends at most one per period on its own timer
+/// (a stalled host does not change that), so more than 1.5 per period means two nodes send as
+/// the same agent.
+const DUPLICATE_WINDOW: u32 = 200;
 
 /// The node processes of `nodes = "spawn"`, stopped when dropped.
 struct Spawned {
@@ -224,6 +226,8 @@ pub struct SocketcanAgents<const N: usize, const M: usize> {
     sensor_frames: SensorFrames,
     /// What the plant applies to a lost follower.
     lost_command: LostCommand,
+    /// Start of the current duplicate-identity window (wall time).
+    duplicate_window: Option<Instant>,
     interface: String,
     mode: NodesMode,
     /// The sample period in wall time (`h time_scale`).
@@ -413,6 +417,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
             fd: spec.data_bitrate.is_some(),
             sensor_frames: spec.sensor_frames(),
             lost_command: spec.lost_command.unwrap_or_default(),
+            duplicate_window: None,
             interface,
             mode,
             h: Duration::from_secs_f64(h * spec.time_scale()),
@@ -532,7 +537,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
     /// A follower whose command frames came more than 1.5 times per sample over the last
     /// window is two nodes with one identity (a CANopen node-ID duplicate): an error naming it.
     fn check_duplicates(&mut self, t: f64) -> Result<()> {
-        let limit = DUPLICATE_WINDOW + DUPLICATE_WINDOW / 2;
+        let limit = u64::from(DUPLICATE_WINDOW + DUPLICATE_WINDOW / 2);
         let dup = self
             .agents
             .iter()
@@ -544,7 +549,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
         }
         match dup {
             Some((agent, n)) => Err(Error::Bench(format!(
-                "t = {t:.3} s: {n} command frames of agent {agent} in {DUPLICATE_WINDOW} samples: \
+                "t = {t:.3} s: {n} command frames of agent {agent} in {DUPLICATE_WINDOW} periods: \
                  two nodes send as agent {agent} (one identity, node.agent, on two nodes)"
             ))),
             None => Ok(()),
@@ -755,7 +760,9 @@ impl<const N: usize, const M: usize> Agents<N, M> for SocketcanAgents<N, M> {
                 eprintln!("host-sim: t = {t:.3} s: agent {} is back", i + 1);
             }
         }
-        if k > 0 && k.is_multiple_of(DUPLICATE_WINDOW) {
+        let window_start = *self.duplicate_window.get_or_insert(woke);
+        if woke.saturating_duration_since(window_start) >= self.h * DUPLICATE_WINDOW {
+            self.duplicate_window = Some(woke);
             self.check_duplicates(t)?;
         }
         let seq = (k % u64::from(wire::SEQ_MODULUS)) as u8;
