@@ -109,7 +109,10 @@ impl Problems {
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Self::Invalid(m) if m.starts_with("--") => write!(f, "invalid option: {}", one_line(m)),
+            // An option (`--out`) or a positional argument (`<interface>`).
+            Self::Invalid(m) if m.starts_with("--") || m.starts_with('<') => {
+                write!(f, "invalid option: {}", one_line(m))
+            }
             Self::Invalid(m) => write!(f, "invalid scenario: {}", one_line(m)),
             Self::Io(m) => write!(f, "I/O error: {}", one_line(m)),
             Self::Bench(m) => write!(f, "bench: {}", one_line(m)),
