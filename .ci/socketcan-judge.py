@@ -53,6 +53,12 @@ kn = load("kill-node")
 if kn:
     lost = kn["socketcan"]["agents"][2]["lost_at_s"]
     check(lost is not None, f"kill-node: agent 3 reported lost at t = {lost} s")
+    state = kn["socketcan"]["agents"][2]["state"]
+    check(state == "lost", f"kill-node: agent 3's state in the summary is {state!r} (lost)")
+fd = load("vcan-fd")
+if fd:
+    figures("vcan0, CAN FD 1/4 Mbit/s, packed sensors", fd)
+    check(not fd["diverged"], "vcan-fd: no divergence")
 hw = load("sja1000")
 if hw:
     figures("SJA1000", hw)

@@ -38,14 +38,15 @@ target/release/host-sim run scenarios/example1-can.toml --out target/socketcan-c
 # with five processes: the runs are slowed down by SC_TIME_SCALE (wall seconds per simulated
 # second; docs/BENCHMARKS.md has the late commands at each scale).
 export SC_SET="--set network.time_scale=${SC_TIME_SCALE:-10} --set network.node_timeout=${SC_NODE_TIMEOUT:-2}"
-rm -rf target/socketcan-ci/vcan target/socketcan-ci/kill-node target/socketcan-ci/kill-host \
-  target/socketcan-ci/sja1000 target/socketcan-ci/sja1000-bitrate
+rm -rf target/socketcan-ci/vcan target/socketcan-ci/vcan-fd target/socketcan-ci/kill-node \
+  target/socketcan-ci/kill-host target/socketcan-ci/exit-statuses target/socketcan-ci/sja1000 \
+  target/socketcan-ci/sja1000-bitrate
 status=0
 
-echo "== vcan0: Example 1, kill a node, kill host-sim ($SC_SET)"
+echo "== vcan0: Example 1, on CAN FD, kill a node, kill host-sim, exit statuses ($SC_SET)"
 t=$SECONDS
-cargo xtask vm --timeout 240 -- env SC_SET="$SC_SET" sh .ci/socketcan-vm-checks.sh vcan-example1 kill-node kill-host ||
-  status=1
+cargo xtask vm --timeout 300 -- env SC_SET="$SC_SET" sh .ci/socketcan-vm-checks.sh vcan-example1 \
+  vcan-fd kill-node kill-host exit-statuses || status=1
 echo "(vcan checks: $((SECONDS - t)) s with boot)"
 
 echo "== emulated SJA1000 controllers (kvaser_pci, host + 4 nodes)"
@@ -55,6 +56,11 @@ echo "(SJA1000 checks: $((SECONDS - t)) s with boot)"
 
 echo "== judged on the host"
 python3 .ci/socketcan-judge.py target/socketcan-ci || status=1
+
+echo "== bus time per sample measured from the traces (docs/NETWORK.md §11)"
+cargo xtask trace-load target/socketcan-ci/vcan/vcan0.log --bitrate 1000000 || status=1
+cargo xtask trace-load target/socketcan-ci/vcan-fd/vcan0.log --bitrate 1000000 \
+  --data-bitrate 4000000 || status=1
 
 echo "== socketcan stage: $((SECONDS - t0)) s"
 exit $status

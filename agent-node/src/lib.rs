@@ -18,6 +18,8 @@
 //!   the classical CAN frame of the link, of `hil-mock`'s mocks and of its bus model.
 //! * [`plant_bus`]: the sensor, command and state frames between a node and a host that
 //!   simulates its plant on the same CAN bus (a Linux node process on SocketCAN).
+//! * [`bus_load`]: worst-case bit lengths of classical and CAN FD frames and the share of a
+//!   sample period the frame set of a scenario takes.
 //! * [`dbc`]: every frame kind of the bus and the link described signal by signal, and
 //!   `docs/wire.dbc` written from that description ([`dbc::write_dbc`]).
 //!
@@ -37,6 +39,7 @@
 #[macro_use]
 mod fmt;
 
+pub mod bus_load;
 pub mod dbc;
 pub mod link;
 pub mod node;

@@ -87,9 +87,53 @@ pub fn decode_pair(data: &[u8]) -> Option<[f32; 2]> {
     Some([f(0), f(4)])
 }
 
+/// Followers per packed sensor frame (`network.sensor_frames = "packed"`, CAN FD): 8 states
+/// of 8 bytes fill the largest FD payload.
+pub const PACKED_SENSOR_AGENTS: u8 = 8;
+
+/// The first agent of `agent`'s packed sensor frame: the frame goes out with that agent's
+/// sensor identifier ([`Kind::id`]) and carries agents `first..first + 8` in order. `None` for
+/// agent 0.
+pub const fn packed_first(agent: u8) -> Option<u8> {
+    if agent == 0 {
+        return None;
+    }
+    Some((agent - 1) / PACKED_SENSOR_AGENTS * PACKED_SENSOR_AGENTS + 1)
+}
+
+/// Writes the states `x` (agents `first, first + 1, …` in order; at most
+/// [`PACKED_SENSOR_AGENTS`]) into `out` as consecutive sensor payloads; the bytes written, or
+/// `None` when `out` is too short.
+pub fn encode_packed(x: &[[f32; 2]], out: &mut [u8]) -> Option<usize> {
+    let x = x.get(..x.len().min(usize::from(PACKED_SENSOR_AGENTS)))?;
+    let len = x.len() * PAIR_LEN;
+    for (chunk, v) in out.get_mut(..len)?.chunks_exact_mut(PAIR_LEN).zip(x) {
+        chunk.copy_from_slice(&encode_pair(*v));
+    }
+    Some(len)
+}
+
+/// Agent `agent`'s state in a packed sensor payload whose first agent is `first`; `None` when
+/// the payload does not reach it (an FD frame is padded to its length: trailing bytes are
+/// ignored).
+pub fn decode_packed(first: u8, agent: u8, data: &[u8]) -> Option<[f32; 2]> {
+    let k = usize::from(agent.checked_sub(first)?);
+    if k >= usize::from(PACKED_SENSOR_AGENTS) {
+        return None;
+    }
+    decode_pair(data.get(k * PAIR_LEN..(k + 1) * PAIR_LEN)?)
+}
+
 /// A frame of `kind` for `agent` with payload `v`; `None` for agent 0.
 pub fn pair_frame<F: Frame>(kind: Kind, agent: u8, v: [f32; 2]) -> Option<F> {
     F::new(kind.id(agent)?, &encode_pair(v))
+}
+
+/// The host's stop command for the node(s) whose sensor frames come under `sensor_agent`'s
+/// sensor identifier (the agent itself, or the first agent of its packed group): a sensor frame
+/// without data. The node ends its run ("a stop was commanded"). `None` for agent 0.
+pub fn stop_frame<F: Frame>(sensor_agent: u8) -> Option<F> {
+    F::new(Kind::Sensor.id(sensor_agent)?, &[])
 }
 
 /// A received plant-bus frame.
@@ -97,6 +141,8 @@ pub fn pair_frame<F: Frame>(kind: Kind, agent: u8, v: [f32; 2]) -> Option<F> {
 pub enum PlantFrame {
     /// Agent's state from the host.
     Sensor(u8, [f32; 2]),
+    /// The host's stop command on agent's sensor identifier ([`stop_frame`]).
+    Stop(u8),
     /// Agent's commands from its node.
     Command(u8, [f32; 2]),
     /// Agent's node state.
@@ -114,6 +160,7 @@ pub fn decode<F: Frame>(frame: &F) -> Option<PlantFrame> {
     let (kind, agent) = Kind::classify(id.as_raw())?;
     let data = frame.data();
     Some(match kind {
+        Kind::Sensor if data.is_empty() => PlantFrame::Stop(agent),
         Kind::Sensor => PlantFrame::Sensor(agent, decode_pair(data)?),
         Kind::Command => PlantFrame::Command(agent, decode_pair(data)?),
         Kind::State => PlantFrame::State(agent, NodeState::from_bytes(data)?),
@@ -223,6 +270,38 @@ mod tests {
         };
         let f: CanFrame = s.frame(7).expect("frame");
         assert_eq!(decode(&f), Some(PlantFrame::State(7, s)));
+    }
+
+    #[test]
+    fn packed_sensor_payloads_round_trip_per_agent() {
+        let x: [[f32; 2]; 3] = [[1.0, -1.0], [0.5, 2.5], [-3.0, 0.25]];
+        let mut out = [0xAA; 64];
+        assert_eq!(encode_packed(&x, &mut out), Some(24));
+        for (k, v) in x.iter().enumerate() {
+            assert_eq!(decode_packed(9, 9 + k as u8, &out), Some(*v));
+        }
+        // Agent 12 is the fourth of the frame: the padding is not a state.
+        assert_eq!(decode_packed(9, 12, &out[..24]), None);
+        assert_eq!(decode_packed(9, 8, &out), None);
+        assert_eq!(decode_packed(9, 17, &out), None);
+        assert_eq!(encode_packed(&x, &mut [0; 16]), None);
+        assert_eq!(encode_packed(&[[0.0; 2]; 9], &mut out), Some(64));
+    }
+
+    #[test]
+    fn packed_groups_start_every_eight_agents() {
+        let firsts: [Option<u8>; 6] = [0u8, 1, 8, 9, 16, 255].map(packed_first);
+        assert_eq!(
+            firsts,
+            [None, Some(1), Some(1), Some(9), Some(9), Some(249)]
+        );
+    }
+
+    #[test]
+    fn a_sensor_frame_without_data_is_a_stop() {
+        let f: CanFrame = stop_frame(9).expect("frame");
+        assert_eq!(decode(&f), Some(PlantFrame::Stop(9)));
+        assert_eq!(stop_frame::<CanFrame>(0), None);
     }
 
     #[test]

@@ -5,7 +5,9 @@
 //! * **Timing.** A frame occupies the bus for [`frame_bits`] bit times: the classical CAN frame
 //!   from start-of-frame to end-of-frame with worst-case bit stuffing (one stuff bit per four
 //!   bits of the stuffed region SOF..CRC delimiter, as Linux `can_frame_bits()`), plus the
-//!   3-bit intermission. A standard frame with 4 data bytes is 95 bits; with 8, 135 bits.
+//!   3-bit intermission. A standard frame with 4 data bytes is 95 bits; with 8, 135 bits. With
+//!   a data bit rate (`BusConfig::data_bitrate`) every frame is a CAN FD frame with bit-rate
+//!   switching, its data phase at that rate (`agent_node::bus_load`).
 //! * **Arbitration.** When the bus is idle and frames are pending, the lowest identifier
 //!   among the frames pending at that instant wins (ties, which CAN forbids, go to the lower
 //!   node index); the others wait for the bus to be idle again. A node has one mailbox per
@@ -50,6 +52,8 @@ use embedded_can::Frame;
 use rand_chacha::rand_core::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+use agent_node::bus_load::{self, Bitrates, Format, FrameBits};
+
 use crate::mock::MockFrame;
 
 /// Simulated time, nanoseconds.
@@ -76,26 +80,20 @@ pub const BUS_OFF_LIMIT: u16 = 255;
 /// assert_eq!(frame_bits(true, 8, true), 160);
 /// ```
 pub const fn frame_bits(extended: bool, data_len: usize, stuffing: bool) -> u32 {
-    // SOF + id + RTR/SRR/IDE/r0/DLC: 19 (standard) or 39 (extended).
-    let header: u32 = if extended { 39 } else { 19 };
-    let len = if data_len > 8 { 8 } else { data_len as u32 };
-    // ... + data + CRC (15) + CRC delimiter: the stuffed region.
-    let mut bits = header + 8 * len + 16;
-    if stuffing {
-        bits += bits / 4;
-    }
-    // ACK slot, ACK delimiter, EOF (7), intermission (3).
-    bits + 9 + 3
+    bus_load::frame_bits(Format::Classical, extended, data_len, stuffing).total()
 }
 
 /// Bits on the wire of `frame` (worst-case stuffing, with intermission).
 pub fn bits_of(frame: &MockFrame) -> u32 {
-    let len = if frame.is_remote_frame() {
+    frame_bits(frame.is_extended(), data_len(frame), true)
+}
+
+fn data_len(frame: &MockFrame) -> usize {
+    if frame.is_remote_frame() {
         0
     } else {
         frame.data().len()
-    };
-    frame_bits(frame.is_extended(), len, true)
+    }
 }
 
 /// What a node does between two times.
@@ -126,8 +124,12 @@ pub struct BusEvent {
 /// Bus settings.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BusConfig {
-    /// Bit rate, bit/s (> 0).
+    /// Bit rate, bit/s (> 0): the nominal (arbitration) bit rate of CAN FD.
     pub bitrate: u32,
+    /// CAN FD with bit-rate switching: the data-phase bit rate, bit/s; `None`: classical CAN.
+    /// Every frame is then timed as an FD frame of its length
+    /// ([`agent_node::bus_load::frame_bits`]).
+    pub data_bitrate: Option<u32>,
     /// From end-of-frame to delivery at the receivers.
     pub latency_ns: Nanos,
     /// Probability that a frame reaches no receiver, in [0, 1].
@@ -148,6 +150,7 @@ impl Default for BusConfig {
     fn default() -> Self {
         Self {
             bitrate: 1_000_000,
+            data_bitrate: None,
             latency_ns: 0,
             loss: 0.0,
             corruption: 0.0,
@@ -331,6 +334,8 @@ pub struct Delivery {
 struct Pending {
     frame: MockFrame,
     submitted: Nanos,
+    /// Data bytes on the wire (at least the frame's own).
+    len: usize,
 }
 
 #[derive(Debug, Clone, Default)]
@@ -430,7 +435,31 @@ impl Bus {
         &self.cfg
     }
 
-    /// Nanoseconds of `bits` bit times.
+    /// The worst-case bits of `frame` on this bus: classical, or CAN FD with bit-rate switching
+    /// when a data bit rate is set.
+    fn frame_bits(&self, frame: &MockFrame, len: usize) -> FrameBits {
+        let format = self.rates().format();
+        bus_load::frame_bits(format, frame.is_extended(), len, true)
+    }
+
+    fn rates(&self) -> Bitrates {
+        Bitrates {
+            nominal: self.cfg.bitrate,
+            data: self.cfg.data_bitrate,
+        }
+    }
+
+    /// Time of a frame of `bits` up to its end-of-frame, followed by `tail` bits at the nominal
+    /// rate (3: the intermission; 17: an error frame instead).
+    fn phase_time_ns(&self, bits: FrameBits, tail: u32) -> Nanos {
+        FrameBits {
+            nominal: bits.nominal.saturating_sub(3) + tail,
+            data: bits.data,
+        }
+        .time_ns(self.rates())
+    }
+
+    /// Time of `bits` at the nominal bit rate, rounded up.
     pub fn bit_time_ns(&self, bits: u64) -> Nanos {
         (bits * 1_000_000_000).div_ceil(u64::from(self.cfg.bitrate))
     }
@@ -468,6 +497,19 @@ impl Bus {
     /// Node `node` wants to send `frame` from `t` on (`t` ≥ the last `advance_to`). A frame of
     /// the node still pending is replaced (a deadline miss).
     pub fn submit(&mut self, node: usize, t: Nanos, frame: MockFrame) -> Result<(), SubmitError> {
+        self.submit_sized(node, t, frame, data_len(&frame))
+    }
+
+    /// [`Bus::submit`] of a frame that goes on the wire with `len` data bytes (a CAN FD frame
+    /// longer than a [`MockFrame`] holds, e.g. a packed sensor frame): the bus times it at
+    /// `len` bytes (at least the frame's own); receivers and the wire log get the frame.
+    pub fn submit_sized(
+        &mut self,
+        node: usize,
+        t: Nanos,
+        frame: MockFrame,
+        len: usize,
+    ) -> Result<(), SubmitError> {
         self.recover(t);
         let silent = self.is_silent(node, t);
         let bus_off = self.is_bus_off(node, t);
@@ -484,6 +526,7 @@ impl Bus {
         let new = Pending {
             frame,
             submitted: t,
+            len: len.max(data_len(&frame)),
         };
         match port
             .pending
@@ -604,7 +647,7 @@ impl Bus {
             self.free_at = s + 1;
             return;
         };
-        let (frame, submitted) = if babble {
+        let (frame, submitted, len) = if babble {
             let mut f = self.babble;
             if let Some(sid) = u16::try_from(id)
                 .ok()
@@ -612,21 +655,21 @@ impl Bus {
             {
                 f = MockFrame::new(sid, f.data()).unwrap_or(f);
             }
-            (f, s)
+            (f, s, data_len(&f))
         } else {
             match self.ports[node].first_pending(s) {
-                Some(p) => (p.frame, p.submitted),
+                Some(p) => (p.frame, p.submitted, p.len),
                 None => return,
             }
         };
-        let bits = u64::from(bits_of(&frame));
+        let bits = self.frame_bits(&frame, len);
         self.stats.transmissions += 1;
         if babble {
             self.stats.babble_frames += 1;
         }
         let corrupted = self.cfg.corruption > 0.0 && self.uniform() < self.cfg.corruption;
         if corrupted {
-            let dur = self.bit_time_ns(bits - 3 + u64::from(ERROR_FRAME_BITS));
+            let dur = self.phase_time_ns(bits, ERROR_FRAME_BITS);
             self.stats.busy_ns += dur;
             self.free_at = s + dur;
             self.busy_until = s + dur;
@@ -634,14 +677,14 @@ impl Bus {
             self.on_error(node, s, s + dur, babble);
             return;
         }
-        let dur = self.bit_time_ns(bits);
+        let dur = self.phase_time_ns(bits, 3);
         self.stats.busy_ns += dur;
         self.free_at = s + dur;
         self.busy_until = s + dur;
         self.stats.frames_sent += 1;
         self.on_success(node, s, babble);
         // End of frame is before the intermission.
-        let end = s + self.bit_time_ns(bits - 3);
+        let end = s + self.phase_time_ns(bits, 0);
         if let Some(log) = self.wire_log.as_mut() {
             log.push((end, frame));
         }
@@ -772,6 +815,23 @@ mod tests {
         let s = bus.stats();
         assert_eq!(s.busy_ns, 95_000 * 2 + 135_000);
         assert!((s.load_percent() - 32.5).abs() < 1e-9);
+    }
+
+    #[test]
+    fn fd_frames_take_their_data_phase_at_the_data_bit_rate() {
+        let cfg = BusConfig {
+            data_bitrate: Some(4_000_000),
+            ..BusConfig::default()
+        };
+        let mut bus = Bus::new(cfg, 2).expect("valid");
+        bus.submit(0, 0, frame(0x101, 4)).expect("ok");
+        bus.submit(1, 0, frame(0x102, 8)).expect("ok");
+        let d = bus.advance_to(1_000_000);
+        // 4 bytes: 34 nominal bits + 73 data bits = 34 µs + 18.25 µs; EOF 3 bits earlier.
+        assert_eq!(d[0].at_ns, 31_000 + 18_250);
+        assert_eq!(d[1].start_ns, 52_250);
+        // 8 bytes: 34 µs + 113 / 4 µs.
+        assert_eq!(bus.stats().busy_ns, 52_250 + 62_250);
     }
 
     #[test]

@@ -19,6 +19,13 @@
 //! The commands the nodes wrote are in [`Tick::output`]`.q` (and in each node's actuator),
 //! to be held by the plant over `[t, t + h)`.
 //!
+//! With [`CanNetwork::put_plant_on_bus`] the bus also carries the frames of a bench whose plant
+//! is on the bus ([`agent_node::plant_bus`]): the host's sensor frames (bus node 0, with the
+//! leader's value frame; per agent or packed), each node's command frame after its tick, and
+//! its state frame once per state period. They occupy the bus as on the bench; the nodes'
+//! sensors and actuators stay mocked, and the plant frames are not handed to the nodes (a bench
+//! node's value socket filters them out).
+//!
 //! ```
 //! use controller_core::ControllerConfig;
 //! use hil_mock::bus::BusConfig;
@@ -53,6 +60,8 @@ use controller_core::{ControllerConfig, Link};
 
 use crate::bus::{Bus, BusConfig, BusConfigError, BusStats, Delivery, Nanos};
 use crate::mock::{MockActuator, MockCan, MockClock, MockFrame, MockNode, MockSensor};
+use agent_node::bus_load::{PlantFrames, SensorFrames};
+use agent_node::plant_bus::{self, Kind, Mode, NodeState, PACKED_SENSOR_AGENTS};
 use agent_node::wire::{self, IdPlan, Source};
 use agent_node::{NodeConfig, NodeError, Tick};
 
@@ -106,6 +115,8 @@ pub struct CanNetwork<const N: usize, const M: usize, const K: usize> {
     ids: IdPlan,
     /// Scratch for the ages of one sample.
     ages: Vec<Nanos>,
+    /// The plant's frames on the bus, and each node's last state period (`None`: none sent).
+    plant: Option<(PlantFrames, Vec<Option<u64>>)>,
 }
 
 impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
@@ -144,7 +155,82 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
             leader_seq: 0,
             ids,
             ages: Vec::new(),
+            plant: None,
         })
+    }
+
+    /// Puts the frames of a plant on the bus on the modelled bus as well (module docs).
+    pub fn put_plant_on_bus(&mut self, plant: PlantFrames) {
+        self.plant = Some((plant, vec![None; self.nodes.len()]));
+    }
+
+    /// The host's sensor frames of `states` (agent `i + 1` at index `i`) at `t_ns`, from bus
+    /// node 0, when the plant is on the bus: one per agent, or one per 8 agents packed (timed at
+    /// its CAN FD length, its first agent's state in the frame the receivers and the wire log
+    /// get).
+    pub fn send_sensors(&mut self, t_ns: Nanos, states: &[[f32; N]]) {
+        let Some((plant, _)) = &self.plant else {
+            return;
+        };
+        let pair = |x: &[f32; N]| {
+            [
+                x.first().copied().unwrap_or(0.0),
+                x.get(1).copied().unwrap_or(0.0),
+            ]
+        };
+        match plant.sensor {
+            SensorFrames::PerAgent => {
+                for (i, x) in states.iter().enumerate() {
+                    let agent = u8::try_from(i + 1).unwrap_or(0);
+                    if let Some(f) =
+                        plant_bus::pair_frame::<MockFrame>(Kind::Sensor, agent, pair(x))
+                    {
+                        let _ = self.bus.submit(0, t_ns, f);
+                    }
+                }
+            }
+            SensorFrames::Packed => {
+                let per = usize::from(PACKED_SENSOR_AGENTS);
+                for (g, group) in states.chunks(per).enumerate() {
+                    let first = u8::try_from(g * per + 1).unwrap_or(0);
+                    let head = group.first().map_or([0.0; 2], pair);
+                    if let Some(f) = plant_bus::pair_frame::<MockFrame>(Kind::Sensor, first, head) {
+                        let len = group.len() * plant_bus::PAIR_LEN;
+                        let _ = self.bus.submit_sized(0, t_ns, f, len);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Node `j`'s command frame of `q` and, once per state period, its state frame, at `t_ns`,
+    /// when the plant is on the bus.
+    fn send_plant_frames(&mut self, j: usize, t_ns: Nanos, q: &[f32; M]) {
+        let Some((plant, last)) = self.plant.as_mut() else {
+            return;
+        };
+        let agent = u8::try_from(j + 1).unwrap_or(0);
+        let pair = [
+            q.first().copied().unwrap_or(0.0),
+            q.get(1).copied().unwrap_or(0.0),
+        ];
+        if let Some(f) = plant_bus::pair_frame::<MockFrame>(Kind::Command, agent, pair) {
+            let _ = self.bus.submit(j + 1, t_ns, f);
+        }
+        let period = (t_ns / 1000).checked_div(plant.state_period_us);
+        if let (Some(p), Some(slot)) = (period, last.get_mut(j)) {
+            if *slot != Some(p) {
+                *slot = Some(p);
+                let state = NodeState {
+                    mode: Mode::Running,
+                    degraded_links: 0,
+                    late_ticks: 0,
+                };
+                if let Some(f) = state.frame::<MockFrame>(agent) {
+                    let _ = self.bus.submit(j + 1, t_ns, f);
+                }
+            }
+        }
     }
 
     /// The bus.
@@ -191,6 +277,7 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
         if let Some(yd) = leader {
             self.send_leader(t_ns, yd);
         }
+        self.send_sensors(t_ns, states);
         ticks
     }
 
@@ -203,7 +290,11 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
         clock: impl Fn(usize, Nanos) -> u64,
     ) -> Vec<Delivery> {
         let delivered = self.bus.advance_to(t_ns);
+        let plant = self.plant.is_some();
         for d in &delivered {
+            if plant && plant_bus::decode(&d.frame).is_some() {
+                continue;
+            }
             for (j, node) in self.nodes.iter_mut().enumerate() {
                 let bus_node = j + 1;
                 if bus_node == d.from || self.bus.is_bus_off(bus_node, d.at_ns) {
@@ -240,6 +331,7 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
             // Refusals (silent, bus-off) are counted by the bus.
             let _ = self.bus.submit(bus_node, t_ns, f);
         }
+        self.send_plant_frames(j, t_ns, &tick.output.q);
         tick
     }
 

@@ -14,6 +14,9 @@ pub enum Error {
     Several(Vec<Error>),
     /// Stopped at the caller's request ([`crate::run::Watch::stop`]) before the end.
     Interrupted,
+    /// A bench on a real bus (`network.kind = "socketcan"`) failed: a node never came, was lost
+    /// during the run, or two nodes share one identity.
+    Bench(String),
 }
 
 impl Error {
@@ -27,12 +30,13 @@ impl Error {
         Self::Io(format!("{}: {err}", path.display()))
     }
 
-    /// Process exit status of docs/SCENARIO.md §1: 2 invalid, 1 I/O (130 interrupted, as a
-    /// shell reports SIGINT).
+    /// Process exit status of docs/SCENARIO.md §1: 2 invalid, 1 I/O, 3 a bench's node failed
+    /// (130 interrupted, as a shell reports SIGINT).
     pub fn exit_code(&self) -> u8 {
         match self {
             Self::Invalid(_) => 2,
             Self::Io(_) => 1,
+            Self::Bench(_) => 3,
             Self::Interrupted => 130,
             Self::Several(all) => all.iter().map(Self::exit_code).max().unwrap_or(2),
         }
@@ -41,7 +45,7 @@ impl Error {
     /// The message without its kind; several problems joined by `; `.
     pub fn message(&self) -> String {
         match self {
-            Self::Invalid(m) | Self::Io(m) => m.clone(),
+            Self::Invalid(m) | Self::Io(m) | Self::Bench(m) => m.clone(),
             Self::Interrupted => "interrupted".into(),
             Self::Several(all) => all.iter().map(Self::message).collect::<Vec<_>>().join("; "),
         }
@@ -105,9 +109,13 @@ impl Problems {
 impl fmt::Display for Error {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Self::Invalid(m) if m.starts_with("--") => write!(f, "invalid option: {}", one_line(m)),
+            // An option (`--out`) or a positional argument (`<interface>`).
+            Self::Invalid(m) if m.starts_with("--") || m.starts_with('<') => {
+                write!(f, "invalid option: {}", one_line(m))
+            }
             Self::Invalid(m) => write!(f, "invalid scenario: {}", one_line(m)),
             Self::Io(m) => write!(f, "I/O error: {}", one_line(m)),
+            Self::Bench(m) => write!(f, "bench: {}", one_line(m)),
             Self::Interrupted => f.write_str("interrupted"),
             Self::Several(all) => {
                 for (i, e) in all.iter().enumerate() {

@@ -45,6 +45,9 @@ pub struct NetworkSummary {
     /// Per agent, the node's supervision figures (`kind = "can"` with a `[node]` section).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub nodes: Vec<NodeSummary>,
+    /// CAN FD data-phase bit rate [bit/s] (`network.data_bitrate`); absent: classical CAN.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub data_bitrate: Option<u32>,
 }
 
 /// `summary.json` `network.nodes[]`: one agent's node supervisor over the run.
@@ -89,6 +92,7 @@ impl NetworkSummary {
             suppressed: s.suppressed,
             babble_frames: s.babble_frames,
             nodes: Vec::new(),
+            data_bitrate: None,
         }
     }
 }

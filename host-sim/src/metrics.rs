@@ -266,6 +266,9 @@ impl Summary {
             if !n.nodes.is_empty() {
                 self.units.extend(NODE_UNITS);
             }
+            if n.data_bitrate.is_some() {
+                self.units.insert("network.data_bitrate", "bit/s");
+            }
         }
         self.network = network;
     }

@@ -19,7 +19,7 @@ use agent_node::{
     wire::{self, Source},
 };
 use embedded_can::{Frame, Id};
-use socketcan::{CanFrame, CanSocket, Socket, SocketOptions};
+use socketcan::{CanAnyFrame, CanFdSocket, Socket, SocketOptions};
 
 use crate::error::{Error, Result};
 
@@ -64,8 +64,8 @@ struct View {
 }
 
 impl View {
-    fn take(&mut self, f: &CanFrame, now: Instant) {
-        if let CanFrame::Error(e) = f {
+    fn take(&mut self, f: &CanAnyFrame, now: Instant) {
+        if let CanAnyFrame::Error(e) = f {
             *self
                 .errors
                 .entry(format!("{}", (*e).into_error()))
@@ -109,7 +109,7 @@ impl View {
                 a.state = Some(s);
                 a.states += 1;
             }
-            None => {
+            Some(PlantFrame::Stop(_)) | None => {
                 let id = match f.id() {
                     Id::Standard(s) => u32::from(s.as_raw()),
                     Id::Extended(e) => e.as_raw() | 0x8000_0000,
@@ -214,7 +214,9 @@ struct Dbc(BTreeMap<u32, DbcMessage>);
 
 impl Dbc {
     fn load(path: &Path) -> Result<Self> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        // A DBC that cannot be read is bad input, as a scenario file is for `run` (exit 2).
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| Error::invalid("--dbc", format!("{}: {e}", path.display())))?;
         let mut d = Dbc::default();
         let mut current: Option<u32> = None;
         for (n, line) in text.lines().enumerate() {
@@ -341,8 +343,9 @@ pub fn monitor(opts: &MonitorOptions, out: &mut impl Write) -> Result<u64> {
     }
 }
 
-fn open(interface: &str) -> Result<CanSocket> {
-    let s = node_linux::open(interface).map_err(|e| Error::Io(e.to_string()))?;
+fn open(interface: &str) -> Result<CanFdSocket> {
+    // An interface that cannot be opened is bad input, as `network.interface` is for `run`.
+    let s = node_linux::open_fd(interface).map_err(|e| Error::invalid("<interface>", e))?;
     s.set_error_filter_accept_all()
         .map_err(|e| Error::Io(format!("{interface}: {e}")))?;
     Ok(s)

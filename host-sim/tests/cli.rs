@@ -308,6 +308,92 @@ fn check_prints_the_resolved_scenario() {
     assert!(reparsed.contains_key("controller"));
 }
 
+#[test]
+fn check_prints_the_bus_load_of_the_frame_set_and_warns_above_70_percent() {
+    let check = |sets: &[&str]| {
+        let mut cmd = bin();
+        cmd.arg("check").arg(scenario("example1-socketcan.toml"));
+        for s in sets {
+            cmd.args(["--set", s]);
+        }
+        let out = cmd.output().expect("run");
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    // 5 × 95 + 8 × 135 bits per 1 ms at 1 Mbit/s, and 4 state frames every 100 samples.
+    let classical = check(&[]);
+    assert!(
+        classical.contains("total 1558.8 µs of 1000.0 µs: 155.9 %"),
+        "{classical}"
+    );
+    assert!(
+        classical.contains("# warning: the frames take 155.9 %"),
+        "{classical}"
+    );
+    let fd = check(&[
+        "network.data_bitrate=4000000",
+        "network.sensor_frames=\"packed\"",
+    ]);
+    assert!(fd.contains("1 Mbit/s nominal / 4 Mbit/s data"), "{fd}");
+    assert!(fd.contains("sensor      1.000 frames × 32 B"), "{fd}");
+    assert!(fd.contains(": 63.6 %"), "{fd}");
+    assert!(!fd.contains("# warning"), "{fd}");
+    let reparsed: toml::Table = fd.parse().expect("check prints valid TOML");
+    assert!(reparsed.contains_key("network"));
+}
+
+#[test]
+fn frame_set_keys_are_checked_against_the_kind() {
+    for (file, set, key) in [
+        (
+            "example1-socketcan.toml",
+            "network.sensor_frames=\"packed\"",
+            "network.sensor_frames",
+        ),
+        (
+            "example1-socketcan.toml",
+            "network.plant_frames=true",
+            "network.plant_frames",
+        ),
+        (
+            "example1-socketcan.toml",
+            "network.data_bitrate=500000",
+            "network.data_bitrate",
+        ),
+        (
+            "example1-can.toml",
+            "network.sensor_frames=\"per-agent\"",
+            "network.sensor_frames",
+        ),
+        (
+            "example1-can.toml",
+            "network.lost_command=\"hold\"",
+            "network.lost_command",
+        ),
+        (
+            "example1-pil.toml",
+            "network.data_bitrate=4000000",
+            "network.data_bitrate",
+        ),
+    ] {
+        let out = bin()
+            .arg("check")
+            .arg(scenario(file))
+            .args(["--set", set])
+            .output()
+            .expect("run");
+        let lines = rejected_lines(&out);
+        assert!(
+            lines.iter().any(|l| l.contains(&format!("{key}:"))),
+            "{file} {set}: {lines:?}"
+        );
+    }
+}
+
 /// Exit 2, nothing on standard output, and the stderr lines.
 fn rejected_lines(out: &Output) -> Vec<String> {
     let err = String::from_utf8_lossy(&out.stderr);

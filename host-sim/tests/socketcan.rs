@@ -63,9 +63,12 @@ fn monitor_without_the_interface_fails_with_a_message_not_a_panic() {
         .output()
         .expect("host-sim runs");
     let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{err}");
+    // Bad input, as a missing network.interface is for `run`.
+    assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(
-        err.contains("nosuchcan9") && !err.contains("panicked"),
+        err.contains("invalid option: <interface>: ")
+            && err.contains("nosuchcan9")
+            && !err.contains("panicked"),
         "{err}"
     );
 }

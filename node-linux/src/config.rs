@@ -58,6 +58,35 @@ pub struct NodeSection {
     /// plan, no heartbeat, no supervision.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub supervision: Option<Supervision>,
+    /// Waiting for the host's first sensor frame longer than this ends the node (it never
+    /// started) [s of wall time]; absent: 60.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub start_timeout: Option<f64>,
+    /// CAN FD with bit-rate switching: every frame the node sends is an FD frame with BRS (the
+    /// interface must be in FD mode); absent: classical CAN.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fd: Option<bool>,
+    /// The host packs 8 followers' states into one CAN FD sensor frame
+    /// (`agent_node::plant_bus::encode_packed`; needs `fd`); absent: one sensor frame per agent.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub packed_sensors: Option<bool>,
+}
+
+impl NodeSection {
+    /// Whether the node sends CAN FD frames with bit-rate switching.
+    pub fn fd(&self) -> bool {
+        self.fd.unwrap_or(false)
+    }
+
+    /// Whether the sensor frames are packed.
+    pub fn packed_sensors(&self) -> bool {
+        self.packed_sensors.unwrap_or(false)
+    }
+
+    /// `start_timeout` [s], default 60.
+    pub fn start_timeout(&self) -> f64 {
+        self.start_timeout.unwrap_or(60.0)
+    }
 }
 
 /// `[node.supervision]`: the node supervisor's settings as resolved numbers (host-sim writes
@@ -334,6 +363,19 @@ impl NodeFile {
                 format!("must be at least 2 h time_scale = {least} s"),
             ));
         }
+        let st = node.start_timeout();
+        if !(st.is_finite() && st > 0.0 && st <= 86_400.0) {
+            return Err(ConfigError::new(
+                "node.start_timeout",
+                format!("must be in (0, 86400] s (got {st})"),
+            ));
+        }
+        if node.packed_sensors() && !node.fd() {
+            return Err(ConfigError::new(
+                "node.packed_sensors",
+                "packed sensor frames are CAN FD frames: needs node.fd = true",
+            ));
+        }
         let controller = ControllerConfig::<N>::try_from(file)
             .map_err(|e| ConfigError::new(e.param().key(), e))?;
         if let Some(e) = controller.errors(MAX_NEIGHBOURS).first() {
@@ -343,6 +385,26 @@ impl NodeFile {
             NodeConfig::new(agent, neighbours, ((stale * 1e6).round() as u64).max(1));
         if let Some(s) = &node.supervision {
             s.apply(&mut node_config)?;
+        }
+        // What `Node::new` would refuse, named by key before any socket is opened.
+        let plan = node_config.ids.agents();
+        if agent > plan {
+            return Err(ConfigError::new(
+                "node.agent",
+                format!("{agent} is beyond the identifier plan's {plan} agents (node.supervision.agents)"),
+            ));
+        }
+        if let Some(k) = node.neighbours.iter().position(|&a| a > i64::from(plan)) {
+            return Err(ConfigError::new(
+                format!("node.neighbours[{}]", k + 1),
+                format!("beyond the identifier plan's {plan} agents (node.supervision.agents)"),
+            ));
+        }
+        if node_config.heartbeat_period_us > 0 && node_config.ids.heartbeat_base().is_none() {
+            return Err(ConfigError::new(
+                "node.supervision.heartbeat_id_base",
+                "a heartbeat period needs heartbeat identifiers",
+            ));
         }
         Ok(Self {
             node_config,
@@ -385,6 +447,9 @@ mod tests {
             host_timeout: 0.25,
             time_scale: 1.0,
             supervision: None,
+            start_timeout: None,
+            fd: None,
+            packed_sensors: None,
         }
     }
 
@@ -411,11 +476,28 @@ mod tests {
     #[test]
     fn bad_values_name_their_key() {
         type Case = (fn(&mut NodeSection), &'static str);
-        let cases: [Case; 4] = [
+        fn plan(agents: u8) -> Option<Supervision> {
+            let mut c = NodeConfig::<MAX_NEIGHBOURS>::new(4, [0; MAX_NEIGHBOURS], 2500);
+            c.ids = IdPlan::new(0x101, None, agents).expect("plan");
+            Some(Supervision::of(&c))
+        }
+        let cases: [Case; 8] = [
             (|s| s.agent = 0, "node.agent"),
             (|s| s.neighbours = vec![1, 4], "node.neighbours[2]"),
             (|s| s.interface = String::new(), "node.interface"),
             (|s| s.host_timeout = 0.0, "node.host_timeout"),
+            (|s| s.start_timeout = Some(-1.0), "node.start_timeout"),
+            (|s| s.packed_sensors = Some(true), "node.packed_sensors"),
+            // Agent 4 in a plan of 3 agents: refused before any socket is opened.
+            (|s| s.supervision = plan(3), "node.agent"),
+            (
+                |s| {
+                    s.agent = 2;
+                    s.neighbours = vec![1, 3];
+                    s.supervision = plan(2);
+                },
+                "node.neighbours[2]",
+            ),
         ];
         for (change, key) in cases {
             let mut s = section();

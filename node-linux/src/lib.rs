@@ -11,4 +11,4 @@ pub mod config;
 pub mod run;
 
 pub use config::{ConfigError, NodeFile, NodeSection};
-pub use run::{af_can_available, explain_open_error, open, Stop};
+pub use run::{af_can_available, explain_open_error, on_wire, open, open_fd, Stop};

@@ -10,8 +10,10 @@
 //! monotonic clock, at absolute deadlines half a period after that frame's arrival (so the
 //! host's sample is on the bus before the node's and the command is back before the host's
 //! next one). A deadline missed by more than `h/2` counts as a late tick; when the process falls
-//! a whole period behind, the missed samples are skipped, not run in a burst. It stops on
-//! SIGINT/SIGTERM, and when no sensor frame came for `host_timeout` (the host is gone).
+//! a whole period behind, the missed samples are skipped, not run in a burst. It stops when the
+//! host commands it (the end of a run, [`stop_commanded`]), on SIGINT/SIGTERM, when no sensor
+//! frame came for `host_timeout` while running (the host is gone), and when none came within
+//! `start_timeout` of starting (the run never began).
 
 use std::{
     cell::RefCell,
@@ -28,7 +30,10 @@ use agent_node::{
     plant_bus::{self, Kind, Mode, NodeState, PlantFrame},
     Actuator, Clock, Node, Sensor,
 };
-use socketcan::{CanFilter, CanFrame, CanSocket, Socket, SocketOptions};
+use embedded_can::Frame as _;
+use socketcan::{
+    CanAnyFrame, CanFdFrame, CanFdSocket, CanFilter, CanSocket, Socket, SocketOptions,
+};
 
 use crate::config::{NodeFile, MAX_NEIGHBOURS, N};
 
@@ -38,15 +43,89 @@ pub const HEARTBEAT: Duration = Duration::from_millis(100);
 /// Why the node stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Stop {
+    /// The host commanded it: the normal end of a run ([`stop_commanded`]).
+    Commanded,
     /// SIGINT or SIGTERM.
     Signal,
-    /// No sensor frame within `host_timeout`.
+    /// No sensor frame within `host_timeout` while running.
     HostLost,
+    /// No sensor frame within `start_timeout` of starting: the run never began.
+    NeverStarted,
+}
+
+impl Stop {
+    /// The process exit status (docs/NETWORK.md §11): 0 for a commanded or signalled stop, 3
+    /// when the host went silent or never came.
+    pub fn exit_status(self) -> u8 {
+        match self {
+            Self::Commanded | Self::Signal => 0,
+            Self::HostLost | Self::NeverStarted => 3,
+        }
+    }
+}
+
+/// Whether `frame` (from the plant socket, whose filter passes only the sensor identifier the
+/// node listens to) is the host's command to stop: the one place that decides it, so a CANopen
+/// NMT stop can take over from today's frame ([`plant_bus::stop_frame`]).
+pub fn stop_commanded(frame: &CanAnyFrame, sensor_agent: u8) -> bool {
+    matches!(plant_bus::decode(frame), Some(PlantFrame::Stop(a)) if a == sensor_agent)
 }
 
 /// Opens a CAN socket on `interface` with the error a user can act on.
 pub fn open(interface: &str) -> io::Result<CanSocket> {
     CanSocket::open(interface).map_err(|e| explain_open_error(interface, e))
+}
+
+/// Opens a socket on `interface` that reads and writes classical and CAN FD frames.
+pub fn open_fd(interface: &str) -> io::Result<CanFdSocket> {
+    CanFdSocket::open(interface).map_err(|e| explain_open_error(interface, e))
+}
+
+/// `frame` as it goes on the wire: with `fd` a CAN FD frame with bit-rate switching (same
+/// identifier and data), else a classical frame; `None` for a frame CAN FD cannot carry (a
+/// remote frame) or data beyond 64 bytes.
+pub fn on_wire(frame: &impl embedded_can::Frame, fd: bool) -> Option<CanAnyFrame> {
+    if fd {
+        if frame.is_remote_frame() {
+            return None;
+        }
+        let mut f = CanFdFrame::new(frame.id(), frame.data())?;
+        f.set_brs(true);
+        Some(CanAnyFrame::Fd(f))
+    } else if frame.is_remote_frame() {
+        CanAnyFrame::new_remote(frame.id(), frame.dlc())
+    } else {
+        CanAnyFrame::new(frame.id(), frame.data())
+    }
+}
+
+/// The node's bus socket: classical frames, or every frame sent as CAN FD with bit-rate
+/// switching (`fd`); received frames of either kind go to the `Node` as they are.
+pub struct BusSocket {
+    socket: CanFdSocket,
+    fd: bool,
+}
+
+impl embedded_can::nb::Can for BusSocket {
+    type Frame = CanAnyFrame;
+    type Error = socketcan::Error;
+
+    fn receive(&mut self) -> nb::Result<CanAnyFrame, socketcan::Error> {
+        self.socket.receive()
+    }
+
+    fn transmit(
+        &mut self,
+        frame: &CanAnyFrame,
+    ) -> nb::Result<Option<CanAnyFrame>, socketcan::Error> {
+        match on_wire(frame, self.fd) {
+            Some(f) => self.socket.transmit(&f),
+            None => Err(nb::Error::Other(socketcan::Error::from(io::Error::new(
+                io::ErrorKind::InvalidInput,
+                "a remote frame cannot go out as CAN FD",
+            )))),
+        }
+    }
 }
 
 /// Whether this kernel opens CAN sockets at all (`AF_CAN`, the `can` and `can-raw` modules).
@@ -94,31 +173,57 @@ impl Clock for MonoClock {
 
 /// The plant socket and what came through it.
 struct PlantIo {
-    socket: CanSocket,
+    socket: CanFdSocket,
     agent: u8,
+    /// Frames go out as CAN FD with bit-rate switching.
+    fd: bool,
+    /// Sensor frames are packed: this is the first agent of ours.
+    packed_first: Option<u8>,
     x: Option<[f32; N]>,
     last_rx: Option<Instant>,
     tx_errors: u64,
+    /// The host commanded a stop.
+    stop: bool,
 }
 
 impl PlantIo {
+    /// This agent's state in a sensor frame `f` (its own, or its group's packed one).
+    fn sensor(&self, f: &CanAnyFrame) -> Option<[f32; N]> {
+        match self.packed_first {
+            Some(first) => {
+                let id = Kind::Sensor.id(first)?;
+                if f.id() != embedded_can::Id::Standard(id) || f.is_remote_frame() {
+                    return None;
+                }
+                plant_bus::decode_packed(first, self.agent, f.data())
+            }
+            None => match plant_bus::decode(f) {
+                Some(PlantFrame::Sensor(a, x)) if a == self.agent => Some(x),
+                _ => None,
+            },
+        }
+    }
+
     /// Takes every waiting sensor frame; `true` if at least one came.
     fn drain(&mut self) -> bool {
         let mut got = false;
         while let Ok(f) = self.socket.read_frame() {
-            if let Some(PlantFrame::Sensor(a, x)) = plant_bus::decode(&f) {
-                if a == self.agent {
-                    self.x = Some(x);
-                    self.last_rx = Some(Instant::now());
-                    got = true;
-                }
+            if stop_commanded(&f, self.packed_first.unwrap_or(self.agent)) {
+                self.stop = true;
+                continue;
+            }
+            if let Some(x) = self.sensor(&f) {
+                self.x = Some(x);
+                self.last_rx = Some(Instant::now());
+                got = true;
             }
         }
         got
     }
 
-    fn send(&mut self, f: Option<CanFrame>) {
-        if f.is_none_or(|f| self.socket.write_frame(&f).is_err()) {
+    fn send(&mut self, f: Option<CanAnyFrame>) {
+        let wire = f.and_then(|f| on_wire(&f, self.fd));
+        if wire.is_none_or(|f| self.socket.write_frame(&f).is_err()) {
             self.tx_errors += 1;
         }
     }
@@ -163,7 +268,8 @@ impl Actuator<N> for BusActuator {
 pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
     let agent = cfg.node_config.agent;
     let iface = cfg.node.interface.as_str();
-    let bus = open(iface)?;
+    let fd = cfg.node.fd();
+    let bus = open_fd(iface)?;
     // Everything but the plant-bus frames (0x200..=0x4FF): value frames and heartbeats of
     // whatever identifier plan.
     let plant_block = |base: u16| CanFilter::new_inverted(u32::from(base), 0x700);
@@ -174,24 +280,32 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
     ])?;
     bus.set_join_filters(true)?;
     bus.set_nonblocking(true)?;
-    let plant = open(iface)?;
+    let plant = open_fd(iface)?;
+    let packed_first = if cfg.node.packed_sensors() {
+        plant_bus::packed_first(agent)
+    } else {
+        None
+    };
     let sensor_id = Kind::Sensor
-        .id(agent)
+        .id(packed_first.unwrap_or(agent))
         .map_or(0, |id| u32::from(id.as_raw()));
     plant.set_filters(&[CanFilter::new(sensor_id, 0x7FF)])?;
     plant.set_nonblocking(true)?;
     let io = Rc::new(RefCell::new(PlantIo {
         socket: plant,
         agent,
+        fd,
+        packed_first,
         x: None,
         last_rx: None,
         tx_errors: 0,
+        stop: false,
     }));
-    let mut node: Node<CanSocket, MonoClock, BusSensor, BusActuator, N, N, MAX_NEIGHBOURS> =
+    let mut node: Node<BusSocket, MonoClock, BusSensor, BusActuator, N, N, MAX_NEIGHBOURS> =
         Node::new(
             &cfg.node_config,
             &cfg.controller,
-            bus,
+            BusSocket { socket: bus, fd },
             MonoClock(Instant::now(), cfg.node.time_scale),
             BusSensor(io.clone()),
             BusActuator(io.clone()),
@@ -209,12 +323,24 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
     };
     log::info!("agent {agent}: on {iface}, waiting for the host's sensor frames");
     let mut next_beat = Instant::now();
+    let waiting_since = Instant::now();
+    let start_timeout = Duration::from_secs_f64(cfg.node.start_timeout());
     // Waiting: heartbeats until the first sensor frame.
     let first = loop {
         if stop.load(Ordering::Relaxed) {
             return finish(&io, agent, state, Stop::Signal);
         }
+        if io.borrow().stop {
+            return finish(&io, agent, state, Stop::Commanded);
+        }
         let now = Instant::now();
+        if now.saturating_duration_since(waiting_since) > start_timeout {
+            log::error!(
+                "agent {agent}: no sensor frame within node.start_timeout = {} s: the run never began",
+                start_timeout.as_secs_f64()
+            );
+            return finish(&io, agent, state, Stop::NeverStarted);
+        }
         if now >= next_beat {
             heartbeat(&io, &state);
             next_beat = now + HEARTBEAT;
@@ -240,6 +366,10 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
         }
         if stop.load(Ordering::Relaxed) {
             break Stop::Signal;
+        }
+        io.borrow_mut().drain();
+        if io.borrow().stop {
+            break Stop::Commanded;
         }
         let woke = Instant::now();
         let behind = woke.saturating_duration_since(deadline);
@@ -288,9 +418,12 @@ fn finish(
     reason: Stop,
 ) -> io::Result<Stop> {
     state.mode = match reason {
-        Stop::Signal => Mode::Stopping,
-        Stop::HostLost => Mode::HostLost,
+        Stop::Commanded | Stop::Signal => Mode::Stopping,
+        Stop::HostLost | Stop::NeverStarted => Mode::HostLost,
     };
+    if reason == Stop::Commanded {
+        log::info!("agent {agent}: the host commanded the end of the run");
+    }
     io.borrow_mut().send(state.frame(agent));
     log::info!("agent {agent}: stopped ({})", state.mode.as_str());
     Ok(reason)

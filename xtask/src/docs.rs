@@ -265,7 +265,7 @@ fn short(s: &str) -> String {
 }
 
 /// The figure names (patterns) and what they render.
-pub const CATALOGUE: [(&str, &str); 56] = [
+pub const CATALOGUE: [(&str, &str); 57] = [
     ("bench-table", "target bench table, Cortex-M4F step variants (target/bench/step.json)"),
     ("cores.table", "step per math back-end and node tick on every Cortex-M class (step.json)"),
     ("cores.mcu", "named CAN parts: worst step and node tick at the part's clock, share of 1 kHz, verdict"),
@@ -305,6 +305,7 @@ pub const CATALOGUE: [(&str, &str); 56] = [
     ("network.silent.KEY", "agent 3 silent 5–7 s (KEY: held, agent4-error, agent4-x2, recovered, without, stale-samples)"),
     ("network.starved.KEY", "a babbling node for 0.2–0.5 s without safety (KEY: escape, yd-moved, max-x-0.3, max-x-0.2)"),
     ("network.scenarios", "NETWORK §7 table: shipped CAN scenarios and --set variants"),
+    ("network.bench-load", "NETWORK §11 table: the bench's frame sets, worst-case load (host-sim check) and modelled (kind = can, plant_frames)"),
     ("network.lossy.KEY", "example1-lossy by window (KEY: before, silent, return, after, max-u-return, ideal-after, after-vs-ideal)"),
     ("network.trace.KEY", "0.3 s of example1-can --trace decoded by cantools with docs/wire.dbc (KEY: frames, max-diff)"),
     ("network.pil-lossy.KEY", "example1-lossy over 7.5 s, which PIL matches (KEY: lost, stale, suppressed, can-sent)"),

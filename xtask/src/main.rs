@@ -38,6 +38,7 @@ mod gate;
 mod softfloat;
 mod target;
 mod trace;
+mod trace_load;
 mod vm;
 
 use std::{
@@ -85,6 +86,10 @@ tasks:
       rustdoc's coverage report of controller-core (default features and serde) with the
       pinned nightly-2026-05-19; fail if an item lacks documentation or fewer items than the
       count reached (xtask/src/doccov.rs) carry a runnable example
+  trace-load <candump log> --bitrate B [--data-bitrate D] [--h S]
+      the bus time per sample (one leader value frame) of the frames of a `--trace` log, by
+      frame kind, with the worst-case bit lengths of agent_node::bus_load at the given bit
+      rates (CAN FD lines with bit-rate switching at D), and its share of h (default 1 ms)
   vm [--can N] [--bitrate B] [--mem MIB] [--smp N] [--timeout S] [--verbose] -- <command…>
       boot a QEMU x86_64 Linux guest (Debian kernel, busybox initramfs, cached under
       target/vm/) with vcan0 up (and can0..canN-1 on emulated Kvaser PCI SJA1000
@@ -98,6 +103,15 @@ fn main() -> ExitCode {
         eprint!("{USAGE}");
         return ExitCode::from(2);
     };
+    if task == "trace-load" {
+        return match trace_load::trace_load(&args[1..]) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::FAILURE
+            }
+        };
+    }
     if task == "vm" {
         return vm::vm(&args[1..]).unwrap_or_else(|e| {
             eprintln!("error: {e}");

@@ -86,8 +86,10 @@ pub fn execute(a: RunArgs) -> Result<()> {
     }
     .options(&setup)?;
     let r = run(&setup, &opts)?;
+    // The outputs are written; a bench whose node was lost still fails (exit 3).
+    let lost = lost_nodes(&r.summary);
     if a.quiet {
-        return Ok(());
+        return lost;
     }
     let s = &r.summary;
     outln!(
@@ -123,5 +125,33 @@ pub fn execute(a: RunArgs) -> Result<()> {
         );
     }
     outln!("wrote {}", a.out.display());
-    Ok(())
+    lost
+}
+
+/// `Err` (exit 3) naming every follower of a bench on a real bus that was lost at the end of
+/// the run (`socketcan.agents[].state = "lost"`).
+fn lost_nodes(s: &host_sim::metrics::Summary) -> Result<()> {
+    let Some(sc) = &s.socketcan else {
+        return Ok(());
+    };
+    let lost: Vec<String> = sc
+        .agents
+        .iter()
+        .filter(|a| a.state == Some("lost"))
+        .map(|a| {
+            format!(
+                "agent {} lost at t = {:.3} s",
+                a.agent,
+                a.lost_at_s.unwrap_or(f64::NAN)
+            )
+        })
+        .collect();
+    if lost.is_empty() {
+        Ok(())
+    } else {
+        Err(host_sim::error::Error::Bench(format!(
+            "{} (the plant applied network.lost_command to it; outputs written)",
+            lost.join(", ")
+        )))
+    }
 }

@@ -28,6 +28,7 @@ pub struct CanAgents<const N: usize, const M: usize> {
     net: CanNetwork<N, M, K>,
     h_ns: Nanos,
     bitrate: u32,
+    data_bitrate: Option<u32>,
     states: Vec<[f32; N]>,
     trace: Option<TraceWriter>,
     /// `summary.json` `network.nodes[]` is written (a `[node]` section was given).
@@ -56,8 +57,14 @@ impl<const N: usize, const M: usize> CanAgents<N, M> {
             });
         }
         let cfg = bus_config(spec, h);
-        let bitrate = cfg.bitrate;
+        let (bitrate, data_bitrate) = (cfg.bitrate, cfg.data_bitrate);
         let mut net = CanNetwork::new(cfg, &agents).map_err(|e| Error::invalid("network", e))?;
+        if let Some(plant) = spec
+            .frame_set(graph.len(), h, node.heartbeat_period)
+            .and_then(|set| set.plant)
+        {
+            net.put_plant_on_bus(plant);
+        }
         let trace = trace.map(TraceWriter::create).transpose()?;
         if trace.is_some() {
             net.bus_mut().record_wire();
@@ -66,6 +73,7 @@ impl<const N: usize, const M: usize> CanAgents<N, M> {
             net,
             h_ns: ns(h),
             bitrate,
+            data_bitrate,
             states: vec![[0.0; N]; graph.len()],
             trace,
             report_nodes: !node.is_default(),
@@ -101,6 +109,7 @@ impl<const N: usize, const M: usize> CanAgents<N, M> {
                 .map(|n| u64::from(n.stats().stale_samples))
                 .sum(),
         );
+        summary.data_bitrate = self.data_bitrate;
         if self.report_nodes {
             summary.nodes = nodes
                 .iter()
@@ -148,6 +157,9 @@ impl<const N: usize, const M: usize> Agents<N, M> for CanAgents<N, M> {
     ) -> Result<StepOutput<N, M>> {
         let t_ns = ns(t);
         let xs = x.map(|v| v as f32);
+        if let Some(s) = self.states.get_mut(i) {
+            *s = xs;
+        }
         let tick = self.net.tick_at(i, t_ns, now_us, Some(&xs));
         self.ages.clear();
         self.net.link_ages(i, t_ns, now_us, &mut self.ages);
@@ -157,6 +169,7 @@ impl<const N: usize, const M: usize> Agents<N, M> for CanAgents<N, M> {
 
     fn leader_sends(&mut self, _k: u64, t: f64, yd: f64) -> Result<()> {
         self.net.send_leader(ns(t), yd as f32);
+        self.net.send_sensors(ns(t), &self.states);
         Ok(())
     }
 

@@ -35,8 +35,8 @@ pub use crate::network::{
     pil::PilAgents,
     socketcan::SocketcanAgents,
     spec::{
-        bus_config, validate, EventName, NetworkEvent, NetworkKind, NetworkSpec, MAX_BITRATE,
-        MAX_CAN_AGENTS,
+        bus_config, validate, EventName, NetworkEvent, NetworkKind, NetworkSpec, SensorFramesName,
+        MAX_BITRATE, MAX_CAN_AGENTS, STATE_PERIOD_S,
     },
     trace::Traces,
 };

@@ -23,20 +23,22 @@
 use std::{
     path::{Path, PathBuf},
     process::{Child, Command},
-    sync::Mutex,
+    sync::{Arc, Mutex},
     time::{Duration, Instant, SystemTime},
 };
 
 use agent_node::{
-    plant_bus::{self, Kind, Mode, PlantFrame},
+    bus_load::SensorFrames,
+    plant_bus::{self, Kind, Mode, PlantFrame, PACKED_SENSOR_AGENTS},
     wire::{self, Source},
 };
 use controller_core::{ControllerConfig, Gains, Params, StepOutput};
+use embedded_can::Frame as _;
 use node_linux::{
     config::{NodeSection, Supervision},
-    NodeFile,
+    on_wire, NodeFile,
 };
-use socketcan::{CanFilter, CanFrame, CanSocket, Socket, SocketOptions};
+use socketcan::{CanAnyFrame, CanFdSocket, CanFilter, Socket, SocketOptions};
 
 use crate::{
     error::{Error, Result},
@@ -47,14 +49,69 @@ use crate::{
     figures::{AgentCommands, SocketcanSummary},
     graph::Graph,
     network::{
-        spec::{node_config, NetworkSpec, NodesMode},
-        trace::{candump_line, TraceWriter},
+        spec::{node_config, LostCommand, NetworkSpec, NodesMode},
+        trace::{candump_fd_frame_line, candump_line, TraceWriter},
     },
     sim::{Agents, K},
 };
 
 /// Process groups of running node processes, stopped by the interrupt hook.
 static GROUPS: Mutex<Vec<i32>> = Mutex::new(Vec::new());
+
+/// The `--trace` of the run, drained and flushed by the interrupt hook.
+static TRACE: Mutex<Option<Arc<Mutex<BusTrace>>>> = Mutex::new(None);
+
+/// `--trace` on a Linux interface: a socket of its own that receives every frame (classical
+/// and CAN FD) with its kernel receive time (`SO_TIMESTAMPNS`), and the candump log.
+struct BusTrace {
+    socket: CanFdSocket,
+    writer: TraceWriter,
+    interface: String,
+    /// Wall time the socket was opened: the log's time origin, fixed for the whole run.
+    origin: SystemTime,
+    /// The last stamp written [ns]: stamps never step back.
+    last_ns: u64,
+}
+
+impl BusTrace {
+    /// Writes every frame waiting on the socket, stamped with its kernel receive time since
+    /// the origin.
+    fn drain(&mut self) {
+        let mut lines = Vec::new();
+        while let Ok((f, at)) = self.socket.read_frame_with_timestamp() {
+            let ns = at
+                .duration_since(self.origin)
+                .map_or(0, |d| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX))
+                .max(self.last_ns);
+            self.last_ns = ns;
+            match &f {
+                CanAnyFrame::Normal(_) | CanAnyFrame::Remote(_) => {
+                    lines.push(candump_line(ns, &self.interface, &f));
+                }
+                CanAnyFrame::Fd(fd) => {
+                    lines.push(candump_fd_frame_line(ns, &self.interface, &f, fd.is_brs()));
+                }
+                CanAnyFrame::Error(_) => {}
+            }
+        }
+        self.writer.write_lines(lines);
+    }
+
+    /// Drains and flushes the file.
+    fn finish(&mut self) -> Result<()> {
+        self.drain();
+        self.writer.finish()
+    }
+}
+
+fn flush_trace_on_interrupt() {
+    let trace = TRACE.lock().ok().and_then(|t| t.clone());
+    if let Some(t) = trace {
+        if let Ok(mut t) = t.lock() {
+            let _ = t.finish();
+        }
+    }
+}
 
 fn stop_groups_on_interrupt() {
     if let Ok(groups) = GROUPS.lock() {
@@ -80,7 +137,15 @@ struct Agent {
     state: Option<plant_bus::NodeState>,
     /// Cumulative late commands at each sample (the figure).
     late_series: Vec<u32>,
+    /// Command frames since the start of the current duplicate window.
+    window_received: u64,
 }
+
+/// Sample periods of wall time (`h time_scale`) over which the command frames of each follower
+/// are counted for a duplicate identity: a node sends at most one per period on its own timer
+/// (a stalled host does not change that), so more than 1.5 per period means two nodes send as
+/// the same agent.
+const DUPLICATE_WINDOW: u32 = 200;
 
 /// The node processes of `nodes = "spawn"`, stopped when dropped.
 struct Spawned {
@@ -123,6 +188,25 @@ impl Spawned {
     }
 }
 
+impl Spawned {
+    /// Waits up to `limit` for every node process to exit by itself (after a stop command).
+    fn wait_for_exit(&mut self, limit: Duration) {
+        let until = Instant::now() + limit;
+        while Instant::now() < until {
+            let mut running = 0;
+            for (_, c) in &mut self.children {
+                if matches!(c.try_wait(), Ok(None)) {
+                    running += 1;
+                }
+            }
+            if running == 0 {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+}
+
 impl Drop for Spawned {
     fn drop(&mut self) {
         self.stop();
@@ -134,8 +218,16 @@ impl Drop for Spawned {
 
 /// The agents of `kind = "socketcan"`: node processes on a Linux CAN interface.
 pub struct SocketcanAgents<const N: usize, const M: usize> {
-    socket: CanSocket,
-    trace_socket: Option<(CanSocket, TraceWriter)>,
+    socket: CanFdSocket,
+    trace: Option<Arc<Mutex<BusTrace>>>,
+    /// Frames go out as CAN FD with bit-rate switching (`network.data_bitrate`).
+    fd: bool,
+    /// How the sensor frames are laid out.
+    sensor_frames: SensorFrames,
+    /// What the plant applies to a lost follower.
+    lost_command: LostCommand,
+    /// Start of the current duplicate-identity window (wall time).
+    duplicate_window: Option<Instant>,
     interface: String,
     mode: NodesMode,
     /// The sample period in wall time (`h time_scale`).
@@ -156,9 +248,10 @@ pub struct SocketcanAgents<const N: usize, const M: usize> {
     started: Option<Instant>,
 }
 
-/// Opens `interface` for host-sim, with the error naming `network.interface`.
-fn open(interface: &str) -> Result<CanSocket> {
-    let s = node_linux::open(interface)
+/// Opens `interface` for host-sim (classical and CAN FD frames), with the error naming
+/// `network.interface`.
+fn open(interface: &str) -> Result<CanFdSocket> {
+    let s = node_linux::run::open_fd(interface)
         .map_err(|e| Error::invalid("network.interface", e.to_string()))?;
     s.set_nonblocking(true)
         .map_err(|e| Error::Io(format!("{interface}: {e}")))?;
@@ -186,17 +279,33 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
         }
         let interface = spec.interface().to_owned();
         let socket = open(&interface)?;
+        if spec.data_bitrate.is_some() {
+            for name in std::iter::once(&interface).chain(spec.node_interfaces.iter().flatten()) {
+                check_fd_mode(name, spec)?;
+            }
+        }
         let cmd = u32::from(plant_bus::COMMAND_BASE);
         let state = u32::from(plant_bus::STATE_BASE);
         socket
             .set_filters(&[CanFilter::new(cmd, 0x700), CanFilter::new(state, 0x700)])
             .map_err(|e| Error::Io(format!("{interface}: {e}")))?;
-        let trace_socket = match trace {
+        let trace = match trace {
             Some(p) => {
                 let s = open(&interface)?;
                 s.set_recv_timestamp(true)
                     .map_err(|e| Error::Io(format!("{interface}: {e}")))?;
-                Some((s, TraceWriter::create(p)?))
+                let t = Arc::new(Mutex::new(BusTrace {
+                    socket: s,
+                    writer: TraceWriter::create(p)?,
+                    interface: interface.clone(),
+                    origin: SystemTime::now(),
+                    last_ns: 0,
+                }));
+                if let Ok(mut slot) = TRACE.lock() {
+                    *slot = Some(t.clone());
+                }
+                crate::report::also_on_interrupt(flush_trace_on_interrupt);
+                Some(t)
             }
             None => None,
         };
@@ -246,6 +355,9 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                 host_timeout: node_timeout,
                 time_scale: spec.time_scale(),
                 supervision: Some(Supervision::of(&nc)),
+                start_timeout: Some(spec.start_timeout() + node_timeout),
+                fd: spec.data_bitrate.map(|_| true),
+                packed_sensors: (spec.sensor_frames() == SensorFrames::Packed).then_some(true),
             };
             let text = NodeFile::to_toml(&section, *c)
                 .map_err(|e| Error::Io(format!("node configuration of agent {}: {e}", i + 1)))?;
@@ -301,7 +413,11 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
         );
         Ok(Self {
             socket,
-            trace_socket,
+            trace,
+            fd: spec.data_bitrate.is_some(),
+            sensor_frames: spec.sensor_frames(),
+            lost_command: spec.lost_command.unwrap_or_default(),
+            duplicate_window: None,
             interface,
             mode,
             h: Duration::from_secs_f64(h * spec.time_scale()),
@@ -318,6 +434,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                     lost_at: None,
                     state: None,
                     late_series: Vec::new(),
+                    window_received: 0,
                 })
                 .collect(),
             lateness: Vec::new(),
@@ -348,7 +465,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                     .filter(|(_, a)| a.state.is_none())
                     .map(|(i, _)| (i + 1).to_string())
                     .collect();
-                return Err(Error::Io(format!(
+                return Err(Error::Bench(format!(
                     "no node of agent(s) {} on {} within network.start_timeout = {} s ({})",
                     missing.join(", "),
                     self.interface,
@@ -392,6 +509,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                     if let Some(ag) = self.agents.get_mut(usize::from(a) - 1) {
                         ag.q = q;
                         ag.received += 1;
+                        ag.window_received += 1;
                         ag.this_sample += 1;
                         ag.last_rx = Some(now);
                     }
@@ -411,22 +529,83 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                 _ => {}
             }
         }
-        if let (Some((s, w)), Some((_, sys0))) = (self.trace_socket.as_mut(), self.t0) {
-            let mut lines = Vec::new();
-            while let Ok((f, at)) = s.read_frame_with_timestamp() {
-                let ns = at.duration_since(sys0).map_or(0, |d| d.as_nanos() as u64);
-                if let CanFrame::Data(_) | CanFrame::Remote(_) = f {
-                    lines.push(candump_line(ns, &self.interface, &f));
-                }
-            }
-            w.write_lines(lines);
+        if let Some(Ok(mut t)) = self.trace.as_ref().map(|t| t.lock()) {
+            t.drain();
         }
     }
 
-    fn send(&mut self, f: Option<CanFrame>) {
-        match f.map(|f| self.socket.write_frame(&f)) {
+    /// A follower whose command frames came more than 1.5 times per sample over the last
+    /// window is two nodes with one identity (a CANopen node-ID duplicate): an error naming it.
+    fn check_duplicates(&mut self, t: f64) -> Result<()> {
+        let limit = u64::from(DUPLICATE_WINDOW + DUPLICATE_WINDOW / 2);
+        let dup = self
+            .agents
+            .iter()
+            .enumerate()
+            .find(|(_, a)| a.window_received > limit)
+            .map(|(i, a)| (i + 1, a.window_received));
+        for a in &mut self.agents {
+            a.window_received = 0;
+        }
+        match dup {
+            Some((agent, n)) => Err(Error::Bench(format!(
+                "t = {t:.3} s: {n} command frames of agent {agent} in {DUPLICATE_WINDOW} periods: \
+                 two nodes send as agent {agent} (one identity, node.agent, on two nodes)"
+            ))),
+            None => Ok(()),
+        }
+    }
+
+    /// Stops the nodes at the end of a run: the one place that commands it, so a CANopen NMT
+    /// stop can take over from today's frame ([`plant_bus::stop_frame`], one per sensor
+    /// identifier).
+    fn stop_the_nodes(&mut self) {
+        let n = self.agents.len();
+        let firsts: Vec<u8> = match self.sensor_frames {
+            SensorFrames::PerAgent => (1..=n).filter_map(|i| u8::try_from(i).ok()).collect(),
+            SensorFrames::Packed => (1..=n)
+                .step_by(usize::from(PACKED_SENSOR_AGENTS))
+                .filter_map(|i| u8::try_from(i).ok())
+                .collect(),
+        };
+        for first in firsts {
+            self.send(plant_bus::stop_frame(first));
+        }
+    }
+
+    /// Sends `f` as it goes on this bus (CAN FD with bit-rate switching with `fd`).
+    fn send(&mut self, f: Option<CanAnyFrame>) {
+        match f
+            .and_then(|f| on_wire(&f, self.fd))
+            .map(|f| self.socket.write_frame(&f))
+        {
             Some(Ok(())) => self.frames_sent += 1,
             _ => self.send_errors += 1,
+        }
+    }
+
+    /// The sensor frames of the states `x` (agent `i + 1` at index `i`): one per agent, or one
+    /// CAN FD frame per 8 agents.
+    fn send_sensors(&mut self, x: &[[f64; 2]]) {
+        let pairs: Vec<[f32; 2]> = x.iter().map(|v| [v[0] as f32, v[1] as f32]).collect();
+        match self.sensor_frames {
+            SensorFrames::PerAgent => {
+                for (i, v) in pairs.iter().enumerate() {
+                    let agent = u8::try_from(i + 1).unwrap_or(0);
+                    self.send(plant_bus::pair_frame(Kind::Sensor, agent, *v));
+                }
+            }
+            SensorFrames::Packed => {
+                let per = usize::from(PACKED_SENSOR_AGENTS);
+                for (g, group) in pairs.chunks(per).enumerate() {
+                    let first = u8::try_from(g * per + 1).unwrap_or(0);
+                    let mut data = [0u8; 64];
+                    let frame = plant_bus::encode_packed(group, &mut data).and_then(|len| {
+                        CanAnyFrame::new(Kind::Sensor.id(first)?, data.get(..len)?)
+                    });
+                    self.send(frame);
+                }
+            }
         }
     }
 
@@ -468,12 +647,43 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                     late: a.late,
                     missing: samples.saturating_sub(a.received),
                     lost_at_s: a.lost_at,
-                    state: a.state.map(|s| s.mode.as_str()),
+                    // A node silent at the end is lost, whatever its last state frame said.
+                    state: if a.lost_at.is_some() {
+                        Some("lost")
+                    } else {
+                        a.state.map(|s| s.mode.as_str())
+                    },
                     node_late_ticks: a.state.map(|s| s.late_ticks),
                 })
                 .collect(),
         }
     }
+}
+
+/// With `network.data_bitrate`, `interface` must carry CAN FD frames (MTU 72, Linux's
+/// `CANFD_MTU`): an error naming the key and the command otherwise. An MTU that cannot be read
+/// is left to the first send.
+fn check_fd_mode(interface: &str, spec: &NetworkSpec) -> Result<()> {
+    let path = format!("/sys/class/net/{interface}/mtu");
+    let Some(mtu) = std::fs::read_to_string(path)
+        .ok()
+        .and_then(|t| t.trim().parse::<u32>().ok())
+    else {
+        return Ok(());
+    };
+    if mtu >= 72 {
+        return Ok(());
+    }
+    Err(Error::invalid(
+        "network.data_bitrate",
+        format!(
+            "CAN FD frames need an interface in FD mode, and `{interface}` has MTU {mtu}: \
+             `ip link set {interface} mtu 72` for a vcan (down first), `ip link set \
+             {interface} type can bitrate {} dbitrate {} fd on` for a controller",
+            spec.bitrate,
+            spec.data_bitrate.unwrap_or(spec.bitrate)
+        ),
+    ))
 }
 
 /// The first identifier of the plant-bus frames.
@@ -550,16 +760,27 @@ impl<const N: usize, const M: usize> Agents<N, M> for SocketcanAgents<N, M> {
                 eprintln!("host-sim: t = {t:.3} s: agent {} is back", i + 1);
             }
         }
-        let seq = (k % u64::from(wire::SEQ_MODULUS)) as u8;
-        self.send(wire::encode::<CanFrame>(Source::Leader, yd as f32, seq).map(|(f, _)| f));
-        for (i, xi) in x.iter().enumerate() {
-            let agent = u8::try_from(i + 1).unwrap_or(0);
-            let v = [xi[0] as f32, xi.get(1).copied().unwrap_or(0.0) as f32];
-            self.send(plant_bus::pair_frame(Kind::Sensor, agent, v));
+        let window_start = *self.duplicate_window.get_or_insert(woke);
+        if woke.saturating_duration_since(window_start) >= self.h * DUPLICATE_WINDOW {
+            self.duplicate_window = Some(woke);
+            self.check_duplicates(t)?;
         }
+        let seq = (k % u64::from(wire::SEQ_MODULUS)) as u8;
+        self.send(wire::encode::<CanAnyFrame>(Source::Leader, yd as f32, seq).map(|(f, _)| f));
+        let pairs: Vec<[f64; 2]> = x
+            .iter()
+            .map(|xi| [xi[0], xi.get(1).copied().unwrap_or(0.0)])
+            .collect();
+        self.send_sensors(&pairs);
+        let zero_lost = self.lost_command == LostCommand::Zero;
         out.extend(self.agents.iter().map(|a| {
             let mut o = super::unreported_output::<N, M>();
-            for (d, s) in o.q.iter_mut().zip(a.q) {
+            let q = if zero_lost && a.lost_at.is_some() {
+                [0.0; 2]
+            } else {
+                a.q
+            };
+            for (d, s) in o.q.iter_mut().zip(q) {
                 *d = s;
             }
             o.u = o.q;
@@ -635,11 +856,18 @@ impl<const N: usize, const M: usize> Agents<N, M> for SocketcanAgents<N, M> {
     }
 
     fn finish(&mut self) -> Result<()> {
+        self.stop_the_nodes();
+        self.nodes.wait_for_exit(Duration::from_secs(1));
         self.nodes.stop();
         self.drain(Instant::now(), self.last_t);
-        match self.trace_socket.as_mut() {
-            Some((_, w)) => w.finish(),
+        let result = match self.trace.as_ref().map(|t| t.lock()) {
+            Some(Ok(mut t)) => t.finish(),
+            Some(Err(_)) => Err(Error::Io("the bus trace's lock was poisoned".into())),
             None => Ok(()),
+        };
+        if let Ok(mut slot) = TRACE.lock() {
+            *slot = None;
         }
+        result
     }
 }

@@ -1,6 +1,9 @@
 //! The `[network]` section: its keys, their validation and the bus settings they give.
 
-use agent_node::NodeConfig;
+use agent_node::{
+    bus_load::{Bitrates, FrameSet, PlantFrames, SensorFrames},
+    NodeConfig,
+};
 use hil_mock::bus::{BusConfig, BusEvent, EventKind, Nanos};
 use serde::{Deserialize, Serialize};
 
@@ -172,6 +175,74 @@ pub struct NetworkSpec {
     /// the host-sim executable, else on `PATH`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub node_program: Option<String>,
+    /// `kind = "socketcan"`: the command the plant applies to a lost follower (no command
+    /// frame for `node_timeout`): `"zero"` (default) or `"hold"` its last command.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lost_command: Option<LostCommand>,
+    /// CAN FD with bit-rate switching: the data-phase bit rate [bit/s] (`bitrate` is then the
+    /// nominal, arbitration, rate); absent: classical CAN.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub data_bitrate: Option<i64>,
+    /// `"per-agent"` (default: one sensor frame per follower) or `"packed"` (one CAN FD frame
+    /// per 8 followers; needs `data_bitrate`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sensor_frames: Option<SensorFramesName>,
+    /// `kind = "can"`: also put the plant's frames of a bench (sensor, command, state) on the
+    /// modelled bus, so it carries the frame set of `kind = "socketcan"`; absent: false.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub plant_frames: Option<bool>,
+}
+
+/// `network.lost_command`: what the plant applies to a lost follower.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LostCommand {
+    /// Zero on every actuator from the moment the node is lost (it held the last command
+    /// until then, as for any late command).
+    #[default]
+    Zero,
+    /// The last command, for as long as the node stays silent.
+    Hold,
+}
+
+impl LostCommand {
+    /// The TOML spelling.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::Zero => "zero",
+            Self::Hold => "hold",
+        }
+    }
+}
+
+/// `network.sensor_frames`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SensorFramesName {
+    /// One sensor frame per follower.
+    #[default]
+    PerAgent,
+    /// One CAN FD frame per [`agent_node::plant_bus::PACKED_SENSOR_AGENTS`] followers.
+    Packed,
+}
+
+impl SensorFramesName {
+    /// The TOML spelling.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Self::PerAgent => "per-agent",
+            Self::Packed => "packed",
+        }
+    }
+}
+
+impl From<SensorFramesName> for SensorFrames {
+    fn from(v: SensorFramesName) -> Self {
+        match v {
+            SensorFramesName::PerAgent => Self::PerAgent,
+            SensorFramesName::Packed => Self::Packed,
+        }
+    }
 }
 
 impl Default for NetworkSpec {
@@ -193,6 +264,10 @@ impl Default for NetworkSpec {
             start_timeout: None,
             node_dir: None,
             node_program: None,
+            lost_command: None,
+            data_bitrate: None,
+            sensor_frames: None,
+            plant_frames: None,
         }
     }
 }
@@ -219,14 +294,57 @@ impl NetworkSpec {
         self.time_scale.unwrap_or(1.0)
     }
 
+    /// The bus's bit rates: `bitrate`, and `data_bitrate` for CAN FD.
+    pub fn bitrates(&self) -> Bitrates {
+        let rate = |r: i64| u32::try_from(r).unwrap_or(u32::MAX);
+        Bitrates {
+            nominal: rate(self.bitrate),
+            data: self.data_bitrate.map(rate),
+        }
+    }
+
+    /// `sensor_frames`, default one per follower.
+    pub fn sensor_frames(&self) -> SensorFrames {
+        self.sensor_frames.unwrap_or_default().into()
+    }
+
+    /// Whether the plant's frames are on the bus: always with `kind = "socketcan"` (a bench),
+    /// with `plant_frames = true` on the modelled bus of `kind = "can"`.
+    pub fn plant_on_bus(&self) -> bool {
+        self.kind == NetworkKind::Socketcan
+            || (self.kind == NetworkKind::Can && self.plant_frames.unwrap_or(false))
+    }
+
+    /// The frames this section puts on its bus for `agents` followers, sample period `h` [s]
+    /// and node heartbeat period `heartbeat` [s] (0: none); `None` for the ideal kind.
+    pub fn frame_set(&self, agents: usize, h: f64, heartbeat: f64) -> Option<FrameSet> {
+        if self.kind == NetworkKind::Ideal {
+            return None;
+        }
+        let us = |s: f64| (s * 1e6).round() as u64;
+        Some(FrameSet {
+            agents: u8::try_from(agents).unwrap_or(u8::MAX),
+            rates: self.bitrates(),
+            sample_period_us: us(h),
+            heartbeat_period_us: us(heartbeat),
+            plant: self.plant_on_bus().then_some(PlantFrames {
+                sensor: self.sensor_frames(),
+                state_period_us: us(STATE_PERIOD_S),
+            }),
+        })
+    }
+
     /// `start_timeout` [s], default 30.
     pub fn start_timeout(&self) -> f64 {
         self.start_timeout.unwrap_or(30.0)
     }
 }
 
-/// Largest bit rate accepted (10 Mbit/s, beyond classical CAN's 1 Mbit/s on purpose).
+/// Largest bit rate accepted (10 Mbit/s, beyond classical CAN's 1 Mbit/s on purpose); also
+/// the largest CAN FD data bit rate.
 pub const MAX_BITRATE: i64 = 10_000_000;
+/// A bench node sends its state frame this often [s] (and on every change).
+pub const STATE_PERIOD_S: f64 = 0.1;
 /// Largest agent number a CAN identifier can carry (`0x100 + i ≤ 0x1FF`).
 pub const MAX_CAN_AGENTS: usize = 255;
 
@@ -290,6 +408,7 @@ pub fn validate(spec: &NetworkSpec, agents: usize, h: f64, t_end: f64) -> Result
             format!("must be in [0, 1] s (got {})", spec.latency),
         ));
     }
+    check_frame_set(spec)?;
     probability(spec.loss, "network.loss")?;
     probability(spec.corruption, "network.corruption")?;
     if let Some(s) = spec.stale_timeout {
@@ -455,6 +574,48 @@ pub fn validate(spec: &NetworkSpec, agents: usize, h: f64, t_end: f64) -> Result
     Ok(())
 }
 
+/// `data_bitrate`, `sensor_frames`, `plant_frames`: in range and consistent.
+fn check_frame_set(spec: &NetworkSpec) -> Result<()> {
+    if let Some(d) = spec.data_bitrate {
+        if !(spec.bitrate..=MAX_BITRATE).contains(&d) {
+            return Err(Error::invalid(
+                "network.data_bitrate",
+                format!(
+                    "must lie in network.bitrate..={MAX_BITRATE} = {}..={MAX_BITRATE} bit/s (got {d})",
+                    spec.bitrate
+                ),
+            ));
+        }
+        if spec.kind == NetworkKind::Pil {
+            return Err(Error::invalid(
+                "network.data_bitrate",
+                "not for network.kind = \"pil\": the node firmware's serial link carries \
+                 classical frames only",
+            ));
+        }
+    }
+    if spec.sensor_frames == Some(SensorFramesName::Packed) && spec.data_bitrate.is_none() {
+        return Err(Error::invalid(
+            "network.sensor_frames",
+            "\"packed\" sends CAN FD frames of up to 64 bytes: give network.data_bitrate",
+        ));
+    }
+    if spec.sensor_frames.is_some() && !spec.plant_on_bus() {
+        return Err(Error::invalid(
+            "network.sensor_frames",
+            "only when the plant's frames are on the bus: network.kind = \"socketcan\", or \
+             \"can\" with plant_frames = true",
+        ));
+    }
+    if spec.plant_frames.is_some() && spec.kind != NetworkKind::Can {
+        return Err(Error::invalid(
+            "network.plant_frames",
+            "only for network.kind = \"can\" (\"socketcan\" always has them)",
+        ));
+    }
+    Ok(())
+}
+
 /// The keys of `kind = "socketcan"`: only with that kind, and in range.
 fn check_socketcan(spec: &NetworkSpec, h: f64) -> Result<()> {
     let given = [
@@ -466,6 +627,7 @@ fn check_socketcan(spec: &NetworkSpec, h: f64) -> Result<()> {
         ("network.start_timeout", spec.start_timeout.is_some()),
         ("network.node_dir", spec.node_dir.is_some()),
         ("network.node_program", spec.node_program.is_some()),
+        ("network.lost_command", spec.lost_command.is_some()),
     ];
     if spec.kind != NetworkKind::Socketcan {
         if let Some((key, _)) = given.iter().find(|(_, g)| *g) {
@@ -528,7 +690,8 @@ fn check_socketcan(spec: &NetworkSpec, h: f64) -> Result<()> {
 /// frame is one sample).
 pub fn bus_config(spec: &NetworkSpec, h: f64) -> BusConfig {
     BusConfig {
-        bitrate: u32::try_from(spec.bitrate).unwrap_or(u32::MAX),
+        bitrate: spec.bitrates().nominal,
+        data_bitrate: spec.bitrates().data,
         latency_ns: ns(spec.latency),
         loss: spec.loss,
         corruption: spec.corruption,

@@ -80,6 +80,35 @@ pub fn candump_fd_line(t_ns: Nanos, interface: &str, id: u32, data: &[u8]) -> St
     s
 }
 
+/// One candump log line of a CAN FD frame (`<ID>##<flags><DATA hex>`, flags `1` with
+/// bit-rate switching, else `0`), seen at `t_ns` on `interface`.
+///
+/// ```
+/// use embedded_can::{Frame, StandardId};
+/// use hil_mock::mock::MockFrame;
+/// let f = MockFrame::new(StandardId::new(0x201).unwrap(), &[1, 2]).unwrap();
+/// assert_eq!(
+///     host_sim::network::trace::candump_fd_frame_line(3_000, "vcan0", &f, true),
+///     "(0.000003) vcan0 201##10102"
+/// );
+/// ```
+pub fn candump_fd_frame_line<F: Frame>(
+    t_ns: Nanos,
+    interface: &str,
+    frame: &F,
+    brs: bool,
+) -> String {
+    let mut s = stamp(t_ns, interface);
+    let _ = match frame.id() {
+        Id::Standard(id) => write!(s, "{:03X}##{}", id.as_raw(), u8::from(brs)),
+        Id::Extended(id) => write!(s, "{:08X}##{}", id.as_raw(), u8::from(brs)),
+    };
+    for b in frame.data() {
+        let _ = write!(s, "{b:02X}");
+    }
+    s
+}
+
 fn stamp(t_ns: Nanos, interface: &str) -> String {
     let us = t_ns / 1000;
     format!("({}.{:06}) {interface} ", us / 1_000_000, us % 1_000_000)

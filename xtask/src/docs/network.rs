@@ -134,7 +134,7 @@ pub fn lossy_key(key: &str) -> bool {
 /// Whether `name` (after `network.`) is a figure of this family.
 pub fn known(name: &str) -> bool {
     match name.split_once('.') {
-        None => ["bus", "scenarios"].contains(&name),
+        None => ["bus", "scenarios", "bench-load"].contains(&name),
         Some(("silent", k)) => SILENT_KEYS.contains(&k),
         Some(("starved", k)) => STARVED_KEYS.contains(&k),
         Some(("lossy", k)) => lossy_key(k),
@@ -150,6 +150,7 @@ pub fn render(src: &mut Sources, name: &str) -> Result<String> {
     match name.split_once('.') {
         None if name == "bus" => bus_table(src),
         None if name == "scenarios" => scenario_table(src),
+        None if name == "bench-load" => bench_load_table(src),
         Some(("silent", k)) => silent(src, k),
         Some(("starved", k)) => starved(src, k),
         Some(("lossy", k)) => lossy(src, k),
@@ -519,6 +520,83 @@ pub fn scenario_table(src: &mut Sources) -> Result<String> {
     Ok(t)
 }
 
+/// The frame sets of the bench's load table: tag, `--set`s, label.
+const BENCH_FRAME_SETS: [(&str, &[&str], &str); 5] = [
+    (
+        "",
+        &[],
+        "classical CAN 1 Mbit/s, one sensor frame per follower",
+    ),
+    (
+        "-fd2",
+        &["network.data_bitrate=2000000"],
+        "CAN FD 1 / 2 Mbit/s (BRS), one sensor frame per follower",
+    ),
+    (
+        "-fd4",
+        &["network.data_bitrate=4000000"],
+        "CAN FD 1 / 4 Mbit/s (BRS), one sensor frame per follower",
+    ),
+    (
+        "-fd2-packed",
+        &[
+            "network.data_bitrate=2000000",
+            "network.sensor_frames=packed",
+        ],
+        "CAN FD 1 / 2 Mbit/s (BRS), packed sensor frame",
+    ),
+    (
+        "-fd4-packed",
+        &[
+            "network.data_bitrate=4000000",
+            "network.sensor_frames=packed",
+        ],
+        "CAN FD 1 / 4 Mbit/s (BRS), packed sensor frame",
+    ),
+];
+
+/// The bench's frame sets (Example 1, 4 followers, h = 1 ms): the worst-case load `host-sim
+/// check` computes for `scenarios/example1-socketcan.toml`, and the load, deadline misses and
+/// latency of `example1-can.toml` with `network.plant_frames = true` over 2 s on the bus model.
+pub fn bench_load_table(src: &mut Sources) -> Result<String> {
+    let mut t = String::from(
+        "| frame set | worst case (`host-sim check`) | modelled (`kind = \"can\"`, 2 s) | deadline misses | latency max |\n|---|---|---|---|---|\n",
+    );
+    let bin = src.host_sim()?;
+    for (tag, sets, label) in BENCH_FRAME_SETS {
+        let args: Vec<&str> = sets.iter().flat_map(|s| ["--set", *s]).collect();
+        let out = run(Command::new(&bin)
+            .current_dir(workspace_root())
+            .args(["check", "scenarios/example1-socketcan.toml"])
+            .args(&args))?;
+        let worst = check_total(&out)
+            .ok_or_else(|| format!("host-sim check printed no bus load total for {label}"))?;
+        let mut model_sets = vec!["network.plant_frames=true", "simulation.t_end=2"];
+        model_sets.extend_from_slice(sets);
+        let s = src.summary_with("example1-can", &format!("-bench{tag}"), &model_sets)?;
+        let n = &s["network"];
+        let _ = writeln!(
+            t,
+            "| {label} | {worst:.1} % | {} % | {} | {} |",
+            fixed(num(n, "bus_load_percent")?, 1),
+            count(n, "deadline_misses")?,
+            micros(num(n, "max_latency_s")?),
+        );
+    }
+    Ok(t)
+}
+
+/// The total of `host-sim check`'s bus load lines: `#   total … : 63.6 %`.
+fn check_total(out: &str) -> Option<f64> {
+    let line = out.lines().find(|l| l.starts_with("#   total "))?;
+    line.rsplit_once(": ")?
+        .1
+        .trim_end_matches(" %")
+        .trim()
+        .parse()
+        .ok()
+}
+
 /// One figure of `example1-lossy` by window, against the ideal `example1`.
 pub fn lossy(src: &mut Sources, key: &str) -> Result<String> {
     let (_, lossy) = src.run_with_trajectory("example1-lossy", "", &[])?;
@@ -695,6 +773,7 @@ mod tests {
             "lossy.max-u-return",
             "pil-lossy.lost",
             "trace.max-diff",
+            "bench-load",
         ] {
             assert!(known(name), "{name}");
         }
@@ -710,5 +789,12 @@ mod tests {
         ] {
             assert!(!known(name), "{name}");
         }
+    }
+
+    #[test]
+    fn the_check_total_is_read_from_its_line() {
+        let out = "# ok: 4 agents\n#   value 5.000 frames\n#   total 635.8 µs of 1000.0 µs: 63.6 %\n# warning: x";
+        assert_eq!(check_total(out), Some(63.6));
+        assert_eq!(check_total("# ok: 4 agents\n"), None);
     }
 }
