@@ -18,6 +18,9 @@
 //!   the classical CAN frame of the link, of `hil-mock`'s mocks and of its bus model.
 //! * [`plant_bus`]: the sensor, command and state frames between a node and a host that
 //!   simulates its plant on the same CAN bus (a Linux node process on SocketCAN).
+//! * [`canopen`]: the CiA 301 (CANopen) device of every node — NMT slave, heartbeat producer
+//!   and consumer, EMCY, SDO server over an object dictionary generated from
+//!   `controller_core::param` — and its CiA 306 EDS.
 //! * [`dbc`]: every frame kind of the bus and the link described signal by signal, and
 //!   `docs/wire.dbc` written from that description ([`dbc::write_dbc`]).
 //!
@@ -37,6 +40,7 @@
 #[macro_use]
 mod fmt;
 
+pub mod canopen;
 pub mod dbc;
 pub mod link;
 pub mod node;

@@ -121,5 +121,5 @@ pub use scheme::{BaselineConfig, SchemeConfig};
 #[cfg(feature = "serde")]
 pub use sections::ConfigFile;
 pub use sections::{
-    Agent, ControllerSection, GainReading, QuantizerSection, SafetySection, SchemeName,
+    Agent, ControllerSection, GainReading, QuantizerSection, SafetySection, SchemeName, Sections,
 };
