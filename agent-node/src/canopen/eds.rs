@@ -42,7 +42,25 @@ fn limits(o: &Object) -> Option<(u32, u32)> {
     }
 }
 
+/// Writes through to `W` with every non-ASCII character replaced (`–` by `-`), as EDS files
+/// are read as ISO 8859-1 or ASCII.
+struct Ascii<'a, W>(&'a mut W);
+
+impl<W: Write> Write for Ascii<'_, W> {
+    fn write_str(&mut self, s: &str) -> fmt::Result {
+        for c in s.chars() {
+            self.0.write_char(match c {
+                c if c.is_ascii() => c,
+                '–' => '-',
+                _ => '?',
+            })?;
+        }
+        Ok(())
+    }
+}
+
 fn comment<W: Write>(w: &mut W, o: &Object) -> fmt::Result {
+    let w = &mut Ascii(w);
     match o.item {
         Item::Param(p) => {
             let spec = p.spec();
@@ -138,7 +156,11 @@ fn object<W: Write, const N: usize>(w: &mut W, d: &Device<N>, o: &Object) -> fmt
             access,
         ),
         Kind::Array { .. } | Kind::Record { .. } => {
-            let subs = d.sub_count(o);
+            // The error field lists every entry it may hold, full or not.
+            let subs = match (o.item, o.kind) {
+                (Item::ErrorField, Kind::Array { len }) => len,
+                _ => d.sub_count(o),
+            };
             let code = if matches!(o.kind, Kind::Array { .. }) {
                 8
             } else {
@@ -244,4 +266,14 @@ pub fn write_eds<W: Write, const N: usize>(
         object(w, device, o)?;
     }
     Ok(())
+}
+
+/// The device `docs/agent-node.eds` describes: agent 1 of the default configuration
+/// (`ControllerConfig::default()`: Example 1's `n = 2`, pinned, no neighbours), node-ID 1, in
+/// the default identifier plan.
+pub fn reference_device() -> Option<Device<2>> {
+    let node = crate::node::NodeConfig::<0>::new(1, [], 1);
+    let controller = controller_core::ControllerConfig::<2>::default();
+    let store = super::od::ParamStore::new(&node, &controller).ok()?;
+    Some(Device::new(store, super::Identity::default(), false))
 }
