@@ -676,19 +676,7 @@ where
                     c.dirty = true;
                     c.requests |= CanOpenRequest::ResetNode.bit();
                 }
-                Event::ResetCommunication => {
-                    let id = c.device.node_id();
-                    if id != self.agent {
-                        if id > self.ids.agents()
-                            || self.slots.iter().take(self.count).any(|s| s.agent == id)
-                        {
-                            self.emcy(Fault::ConfigRejected, u32::from(id));
-                        } else {
-                            info!("agent {}: node-ID {} from now on", self.agent, id);
-                            self.agent = id;
-                        }
-                    }
-                }
+                Event::ResetCommunication => self.adopt_node_id(),
                 Event::HeartbeatLost(n) => {
                     warn!("agent {}: heartbeat of node {} lost", self.agent, n)
                 }
@@ -697,6 +685,25 @@ where
                 }
                 Event::Sync => {}
             }
+        }
+    }
+
+    /// The device's node-ID (written to `node.node_id` and applied by a reset, or loaded
+    /// from a stored set) becomes the agent number, if the identifier plan has it and it is
+    /// not a neighbour; else EMCY `0x6300` and the agent number stays.
+    fn adopt_node_id(&mut self) {
+        let Some(c) = &self.canopen else {
+            return;
+        };
+        let id = c.device.node_id();
+        if id == self.agent {
+            return;
+        }
+        if id > self.ids.agents() || self.slots.iter().take(self.count).any(|s| s.agent == id) {
+            self.emcy(Fault::ConfigRejected, u32::from(id));
+        } else {
+            info!("agent {}: node-ID {} from now on", self.agent, id);
+            self.agent = id;
         }
     }
 
@@ -838,6 +845,17 @@ where
         self.flush_canopen();
     }
 
+    /// The CANopen device's work alone — boot-up, received frames (SDO, NMT, heartbeats),
+    /// events, heartbeat — for an application that is not sampling yet (waiting for its host).
+    /// Nothing without a device.
+    pub fn service(&mut self) {
+        if self.canopen.is_some() {
+            let now = self.clock.now_us();
+            self.canopen_tick(now);
+            self.flush_canopen();
+        }
+    }
+
     /// The CANopen part of a tick: boot, frames, events, heartbeat; `false` when the device
     /// is not operational (outputs off). Always `true` without a device.
     fn canopen_tick(&mut self, now: u64) -> bool {
@@ -846,6 +864,7 @@ where
         };
         if c.device.nmt() == canopen::NmtState::Initialising {
             c.device.boot(now);
+            self.adopt_node_id();
         }
         self.poll_rx_at(now);
         self.canopen_events();

@@ -246,6 +246,8 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                 host_timeout: node_timeout,
                 time_scale: spec.time_scale(),
                 supervision: Some(Supervision::of(&nc)),
+                node_id: (nc.agent <= 127).then_some(i64::from(nc.agent)),
+                canopen: None,
             };
             let text = NodeFile::to_toml(&section, *c)
                 .map_err(|e| Error::Io(format!("node configuration of agent {}: {e}", i + 1)))?;
