@@ -76,6 +76,9 @@ use crate::supervisor::{
 };
 use crate::wire::{self, DecodeStats, Decoded, Heartbeat, IdPlan, SeqCheck, Source, WireError};
 
+/// Overrun EMCYs go out at most this often (µs of the node's clock).
+pub const OVERRUN_EMCY_INHIBIT_US: u64 = 1_000_000;
+
 /// Frames drained per call of [`Node::poll_rx`] at most, so a flooded bus cannot keep the
 /// sample interrupt busy forever.
 pub const MAX_RX_PER_POLL: usize = 32;
@@ -392,6 +395,9 @@ struct CanOpen<const N: usize> {
     dirty: bool,
     /// Requests for the application: store, restore, reset node.
     requests: u8,
+    /// When the last overrun EMCY went out (they are sent at most once per
+    /// [`OVERRUN_EMCY_INHIBIT_US`], carrying the running count).
+    last_overrun_emcy_us: Option<u64>,
 }
 
 /// Something the node's CANopen device asks of the application that runs the node.
@@ -560,6 +566,7 @@ where
             device,
             dirty: false,
             requests: 0,
+            last_overrun_emcy_us: None,
         });
         Ok(())
     }
@@ -591,6 +598,22 @@ where
         .find(|r| c.requests & r.bit() != 0)?;
         c.requests &= !r.bit();
         Some(r)
+    }
+
+    /// An overrun EMCY (with the count since start) at most this often, so that a node that
+    /// keeps missing its deadlines does not flood the bus and the error history (µs).
+    fn overrun_emcy(&mut self) {
+        let now = self.last_tick_us.unwrap_or(0);
+        let Some(c) = &mut self.canopen else {
+            return;
+        };
+        if c.last_overrun_emcy_us
+            .is_some_and(|t| now.saturating_sub(t) < OVERRUN_EMCY_INHIBIT_US)
+        {
+            return;
+        }
+        c.last_overrun_emcy_us = Some(now);
+        self.emcy(Fault::Overrun, self.stats.overruns);
     }
 
     /// Report a fault by EMCY when the node is a CANopen device.
@@ -759,7 +782,7 @@ where
     pub fn record_overrun(&mut self) {
         self.stats.overruns = self.stats.overruns.saturating_add(1);
         self.reported_overruns = self.reported_overruns.saturating_add(1);
-        self.emcy(Fault::Overrun, self.stats.overruns);
+        self.overrun_emcy();
     }
 
     /// The board found a fault it cannot recover from: the node latches `Fault` at the next
@@ -1115,7 +1138,7 @@ where
             let unreported = missed.saturating_sub(reported);
             self.stats.overruns = self.stats.overruns.saturating_add(unreported);
             if unreported > 0 {
-                self.emcy(Fault::Overrun, self.stats.overruns);
+                self.overrun_emcy();
             }
         }
     }
