@@ -1550,6 +1550,30 @@ fn machine() -> String {
     format!("{model}, {cores} cores{load}")
 }
 
+/// `docs/agent-node.eds`: the CiA 306 data sheet of the node's object dictionary, written from
+/// the same table the SDO server serves (`agent_node::canopen::eds`); `check` compares.
+fn eds(check: bool) -> Result<()> {
+    let path = workspace_root().join("docs/agent-node.eds");
+    let device = agent_node::canopen::eds::reference_device()
+        .ok_or("the reference node's configuration is not representable")?;
+    let mut want = String::new();
+    agent_node::canopen::eds::write_eds(&mut want, &device, "agent-node.eds")
+        .map_err(|e| format!("writing the EDS: {e}"))?;
+    let have = fs::read_to_string(&path).unwrap_or_default();
+    if have == want {
+        return Ok(());
+    }
+    if check {
+        return Err(
+            "docs/agent-node.eds differs from the object dictionary (`cargo xtask docs --only eds` rewrites it)"
+                .into(),
+        );
+    }
+    fs::write(&path, want).map_err(|e| format!("docs/agent-node.eds: {e}"))?;
+    println!("docs/agent-node.eds: rewritten");
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1822,28 +1846,4 @@ mod tests {
         assert_eq!(civil_from_days(0), (1970, 1, 1));
         assert_eq!(civil_from_days(20_788), (2026, 12, 1));
     }
-}
-
-/// `docs/agent-node.eds`: the CiA 306 data sheet of the node's object dictionary, written from
-/// the same table the SDO server serves (`agent_node::canopen::eds`); `check` compares.
-fn eds(check: bool) -> Result<()> {
-    let path = workspace_root().join("docs/agent-node.eds");
-    let device = agent_node::canopen::eds::reference_device()
-        .ok_or("the reference node's configuration is not representable")?;
-    let mut want = String::new();
-    agent_node::canopen::eds::write_eds(&mut want, &device, "agent-node.eds")
-        .map_err(|e| format!("writing the EDS: {e}"))?;
-    let have = fs::read_to_string(&path).unwrap_or_default();
-    if have == want {
-        return Ok(());
-    }
-    if check {
-        return Err(
-            "docs/agent-node.eds differs from the object dictionary (`cargo xtask docs --only eds` rewrites it)"
-                .into(),
-        );
-    }
-    fs::write(&path, want).map_err(|e| format!("docs/agent-node.eds: {e}"))?;
-    println!("docs/agent-node.eds: rewritten");
-    Ok(())
 }

@@ -215,48 +215,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
             pgid: None,
             dir: (!keep).then(|| dir.clone()),
         };
-        let mut files = Vec::with_capacity(configs.len());
-        for (i, c) in configs.iter().enumerate() {
-            let nc = node_config(spec, node_spec, h, graph, i)?;
-            let plan = nc.ids;
-            let blocks = [
-                Some((plan.value_base(), "node.id_base")),
-                plan.heartbeat_base().map(|b| (b, "node.heartbeat_id_base")),
-            ];
-            for (base, key) in blocks.into_iter().flatten() {
-                let end = base + u16::from(plan.agents());
-                if base <= 0x4FF && end >= plan_bus_first() {
-                    return Err(Error::invalid(
-                        key,
-                        "with network.kind = \"socketcan\" the identifiers must stay clear of \
-                         0x200..=0x4FF (sensor, command and state frames)",
-                    ));
-                }
-            }
-            let section = NodeSection {
-                agent: i64::from(nc.agent),
-                neighbours: graph.neighbours(i).iter().map(|&k| k as i64 + 1).collect(),
-                interface: spec
-                    .node_interfaces
-                    .as_ref()
-                    .and_then(|l| l.get(i))
-                    .unwrap_or(&interface)
-                    .clone(),
-                stale_timeout: Some(nc.stale_timeout_us as f64 * 1e-6),
-                host_timeout: node_timeout,
-                time_scale: spec.time_scale(),
-                supervision: Some(Supervision::of(&nc)),
-                node_id: (nc.agent <= 127).then_some(i64::from(nc.agent)),
-                canopen: None,
-            };
-            let text = NodeFile::to_toml(&section, *c)
-                .map_err(|e| Error::Io(format!("node configuration of agent {}: {e}", i + 1)))?;
-            NodeFile::parse(&text)
-                .map_err(|e| Error::invalid(format!("node configuration of agent {}", i + 1), e))?;
-            let path = dir.join(format!("agent-{}.toml", i + 1));
-            crate::report::write_atomic(&path, text.as_bytes())?;
-            files.push(path);
-        }
+        let files = write_node_files(spec, node_spec, h, graph, configs, &dir)?;
         if mode == NodesMode::Spawn {
             crate::report::also_on_interrupt(stop_groups_on_interrupt);
             let program = node_program(spec);
@@ -644,4 +603,83 @@ impl<const N: usize, const M: usize> Agents<N, M> for SocketcanAgents<N, M> {
             None => Ok(()),
         }
     }
+}
+
+/// Writes one node configuration per agent of `graph` into `dir` (`agent-<i>.toml`, read by
+/// `node-linux`: the identifier plan, heartbeat and safe state of `[node]`, `node_spec`;
+/// controller configurations `configs`, sample period `h`) and beside each its CANopen EDS
+/// (`agent-<i>.eds`, CiA 306, the node's object dictionary with its values); the paths of
+/// the configurations.
+pub fn write_node_files<const N: usize>(
+    spec: &NetworkSpec,
+    node_spec: &crate::network::node::NodeSpec,
+    h: f64,
+    graph: &Graph,
+    configs: &[ControllerConfig<N>],
+    dir: &Path,
+) -> Result<Vec<PathBuf>> {
+    let interface = spec.interface().to_owned();
+    let node_timeout = spec.node_timeout(h);
+    let mut files = Vec::with_capacity(configs.len());
+    for (i, c) in configs.iter().enumerate() {
+        let nc = node_config(spec, node_spec, h, graph, i)?;
+        let plan = nc.ids;
+        let blocks = [
+            Some((plan.value_base(), "node.id_base")),
+            plan.heartbeat_base().map(|b| (b, "node.heartbeat_id_base")),
+        ];
+        for (base, key) in blocks.into_iter().flatten() {
+            let end = base + u16::from(plan.agents());
+            if base <= 0x4FF && end >= plan_bus_first() {
+                return Err(Error::invalid(
+                    key,
+                    "with network.kind = \"socketcan\" the identifiers must stay clear of \
+                     0x200..=0x4FF (sensor, command and state frames)",
+                ));
+            }
+        }
+        let section = NodeSection {
+            agent: i64::from(nc.agent),
+            neighbours: graph.neighbours(i).iter().map(|&k| k as i64 + 1).collect(),
+            interface: spec
+                .node_interfaces
+                .as_ref()
+                .and_then(|l| l.get(i))
+                .unwrap_or(&interface)
+                .clone(),
+            stale_timeout: Some(nc.stale_timeout_us as f64 * 1e-6),
+            host_timeout: node_timeout,
+            time_scale: spec.time_scale(),
+            supervision: Some(Supervision::of(&nc)),
+            node_id: (nc.agent <= 127).then_some(i64::from(nc.agent)),
+            canopen: None,
+        };
+        let text = NodeFile::to_toml(&section, *c)
+            .map_err(|e| Error::Io(format!("node configuration of agent {}: {e}", i + 1)))?;
+        NodeFile::parse(&text)
+            .map_err(|e| Error::invalid(format!("node configuration of agent {}", i + 1), e))?;
+        let path = dir.join(format!("agent-{}.toml", i + 1));
+        crate::report::write_atomic(&path, text.as_bytes())?;
+        write_eds(&text, &dir.join(format!("agent-{}.eds", i + 1)), i + 1)?;
+        files.push(path);
+    }
+    Ok(files)
+}
+
+/// The EDS of the node configured by `text` (agent `agent`), written to `path`.
+fn write_eds(text: &str, path: &Path, agent: usize) -> Result<()> {
+    let what = format!("EDS of agent {agent}");
+    let file = NodeFile::parse(text).map_err(|e| Error::invalid(what.clone(), e))?;
+    let store = agent_node::canopen::od::ParamStore::new(&file.node_config, &file.controller)
+        .map_err(|_| Error::invalid(what.clone(), "node-ID outside 1..=127"))?;
+    let device =
+        agent_node::canopen::Device::new(store, agent_node::canopen::Identity::default(), false);
+    let mut eds = String::new();
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    agent_node::canopen::eds::write_eds(&mut eds, &device, &name)
+        .map_err(|e| Error::Io(format!("{what}: {e}")))?;
+    crate::report::write_atomic(path, eds.as_bytes())
 }
