@@ -1236,6 +1236,96 @@ fn string(s: &str) -> SdoData {
     d
 }
 
+/// A CANopen frame as a bus monitor reads it ([`decode`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Message {
+    /// NMT command to `node` (0: all).
+    Nmt {
+        /// The command (`None`: an unknown specifier).
+        command: Option<NmtCommand>,
+        /// Addressed node-ID, 0 for all.
+        node: u8,
+    },
+    /// SYNC.
+    Sync,
+    /// Emergency of `node`.
+    Emcy {
+        /// Sender.
+        node: u8,
+        /// Error code (`0x0000`: error reset).
+        code: u16,
+        /// Error register.
+        register: u8,
+        /// Manufacturer-specific bytes ([`Fault::info`]).
+        info: [u8; 5],
+    },
+    /// An SDO frame between a client and server `node`.
+    Sdo {
+        /// The server.
+        node: u8,
+        /// Client → server (a request), else the server's answer.
+        request: bool,
+        /// Command byte.
+        command: u8,
+        /// Index and sub-index (of an initiate or abort frame; else 0).
+        index: u16,
+        /// Sub-index.
+        sub: u8,
+        /// The abort code of an abort frame.
+        abort: Option<u32>,
+    },
+    /// Heartbeat or boot-up of `node`.
+    Heartbeat {
+        /// Sender.
+        node: u8,
+        /// Its NMT state (`None`: an unknown byte).
+        state: Option<NmtState>,
+    },
+}
+
+/// The CANopen message of a frame of the predefined connection set; `None` for PDOs and
+/// identifiers outside the set.
+pub fn decode(id: u16, data: &[u8]) -> Option<Message> {
+    let node = (id & 0x7F) as u8;
+    let byte = |k: usize| data.get(k).copied().unwrap_or(0);
+    match id & !0x7F {
+        _ if id == NMT_ID => Some(Message::Nmt {
+            command: NmtCommand::from_code(byte(0)),
+            node: byte(1),
+        }),
+        _ if id == SYNC_ID => Some(Message::Sync),
+        0x080 => Some(Message::Emcy {
+            node,
+            code: u16::from_le_bytes([byte(0), byte(1)]),
+            register: byte(2),
+            info: [byte(3), byte(4), byte(5), byte(6), byte(7)],
+        }),
+        0x580 | 0x600 if node > 0 => {
+            let command = byte(0);
+            let initiate_or_abort = matches!(command >> 5, 1..=4) || command == 0x80;
+            let (index, sub) = if initiate_or_abort && command >> 5 != 3 {
+                (u16::from_le_bytes([byte(1), byte(2)]), byte(3))
+            } else {
+                (0, 0)
+            };
+            Some(Message::Sdo {
+                node,
+                request: id & !0x7F == 0x600,
+                command,
+                index,
+                sub,
+                abort: (command == 0x80)
+                    .then(|| u32::from_le_bytes([byte(4), byte(5), byte(6), byte(7)])),
+            })
+        }
+        0x700 if node > 0 => Some(Message::Heartbeat {
+            node,
+            state: NmtState::from_code(byte(0)),
+        }),
+        _ => None,
+    }
+}
+
 /// The SDO abort frame's data.
 pub fn abort_frame(index: u16, sub: u8, a: Abort) -> [u8; 8] {
     let i = index.to_le_bytes();

@@ -427,3 +427,55 @@ fn eds_lists_every_object_with_name_and_access() {
     assert!(s.contains(&a_check));
     assert!(!s.contains(&format!("[{:04X}sub3]\n", param_index(Param::ACheck))));
 }
+
+#[test]
+fn a_monitor_decodes_nmt_emcy_sdo_and_heartbeat() {
+    assert_eq!(
+        decode(0x000, &[0x01, 2]),
+        Some(Message::Nmt {
+            command: Some(NmtCommand::Start),
+            node: 2
+        })
+    );
+    assert_eq!(
+        decode(0x082, &[0x50, 0x82, 0x11, 1, 1, 1, 0, 0]),
+        Some(Message::Emcy {
+            node: 2,
+            code: 0x8250,
+            register: 0x11,
+            info: [1, 1, 1, 0, 0]
+        })
+    );
+    assert_eq!(
+        decode(0x582, &[0x80, 0x03, 0x20, 0, 0x30, 0, 0x09, 0x06]),
+        Some(Message::Sdo {
+            node: 2,
+            request: false,
+            command: 0x80,
+            index: 0x2003,
+            sub: 0,
+            abort: Some(0x0609_0030)
+        })
+    );
+    assert_eq!(
+        decode(0x602, &[0x40, 0x00, 0x10, 0, 0, 0, 0, 0]),
+        Some(Message::Sdo {
+            node: 2,
+            request: true,
+            command: 0x40,
+            index: 0x1000,
+            sub: 0,
+            abort: None
+        })
+    );
+    assert_eq!(
+        decode(0x702, &[0x7F]),
+        Some(Message::Heartbeat {
+            node: 2,
+            state: Some(NmtState::PreOperational)
+        })
+    );
+    // A value frame and the project's own heartbeat are not CANopen messages.
+    assert_eq!(decode(0x103, &[0; 4]), None);
+    assert_eq!(decode(0x782, &[0; 8]), None);
+}
