@@ -631,20 +631,10 @@ where
 
     /// Send what the device queued (heartbeat, boot-up, EMCY, SDO answers).
     fn flush_canopen(&mut self) {
-        let Some(c) = &mut self.canopen else {
-            return;
-        };
-        while let Some(f) = c.device.next_tx() {
-            let Some(frame) = f.to_frame::<C::Frame>() else {
-                continue;
-            };
-            match self.can.transmit(&frame) {
-                Ok(_) => self.stats.tx_queued = self.stats.tx_queued.saturating_add(1),
-                Err(nb::Error::WouldBlock) => {
-                    self.stats.tx_busy = self.stats.tx_busy.saturating_add(1);
-                }
-                Err(nb::Error::Other(_)) => {
-                    self.stats.tx_errors = self.stats.tx_errors.saturating_add(1);
+        while let Some(f) = self.canopen.as_mut().and_then(|c| c.device.next_tx()) {
+            if let Some(frame) = f.to_frame::<C::Frame>() {
+                if self.transmit_counted(&frame) {
+                    self.stats.tx_queued = self.stats.tx_queued.saturating_add(1);
                 }
             }
         }
@@ -1258,13 +1248,22 @@ where
         let Some(frame) = wire::encode_heartbeat::<C::Frame>(&self.ids, self.agent, &hb) else {
             return;
         };
-        match self.can.transmit(&frame) {
-            Ok(_) => self.stats.heartbeats_tx = self.stats.heartbeats_tx.saturating_add(1),
+        if self.transmit_counted(&frame) {
+            self.stats.heartbeats_tx = self.stats.heartbeats_tx.saturating_add(1);
+        }
+    }
+
+    /// Hand `frame` to the CAN controller; `false` (counted as busy or an error) if refused.
+    fn transmit_counted(&mut self, frame: &C::Frame) -> bool {
+        match self.can.transmit(frame) {
+            Ok(_) => true,
             Err(nb::Error::WouldBlock) => {
                 self.stats.tx_busy = self.stats.tx_busy.saturating_add(1);
+                false
             }
             Err(nb::Error::Other(_)) => {
                 self.stats.tx_errors = self.stats.tx_errors.saturating_add(1);
+                false
             }
         }
     }

@@ -851,6 +851,9 @@ impl<const N: usize> Device<N> {
             }
             // Download segment.
             0 => {
+                if let Err(resp) = self.check_segment(cmd) {
+                    return Some(resp);
+                }
                 let Transfer::Download {
                     index,
                     sub,
@@ -862,11 +865,7 @@ impl<const N: usize> Device<N> {
                 else {
                     return Some(abort_frame(0, 0, Abort::Command));
                 };
-                let t = (cmd >> 4) & 1;
-                if t != toggle {
-                    self.transfer = Transfer::Idle;
-                    return Some(abort_frame(index, sub, Abort::Toggle));
-                }
+                let t = toggle;
                 let unused = usize::from((cmd >> 1) & 7);
                 if !data.extend(req.get(1..8 - unused).unwrap_or(&[])) {
                     self.transfer = Transfer::Idle;
@@ -924,6 +923,9 @@ impl<const N: usize> Device<N> {
             }
             // Upload segment.
             3 => {
+                if let Err(resp) = self.check_segment(cmd) {
+                    return Some(resp);
+                }
                 let Transfer::Upload {
                     index,
                     sub,
@@ -935,11 +937,7 @@ impl<const N: usize> Device<N> {
                 else {
                     return Some(abort_frame(0, 0, Abort::Command));
                 };
-                let t = (cmd >> 4) & 1;
-                if t != toggle {
-                    self.transfer = Transfer::Idle;
-                    return Some(abort_frame(index, sub, Abort::Toggle));
-                }
+                let t = toggle;
                 let rest = data.as_slice().get(pos..).unwrap_or(&[]);
                 let chunk = rest.get(..7).unwrap_or(rest);
                 let last = chunk.len() == rest.len();
@@ -973,6 +971,27 @@ impl<const N: usize> Device<N> {
                 Some(abort_frame(index, sub, Abort::Command))
             }
         }
+    }
+
+    /// A segment request (`ccs` 0 download, 3 upload) against the transfer in progress: the
+    /// abort frame when there is none of that direction or its toggle bit is wrong (the
+    /// transfer then ends).
+    fn check_segment(&mut self, cmd: u8) -> Result<(), [u8; 8]> {
+        let download = cmd >> 5 == 0;
+        let (index, sub, toggle) = match self.transfer {
+            Transfer::Download {
+                index, sub, toggle, ..
+            } if download => (index, sub, toggle),
+            Transfer::Upload {
+                index, sub, toggle, ..
+            } if !download => (index, sub, toggle),
+            _ => return Err(abort_frame(0, 0, Abort::Command)),
+        };
+        if (cmd >> 4) & 1 != toggle {
+            self.transfer = Transfer::Idle;
+            return Err(abort_frame(index, sub, Abort::Toggle));
+        }
+        Ok(())
     }
 
     /// The highest sub-index object `o` has now (0 for a `VAR`).
