@@ -27,13 +27,14 @@ use std::{
     time::{Duration, Instant, SystemTime},
 };
 
+use agent_node::canopen::{self, Message, NmtState};
 use agent_node::{
     plant_bus::{self, Kind, Mode, PlantFrame},
     wire::{self, Source},
 };
 use controller_core::{ControllerConfig, Gains, Params, StepOutput};
 use node_linux::{
-    config::{NodeSection, Supervision},
+    config::{CanOpenSection, NodeSection, Supervision},
     NodeFile,
 };
 use socketcan::{CanFilter, CanFrame, CanSocket, Socket, SocketOptions};
@@ -44,7 +45,7 @@ use crate::{
         panel::{render, Panel, Series},
         FigureStyle,
     },
-    figures::{AgentCommands, SocketcanSummary},
+    figures::{AgentCommands, EmcyRecord, SocketcanSummary},
     graph::Graph,
     network::{
         spec::{node_config, NetworkSpec, NodesMode},
@@ -80,6 +81,8 @@ struct Agent {
     state: Option<plant_bus::NodeState>,
     /// Cumulative late commands at each sample (the figure).
     late_series: Vec<u32>,
+    /// `network.canopen`: the last NMT state of its heartbeat.
+    nmt: Option<NmtState>,
 }
 
 /// The node processes of `nodes = "spawn"`, stopped when dropped.
@@ -154,6 +157,8 @@ pub struct SocketcanAgents<const N: usize, const M: usize> {
     last_t: f64,
     /// The first sample's deadline (`t0` moves with every overrun).
     started: Option<Instant>,
+    /// `network.canopen`: host-sim is the nodes' NMT master; the EMCY they sent.
+    canopen: Option<Vec<EmcyRecord>>,
 }
 
 /// Opens `interface` for host-sim, with the error naming `network.interface`.
@@ -188,8 +193,14 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
         let socket = open(&interface)?;
         let cmd = u32::from(plant_bus::COMMAND_BASE);
         let state = u32::from(plant_bus::STATE_BASE);
+        let mut filters = vec![CanFilter::new(cmd, 0x700), CanFilter::new(state, 0x700)];
+        if spec.canopen == Some(true) {
+            // EMCY (0x081..=0x0FF) and heartbeats (0x701..=0x77F) of the CANopen set.
+            filters.push(CanFilter::new(0x080, 0x780));
+            filters.push(CanFilter::new(0x700, 0x780));
+        }
         socket
-            .set_filters(&[CanFilter::new(cmd, 0x700), CanFilter::new(state, 0x700)])
+            .set_filters(&filters)
             .map_err(|e| Error::Io(format!("{interface}: {e}")))?;
         let trace_socket = match trace {
             Some(p) => {
@@ -279,6 +290,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                     lost_at: None,
                     state: None,
                     late_series: Vec::new(),
+                    nmt: None,
                 })
                 .collect(),
             lateness: Vec::new(),
@@ -290,6 +302,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
             last_wake: None,
             last_t: 0.0,
             started: None,
+            canopen: (spec.canopen == Some(true)).then(Vec::new),
         })
     }
 
@@ -326,6 +339,11 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
         for a in &mut self.agents {
             a.this_sample = 0;
             a.last_rx = None;
+        }
+        if self.canopen.is_some() {
+            // NMT start to all nodes: their outputs go on from here (docs/NETWORK.md §12).
+            let start = [canopen::NmtCommand::Start.code(), 0];
+            self.send(canopen::CoFrame::new(canopen::NMT_ID, &start).to_frame());
         }
         // Start on a whole period from now, so the nodes' first sample lands mid-period.
         self.t0 = Some((Instant::now() + self.h, SystemTime::now() + self.h));
@@ -369,7 +387,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                         ag.state = Some(s);
                     }
                 }
-                _ => {}
+                _ => self.take_canopen(&f, t),
             }
         }
         if let (Some((s, w)), Some((_, sys0))) = (self.trace_socket.as_mut(), self.t0) {
@@ -381,6 +399,39 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                 }
             }
             w.write_lines(lines);
+        }
+    }
+
+    /// An EMCY or heartbeat of a node, with `network.canopen`.
+    fn take_canopen(&mut self, f: &CanFrame, t: f64) {
+        let (Some(log), Some(f)) = (self.canopen.as_mut(), canopen::CoFrame::from_frame(f)) else {
+            return;
+        };
+        let agent = |node: u8| usize::from(node).checked_sub(1);
+        match canopen::decode(f.id, f.data()) {
+            Some(Message::Emcy {
+                node,
+                code,
+                register,
+                info,
+            }) => {
+                eprintln!(
+                    "host-sim: t = {t:.3} s: EMCY of node {node}: {code:#06x}, register {register:#04x}"
+                );
+                log.push(EmcyRecord {
+                    t_s: t,
+                    agent: node,
+                    code,
+                    register,
+                    cause: info[0],
+                });
+            }
+            Some(Message::Heartbeat { node, state }) => {
+                if let Some(a) = agent(node).and_then(|i| self.agents.get_mut(i)) {
+                    a.nmt = state;
+                }
+            }
+            _ => {}
         }
     }
 
@@ -431,8 +482,10 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                     lost_at_s: a.lost_at,
                     state: a.state.map(|s| s.mode.as_str()),
                     node_late_ticks: a.state.map(|s| s.late_ticks),
+                    nmt_state: a.nmt.map(NmtState::name),
                 })
                 .collect(),
+            emcy: self.canopen.clone(),
         }
     }
 }
@@ -652,7 +705,11 @@ pub fn write_node_files<const N: usize>(
             time_scale: spec.time_scale(),
             supervision: Some(Supervision::of(&nc)),
             node_id: (nc.agent <= 127).then_some(i64::from(nc.agent)),
-            canopen: None,
+            canopen: (spec.canopen == Some(true)).then(|| CanOpenSection {
+                store: None,
+                heartbeat_ms: 100,
+                self_starting: false,
+            }),
         };
         let text = NodeFile::to_toml(&section, *c)
             .map_err(|e| Error::Io(format!("node configuration of agent {}: {e}", i + 1)))?;

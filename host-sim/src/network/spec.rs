@@ -172,6 +172,11 @@ pub struct NetworkSpec {
     /// the host-sim executable, else on `PATH`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub node_program: Option<String>,
+    /// `kind = "socketcan"`: the nodes are CANopen devices (docs/NETWORK.md §12) and host-sim
+    /// their NMT master — it starts them with NMT, logs their EMCY and NMT states; absent:
+    /// `false`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub canopen: Option<bool>,
 }
 
 impl Default for NetworkSpec {
@@ -193,6 +198,7 @@ impl Default for NetworkSpec {
             start_timeout: None,
             node_dir: None,
             node_program: None,
+            canopen: None,
         }
     }
 }
@@ -466,6 +472,7 @@ fn check_socketcan(spec: &NetworkSpec, h: f64) -> Result<()> {
         ("network.start_timeout", spec.start_timeout.is_some()),
         ("network.node_dir", spec.node_dir.is_some()),
         ("network.node_program", spec.node_program.is_some()),
+        ("network.canopen", spec.canopen.is_some()),
     ];
     if spec.kind != NetworkKind::Socketcan {
         if let Some((key, _)) = given.iter().find(|(_, g)| *g) {
