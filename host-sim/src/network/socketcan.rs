@@ -705,7 +705,7 @@ pub fn write_node_files<const N: usize>(
             time_scale: spec.time_scale(),
             supervision: Some(Supervision::of(&nc)),
             node_id: (nc.agent <= 127).then_some(i64::from(nc.agent)),
-            canopen: (spec.canopen == Some(true)).then(|| CanOpenSection {
+            canopen: (spec.canopen == Some(true)).then_some(CanOpenSection {
                 store: None,
                 heartbeat_ms: 100,
                 self_starting: false,
