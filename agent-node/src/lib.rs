@@ -30,6 +30,8 @@
 //! ## Features
 //!
 //! * `log` (default): node log lines through the `log` crate (host).
+//! * `canopen` (default): `Node::enable_canopen`, the node as a CiA 301 device. Without it (the
+//!   firmware builds) the node has no device and its outputs are always on.
 //! * `defmt`: node log lines through `defmt` (firmware); `defmt::Format` on the node's types.
 //!   Mutually exclusive with `log`. Firmware build:
 //!   `cargo build -p agent-node --target thumbv7em-none-eabihf --no-default-features --features defmt`.

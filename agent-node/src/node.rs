@@ -69,7 +69,9 @@ use controller_core::{
 };
 use embedded_can::{nb::Can, Error as _, ErrorKind};
 
-use crate::canopen::{self, od::ParamStore, CoFrame, Device, Event, Fault, Identity};
+use crate::canopen::Fault;
+#[cfg(feature = "canopen")]
+use crate::canopen::{self, od::ParamStore, CoFrame, Device, Event, Identity};
 use crate::supervisor::{
     safe_command, NodeState, Observation, SafePolicy, StopProfile, Supervisor, SupervisorConfig,
     SupervisorError,
@@ -383,11 +385,13 @@ pub struct Node<C, Clk, S, A, const N: usize, const M: usize, const K: usize> {
     safe_reference: SafeReference,
     /// The controller was frozen during the present `Safe` stay (resume on exit).
     frozen_in_safe: bool,
-    /// The CiA 301 device ([`Node::enable_canopen`]); `None`: outputs always enabled.
+    /// The CiA 301 device (`Node::enable_canopen`); `None`: outputs always enabled.
+    #[cfg(feature = "canopen")]
     canopen: Option<CanOpen<N>>,
 }
 
 /// The node's CANopen device and what the node keeps for it.
+#[cfg(feature = "canopen")]
 struct CanOpen<const N: usize> {
     device: Device<N>,
     /// A parameter was written (or restored, or loaded) since the controller was built: the
@@ -401,6 +405,7 @@ struct CanOpen<const N: usize> {
 }
 
 /// Something the node's CANopen device asks of the application that runs the node.
+#[cfg(feature = "canopen")]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CanOpenRequest {
     /// `0x1010` "save": persist [`Device::save`]'s bytes (flash, a file).
@@ -411,6 +416,7 @@ pub enum CanOpenRequest {
     ResetNode,
 }
 
+#[cfg(feature = "canopen")]
 impl CanOpenRequest {
     const fn bit(self) -> u8 {
         match self {
@@ -541,209 +547,9 @@ where
             last_y: None,
             safe_reference: SafeReference::Frozen(None),
             frozen_in_safe: false,
+            #[cfg(feature = "canopen")]
             canopen: None,
         })
-    }
-
-    /// Make the node a CiA 301 device ([`crate::canopen`]): its object dictionary holds the
-    /// configurations the node was built with (and the defaults `0x1011` restores), the boot-up
-    /// message goes out at the next tick, and the control outputs — actuators and value frames
-    /// — are enabled only while the device is NMT operational. `self_starting`: operational at
-    /// boot, without an NMT start. `heartbeat_ms`: `0x1017`.
-    pub fn enable_canopen(
-        &mut self,
-        cfg: &NodeConfig<K>,
-        controller: &ControllerConfig<N>,
-        identity: Identity,
-        self_starting: bool,
-        heartbeat_ms: u16,
-    ) -> Result<(), NodeError> {
-        let store =
-            ParamStore::new(cfg, controller).map_err(|_| NodeError::AgentOutsidePlan(cfg.agent))?;
-        let mut device = Device::new(store, identity, self_starting);
-        device.set_heartbeat_ms(heartbeat_ms);
-        self.canopen = Some(CanOpen {
-            device,
-            dirty: false,
-            requests: 0,
-            last_overrun_emcy_us: None,
-        });
-        Ok(())
-    }
-
-    /// The CANopen device, if enabled.
-    pub fn canopen(&self) -> Option<&Device<N>> {
-        self.canopen.as_ref().map(|c| &c.device)
-    }
-
-    /// The CANopen device, to load a stored configuration ([`Device::load`]) or report a fault
-    /// ([`Device::report`]: bus-off, receive overflow, watchdog reset).
-    pub fn canopen_mut(&mut self) -> Option<&mut Device<N>> {
-        self.canopen.as_mut().map(|c| {
-            // Whatever the caller changes is applied at the next NMT start.
-            c.dirty = true;
-            &mut c.device
-        })
-    }
-
-    /// The next request of the CANopen device for the application.
-    pub fn take_canopen_request(&mut self) -> Option<CanOpenRequest> {
-        let c = self.canopen.as_mut()?;
-        let r = [
-            CanOpenRequest::Store,
-            CanOpenRequest::Restore,
-            CanOpenRequest::ResetNode,
-        ]
-        .into_iter()
-        .find(|r| c.requests & r.bit() != 0)?;
-        c.requests &= !r.bit();
-        Some(r)
-    }
-
-    /// An overrun EMCY (with the count since start) at most this often, so that a node that
-    /// keeps missing its deadlines does not flood the bus and the error history (µs).
-    fn overrun_emcy(&mut self) {
-        let now = self.last_tick_us.unwrap_or(0);
-        let Some(c) = &mut self.canopen else {
-            return;
-        };
-        if c.last_overrun_emcy_us
-            .is_some_and(|t| now.saturating_sub(t) < OVERRUN_EMCY_INHIBIT_US)
-        {
-            return;
-        }
-        c.last_overrun_emcy_us = Some(now);
-        self.emcy(Fault::Overrun, self.stats.overruns);
-    }
-
-    /// Report a fault by EMCY when the node is a CANopen device.
-    fn emcy(&mut self, f: Fault, count: u32) {
-        if let Some(c) = &mut self.canopen {
-            c.device.report(f, u16::try_from(count).unwrap_or(u16::MAX));
-        }
-    }
-
-    fn emcy_clear(&mut self, f: Fault) {
-        if let Some(c) = &mut self.canopen {
-            c.device.clear(f);
-        }
-    }
-
-    /// Send what the device queued (heartbeat, boot-up, EMCY, SDO answers).
-    fn flush_canopen(&mut self) {
-        while let Some(f) = self.canopen.as_mut().and_then(|c| c.device.next_tx()) {
-            if let Some(frame) = f.to_frame::<C::Frame>() {
-                if self.transmit_counted(&frame) {
-                    self.stats.tx_queued = self.stats.tx_queued.saturating_add(1);
-                }
-            }
-        }
-    }
-
-    /// Act on the device's events: a start with changed parameters rebuilds the controller
-    /// and the supervisor from the object dictionary (refused, back to pre-operational, with
-    /// EMCY `0x6300`, if the set does not validate); a stop or pre-operational zeroes the
-    /// outputs and restarts supervision at the next start; a new node-ID after a reset.
-    fn canopen_events(&mut self) {
-        loop {
-            let Some(c) = &mut self.canopen else {
-                return;
-            };
-            let Some(e) = c.device.next_event() else {
-                return;
-            };
-            match e {
-                Event::Nmt(canopen::NmtState::Operational) => {
-                    if core::mem::take(&mut c.dirty) {
-                        if let Err(err) = self.rebuild() {
-                            error!(
-                                "agent {}: stored configuration refused: {:?}",
-                                self.agent, err
-                            );
-                            self.emcy(Fault::ConfigRejected, 0);
-                            if let Some(c) = &mut self.canopen {
-                                c.dirty = true;
-                                c.device.on_frame(
-                                    canopen::NMT_ID,
-                                    &[canopen::NmtCommand::EnterPreOperational.code(), 0],
-                                    self.last_tick_us.unwrap_or(0),
-                                );
-                            }
-                        }
-                    }
-                    info!("agent {}: NMT operational", self.agent);
-                }
-                Event::Nmt(s) => {
-                    // Outputs off; supervision and the sample grid start again at the next start.
-                    self.first_tick_us = None;
-                    self.next_heartbeat_us = None;
-                    info!("agent {}: NMT {}", self.agent, s.name());
-                }
-                Event::Written(..) => c.dirty = true,
-                Event::Store => c.requests |= CanOpenRequest::Store.bit(),
-                Event::Restore => {
-                    c.dirty = true;
-                    c.requests |= CanOpenRequest::Restore.bit();
-                }
-                Event::ResetNode => {
-                    c.dirty = true;
-                    c.requests |= CanOpenRequest::ResetNode.bit();
-                }
-                Event::ResetCommunication => self.adopt_node_id(),
-                Event::HeartbeatLost(n) => {
-                    warn!("agent {}: heartbeat of node {} lost", self.agent, n)
-                }
-                Event::HeartbeatResumed(n) => {
-                    info!("agent {}: heartbeat of node {} back", self.agent, n)
-                }
-                Event::Sync => {}
-            }
-        }
-    }
-
-    /// The device's node-ID (written to `node.node_id` and applied by a reset, or loaded
-    /// from a stored set) becomes the agent number, if the identifier plan has it and it is
-    /// not a neighbour; else EMCY `0x6300` and the agent number stays.
-    fn adopt_node_id(&mut self) {
-        let Some(c) = &self.canopen else {
-            return;
-        };
-        let id = c.device.node_id();
-        if id == self.agent {
-            return;
-        }
-        if id > self.ids.agents() || self.slots.iter().take(self.count).any(|s| s.agent == id) {
-            self.emcy(Fault::ConfigRejected, u32::from(id));
-        } else {
-            info!("agent {}: node-ID {} from now on", self.agent, id);
-            self.agent = id;
-        }
-    }
-
-    /// Controller, supervisor and stale timeout from the object dictionary.
-    fn rebuild(&mut self) -> Result<(), NodeError> {
-        let Some(c) = &self.canopen else {
-            return Ok(());
-        };
-        let store = &c.device.store;
-        let controller = store.controller()?;
-        let sup = store.supervisor();
-        let supervisor = Supervisor::new(&sup)?;
-        let stale = (f64::from(store.node.stale_timeout) * 1e6 + 0.5) as u64;
-        if stale == 0 {
-            return Err(NodeError::ZeroTimeout);
-        }
-        if controller.neighbour_count != self.count {
-            return Err(NodeError::TooManyNeighbours);
-        }
-        self.controller = Controller::new(&with_reentry(&controller, &sup))?;
-        self.pinned = controller.pinned;
-        self.period_us = (f64::from(controller.h) * 1e6 + 0.5) as u64;
-        self.supervisor = supervisor;
-        self.supervised = sup.supervises_any();
-        self.timeout_us = stale;
-        self.applied = [0.0; M];
-        Ok(())
     }
 
     /// The node's state.
@@ -858,38 +664,6 @@ where
         self.flush_canopen();
     }
 
-    /// The CANopen device's work alone — boot-up, received frames (SDO, NMT, heartbeats),
-    /// events, heartbeat — for an application that is not sampling yet (waiting for its host).
-    /// Nothing without a device.
-    pub fn service(&mut self) {
-        if self.canopen.is_some() {
-            let now = self.clock.now_us();
-            self.canopen_tick(now);
-            self.flush_canopen();
-        }
-    }
-
-    /// The CANopen part of a tick: boot, frames, events, heartbeat; `false` when the device
-    /// is not operational (outputs off). Always `true` without a device.
-    fn canopen_tick(&mut self, now: u64) -> bool {
-        let Some(c) = &mut self.canopen else {
-            return true;
-        };
-        if c.device.nmt() == canopen::NmtState::Initialising {
-            c.device.boot(now);
-            self.adopt_node_id();
-        }
-        self.poll_rx_at(now);
-        self.canopen_events();
-        if let Some(c) = &mut self.canopen {
-            c.device.tick(now);
-        }
-        self.canopen_events();
-        self.canopen
-            .as_ref()
-            .is_none_or(|c| c.device.outputs_enabled())
-    }
-
     /// A tick while the CANopen device is not operational: actuators zero, no value frame,
     /// the controller not advanced (the tick reports the error a copy of it computes).
     fn disabled_tick(&mut self, now: u64) -> Tick<N, M> {
@@ -927,12 +701,8 @@ where
     }
 
     fn on_frame(&mut self, frame: &C::Frame, now: u64) {
-        if let Some(c) = &mut self.canopen {
-            if let Some(f) = CoFrame::from_frame(frame) {
-                if c.device.on_frame(f.id, f.data(), now) {
-                    return;
-                }
-            }
+        if self.device_frame(frame, now) {
+            return;
         }
         let m = match wire::decode_in(&self.ids, frame) {
             Ok(Decoded::Value(m)) => m,
@@ -1369,5 +1139,284 @@ where
             }
         }
         out
+    }
+}
+
+/// The node's CANopen device (feature `canopen`, default): [`Node::enable_canopen`] and what
+/// the node does with it.
+#[cfg(feature = "canopen")]
+impl<C, Clk, S, A, const N: usize, const M: usize, const K: usize> Node<C, Clk, S, A, N, M, K>
+where
+    C: Can,
+    Clk: Clock,
+    S: Sensor<N>,
+    A: Actuator<M>,
+{
+    /// Make the node a CiA 301 device ([`crate::canopen`]): its object dictionary holds the
+    /// configurations the node was built with (and the defaults `0x1011` restores), the boot-up
+    /// message goes out at the next tick, and the control outputs — actuators and value frames
+    /// — are enabled only while the device is NMT operational. `self_starting`: operational at
+    /// boot, without an NMT start. `heartbeat_ms`: `0x1017`.
+    pub fn enable_canopen(
+        &mut self,
+        cfg: &NodeConfig<K>,
+        controller: &ControllerConfig<N>,
+        identity: Identity,
+        self_starting: bool,
+        heartbeat_ms: u16,
+    ) -> Result<(), NodeError> {
+        let store =
+            ParamStore::new(cfg, controller).map_err(|_| NodeError::AgentOutsidePlan(cfg.agent))?;
+        let mut device = Device::new(store, identity, self_starting);
+        device.set_heartbeat_ms(heartbeat_ms);
+        self.canopen = Some(CanOpen {
+            device,
+            dirty: false,
+            requests: 0,
+            last_overrun_emcy_us: None,
+        });
+        Ok(())
+    }
+
+    /// The CANopen device, if enabled.
+    pub fn canopen(&self) -> Option<&Device<N>> {
+        self.canopen.as_ref().map(|c| &c.device)
+    }
+
+    /// The CANopen device, to load a stored configuration ([`Device::load`]) or report a fault
+    /// ([`Device::report`]: bus-off, receive overflow, watchdog reset).
+    pub fn canopen_mut(&mut self) -> Option<&mut Device<N>> {
+        self.canopen.as_mut().map(|c| {
+            // Whatever the caller changes is applied at the next NMT start.
+            c.dirty = true;
+            &mut c.device
+        })
+    }
+
+    /// The next request of the CANopen device for the application.
+    pub fn take_canopen_request(&mut self) -> Option<CanOpenRequest> {
+        let c = self.canopen.as_mut()?;
+        let r = [
+            CanOpenRequest::Store,
+            CanOpenRequest::Restore,
+            CanOpenRequest::ResetNode,
+        ]
+        .into_iter()
+        .find(|r| c.requests & r.bit() != 0)?;
+        c.requests &= !r.bit();
+        Some(r)
+    }
+
+    /// An overrun EMCY (with the count since start) at most this often, so that a node that
+    /// keeps missing its deadlines does not flood the bus and the error history (µs).
+    fn overrun_emcy(&mut self) {
+        let now = self.last_tick_us.unwrap_or(0);
+        let Some(c) = &mut self.canopen else {
+            return;
+        };
+        if c.last_overrun_emcy_us
+            .is_some_and(|t| now.saturating_sub(t) < OVERRUN_EMCY_INHIBIT_US)
+        {
+            return;
+        }
+        c.last_overrun_emcy_us = Some(now);
+        self.emcy(Fault::Overrun, self.stats.overruns);
+    }
+
+    /// Report a fault by EMCY when the node is a CANopen device.
+    fn emcy(&mut self, f: Fault, count: u32) {
+        if let Some(c) = &mut self.canopen {
+            c.device.report(f, u16::try_from(count).unwrap_or(u16::MAX));
+        }
+    }
+
+    fn emcy_clear(&mut self, f: Fault) {
+        if let Some(c) = &mut self.canopen {
+            c.device.clear(f);
+        }
+    }
+
+    /// Send what the device queued (heartbeat, boot-up, EMCY, SDO answers).
+    fn flush_canopen(&mut self) {
+        while let Some(f) = self.canopen.as_mut().and_then(|c| c.device.next_tx()) {
+            if let Some(frame) = f.to_frame::<C::Frame>() {
+                if self.transmit_counted(&frame) {
+                    self.stats.tx_queued = self.stats.tx_queued.saturating_add(1);
+                }
+            }
+        }
+    }
+
+    /// Act on the device's events: a start with changed parameters rebuilds the controller
+    /// and the supervisor from the object dictionary (refused, back to pre-operational, with
+    /// EMCY `0x6300`, if the set does not validate); a stop or pre-operational zeroes the
+    /// outputs and restarts supervision at the next start; a new node-ID after a reset.
+    fn canopen_events(&mut self) {
+        loop {
+            let Some(c) = &mut self.canopen else {
+                return;
+            };
+            let Some(e) = c.device.next_event() else {
+                return;
+            };
+            match e {
+                Event::Nmt(canopen::NmtState::Operational) => {
+                    if core::mem::take(&mut c.dirty) {
+                        if let Err(err) = self.rebuild() {
+                            error!(
+                                "agent {}: stored configuration refused: {:?}",
+                                self.agent, err
+                            );
+                            self.emcy(Fault::ConfigRejected, 0);
+                            if let Some(c) = &mut self.canopen {
+                                c.dirty = true;
+                                c.device.on_frame(
+                                    canopen::NMT_ID,
+                                    &[canopen::NmtCommand::EnterPreOperational.code(), 0],
+                                    self.last_tick_us.unwrap_or(0),
+                                );
+                            }
+                        }
+                    }
+                    info!("agent {}: NMT operational", self.agent);
+                }
+                Event::Nmt(s) => {
+                    // Outputs off; supervision and the sample grid start again at the next start.
+                    self.first_tick_us = None;
+                    self.next_heartbeat_us = None;
+                    info!("agent {}: NMT {}", self.agent, s.name());
+                }
+                Event::Written(..) => c.dirty = true,
+                Event::Store => c.requests |= CanOpenRequest::Store.bit(),
+                Event::Restore => {
+                    c.dirty = true;
+                    c.requests |= CanOpenRequest::Restore.bit();
+                }
+                Event::ResetNode => {
+                    c.dirty = true;
+                    c.requests |= CanOpenRequest::ResetNode.bit();
+                }
+                Event::ResetCommunication => self.adopt_node_id(),
+                Event::HeartbeatLost(n) => {
+                    warn!("agent {}: heartbeat of node {} lost", self.agent, n)
+                }
+                Event::HeartbeatResumed(n) => {
+                    info!("agent {}: heartbeat of node {} back", self.agent, n)
+                }
+                Event::Sync => {}
+            }
+        }
+    }
+
+    /// The device's node-ID (written to `node.node_id` and applied by a reset, or loaded
+    /// from a stored set) becomes the agent number, if the identifier plan has it and it is
+    /// not a neighbour; else EMCY `0x6300` and the agent number stays.
+    fn adopt_node_id(&mut self) {
+        let Some(c) = &self.canopen else {
+            return;
+        };
+        let id = c.device.node_id();
+        if id == self.agent {
+            return;
+        }
+        if id > self.ids.agents() || self.slots.iter().take(self.count).any(|s| s.agent == id) {
+            self.emcy(Fault::ConfigRejected, u32::from(id));
+        } else {
+            info!("agent {}: node-ID {} from now on", self.agent, id);
+            self.agent = id;
+        }
+    }
+
+    /// Controller, supervisor and stale timeout from the object dictionary.
+    fn rebuild(&mut self) -> Result<(), NodeError> {
+        let Some(c) = &self.canopen else {
+            return Ok(());
+        };
+        let store = &c.device.store;
+        let controller = store.controller()?;
+        let sup = store.supervisor();
+        let supervisor = Supervisor::new(&sup)?;
+        let stale = (f64::from(store.node.stale_timeout) * 1e6 + 0.5) as u64;
+        if stale == 0 {
+            return Err(NodeError::ZeroTimeout);
+        }
+        if controller.neighbour_count != self.count {
+            return Err(NodeError::TooManyNeighbours);
+        }
+        self.controller = Controller::new(&with_reentry(&controller, &sup))?;
+        self.pinned = controller.pinned;
+        self.period_us = (f64::from(controller.h) * 1e6 + 0.5) as u64;
+        self.supervisor = supervisor;
+        self.supervised = sup.supervises_any();
+        self.timeout_us = stale;
+        self.applied = [0.0; M];
+        Ok(())
+    }
+
+    /// The CANopen device's work alone — boot-up, received frames (SDO, NMT, heartbeats),
+    /// events, heartbeat — for an application that is not sampling yet (waiting for its host).
+    /// Nothing without a device.
+    pub fn service(&mut self) {
+        if self.canopen.is_some() {
+            let now = self.clock.now_us();
+            self.canopen_tick(now);
+            self.flush_canopen();
+        }
+    }
+
+    /// The CANopen part of a tick: boot, frames, events, heartbeat; `false` when the device
+    /// is not operational (outputs off). Always `true` without a device.
+    fn canopen_tick(&mut self, now: u64) -> bool {
+        let Some(c) = &mut self.canopen else {
+            return true;
+        };
+        if c.device.nmt() == canopen::NmtState::Initialising {
+            c.device.boot(now);
+            self.adopt_node_id();
+        }
+        self.poll_rx_at(now);
+        self.canopen_events();
+        if let Some(c) = &mut self.canopen {
+            c.device.tick(now);
+        }
+        self.canopen_events();
+        self.canopen
+            .as_ref()
+            .is_none_or(|c| c.device.outputs_enabled())
+    }
+
+    /// A frame for the CANopen device (NMT, SYNC, SDO, heartbeats): taken, `true`.
+    fn device_frame(&mut self, frame: &C::Frame, now: u64) -> bool {
+        let (Some(c), Some(f)) = (&mut self.canopen, CoFrame::from_frame(frame)) else {
+            return false;
+        };
+        c.device.on_frame(f.id, f.data(), now)
+    }
+}
+
+/// Without the `canopen` feature (the firmware builds) the node has no device: its hooks do
+/// nothing and the outputs are always enabled.
+#[cfg(not(feature = "canopen"))]
+impl<C, Clk, S, A, const N: usize, const M: usize, const K: usize> Node<C, Clk, S, A, N, M, K>
+where
+    C: Can,
+    Clk: Clock,
+    S: Sensor<N>,
+    A: Actuator<M>,
+{
+    fn canopen_tick(&mut self, _now: u64) -> bool {
+        true
+    }
+
+    fn flush_canopen(&mut self) {}
+
+    fn emcy(&mut self, _f: Fault, _count: u32) {}
+
+    fn emcy_clear(&mut self, _f: Fault) {}
+
+    fn overrun_emcy(&mut self) {}
+
+    fn device_frame(&mut self, _frame: &C::Frame, _now: u64) -> bool {
+        false
     }
 }
