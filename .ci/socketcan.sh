@@ -54,6 +54,13 @@ t=$SECONDS
 cargo xtask vm --can 5 --timeout 240 -- env SC_SET="$SC_SET" sh .ci/socketcan-vm-checks.sh sja1000 || status=1
 echo "(SJA1000 checks: $((SECONDS - t)) s with boot)"
 
+echo "== a CANopen master (Python canopen) against node-linux on vcan0"
+t=$SECONDS
+rm -rf target/canopen-ci
+cargo xtask vm --timeout 240 -- python3 .ci/canopen-master.py target/release/node-linux target/canopen-ci ||
+  status=1
+echo "(CANopen master: $((SECONDS - t)) s with boot; transcript target/canopen-ci/transcript.txt)"
+
 echo "== judged on the host"
 python3 .ci/socketcan-judge.py target/socketcan-ci || status=1
 

@@ -20,6 +20,9 @@
 //!   simulates its plant on the same CAN bus (a Linux node process on SocketCAN).
 //! * [`bus_load`]: worst-case bit lengths of classical and CAN FD frames and the share of a
 //!   sample period the frame set of a scenario takes.
+//! * [`canopen`]: the CiA 301 (CANopen) device of every node — NMT slave, heartbeat producer
+//!   and consumer, EMCY, SDO server over an object dictionary generated from
+//!   `controller_core::param` — and its CiA 306 EDS.
 //! * [`dbc`]: every frame kind of the bus and the link described signal by signal, and
 //!   `docs/wire.dbc` written from that description ([`dbc::write_dbc`]).
 //!
@@ -29,6 +32,8 @@
 //! ## Features
 //!
 //! * `log` (default): node log lines through the `log` crate (host).
+//! * `canopen` (default): `Node::enable_canopen`, the node as a CiA 301 device. Without it (the
+//!   firmware builds) the node has no device and its outputs are always on.
 //! * `defmt`: node log lines through `defmt` (firmware); `defmt::Format` on the node's types.
 //!   Mutually exclusive with `log`. Firmware build:
 //!   `cargo build -p agent-node --target thumbv7em-none-eabihf --no-default-features --features defmt`.
@@ -40,6 +45,7 @@
 mod fmt;
 
 pub mod bus_load;
+pub mod canopen;
 pub mod dbc;
 pub mod link;
 pub mod node;

@@ -69,11 +69,17 @@ use controller_core::{
 };
 use embedded_can::{nb::Can, Error as _, ErrorKind};
 
+use crate::canopen::Fault;
+#[cfg(feature = "canopen")]
+use crate::canopen::{self, od::ParamStore, CoFrame, Device, Event, Identity};
 use crate::supervisor::{
     safe_command, NodeState, Observation, SafePolicy, StopProfile, Supervisor, SupervisorConfig,
     SupervisorError,
 };
 use crate::wire::{self, DecodeStats, Decoded, Heartbeat, IdPlan, SeqCheck, Source, WireError};
+
+/// Overrun EMCYs go out at most this often (µs of the node's clock).
+pub const OVERRUN_EMCY_INHIBIT_US: u64 = 1_000_000;
 
 /// Frames drained per call of [`Node::poll_rx`] at most, so a flooded bus cannot keep the
 /// sample interrupt busy forever.
@@ -267,6 +273,8 @@ pub enum TxOutcome {
     Error(ErrorKind),
     /// Not sent: the frame type refused the frame.
     EncodeFailed,
+    /// Not sent: the node's CANopen device is not operational (its outputs are off).
+    Disabled,
 }
 
 /// The result of one [`Node::tick`].
@@ -377,6 +385,46 @@ pub struct Node<C, Clk, S, A, const N: usize, const M: usize, const K: usize> {
     safe_reference: SafeReference,
     /// The controller was frozen during the present `Safe` stay (resume on exit).
     frozen_in_safe: bool,
+    /// The CiA 301 device (`Node::enable_canopen`); `None`: outputs always enabled.
+    #[cfg(feature = "canopen")]
+    canopen: Option<CanOpen<N>>,
+}
+
+/// The node's CANopen device and what the node keeps for it.
+#[cfg(feature = "canopen")]
+struct CanOpen<const N: usize> {
+    device: Device<N>,
+    /// A parameter was written (or restored, or loaded) since the controller was built: the
+    /// next NMT start rebuilds it from the object dictionary.
+    dirty: bool,
+    /// Requests for the application: store, restore, reset node.
+    requests: u8,
+    /// When the last overrun EMCY went out (they are sent at most once per
+    /// [`OVERRUN_EMCY_INHIBIT_US`], carrying the running count).
+    last_overrun_emcy_us: Option<u64>,
+}
+
+/// Something the node's CANopen device asks of the application that runs the node.
+#[cfg(feature = "canopen")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum CanOpenRequest {
+    /// `0x1010` "save": persist [`Device::save`]'s bytes (flash, a file).
+    Store,
+    /// `0x1011` "load": forget the persisted copy.
+    Restore,
+    /// NMT reset node: load the persisted copy again ([`Device::load`]).
+    ResetNode,
+}
+
+#[cfg(feature = "canopen")]
+impl CanOpenRequest {
+    const fn bit(self) -> u8 {
+        match self {
+            Self::Store => 1,
+            Self::Restore => 2,
+            Self::ResetNode => 4,
+        }
+    }
 }
 
 /// `controller` with the rate-limited re-entry a closed-loop safe state needs: a controller
@@ -499,6 +547,8 @@ where
             last_y: None,
             safe_reference: SafeReference::Frozen(None),
             frozen_in_safe: false,
+            #[cfg(feature = "canopen")]
+            canopen: None,
         })
     }
 
@@ -528,6 +578,7 @@ where
     pub fn record_overrun(&mut self) {
         self.stats.overruns = self.stats.overruns.saturating_add(1);
         self.reported_overruns = self.reported_overruns.saturating_add(1);
+        self.overrun_emcy();
     }
 
     /// The board found a fault it cannot recover from: the node latches `Fault` at the next
@@ -610,6 +661,28 @@ where
     pub fn poll_rx(&mut self) {
         let now = self.clock.now_us();
         self.poll_rx_at(now);
+        self.flush_canopen();
+    }
+
+    /// A tick while the CANopen device is not operational: actuators zero, no value frame,
+    /// the controller not advanced (the tick reports the error a copy of it computes).
+    fn disabled_tick(&mut self, now: u64) -> Tick<N, M> {
+        let x = self.sensor.read().unwrap_or([f32::NAN; N]);
+        let missing = [Link::Missing; K];
+        let neighbours = missing.get(..self.count).unwrap_or(&[]);
+        let output = self.frozen_output(NodeState::Fault, now, &x, neighbours, Link::Missing);
+        if self.actuator.write(&output.q).is_err() {
+            self.stats.actuator_errors = self.stats.actuator_errors.saturating_add(1);
+        }
+        self.applied = output.q;
+        self.flush_canopen();
+        self.last_tick_us = Some(now);
+        Tick {
+            now_us: now,
+            output,
+            tx: TxOutcome::Disabled,
+            state: self.supervisor.state(),
+        }
     }
 
     fn poll_rx_at(&mut self, now: u64) {
@@ -628,6 +701,9 @@ where
     }
 
     fn on_frame(&mut self, frame: &C::Frame, now: u64) {
+        if self.device_frame(frame, now) {
+            return;
+        }
         let m = match wire::decode_in(&self.ids, frame) {
             Ok(Decoded::Value(m)) => m,
             Ok(Decoded::Heartbeat { agent, .. }) if agent == self.agent => {
@@ -675,12 +751,16 @@ where
     pub fn tick(&mut self) -> Tick<N, M> {
         let now = self.clock.now_us();
         self.stats.ticks = self.stats.ticks.saturating_add(1);
+        if !self.canopen_tick(now) {
+            return self.disabled_tick(now);
+        }
         self.count_overruns(now);
         let first = *self.first_tick_us.get_or_insert(now);
         let x = match self.sensor.read() {
             Ok(x) => {
                 if self.sensor_failed {
                     info!("agent {}: sensor read ok again", self.agent);
+                    self.emcy_clear(Fault::SensorInvalid);
                 }
                 self.sensor_failed = false;
                 x
@@ -689,6 +769,7 @@ where
                 self.stats.sensor_errors = self.stats.sensor_errors.saturating_add(1);
                 if !self.sensor_failed {
                     warn!("agent {}: sensor read failed", self.agent);
+                    self.emcy(Fault::SensorInvalid, self.stats.sensor_errors);
                 }
                 self.sensor_failed = true;
                 [f32::NAN; N]
@@ -738,6 +819,7 @@ where
         let tx = self.broadcast(x[0]);
         self.seq = self.seq.wrapping_add(1) % wire::SEQ_MODULUS;
         self.heartbeat(now, first);
+        self.flush_canopen();
         self.last_tick_us = Some(now);
         Tick {
             now_us: now,
@@ -813,10 +895,11 @@ where
         let gap = now.saturating_sub(last);
         if p > 0 && gap > p + p / 2 {
             let missed = u32::try_from((gap + p / 2) / p - 1).unwrap_or(u32::MAX);
-            self.stats.overruns = self
-                .stats
-                .overruns
-                .saturating_add(missed.saturating_sub(reported));
+            let unreported = missed.saturating_sub(reported);
+            self.stats.overruns = self.stats.overruns.saturating_add(unreported);
+            if unreported > 0 {
+                self.overrun_emcy();
+            }
         }
     }
 
@@ -854,6 +937,10 @@ where
         match t.to {
             NodeState::Safe => {
                 self.enter_safe(now, x[0]);
+                let lost = u8::from(t.lost.leader())
+                    | u8::from(t.lost.neighbours()) << 1
+                    | u8::from(t.lost.sensor()) << 2;
+                self.emcy(Fault::SafeState(lost), self.stats.safe_state_entries);
                 warn!(
                     "agent {}: safe state (lost: leader {}, neighbours {}, sensor {})",
                     self.agent,
@@ -862,8 +949,12 @@ where
                     t.lost.sensor()
                 )
             }
-            NodeState::Fault => error!("agent {}: fault, outputs off", self.agent),
+            NodeState::Fault => {
+                error!("agent {}: fault, outputs off", self.agent);
+                self.emcy(Fault::Fault, 0);
+            }
             NodeState::Operational if t.from == NodeState::Safe => {
+                self.emcy_clear(Fault::SafeState(0));
                 if core::mem::take(&mut self.frozen_in_safe) {
                     self.controller.resume(x[0], &self.applied);
                     info!(
@@ -927,13 +1018,22 @@ where
         let Some(frame) = wire::encode_heartbeat::<C::Frame>(&self.ids, self.agent, &hb) else {
             return;
         };
-        match self.can.transmit(&frame) {
-            Ok(_) => self.stats.heartbeats_tx = self.stats.heartbeats_tx.saturating_add(1),
+        if self.transmit_counted(&frame) {
+            self.stats.heartbeats_tx = self.stats.heartbeats_tx.saturating_add(1);
+        }
+    }
+
+    /// Hand `frame` to the CAN controller; `false` (counted as busy or an error) if refused.
+    fn transmit_counted(&mut self, frame: &C::Frame) -> bool {
+        match self.can.transmit(frame) {
+            Ok(_) => true,
             Err(nb::Error::WouldBlock) => {
                 self.stats.tx_busy = self.stats.tx_busy.saturating_add(1);
+                false
             }
             Err(nb::Error::Other(_)) => {
                 self.stats.tx_errors = self.stats.tx_errors.saturating_add(1);
+                false
             }
         }
     }
@@ -1039,5 +1139,284 @@ where
             }
         }
         out
+    }
+}
+
+/// The node's CANopen device (feature `canopen`, default): [`Node::enable_canopen`] and what
+/// the node does with it.
+#[cfg(feature = "canopen")]
+impl<C, Clk, S, A, const N: usize, const M: usize, const K: usize> Node<C, Clk, S, A, N, M, K>
+where
+    C: Can,
+    Clk: Clock,
+    S: Sensor<N>,
+    A: Actuator<M>,
+{
+    /// Make the node a CiA 301 device ([`crate::canopen`]): its object dictionary holds the
+    /// configurations the node was built with (and the defaults `0x1011` restores), the boot-up
+    /// message goes out at the next tick, and the control outputs — actuators and value frames
+    /// — are enabled only while the device is NMT operational. `self_starting`: operational at
+    /// boot, without an NMT start. `heartbeat_ms`: `0x1017`.
+    pub fn enable_canopen(
+        &mut self,
+        cfg: &NodeConfig<K>,
+        controller: &ControllerConfig<N>,
+        identity: Identity,
+        self_starting: bool,
+        heartbeat_ms: u16,
+    ) -> Result<(), NodeError> {
+        let store =
+            ParamStore::new(cfg, controller).map_err(|_| NodeError::AgentOutsidePlan(cfg.agent))?;
+        let mut device = Device::new(store, identity, self_starting);
+        device.set_heartbeat_ms(heartbeat_ms);
+        self.canopen = Some(CanOpen {
+            device,
+            dirty: false,
+            requests: 0,
+            last_overrun_emcy_us: None,
+        });
+        Ok(())
+    }
+
+    /// The CANopen device, if enabled.
+    pub fn canopen(&self) -> Option<&Device<N>> {
+        self.canopen.as_ref().map(|c| &c.device)
+    }
+
+    /// The CANopen device, to load a stored configuration ([`Device::load`]) or report a fault
+    /// ([`Device::report`]: bus-off, receive overflow, watchdog reset).
+    pub fn canopen_mut(&mut self) -> Option<&mut Device<N>> {
+        self.canopen.as_mut().map(|c| {
+            // Whatever the caller changes is applied at the next NMT start.
+            c.dirty = true;
+            &mut c.device
+        })
+    }
+
+    /// The next request of the CANopen device for the application.
+    pub fn take_canopen_request(&mut self) -> Option<CanOpenRequest> {
+        let c = self.canopen.as_mut()?;
+        let r = [
+            CanOpenRequest::Store,
+            CanOpenRequest::Restore,
+            CanOpenRequest::ResetNode,
+        ]
+        .into_iter()
+        .find(|r| c.requests & r.bit() != 0)?;
+        c.requests &= !r.bit();
+        Some(r)
+    }
+
+    /// An overrun EMCY (with the count since start) at most this often, so that a node that
+    /// keeps missing its deadlines does not flood the bus and the error history (µs).
+    fn overrun_emcy(&mut self) {
+        let now = self.last_tick_us.unwrap_or(0);
+        let Some(c) = &mut self.canopen else {
+            return;
+        };
+        if c.last_overrun_emcy_us
+            .is_some_and(|t| now.saturating_sub(t) < OVERRUN_EMCY_INHIBIT_US)
+        {
+            return;
+        }
+        c.last_overrun_emcy_us = Some(now);
+        self.emcy(Fault::Overrun, self.stats.overruns);
+    }
+
+    /// Report a fault by EMCY when the node is a CANopen device.
+    fn emcy(&mut self, f: Fault, count: u32) {
+        if let Some(c) = &mut self.canopen {
+            c.device.report(f, u16::try_from(count).unwrap_or(u16::MAX));
+        }
+    }
+
+    fn emcy_clear(&mut self, f: Fault) {
+        if let Some(c) = &mut self.canopen {
+            c.device.clear(f);
+        }
+    }
+
+    /// Send what the device queued (heartbeat, boot-up, EMCY, SDO answers).
+    fn flush_canopen(&mut self) {
+        while let Some(f) = self.canopen.as_mut().and_then(|c| c.device.next_tx()) {
+            if let Some(frame) = f.to_frame::<C::Frame>() {
+                if self.transmit_counted(&frame) {
+                    self.stats.tx_queued = self.stats.tx_queued.saturating_add(1);
+                }
+            }
+        }
+    }
+
+    /// Act on the device's events: a start with changed parameters rebuilds the controller
+    /// and the supervisor from the object dictionary (refused, back to pre-operational, with
+    /// EMCY `0x6300`, if the set does not validate); a stop or pre-operational zeroes the
+    /// outputs and restarts supervision at the next start; a new node-ID after a reset.
+    fn canopen_events(&mut self) {
+        loop {
+            let Some(c) = &mut self.canopen else {
+                return;
+            };
+            let Some(e) = c.device.next_event() else {
+                return;
+            };
+            match e {
+                Event::Nmt(canopen::NmtState::Operational) => {
+                    if core::mem::take(&mut c.dirty) {
+                        if let Err(err) = self.rebuild() {
+                            error!(
+                                "agent {}: stored configuration refused: {:?}",
+                                self.agent, err
+                            );
+                            self.emcy(Fault::ConfigRejected, 0);
+                            if let Some(c) = &mut self.canopen {
+                                c.dirty = true;
+                                c.device.on_frame(
+                                    canopen::NMT_ID,
+                                    &[canopen::NmtCommand::EnterPreOperational.code(), 0],
+                                    self.last_tick_us.unwrap_or(0),
+                                );
+                            }
+                        }
+                    }
+                    info!("agent {}: NMT operational", self.agent);
+                }
+                Event::Nmt(s) => {
+                    // Outputs off; supervision and the sample grid start again at the next start.
+                    self.first_tick_us = None;
+                    self.next_heartbeat_us = None;
+                    info!("agent {}: NMT {}", self.agent, s.name());
+                }
+                Event::Written(..) => c.dirty = true,
+                Event::Store => c.requests |= CanOpenRequest::Store.bit(),
+                Event::Restore => {
+                    c.dirty = true;
+                    c.requests |= CanOpenRequest::Restore.bit();
+                }
+                Event::ResetNode => {
+                    c.dirty = true;
+                    c.requests |= CanOpenRequest::ResetNode.bit();
+                }
+                Event::ResetCommunication => self.adopt_node_id(),
+                Event::HeartbeatLost(n) => {
+                    warn!("agent {}: heartbeat of node {} lost", self.agent, n)
+                }
+                Event::HeartbeatResumed(n) => {
+                    info!("agent {}: heartbeat of node {} back", self.agent, n)
+                }
+                Event::Sync => {}
+            }
+        }
+    }
+
+    /// The device's node-ID (written to `node.node_id` and applied by a reset, or loaded
+    /// from a stored set) becomes the agent number, if the identifier plan has it and it is
+    /// not a neighbour; else EMCY `0x6300` and the agent number stays.
+    fn adopt_node_id(&mut self) {
+        let Some(c) = &self.canopen else {
+            return;
+        };
+        let id = c.device.node_id();
+        if id == self.agent {
+            return;
+        }
+        if id > self.ids.agents() || self.slots.iter().take(self.count).any(|s| s.agent == id) {
+            self.emcy(Fault::ConfigRejected, u32::from(id));
+        } else {
+            info!("agent {}: node-ID {} from now on", self.agent, id);
+            self.agent = id;
+        }
+    }
+
+    /// Controller, supervisor and stale timeout from the object dictionary.
+    fn rebuild(&mut self) -> Result<(), NodeError> {
+        let Some(c) = &self.canopen else {
+            return Ok(());
+        };
+        let store = &c.device.store;
+        let controller = store.controller()?;
+        let sup = store.supervisor();
+        let supervisor = Supervisor::new(&sup)?;
+        let stale = (f64::from(store.node.stale_timeout) * 1e6 + 0.5) as u64;
+        if stale == 0 {
+            return Err(NodeError::ZeroTimeout);
+        }
+        if controller.neighbour_count != self.count {
+            return Err(NodeError::TooManyNeighbours);
+        }
+        self.controller = Controller::new(&with_reentry(&controller, &sup))?;
+        self.pinned = controller.pinned;
+        self.period_us = (f64::from(controller.h) * 1e6 + 0.5) as u64;
+        self.supervisor = supervisor;
+        self.supervised = sup.supervises_any();
+        self.timeout_us = stale;
+        self.applied = [0.0; M];
+        Ok(())
+    }
+
+    /// The CANopen device's work alone — boot-up, received frames (SDO, NMT, heartbeats),
+    /// events, heartbeat — for an application that is not sampling yet (waiting for its host).
+    /// Nothing without a device.
+    pub fn service(&mut self) {
+        if self.canopen.is_some() {
+            let now = self.clock.now_us();
+            self.canopen_tick(now);
+            self.flush_canopen();
+        }
+    }
+
+    /// The CANopen part of a tick: boot, frames, events, heartbeat; `false` when the device
+    /// is not operational (outputs off). Always `true` without a device.
+    fn canopen_tick(&mut self, now: u64) -> bool {
+        let Some(c) = &mut self.canopen else {
+            return true;
+        };
+        if c.device.nmt() == canopen::NmtState::Initialising {
+            c.device.boot(now);
+            self.adopt_node_id();
+        }
+        self.poll_rx_at(now);
+        self.canopen_events();
+        if let Some(c) = &mut self.canopen {
+            c.device.tick(now);
+        }
+        self.canopen_events();
+        self.canopen
+            .as_ref()
+            .is_none_or(|c| c.device.outputs_enabled())
+    }
+
+    /// A frame for the CANopen device (NMT, SYNC, SDO, heartbeats): taken, `true`.
+    fn device_frame(&mut self, frame: &C::Frame, now: u64) -> bool {
+        let (Some(c), Some(f)) = (&mut self.canopen, CoFrame::from_frame(frame)) else {
+            return false;
+        };
+        c.device.on_frame(f.id, f.data(), now)
+    }
+}
+
+/// Without the `canopen` feature (the firmware builds) the node has no device: its hooks do
+/// nothing and the outputs are always enabled.
+#[cfg(not(feature = "canopen"))]
+impl<C, Clk, S, A, const N: usize, const M: usize, const K: usize> Node<C, Clk, S, A, N, M, K>
+where
+    C: Can,
+    Clk: Clock,
+    S: Sensor<N>,
+    A: Actuator<M>,
+{
+    fn canopen_tick(&mut self, _now: u64) -> bool {
+        true
+    }
+
+    fn flush_canopen(&mut self) {}
+
+    fn emcy(&mut self, _f: Fault, _count: u32) {}
+
+    fn emcy_clear(&mut self, _f: Fault) {}
+
+    fn overrun_emcy(&mut self) {}
+
+    fn device_frame(&mut self, _frame: &C::Frame, _now: u64) -> bool {
+        false
     }
 }

@@ -141,7 +141,7 @@ impl SafePolicy {
     /// The lower-case name used in scenario and node files.
     pub const fn as_str(&self) -> &'static str {
         match self {
-            Self::HoldPosition => "hold_position",
+            Self::HoldPosition => "hold-position",
             Self::Stop { .. } => "stop",
             Self::Hold => "hold",
             Self::Ramp { .. } => "ramp",

@@ -29,7 +29,8 @@ pub const MAX_GAIN: f32 = 1.844_674_3e19;
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[non_exhaustive]
+// Not `#[non_exhaustive]`: agent-node's object dictionary matches every parameter, so that a new
+// one cannot compile until it has its CANopen entry.
 pub enum Param {
     /// `simulation.h`: sample period `h`.
     H,

@@ -802,8 +802,29 @@ impl<const N: usize, S: PerStep<f32>> TryFrom<ConfigFile<S>> for ControllerConfi
     }
 }
 
-#[cfg(feature = "serde")]
-impl<const N: usize> From<ControllerConfig<N>> for ConfigFile<heapless::Vec<f32, N>> {
+/// The sections a scenario file would give for a configuration: the inverse of
+/// [`ControllerConfig::from_sections`] (an object dictionary's parameter store and
+/// `ConfigFile` both start from it).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sections<const N: usize> {
+    /// Sample period and topology.
+    pub agent: Agent,
+    /// `[controller]`.
+    pub controller: ControllerSection<f32, heapless::Vec<f32, N>>,
+    /// `[quantizer]`.
+    pub quantizer: QuantizerSection<f32>,
+    /// `[safety]`.
+    pub safety: SafetySection<f32>,
+}
+
+impl<const N: usize> Sections<N> {
+    /// The configuration these sections describe ([`ControllerConfig::from_sections`]).
+    pub fn config(&self) -> Result<ControllerConfig<N>, ConfigError> {
+        ControllerConfig::from_sections(self.agent, &self.controller, &self.quantizer, &self.safety)
+    }
+}
+
+impl<const N: usize> From<ControllerConfig<N>> for Sections<N> {
     fn from(c: ControllerConfig<N>) -> Self {
         let steps = heapless::Vec::from_array;
         let (c1, c2) = match c.gains {
@@ -815,8 +836,8 @@ impl<const N: usize> From<ControllerConfig<N>> for ConfigFile<heapless::Vec<f32,
             SchemeConfig::PrescribedTime(b) => (SchemeName::PrescribedTime, Some(b)),
         };
         Self {
-            simulation: FileSimulation { h: c.h },
-            agent: FileAgent {
+            agent: Agent {
+                h: c.h,
                 neighbour_count: c.neighbour_count,
                 pinned: c.pinned,
             },
@@ -874,6 +895,23 @@ impl<const N: usize> From<ControllerConfig<N>> for ConfigFile<heapless::Vec<f32,
                     ..SafetySection::default()
                 },
             },
+        }
+    }
+}
+
+#[cfg(feature = "serde")]
+impl<const N: usize> From<ControllerConfig<N>> for ConfigFile<heapless::Vec<f32, N>> {
+    fn from(c: ControllerConfig<N>) -> Self {
+        let s = Sections::from(c);
+        Self {
+            simulation: FileSimulation { h: s.agent.h },
+            agent: FileAgent {
+                neighbour_count: s.agent.neighbour_count,
+                pinned: s.agent.pinned,
+            },
+            controller: s.controller,
+            quantizer: s.quantizer,
+            safety: s.safety,
         }
     }
 }

@@ -143,6 +143,24 @@ pub struct AgentCommands {
     pub state: Option<&'static str>,
     /// Samples its own timer woke more than `h/2` late, as its last state frame said.
     pub node_late_ticks: Option<u16>,
+    /// `network.canopen`: the node's last NMT state from its heartbeat.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nmt_state: Option<&'static str>,
+}
+
+/// `summary.json` `socketcan.emcy[]` (`network.canopen`): one emergency message of a node.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct EmcyRecord {
+    /// Run time it was received at [s] (negative: before the first sample).
+    pub t_s: f64,
+    /// The node (= agent).
+    pub agent: u8,
+    /// CiA 301 error code (`0`: error reset).
+    pub code: u16,
+    /// Error register.
+    pub register: u8,
+    /// Cause byte (docs/NETWORK.md §12).
+    pub cause: u8,
 }
 
 /// `summary.json` `socketcan`: the real-time figures of a run on a Linux CAN interface.
@@ -170,6 +188,9 @@ pub struct SocketcanSummary {
     pub send_errors: u64,
     /// Per agent.
     pub agents: Vec<AgentCommands>,
+    /// `network.canopen`: every EMCY the nodes sent, in order.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub emcy: Option<Vec<EmcyRecord>>,
 }
 
 /// Units of the numeric keys of [`SocketcanSummary`] for `summary.json` `units`.

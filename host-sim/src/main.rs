@@ -60,6 +60,9 @@ enum Cmd {
     /// Live table of a CAN bus running the product: per agent y, x, q, frame rates, node
     /// state (heartbeat); error frames.
     Monitor(cli::monitor::MonitorArgs),
+    /// Write each follower's node file (agent-<i>.toml, for node-linux) and CANopen EDS
+    /// (agent-<i>.eds) into --out without running the scenario.
+    Nodes(cli::nodes::NodesArgs),
 }
 
 fn dispatch(cmd: Cmd) -> Result<()> {
@@ -73,6 +76,7 @@ fn dispatch(cmd: Cmd) -> Result<()> {
         Cmd::Merge(a) => cli::merge::execute(a),
         Cmd::Graph(a) => cli::graph::execute(a),
         Cmd::Monitor(a) => cli::monitor::execute(a),
+        Cmd::Nodes(a) => cli::nodes::execute(a),
     }
 }
 

@@ -3,7 +3,9 @@
 //! (heartbeat), and the bus's error frames (error-passive, bus-off, …).
 //!
 //! Frames are decoded with the product's own codec (`agent_node::wire`,
-//! `agent_node::plant_bus`); with `--dbc`, every other frame whose identifier the DBC file
+//! `agent_node::plant_bus`, and `agent_node::canopen::decode` for NMT, SYNC, EMCY, SDO and
+//! heartbeats: per node-ID its NMT state, boot-ups, last EMCY, SDO requests, answers and
+//! aborts); with `--dbc`, every other frame whose identifier the DBC file
 //! describes is shown with its decoded signals (little-endian signals, `SIG_VALTYPE_` floats).
 
 use std::{
@@ -15,6 +17,7 @@ use std::{
 };
 
 use agent_node::{
+    canopen::{self, Message, NmtState},
     plant_bus::{self, NodeState, PlantFrame},
     wire::{self, Source},
 };
@@ -61,6 +64,124 @@ struct View {
     other: BTreeMap<u32, (u64, Vec<u8>)>,
     errors: BTreeMap<String, u64>,
     frames: u64,
+    canopen: CanOpenView,
+}
+
+/// What was seen of the CANopen devices (docs/NETWORK.md §12).
+#[derive(Debug, Default)]
+struct CanOpenView {
+    /// Per node-ID.
+    nodes: BTreeMap<u8, CanOpenRow>,
+    /// The last NMT commands, newest last.
+    nmt: Vec<String>,
+    syncs: u64,
+}
+
+/// One CANopen device.
+#[derive(Debug, Default)]
+struct CanOpenRow {
+    state: Option<NmtState>,
+    boot_ups: u64,
+    emcys: u64,
+    /// Last EMCY: code, register, cause byte.
+    last_emcy: Option<(u16, u8, u8)>,
+    sdo_requests: u64,
+    sdo_answers: u64,
+    /// Aborts: count, the last one's code, index, sub-index.
+    aborts: u64,
+    last_abort: Option<(u32, u16, u8)>,
+}
+
+impl CanOpenView {
+    fn take(&mut self, m: Message) {
+        match m {
+            Message::Nmt { command, node } => {
+                let what = command.map_or("unknown command", |c| match c {
+                    canopen::NmtCommand::Start => "start",
+                    canopen::NmtCommand::Stop => "stop",
+                    canopen::NmtCommand::EnterPreOperational => "enter pre-operational",
+                    canopen::NmtCommand::ResetNode => "reset node",
+                    canopen::NmtCommand::ResetCommunication => "reset communication",
+                });
+                let to = if node == 0 {
+                    "all".to_owned()
+                } else {
+                    format!("node {node}")
+                };
+                self.nmt.push(format!("{what} {to}"));
+                if self.nmt.len() > 4 {
+                    self.nmt.remove(0);
+                }
+            }
+            Message::Sync => self.syncs += 1,
+            Message::Emcy {
+                node,
+                code,
+                register,
+                info,
+            } => {
+                let r = self.nodes.entry(node).or_default();
+                r.emcys += 1;
+                r.last_emcy = Some((code, register, info[0]));
+            }
+            Message::Sdo {
+                node,
+                request,
+                index,
+                sub,
+                abort,
+                ..
+            } => {
+                let r = self.nodes.entry(node).or_default();
+                if request {
+                    r.sdo_requests += 1;
+                } else {
+                    r.sdo_answers += 1;
+                }
+                if let Some(code) = abort {
+                    r.aborts += 1;
+                    r.last_abort = Some((code, index, sub));
+                }
+            }
+            Message::Heartbeat { node, state } => {
+                let r = self.nodes.entry(node).or_default();
+                if state == Some(NmtState::Initialising) {
+                    r.boot_ups += 1;
+                }
+                r.state = state;
+            }
+        }
+    }
+
+    fn lines(&self, s: &mut String) {
+        for (id, r) in &self.nodes {
+            let state = r.state.map_or("-", NmtState::name);
+            let emcy = r.last_emcy.map_or_else(
+                || "none".to_owned(),
+                |(c, reg, cause)| format!("{c:#06x} (register {reg:#04x}, cause {cause})"),
+            );
+            let abort = r.last_abort.map_or_else(String::new, |(c, i, sub)| {
+                format!(", last abort {c:#010x} at {i:#06x}/{sub}")
+            });
+            let _ = writeln!(
+                s,
+                "canopen node {id}: NMT {state}, {} boot-up(s); EMCY {} (last {emcy}); SDO {} requests, {} answers, {} aborts{abort}",
+                r.boot_ups, r.emcys, r.sdo_requests, r.sdo_answers, r.aborts
+            );
+        }
+        if !self.nmt.is_empty() || self.syncs > 0 {
+            let _ = writeln!(
+                s,
+                "canopen NMT: {}; SYNC: {}",
+                if self.nmt.is_empty() {
+                    "none".to_owned()
+                } else {
+                    self.nmt.join(", ")
+                },
+                self.syncs
+            );
+        }
+    }
 }
 
 impl View {
@@ -110,6 +231,12 @@ impl View {
                 a.states += 1;
             }
             Some(PlantFrame::Stop(_)) | None => {
+                if let Id::Standard(sid) = f.id() {
+                    if let Some(m) = canopen::decode(sid.as_raw(), f.data()) {
+                        self.canopen.take(m);
+                        return;
+                    }
+                }
                 let id = match f.id() {
                     Id::Standard(s) => u32::from(s.as_raw()),
                     Id::Extended(e) => e.as_raw() | 0x8000_0000,
@@ -161,6 +288,7 @@ impl View {
                 rate(a.commands, b.2),
             );
         }
+        self.canopen.lines(&mut s);
         if self.errors.is_empty() {
             let _ = writeln!(s, "error frames: none");
         } else {

@@ -10,6 +10,11 @@
 //! stale_timeout = 0.0025   # a neighbour value older than this is stale [s]
 //! host_timeout = 0.5       # no sensor frame for this long: the host is gone, stop [s]
 //! time_scale = 1.0         # wall seconds per simulated second (slowed real time)
+//! node_id = 4              # CANopen node-ID (= agent)
+//!
+//! [node.canopen]           # optional: the node as a CiA 301 device (NMT, SDO, EMCY)
+//! store = "agent-4.od"     # what 0x1010 "save" writes, loaded at start
+//! heartbeat_ms = 100
 //!
 //! [simulation]
 //! h = 0.001
@@ -70,6 +75,14 @@ pub struct NodeSection {
     /// (`agent_node::plant_bus::encode_packed`; needs `fd`); absent: one sensor frame per agent.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub packed_sensors: Option<bool>,
+    /// CANopen node-ID (1..=127), equal to `agent` (the value frames sit at `id_base +
+    /// node-ID`); absent: `agent`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub node_id: Option<i64>,
+    /// The node as a CiA 301 device (`[node.canopen]`, docs/NETWORK.md §12); absent: outputs
+    /// on from the first sample, no NMT, SDO or EMCY.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub canopen: Option<CanOpenSection>,
 }
 
 impl NodeSection {
@@ -87,6 +100,26 @@ impl NodeSection {
     pub fn start_timeout(&self) -> f64 {
         self.start_timeout.unwrap_or(60.0)
     }
+}
+
+/// `[node.canopen]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CanOpenSection {
+    /// The file `0x1010` "save" writes and the node loads at start and on NMT reset node;
+    /// `0x1011` "load" deletes it. Absent: nothing persists.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub store: Option<String>,
+    /// Producer heartbeat time `0x1017` [ms] until the stored set or a master changes it.
+    #[serde(default = "default_heartbeat_ms")]
+    pub heartbeat_ms: u16,
+    /// Operational at boot without an NMT start.
+    #[serde(default)]
+    pub self_starting: bool,
+}
+
+fn default_heartbeat_ms() -> u16 {
+    100
 }
 
 /// `[node.supervision]`: the node supervisor's settings as resolved numbers (host-sim writes
@@ -339,6 +372,20 @@ impl NodeFile {
                 ),
             ));
         }
+        if let Some(id) = node.node_id {
+            if id != i64::from(agent) || !(1..=127).contains(&id) {
+                return Err(ConfigError::new(
+                    "node.node_id",
+                    format!("must equal node.agent ({agent}) and lie in 1..=127 (got {id})"),
+                ));
+            }
+        }
+        if node.canopen.is_some() && agent > 127 {
+            return Err(ConfigError::new(
+                "node.canopen",
+                format!("a CANopen node-ID lies in 1..=127 (node.agent is {agent})"),
+            ));
+        }
         if node.interface.is_empty() || node.interface.len() > 15 {
             return Err(ConfigError::new(
                 "node.interface",
@@ -450,6 +497,8 @@ mod tests {
             start_timeout: None,
             fd: None,
             packed_sensors: None,
+            node_id: Some(4),
+            canopen: None,
         }
     }
 
@@ -481,8 +530,9 @@ mod tests {
             c.ids = IdPlan::new(0x101, None, agents).expect("plan");
             Some(Supervision::of(&c))
         }
-        let cases: [Case; 8] = [
+        let cases: [Case; 9] = [
             (|s| s.agent = 0, "node.agent"),
+            (|s| s.node_id = Some(5), "node.node_id"),
             (|s| s.neighbours = vec![1, 4], "node.neighbours[2]"),
             (|s| s.interface = String::new(), "node.interface"),
             (|s| s.host_timeout = 0.0, "node.host_timeout"),

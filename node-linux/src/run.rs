@@ -27,6 +27,8 @@ use std::{
 };
 
 use agent_node::{
+    canopen::{Fault, Identity},
+    node::CanOpenRequest,
     plant_bus::{self, Kind, Mode, NodeState, PlantFrame},
     Actuator, Clock, Node, Sensor,
 };
@@ -35,7 +37,13 @@ use socketcan::{
     CanAnyFrame, CanFdFrame, CanFdSocket, CanFilter, CanSocket, Socket, SocketOptions,
 };
 
-use crate::config::{NodeFile, MAX_NEIGHBOURS, N};
+use crate::config::{CanOpenSection, NodeFile, MAX_NEIGHBOURS, N};
+
+/// The node as `run` builds it.
+type LinuxNode = Node<BusSocket, MonoClock, BusSensor, BusActuator, N, N, MAX_NEIGHBOURS>;
+
+/// Most bytes of a stored object dictionary (`0x1010`).
+const STORE_CAPACITY: usize = 4096;
 
 /// State frames are sent this often, and on every change of mode.
 pub const HEARTBEAT: Duration = Duration::from_millis(100);
@@ -301,16 +309,18 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
         tx_errors: 0,
         stop: false,
     }));
-    let mut node: Node<BusSocket, MonoClock, BusSensor, BusActuator, N, N, MAX_NEIGHBOURS> =
-        Node::new(
-            &cfg.node_config,
-            &cfg.controller,
-            BusSocket { socket: bus, fd },
-            MonoClock(Instant::now(), cfg.node.time_scale),
-            BusSensor(io.clone()),
-            BusActuator(io.clone()),
-        )
-        .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
+    let mut node: LinuxNode = Node::new(
+        &cfg.node_config,
+        &cfg.controller,
+        BusSocket { socket: bus, fd },
+        MonoClock(Instant::now(), cfg.node.time_scale),
+        BusSensor(io.clone()),
+        BusActuator(io.clone()),
+    )
+    .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
+    if let Some(co) = &cfg.node.canopen {
+        enable_canopen(&mut node, cfg, co)?;
+    }
     let h = Duration::from_secs_f64(cfg.wall_h());
     let host_timeout = Duration::from_secs_f64(cfg.node.host_timeout);
     let mut state = NodeState {
@@ -348,6 +358,9 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
         if io.borrow_mut().drain() {
             break io.borrow().last_rx.unwrap_or(now);
         }
+        // NMT, SDO and heartbeats go on while the node waits for its host.
+        node.service();
+        serve_requests(&mut node, cfg);
         std::thread::sleep(Duration::from_micros(200).min(h / 4));
     };
     state.mode = Mode::Running;
@@ -378,6 +391,7 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
             state.late_ticks = state.late_ticks.saturating_add(1);
         }
         let t = node.tick();
+        serve_requests(&mut node, cfg);
         ticks += 1;
         let l = t.output.status.links;
         let degraded = u32::from(l.stale_neighbours)
@@ -427,4 +441,84 @@ fn finish(
     io.borrow_mut().send(state.frame(agent));
     log::info!("agent {agent}: stopped ({})", state.mode.as_str());
     Ok(reason)
+}
+
+/// Make the node a CANopen device and load its stored object dictionary, if there is one (a
+/// stored set the node refuses is reported by EMCY `0x6300` and left aside).
+fn enable_canopen(node: &mut LinuxNode, cfg: &NodeFile, co: &CanOpenSection) -> io::Result<()> {
+    let identity = Identity {
+        product: 1,
+        revision: 1,
+        ..Identity::default()
+    };
+    node.enable_canopen(
+        &cfg.node_config,
+        &cfg.controller,
+        identity,
+        co.self_starting,
+        co.heartbeat_ms,
+    )
+    .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
+    load_store(node, co);
+    Ok(())
+}
+
+fn load_store(node: &mut LinuxNode, co: &CanOpenSection) {
+    let Some(path) = &co.store else {
+        return;
+    };
+    let bytes = match std::fs::read(path) {
+        Ok(b) => b,
+        Err(e) if e.kind() == io::ErrorKind::NotFound => return,
+        Err(e) => {
+            log::error!("node.canopen.store `{path}`: {e}");
+            return;
+        }
+    };
+    if let Some(d) = node.canopen_mut() {
+        match d.load(&bytes) {
+            Ok(()) => log::info!("object dictionary loaded from {path}"),
+            Err(a) => {
+                log::error!(
+                    "node.canopen.store `{path}`: refused (SDO abort {:#010x}); defaults kept",
+                    a.code()
+                );
+                d.report(Fault::ConfigRejected, 0);
+            }
+        }
+    }
+}
+
+/// Store, restore and reset-node requests of the CANopen device, against the store file.
+fn serve_requests(node: &mut LinuxNode, cfg: &NodeFile) {
+    let Some(co) = &cfg.node.canopen else {
+        return;
+    };
+    while let Some(r) = node.take_canopen_request() {
+        let Some(path) = &co.store else {
+            log::warn!("{r:?} requested but node.canopen.store is not set: nothing persists");
+            continue;
+        };
+        match r {
+            CanOpenRequest::Store => {
+                let mut buf = vec![0u8; STORE_CAPACITY];
+                let Some(n) = node.canopen().and_then(|d| d.save(&mut buf)) else {
+                    continue;
+                };
+                let tmp = format!("{path}.tmp");
+                let r = std::fs::write(&tmp, buf.get(..n).unwrap_or(&[]))
+                    .and_then(|()| std::fs::rename(&tmp, path));
+                match r {
+                    Ok(()) => log::info!("object dictionary stored in {path} ({n} bytes)"),
+                    Err(e) => log::error!("node.canopen.store `{path}`: {e}"),
+                }
+            }
+            CanOpenRequest::Restore => match std::fs::remove_file(path) {
+                Ok(()) => log::info!("{path} removed: defaults at the next start"),
+                Err(e) if e.kind() == io::ErrorKind::NotFound => {}
+                Err(e) => log::error!("node.canopen.store `{path}`: {e}"),
+            },
+            CanOpenRequest::ResetNode => load_store(node, co),
+        }
+    }
 }

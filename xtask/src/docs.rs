@@ -202,6 +202,9 @@ pub fn docs(opts: &Options) -> Result<()> {
             ));
         }
     }
+    if opts.only.is_none() || opts.only.as_deref() == Some("eds") {
+        eds(opts.check)?;
+    }
     if opts.check {
         println!("docs: every measured figure and image matches");
     }
@@ -1546,6 +1549,30 @@ fn machine() -> String {
         .and_then(|l| l.split_whitespace().next().map(|l| format!(", load {l}")))
         .unwrap_or_default();
     format!("{model}, {cores} cores{load}")
+}
+
+/// `docs/agent-node.eds`: the CiA 306 data sheet of the node's object dictionary, written from
+/// the same table the SDO server serves (`agent_node::canopen::eds`); `check` compares.
+fn eds(check: bool) -> Result<()> {
+    let path = workspace_root().join("docs/agent-node.eds");
+    let device = agent_node::canopen::eds::reference_device()
+        .ok_or("the reference node's configuration is not representable")?;
+    let mut want = String::new();
+    agent_node::canopen::eds::write_eds(&mut want, &device, "agent-node.eds")
+        .map_err(|e| format!("writing the EDS: {e}"))?;
+    let have = fs::read_to_string(&path).unwrap_or_default();
+    if have == want {
+        return Ok(());
+    }
+    if check {
+        return Err(
+            "docs/agent-node.eds differs from the object dictionary (`cargo xtask docs --only eds` rewrites it)"
+                .into(),
+        );
+    }
+    fs::write(&path, want).map_err(|e| format!("docs/agent-node.eds: {e}"))?;
+    println!("docs/agent-node.eds: rewritten");
+    Ok(())
 }
 
 #[cfg(test)]

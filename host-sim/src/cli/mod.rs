@@ -34,6 +34,7 @@ pub mod fault_matrix;
 pub mod graph;
 pub mod merge;
 pub mod monitor;
+pub mod nodes;
 pub mod run;
 pub mod stable_h;
 pub mod sweep;

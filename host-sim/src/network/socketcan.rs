@@ -27,6 +27,7 @@ use std::{
     time::{Duration, Instant, SystemTime},
 };
 
+use agent_node::canopen::{self, Message, NmtState};
 use agent_node::{
     bus_load::SensorFrames,
     plant_bus::{self, Kind, Mode, PlantFrame, PACKED_SENSOR_AGENTS},
@@ -35,7 +36,7 @@ use agent_node::{
 use controller_core::{ControllerConfig, Gains, Params, StepOutput};
 use embedded_can::Frame as _;
 use node_linux::{
-    config::{NodeSection, Supervision},
+    config::{CanOpenSection, NodeSection, Supervision},
     on_wire, NodeFile,
 };
 use socketcan::{CanAnyFrame, CanFdSocket, CanFilter, Socket, SocketOptions};
@@ -46,7 +47,7 @@ use crate::{
         panel::{render, Panel, Series},
         FigureStyle,
     },
-    figures::{AgentCommands, SocketcanSummary},
+    figures::{AgentCommands, EmcyRecord, SocketcanSummary},
     graph::Graph,
     network::{
         spec::{node_config, LostCommand, NetworkSpec, NodesMode},
@@ -139,6 +140,8 @@ struct Agent {
     late_series: Vec<u32>,
     /// Command frames since the start of the current duplicate window.
     window_received: u64,
+    /// `network.canopen`: the last NMT state of its heartbeat.
+    nmt: Option<NmtState>,
 }
 
 /// Sample periods of wall time (`h time_scale`) over which the command frames of each follower
@@ -246,6 +249,8 @@ pub struct SocketcanAgents<const N: usize, const M: usize> {
     last_t: f64,
     /// The first sample's deadline (`t0` moves with every overrun).
     started: Option<Instant>,
+    /// `network.canopen`: host-sim is the nodes' NMT master; the EMCY they sent.
+    canopen: Option<Vec<EmcyRecord>>,
 }
 
 /// Opens `interface` for host-sim (classical and CAN FD frames), with the error naming
@@ -286,8 +291,14 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
         }
         let cmd = u32::from(plant_bus::COMMAND_BASE);
         let state = u32::from(plant_bus::STATE_BASE);
+        let mut filters = vec![CanFilter::new(cmd, 0x700), CanFilter::new(state, 0x700)];
+        if spec.canopen == Some(true) {
+            // EMCY (0x081..=0x0FF) and heartbeats (0x701..=0x77F) of the CANopen set.
+            filters.push(CanFilter::new(0x080, 0x780));
+            filters.push(CanFilter::new(0x700, 0x780));
+        }
         socket
-            .set_filters(&[CanFilter::new(cmd, 0x700), CanFilter::new(state, 0x700)])
+            .set_filters(&filters)
             .map_err(|e| Error::Io(format!("{interface}: {e}")))?;
         let trace = match trace {
             Some(p) => {
@@ -324,49 +335,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
             pgid: None,
             dir: (!keep).then(|| dir.clone()),
         };
-        let mut files = Vec::with_capacity(configs.len());
-        for (i, c) in configs.iter().enumerate() {
-            let nc = node_config(spec, node_spec, h, graph, i)?;
-            let plan = nc.ids;
-            let blocks = [
-                Some((plan.value_base(), "node.id_base")),
-                plan.heartbeat_base().map(|b| (b, "node.heartbeat_id_base")),
-            ];
-            for (base, key) in blocks.into_iter().flatten() {
-                let end = base + u16::from(plan.agents());
-                if base <= 0x4FF && end >= plan_bus_first() {
-                    return Err(Error::invalid(
-                        key,
-                        "with network.kind = \"socketcan\" the identifiers must stay clear of \
-                         0x200..=0x4FF (sensor, command and state frames)",
-                    ));
-                }
-            }
-            let section = NodeSection {
-                agent: i64::from(nc.agent),
-                neighbours: graph.neighbours(i).iter().map(|&k| k as i64 + 1).collect(),
-                interface: spec
-                    .node_interfaces
-                    .as_ref()
-                    .and_then(|l| l.get(i))
-                    .unwrap_or(&interface)
-                    .clone(),
-                stale_timeout: Some(nc.stale_timeout_us as f64 * 1e-6),
-                host_timeout: node_timeout,
-                time_scale: spec.time_scale(),
-                supervision: Some(Supervision::of(&nc)),
-                start_timeout: Some(spec.start_timeout() + node_timeout),
-                fd: spec.data_bitrate.map(|_| true),
-                packed_sensors: (spec.sensor_frames() == SensorFrames::Packed).then_some(true),
-            };
-            let text = NodeFile::to_toml(&section, *c)
-                .map_err(|e| Error::Io(format!("node configuration of agent {}: {e}", i + 1)))?;
-            NodeFile::parse(&text)
-                .map_err(|e| Error::invalid(format!("node configuration of agent {}", i + 1), e))?;
-            let path = dir.join(format!("agent-{}.toml", i + 1));
-            crate::report::write_atomic(&path, text.as_bytes())?;
-            files.push(path);
-        }
+        let files = write_node_files(spec, node_spec, h, graph, configs, &dir)?;
         if mode == NodesMode::Spawn {
             crate::report::also_on_interrupt(stop_groups_on_interrupt);
             let program = node_program(spec);
@@ -435,6 +404,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                     state: None,
                     late_series: Vec::new(),
                     window_received: 0,
+                    nmt: None,
                 })
                 .collect(),
             lateness: Vec::new(),
@@ -446,6 +416,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
             last_wake: None,
             last_t: 0.0,
             started: None,
+            canopen: (spec.canopen == Some(true)).then(Vec::new),
         })
     }
 
@@ -482,6 +453,11 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
         for a in &mut self.agents {
             a.this_sample = 0;
             a.last_rx = None;
+        }
+        if self.canopen.is_some() {
+            // NMT start to all nodes: their outputs go on from here (docs/NETWORK.md §12).
+            let start = [canopen::NmtCommand::Start.code(), 0];
+            self.send(canopen::CoFrame::new(canopen::NMT_ID, &start).to_frame());
         }
         // Start on a whole period from now, so the nodes' first sample lands mid-period.
         self.t0 = Some((Instant::now() + self.h, SystemTime::now() + self.h));
@@ -526,7 +502,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                         ag.state = Some(s);
                     }
                 }
-                _ => {}
+                _ => self.take_canopen(&f, t),
             }
         }
         if let Some(Ok(mut t)) = self.trace.as_ref().map(|t| t.lock()) {
@@ -570,6 +546,39 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
         };
         for first in firsts {
             self.send(plant_bus::stop_frame(first));
+        }
+    }
+
+    /// An EMCY or heartbeat of a node, with `network.canopen`.
+    fn take_canopen<F: embedded_can::Frame>(&mut self, f: &F, t: f64) {
+        let (Some(log), Some(f)) = (self.canopen.as_mut(), canopen::CoFrame::from_frame(f)) else {
+            return;
+        };
+        let agent = |node: u8| usize::from(node).checked_sub(1);
+        match canopen::decode(f.id, f.data()) {
+            Some(Message::Emcy {
+                node,
+                code,
+                register,
+                info,
+            }) => {
+                eprintln!(
+                    "host-sim: t = {t:.3} s: EMCY of node {node}: {code:#06x}, register {register:#04x}"
+                );
+                log.push(EmcyRecord {
+                    t_s: t,
+                    agent: node,
+                    code,
+                    register,
+                    cause: info[0],
+                });
+            }
+            Some(Message::Heartbeat { node, state }) => {
+                if let Some(a) = agent(node).and_then(|i| self.agents.get_mut(i)) {
+                    a.nmt = state;
+                }
+            }
+            _ => {}
         }
     }
 
@@ -654,8 +663,10 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                         a.state.map(|s| s.mode.as_str())
                     },
                     node_late_ticks: a.state.map(|s| s.late_ticks),
+                    nmt_state: a.nmt.map(NmtState::name),
                 })
                 .collect(),
+            emcy: self.canopen.clone(),
         }
     }
 }
@@ -870,4 +881,90 @@ impl<const N: usize, const M: usize> Agents<N, M> for SocketcanAgents<N, M> {
         }
         result
     }
+}
+
+/// Writes one node configuration per agent of `graph` into `dir` (`agent-<i>.toml`, read by
+/// `node-linux`: the identifier plan, heartbeat and safe state of `[node]`, `node_spec`;
+/// controller configurations `configs`, sample period `h`) and beside each its CANopen EDS
+/// (`agent-<i>.eds`, CiA 306, the node's object dictionary with its values); the paths of
+/// the configurations.
+pub fn write_node_files<const N: usize>(
+    spec: &NetworkSpec,
+    node_spec: &crate::network::node::NodeSpec,
+    h: f64,
+    graph: &Graph,
+    configs: &[ControllerConfig<N>],
+    dir: &Path,
+) -> Result<Vec<PathBuf>> {
+    let interface = spec.interface().to_owned();
+    let node_timeout = spec.node_timeout(h);
+    let mut files = Vec::with_capacity(configs.len());
+    for (i, c) in configs.iter().enumerate() {
+        let nc = node_config(spec, node_spec, h, graph, i)?;
+        let plan = nc.ids;
+        let blocks = [
+            Some((plan.value_base(), "node.id_base")),
+            plan.heartbeat_base().map(|b| (b, "node.heartbeat_id_base")),
+        ];
+        for (base, key) in blocks.into_iter().flatten() {
+            let end = base + u16::from(plan.agents());
+            if base <= 0x4FF && end >= plan_bus_first() {
+                return Err(Error::invalid(
+                    key,
+                    "with network.kind = \"socketcan\" the identifiers must stay clear of \
+                     0x200..=0x4FF (sensor, command and state frames)",
+                ));
+            }
+        }
+        let section = NodeSection {
+            agent: i64::from(nc.agent),
+            neighbours: graph.neighbours(i).iter().map(|&k| k as i64 + 1).collect(),
+            interface: spec
+                .node_interfaces
+                .as_ref()
+                .and_then(|l| l.get(i))
+                .unwrap_or(&interface)
+                .clone(),
+            stale_timeout: Some(nc.stale_timeout_us as f64 * 1e-6),
+            host_timeout: node_timeout,
+            time_scale: spec.time_scale(),
+            supervision: Some(Supervision::of(&nc)),
+            start_timeout: Some(spec.start_timeout() + node_timeout),
+            fd: spec.data_bitrate.map(|_| true),
+            packed_sensors: (spec.sensor_frames() == SensorFrames::Packed).then_some(true),
+            node_id: (nc.agent <= 127).then_some(i64::from(nc.agent)),
+            canopen: (spec.canopen == Some(true)).then_some(CanOpenSection {
+                store: None,
+                heartbeat_ms: 100,
+                self_starting: false,
+            }),
+        };
+        let text = NodeFile::to_toml(&section, *c)
+            .map_err(|e| Error::Io(format!("node configuration of agent {}: {e}", i + 1)))?;
+        NodeFile::parse(&text)
+            .map_err(|e| Error::invalid(format!("node configuration of agent {}", i + 1), e))?;
+        let path = dir.join(format!("agent-{}.toml", i + 1));
+        crate::report::write_atomic(&path, text.as_bytes())?;
+        write_eds(&text, &dir.join(format!("agent-{}.eds", i + 1)), i + 1)?;
+        files.push(path);
+    }
+    Ok(files)
+}
+
+/// The EDS of the node configured by `text` (agent `agent`), written to `path`.
+fn write_eds(text: &str, path: &Path, agent: usize) -> Result<()> {
+    let what = format!("EDS of agent {agent}");
+    let file = NodeFile::parse(text).map_err(|e| Error::invalid(what.clone(), e))?;
+    let store = agent_node::canopen::od::ParamStore::new(&file.node_config, &file.controller)
+        .map_err(|_| Error::invalid(what.clone(), "node-ID outside 1..=127"))?;
+    let device =
+        agent_node::canopen::Device::new(store, agent_node::canopen::Identity::default(), false);
+    let mut eds = String::new();
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    agent_node::canopen::eds::write_eds(&mut eds, &device, &name)
+        .map_err(|e| Error::Io(format!("{what}: {e}")))?;
+    crate::report::write_atomic(path, eds.as_bytes())
 }

@@ -191,6 +191,11 @@ pub struct NetworkSpec {
     /// modelled bus, so it carries the frame set of `kind = "socketcan"`; absent: false.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub plant_frames: Option<bool>,
+    /// `kind = "socketcan"`: the nodes are CANopen devices (docs/NETWORK.md §12) and host-sim
+    /// their NMT master — it starts them with NMT, logs their EMCY and NMT states; absent:
+    /// `false`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub canopen: Option<bool>,
 }
 
 /// `network.lost_command`: what the plant applies to a lost follower.
@@ -268,6 +273,7 @@ impl Default for NetworkSpec {
             data_bitrate: None,
             sensor_frames: None,
             plant_frames: None,
+            canopen: None,
         }
     }
 }
@@ -628,6 +634,7 @@ fn check_socketcan(spec: &NetworkSpec, h: f64) -> Result<()> {
         ("network.node_dir", spec.node_dir.is_some()),
         ("network.node_program", spec.node_program.is_some()),
         ("network.lost_command", spec.lost_command.is_some()),
+        ("network.canopen", spec.canopen.is_some()),
     ];
     if spec.kind != NetworkKind::Socketcan {
         if let Some((key, _)) = given.iter().find(|(_, g)| *g) {

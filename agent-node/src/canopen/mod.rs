@@ -1,0 +1,1356 @@
+//! A CiA 301 (CANopen) device, sans-I/O, `no_std`, no allocation: the NMT slave, the
+//! heartbeat producer and consumer, emergency messages (EMCY) with the error register and the
+//! pre-defined error field, and an SDO server (expedited and segmented) over the object
+//! dictionary of [`od`], whose manufacturer entries are generated from
+//! `controller_core::param`. [`eds::write_eds`] writes the matching CiA 306 EDS.
+//!
+//! The device sees frames as `(identifier, data)` ([`Device::on_frame`]), is advanced by
+//! [`Device::tick`] with the clock, and hands back frames to send ([`Device::next_tx`]) and
+//! events for the application ([`Device::next_event`]): NMT changes, resets, SYNC, store and
+//! restore requests, heartbeats lost and back.
+//!
+//! ## Identifiers (predefined connection set, node-ID `id` in `1..=127`)
+//!
+//! | frame | identifier | data |
+//! |---|---|---|
+//! | NMT (master → all) | `0x000` | command specifier, node-ID (0: all) |
+//! | SYNC | `0x080` | none |
+//! | EMCY | `0x080 + id` | error code (u16 LE), error register, 5 bytes [`Fault::info`] |
+//! | TPDO`k` / RPDO`k` | `0x080 + 0x100 k + id` / `0x100 + 0x100 k + id` | [`crate::wire`] |
+//! | SDO server → client / client → server | `0x580 + id` / `0x600 + id` | 8 bytes |
+//! | heartbeat, boot-up | `0x700 + id` | NMT state: `0x00` boot-up, `0x04` stopped, `0x05` operational, `0x7F` pre-operational |
+
+pub mod eds;
+pub mod od;
+
+use od::{find, Access, DataType, Item, Kind, Object, ParamStore, Value, OBJECTS};
+
+/// NMT command identifier.
+pub const NMT_ID: u16 = 0x000;
+/// SYNC identifier.
+pub const SYNC_ID: u16 = 0x080;
+/// EMCY of node `id`.
+pub const fn emcy_id(id: u8) -> u16 {
+    0x080 + id as u16
+}
+/// TPDO `k` (1..=4) of node `id`.
+pub const fn tpdo_id(k: u8, id: u8) -> u16 {
+    0x080 + 0x100 * k as u16 + id as u16
+}
+/// RPDO `k` (1..=4) of node `id`.
+pub const fn rpdo_id(k: u8, id: u8) -> u16 {
+    0x100 + 0x100 * k as u16 + id as u16
+}
+/// SDO server → client of node `id`.
+pub const fn sdo_tx_id(id: u8) -> u16 {
+    0x580 + id as u16
+}
+/// SDO client → server of node `id`.
+pub const fn sdo_rx_id(id: u8) -> u16 {
+    0x600 + id as u16
+}
+/// Heartbeat and boot-up of node `id`.
+pub const fn heartbeat_id(id: u8) -> u16 {
+    0x700 + id as u16
+}
+/// Highest node-ID.
+pub const MAX_NODE_ID: u8 = 127;
+/// `0x1010` signature "save" (ISO 8859 `s a v e`, read as u32 LE).
+pub const SAVE_SIGNATURE: u32 = 0x6576_6173;
+/// `0x1011` signature "load".
+pub const LOAD_SIGNATURE: u32 = 0x6461_6F6C;
+/// An SDO transfer silent this long is aborted with [`Abort::Timeout`] (µs).
+pub const SDO_TIMEOUT_US: u64 = 1_000_000;
+
+/// The NMT states of CiA 301 §7.3.2 and their heartbeat byte.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NmtState {
+    /// Initialisation (sent once as the boot-up message, `0x00`).
+    Initialising,
+    /// Pre-operational (`0x7F`): SDO, EMCY, heartbeat, no PDO; the only state that accepts
+    /// writes of the manufacturer entries.
+    PreOperational,
+    /// Operational (`0x05`): PDOs too; the control outputs are enabled only here.
+    Operational,
+    /// Stopped (`0x04`): NMT and heartbeat only.
+    Stopped,
+}
+
+impl NmtState {
+    /// The heartbeat byte.
+    pub const fn code(self) -> u8 {
+        match self {
+            Self::Initialising => 0x00,
+            Self::PreOperational => 0x7F,
+            Self::Operational => 0x05,
+            Self::Stopped => 0x04,
+        }
+    }
+
+    /// The state of a heartbeat byte (the toggle bit 7 of node guarding masked off only for
+    /// `0x00`..`0x05`; `0x7F` is pre-operational).
+    pub const fn from_code(c: u8) -> Option<Self> {
+        match c {
+            0x00 => Some(Self::Initialising),
+            0x04 => Some(Self::Stopped),
+            0x05 => Some(Self::Operational),
+            0x7F => Some(Self::PreOperational),
+            _ => None,
+        }
+    }
+
+    /// The name Python `canopen` and most tools print.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Initialising => "INITIALISING",
+            Self::PreOperational => "PRE-OPERATIONAL",
+            Self::Operational => "OPERATIONAL",
+            Self::Stopped => "STOPPED",
+        }
+    }
+}
+
+/// NMT command specifiers (CiA 301 §7.2.8.3.1).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NmtCommand {
+    /// `0x01` start remote node.
+    Start,
+    /// `0x02` stop remote node.
+    Stop,
+    /// `0x80` enter pre-operational.
+    EnterPreOperational,
+    /// `0x81` reset node.
+    ResetNode,
+    /// `0x82` reset communication.
+    ResetCommunication,
+}
+
+impl NmtCommand {
+    /// The command specifier.
+    pub const fn code(self) -> u8 {
+        match self {
+            Self::Start => 0x01,
+            Self::Stop => 0x02,
+            Self::EnterPreOperational => 0x80,
+            Self::ResetNode => 0x81,
+            Self::ResetCommunication => 0x82,
+        }
+    }
+
+    /// The command of a specifier.
+    pub const fn from_code(c: u8) -> Option<Self> {
+        match c {
+            0x01 => Some(Self::Start),
+            0x02 => Some(Self::Stop),
+            0x80 => Some(Self::EnterPreOperational),
+            0x81 => Some(Self::ResetNode),
+            0x82 => Some(Self::ResetCommunication),
+            _ => None,
+        }
+    }
+}
+
+/// SDO abort codes (CiA 301 §7.2.4.3.17).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Abort {
+    /// `0x0503_0000` toggle bit not alternated.
+    Toggle,
+    /// `0x0504_0000` SDO protocol timed out.
+    Timeout,
+    /// `0x0504_0001` client/server command specifier not valid or unknown.
+    Command,
+    /// `0x0504_0005` out of memory.
+    OutOfMemory,
+    /// `0x0601_0001` attempt to read a write-only object.
+    WriteOnly,
+    /// `0x0601_0002` attempt to write a read-only object.
+    ReadOnly,
+    /// `0x0602_0000` object does not exist in the object dictionary.
+    NoObject,
+    /// `0x0604_0043` general parameter incompatibility reason.
+    ParamIncompatible,
+    /// `0x0607_0010` data type does not match, length of service parameter does not match.
+    Length,
+    /// `0x0607_0012` length of service parameter too high.
+    LengthTooHigh,
+    /// `0x0607_0013` length of service parameter too low.
+    LengthTooLow,
+    /// `0x0609_0011` sub-index does not exist.
+    NoSubIndex,
+    /// `0x0609_0030` invalid value for parameter (value range exceeded).
+    ValueRange,
+    /// `0x0609_0031` value of parameter written too high.
+    ValueTooHigh,
+    /// `0x0609_0032` value of parameter written too low.
+    ValueTooLow,
+    /// `0x0800_0020` data cannot be transferred or stored to the application.
+    Transfer,
+    /// `0x0800_0022` … because of the present device state.
+    DeviceState,
+}
+
+impl Abort {
+    /// The 32-bit code.
+    pub const fn code(self) -> u32 {
+        match self {
+            Self::Toggle => 0x0503_0000,
+            Self::Timeout => 0x0504_0000,
+            Self::Command => 0x0504_0001,
+            Self::OutOfMemory => 0x0504_0005,
+            Self::WriteOnly => 0x0601_0001,
+            Self::ReadOnly => 0x0601_0002,
+            Self::NoObject => 0x0602_0000,
+            Self::ParamIncompatible => 0x0604_0043,
+            Self::Length => 0x0607_0010,
+            Self::LengthTooHigh => 0x0607_0012,
+            Self::LengthTooLow => 0x0607_0013,
+            Self::NoSubIndex => 0x0609_0011,
+            Self::ValueRange => 0x0609_0030,
+            Self::ValueTooHigh => 0x0609_0031,
+            Self::ValueTooLow => 0x0609_0032,
+            Self::Transfer => 0x0800_0020,
+            Self::DeviceState => 0x0800_0022,
+        }
+    }
+}
+
+/// Bytes of one SDO value (the longest is a string object).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct SdoData {
+    buf: [u8; SdoData::CAPACITY],
+    len: usize,
+}
+
+impl Default for SdoData {
+    fn default() -> Self {
+        Self {
+            buf: [0; Self::CAPACITY],
+            len: 0,
+        }
+    }
+}
+
+impl SdoData {
+    /// Most bytes of a value.
+    pub const CAPACITY: usize = 32;
+
+    /// The bytes.
+    pub fn as_slice(&self) -> &[u8] {
+        self.buf.get(..self.len).unwrap_or(&[])
+    }
+
+    /// Append `bytes`; `false` (and nothing appended) when they do not fit.
+    pub fn extend(&mut self, bytes: &[u8]) -> bool {
+        let end = self.len + bytes.len();
+        match self.buf.get_mut(self.len..end) {
+            Some(dst) => {
+                dst.copy_from_slice(bytes);
+                self.len = end;
+                true
+            }
+            None => false,
+        }
+    }
+}
+
+/// A classical CAN frame as the device sees it: 11-bit identifier, up to 8 data bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct CoFrame {
+    /// Identifier.
+    pub id: u16,
+    /// Data length.
+    pub len: u8,
+    /// Data (`len` bytes used).
+    pub data: [u8; 8],
+}
+
+impl CoFrame {
+    /// A frame of `data` (at most 8 bytes; more are cut).
+    pub fn new(id: u16, data: &[u8]) -> Self {
+        let mut f = Self {
+            id,
+            len: data.len().min(8) as u8,
+            data: [0; 8],
+        };
+        for (d, s) in f.data.iter_mut().zip(data) {
+            *d = *s;
+        }
+        f
+    }
+
+    /// The data bytes.
+    pub fn data(&self) -> &[u8] {
+        self.data.get(..usize::from(self.len)).unwrap_or(&self.data)
+    }
+
+    /// As an `embedded-can` frame (`None` if the type refuses it).
+    pub fn to_frame<F: embedded_can::Frame>(&self) -> Option<F> {
+        let id = embedded_can::StandardId::new(self.id)?;
+        F::new(id, self.data())
+    }
+
+    /// From an `embedded-can` data frame with a standard identifier.
+    pub fn from_frame<F: embedded_can::Frame>(f: &F) -> Option<Self> {
+        match f.id() {
+            embedded_can::Id::Standard(id) if !f.is_remote_frame() => {
+                Some(Self::new(id.as_raw(), f.data()))
+            }
+            _ => None,
+        }
+    }
+}
+
+/// What the application learns from the device.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Event {
+    /// The NMT state changed to this one (outputs are enabled only in `Operational`).
+    Nmt(NmtState),
+    /// NMT reset node: reload the stored parameters, then the device resets communication.
+    ResetNode,
+    /// NMT reset communication (done; the node-ID written to `node.node_id` is now in use).
+    ResetCommunication,
+    /// A SYNC frame.
+    #[default]
+    Sync,
+    /// `0x1010` "save": persist [`Device::save`]'s bytes.
+    Store,
+    /// `0x1011` "load": the defaults are back in the store; forget the persisted copy.
+    Restore,
+    /// A manufacturer entry was written (index, sub-index).
+    Written(u16, u8),
+    /// The heartbeat of this node-ID (a consumer of `0x1016`) timed out.
+    HeartbeatLost(u8),
+    /// A lost heartbeat came back.
+    HeartbeatResumed(u8),
+}
+
+/// A fault the node reports by EMCY, with its CiA 301 error code.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Fault {
+    /// The supervisor entered its safe state; the lost sources (bit 0 leader, 1 neighbours,
+    /// 2 sensor). `0x8250` RPDO timeout for a value source, `0x7300` sensor for the sensor.
+    SafeState(u8),
+    /// A sensor read failed or gave a non-finite state: `0x7300`.
+    SensorInvalid,
+    /// The board restarted after a watchdog reset: `0x6100` internal software.
+    WatchdogReset,
+    /// A control step overran its deadline: `0x6200` user software.
+    Overrun,
+    /// The CAN controller recovered from bus-off: `0x8140`.
+    BusOff,
+    /// Received frames were lost (receive FIFO overflow): `0x8110` CAN overrun.
+    RxOverflow,
+    /// The stored configuration was refused at start-up: `0x6300` data set.
+    ConfigRejected,
+    /// The node latched its `Fault` state: `0x1000` generic error.
+    Fault,
+    /// A consumed heartbeat (`0x1016`) timed out; its node-ID: `0x8130`.
+    HeartbeatLost(u8),
+}
+
+impl Fault {
+    /// CiA 301 emergency error code.
+    pub const fn code(self) -> u16 {
+        match self {
+            Self::SafeState(lost) if lost & 0b11 == 0 => 0x7300,
+            Self::SafeState(_) => 0x8250,
+            Self::SensorInvalid => 0x7300,
+            Self::WatchdogReset => 0x6100,
+            Self::Overrun => 0x6200,
+            Self::BusOff => 0x8140,
+            Self::RxOverflow => 0x8110,
+            Self::ConfigRejected => 0x6300,
+            Self::Fault => 0x1000,
+            Self::HeartbeatLost(_) => 0x8130,
+        }
+    }
+
+    /// Error register (`0x1001`) bits besides generic (bit 0): communication (bit 4) for the
+    /// `0x81xx`/`0x82xx` codes, manufacturer-specific (bit 7) for the others.
+    pub const fn register_bits(self) -> u8 {
+        match self.code() >> 8 {
+            0x81 | 0x82 => 0x11,
+            0x10 => 0x01,
+            _ => 0x81,
+        }
+    }
+
+    /// Manufacturer-specific EMCY bytes: byte 0 the cause (1 safe state, 2 sensor invalid,
+    /// 3 watchdog reset, 4 overrun, 5 bus-off, 6 receive overflow, 7 configuration rejected,
+    /// 8 fault, 9 heartbeat lost), byte 1 the lost sources or the node-ID, bytes 2–3 a
+    /// count (u16 LE, e.g. overruns since start), byte 4 zero.
+    pub const fn info(self, count: u16) -> [u8; 5] {
+        let (cause, detail) = match self {
+            Self::SafeState(lost) => (1, lost),
+            Self::SensorInvalid => (2, 0),
+            Self::WatchdogReset => (3, 0),
+            Self::Overrun => (4, 0),
+            Self::BusOff => (5, 0),
+            Self::RxOverflow => (6, 0),
+            Self::ConfigRejected => (7, 0),
+            Self::Fault => (8, 0),
+            Self::HeartbeatLost(id) => (9, id),
+        };
+        let c = count.to_le_bytes();
+        [cause, detail, c[0], c[1], 0]
+    }
+
+    /// A condition that stays until cleared (safe state, sensor, fault, heartbeat), not a
+    /// one-off event; its slot in the active set.
+    const fn condition(self) -> Option<u16> {
+        match self {
+            Self::SafeState(_) => Some(1 << 0),
+            Self::SensorInvalid => Some(1 << 1),
+            Self::Fault => Some(1 << 2),
+            Self::HeartbeatLost(_) => Some(1 << 3),
+            _ => None,
+        }
+    }
+}
+
+/// `0x1018`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Identity {
+    /// Vendor-ID (0: none assigned by CiA).
+    pub vendor: u32,
+    /// Product code.
+    pub product: u32,
+    /// Revision number.
+    pub revision: u32,
+    /// Serial number.
+    pub serial: u32,
+}
+
+/// A fixed-capacity FIFO that drops the newest entry when full.
+#[derive(Debug, Clone, Copy)]
+struct Fifo<T: Copy + Default, const C: usize> {
+    buf: [T; C],
+    head: usize,
+    len: usize,
+}
+
+impl<T: Copy + Default, const C: usize> Fifo<T, C> {
+    fn new() -> Self {
+        Self {
+            buf: [T::default(); C],
+            head: 0,
+            len: 0,
+        }
+    }
+
+    fn push(&mut self, v: T) -> bool {
+        if self.len >= C {
+            return false;
+        }
+        if let Some(slot) = self.buf.get_mut((self.head + self.len) % C) {
+            *slot = v;
+            self.len += 1;
+        }
+        true
+    }
+
+    fn pop(&mut self) -> Option<T> {
+        if self.len == 0 {
+            return None;
+        }
+        let v = self.buf.get(self.head).copied();
+        self.head = (self.head + 1) % C;
+        self.len -= 1;
+        v
+    }
+}
+
+/// One entry of the heartbeat consumer (`0x1016`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+struct Consumer {
+    /// `(node-ID << 16) | time_ms` as written.
+    raw: u32,
+    /// Last heartbeat (µs); `None`: not heard since configured (not yet watched).
+    last_us: Option<u64>,
+    /// Reported lost.
+    lost: bool,
+    /// Its last NMT state.
+    state: Option<NmtState>,
+}
+
+impl Consumer {
+    const fn node(&self) -> u8 {
+        (self.raw >> 16) as u8
+    }
+    const fn time_us(&self) -> u64 {
+        (self.raw & 0xFFFF) as u64 * 1000
+    }
+}
+
+/// The SDO server's transfer in progress.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Transfer {
+    Idle,
+    Download {
+        index: u16,
+        sub: u8,
+        toggle: u8,
+        data: SdoData,
+        size: Option<usize>,
+        since: u64,
+    },
+    Upload {
+        index: u16,
+        sub: u8,
+        toggle: u8,
+        data: SdoData,
+        pos: usize,
+        since: u64,
+    },
+}
+
+/// The CANopen device of one node. `N`: state order of its controller.
+#[derive(Debug, Clone)]
+pub struct Device<const N: usize> {
+    /// The manufacturer entries' values.
+    pub store: ParamStore<N>,
+    defaults: ParamStore<N>,
+    identity: Identity,
+    node_id: u8,
+    nmt: NmtState,
+    self_starting: bool,
+    heartbeat_ms: u16,
+    next_heartbeat_us: Option<u64>,
+    consumers: [Consumer; od::HEARTBEAT_CONSUMERS as usize],
+    active: u16,
+    register: u8,
+    history: [u32; od::ERROR_HISTORY as usize],
+    history_len: u8,
+    transfer: Transfer,
+    tx: Fifo<CoFrame, 16>,
+    events: Fifo<Event, 16>,
+    now_us: u64,
+}
+
+impl<const N: usize> Device<N> {
+    /// A device in `Initialising` with `store` as its values (and its defaults for `0x1011`);
+    /// [`Self::boot`] sends the boot-up message. `self_starting`: enter `Operational` at boot
+    /// without waiting for an NMT start (simulations that start every node at `t = 0`).
+    pub fn new(store: ParamStore<N>, identity: Identity, self_starting: bool) -> Self {
+        Self {
+            node_id: store.node.node_id,
+            defaults: store.clone(),
+            store,
+            identity,
+            nmt: NmtState::Initialising,
+            self_starting,
+            heartbeat_ms: 0,
+            next_heartbeat_us: None,
+            consumers: [Consumer::default(); od::HEARTBEAT_CONSUMERS as usize],
+            active: 0,
+            register: 0,
+            history: [0; od::ERROR_HISTORY as usize],
+            history_len: 0,
+            transfer: Transfer::Idle,
+            tx: Fifo::new(),
+            events: Fifo::new(),
+            now_us: 0,
+        }
+    }
+
+    /// Node-ID in use.
+    pub fn node_id(&self) -> u8 {
+        self.node_id
+    }
+
+    /// NMT state.
+    pub fn nmt(&self) -> NmtState {
+        self.nmt
+    }
+
+    /// The control outputs are enabled (NMT `Operational`).
+    pub fn outputs_enabled(&self) -> bool {
+        self.nmt == NmtState::Operational
+    }
+
+    /// PDOs may be sent (NMT `Operational`).
+    pub fn pdo_enabled(&self) -> bool {
+        self.nmt == NmtState::Operational
+    }
+
+    /// `0x1017` producer heartbeat time (ms; 0: off).
+    pub fn set_heartbeat_ms(&mut self, ms: u16) {
+        self.heartbeat_ms = ms;
+        self.next_heartbeat_us = None;
+    }
+
+    /// `0x1016` entry `k` (1-based): watch node `node` with `time_ms` (0: off).
+    pub fn set_consumer(&mut self, k: u8, node: u8, time_ms: u16) -> Result<(), Abort> {
+        self.write_consumer(k, (u32::from(node) << 16) | u32::from(time_ms))
+    }
+
+    /// The error register (`0x1001`).
+    pub fn error_register(&self) -> u8 {
+        self.register
+    }
+
+    /// Boot: the boot-up message, then `PreOperational` (or `Operational` when self-starting).
+    pub fn boot(&mut self, now_us: u64) {
+        self.now_us = now_us;
+        self.node_id = self.store.node.pending_node_id;
+        self.store.node.node_id = self.node_id;
+        self.nmt = NmtState::Initialising;
+        self.transfer = Transfer::Idle;
+        self.send(heartbeat_id(self.node_id), &[NmtState::Initialising.code()]);
+        self.next_heartbeat_us = None;
+        let state = if self.self_starting {
+            NmtState::Operational
+        } else {
+            NmtState::PreOperational
+        };
+        self.set_nmt(state);
+    }
+
+    fn set_nmt(&mut self, s: NmtState) {
+        if self.nmt != s {
+            self.nmt = s;
+            self.events.push(Event::Nmt(s));
+        }
+    }
+
+    fn send(&mut self, id: u16, data: &[u8]) {
+        self.tx.push(CoFrame::new(id, data));
+    }
+
+    /// The next frame to send.
+    pub fn next_tx(&mut self) -> Option<CoFrame> {
+        self.tx.pop()
+    }
+
+    /// The next event for the application.
+    pub fn next_event(&mut self) -> Option<Event> {
+        self.events.pop()
+    }
+
+    /// Take a received frame; `false` when it is none of the device's (value frames etc.).
+    pub fn on_frame(&mut self, id: u16, data: &[u8], now_us: u64) -> bool {
+        self.now_us = now_us;
+        if id == NMT_ID {
+            if let (Some(&cs), Some(&node)) = (data.first(), data.get(1)) {
+                if node == 0 || node == self.node_id {
+                    self.nmt_command(cs, now_us);
+                }
+            }
+            return true;
+        }
+        if id == SYNC_ID {
+            if matches!(self.nmt, NmtState::Operational | NmtState::PreOperational) {
+                self.events.push(Event::Sync);
+            }
+            return true;
+        }
+        if id == sdo_rx_id(self.node_id) {
+            if matches!(self.nmt, NmtState::Operational | NmtState::PreOperational) {
+                let mut req = [0u8; 8];
+                for (d, s) in req.iter_mut().zip(data) {
+                    *d = *s;
+                }
+                if let Some(resp) = self.sdo_request(&req, now_us) {
+                    self.send(sdo_tx_id(self.node_id), &resp);
+                }
+            }
+            return true;
+        }
+        if (heartbeat_id(1)..=heartbeat_id(MAX_NODE_ID)).contains(&id) {
+            let node = (id - heartbeat_id(0)) as u8;
+            self.consume_heartbeat(node, data.first().copied(), now_us);
+            return true;
+        }
+        false
+    }
+
+    fn nmt_command(&mut self, cs: u8, now_us: u64) {
+        match NmtCommand::from_code(cs) {
+            Some(NmtCommand::Start) => self.set_nmt(NmtState::Operational),
+            Some(NmtCommand::Stop) => self.set_nmt(NmtState::Stopped),
+            Some(NmtCommand::EnterPreOperational) => self.set_nmt(NmtState::PreOperational),
+            Some(NmtCommand::ResetNode) => {
+                self.events.push(Event::ResetNode);
+                self.reset_communication(now_us);
+            }
+            Some(NmtCommand::ResetCommunication) => self.reset_communication(now_us),
+            None => {}
+        }
+    }
+
+    fn reset_communication(&mut self, now_us: u64) {
+        let self_starting = self.self_starting;
+        self.self_starting = false;
+        self.boot(now_us);
+        self.self_starting = self_starting;
+        self.events.push(Event::ResetCommunication);
+    }
+
+    fn consume_heartbeat(&mut self, node: u8, state: Option<u8>, now_us: u64) {
+        let state = state.and_then(NmtState::from_code);
+        let mut resumed = None;
+        for c in self.consumers.iter_mut() {
+            if c.time_us() > 0 && c.node() == node {
+                c.last_us = Some(now_us);
+                c.state = state;
+                if c.lost {
+                    c.lost = false;
+                    resumed = Some(node);
+                }
+            }
+        }
+        if let Some(n) = resumed {
+            self.events.push(Event::HeartbeatResumed(n));
+            if !self.consumers.iter().any(|c| c.lost) {
+                self.clear(Fault::HeartbeatLost(n));
+            }
+        }
+    }
+
+    /// The last NMT state heard from a consumed node.
+    pub fn consumed_state(&self, node: u8) -> Option<NmtState> {
+        self.consumers
+            .iter()
+            .find(|c| c.time_us() > 0 && c.node() == node)
+            .and_then(|c| c.state)
+    }
+
+    /// Advance to `now_us`: heartbeat producer, consumer timeouts, SDO timeout.
+    pub fn tick(&mut self, now_us: u64) {
+        self.now_us = now_us;
+        if self.heartbeat_ms > 0 && self.nmt != NmtState::Initialising {
+            let due = *self.next_heartbeat_us.get_or_insert(now_us);
+            if now_us >= due {
+                self.send(heartbeat_id(self.node_id), &[self.nmt.code()]);
+                let period = u64::from(self.heartbeat_ms) * 1000;
+                // The next slot after now, on the grid of the first one.
+                let skipped = (now_us - due) / period;
+                self.next_heartbeat_us = Some(due + (skipped + 1) * period);
+            }
+        }
+        let mut lost = [0u8; od::HEARTBEAT_CONSUMERS as usize];
+        for (c, l) in self.consumers.iter_mut().zip(lost.iter_mut()) {
+            if let Some(t) = c.last_us {
+                if c.time_us() > 0 && !c.lost && now_us.saturating_sub(t) > c.time_us() {
+                    c.lost = true;
+                    *l = c.node();
+                }
+            }
+        }
+        for node in lost.into_iter().filter(|&n| n != 0) {
+            self.events.push(Event::HeartbeatLost(node));
+            self.report(Fault::HeartbeatLost(node), 0);
+        }
+        let since = match self.transfer {
+            Transfer::Download { since, .. } | Transfer::Upload { since, .. } => Some(since),
+            Transfer::Idle => None,
+        };
+        if let Some(since) = since {
+            if now_us.saturating_sub(since) > SDO_TIMEOUT_US {
+                let (index, sub) = self.transfer_object();
+                self.transfer = Transfer::Idle;
+                let resp = abort_frame(index, sub, Abort::Timeout);
+                self.send(sdo_tx_id(self.node_id), &resp);
+            }
+        }
+    }
+
+    fn transfer_object(&self) -> (u16, u8) {
+        match self.transfer {
+            Transfer::Download { index, sub, .. } | Transfer::Upload { index, sub, .. } => {
+                (index, sub)
+            }
+            Transfer::Idle => (0, 0),
+        }
+    }
+
+    /// Report a fault: an EMCY frame (in pre-operational and operational), an entry in the
+    /// pre-defined error field, and for a condition its error-register bits until
+    /// [`Self::clear`]. `count`: see [`Fault::info`].
+    pub fn report(&mut self, f: Fault, count: u16) {
+        if let Some(bit) = f.condition() {
+            if self.active & bit != 0 {
+                return;
+            }
+            self.active |= bit;
+            self.register |= f.register_bits();
+        }
+        let code = u32::from(f.code());
+        self.history.rotate_right(1);
+        if let Some(first) = self.history.first_mut() {
+            *first = code;
+        }
+        self.history_len = (self.history_len + 1).min(od::ERROR_HISTORY);
+        let reg = self.register | f.register_bits();
+        self.emcy(f.code(), reg, f.info(count));
+    }
+
+    /// A condition reported with [`Self::report`] is over; when none is left, the error
+    /// register clears and an EMCY "error reset" (`0x0000`) is sent.
+    pub fn clear(&mut self, f: Fault) {
+        let Some(bit) = f.condition() else {
+            return;
+        };
+        if self.active & bit == 0 {
+            return;
+        }
+        self.active &= !bit;
+        if self.active == 0 {
+            self.register = 0;
+            self.emcy(0x0000, 0, [0; 5]);
+        }
+    }
+
+    fn emcy(&mut self, code: u16, reg: u8, info: [u8; 5]) {
+        if matches!(self.nmt, NmtState::Operational | NmtState::PreOperational) {
+            let c = code.to_le_bytes();
+            let data = [c[0], c[1], reg, info[0], info[1], info[2], info[3], info[4]];
+            self.send(emcy_id(self.node_id), &data);
+        }
+    }
+
+    fn sdo_request(&mut self, req: &[u8; 8], now_us: u64) -> Option<[u8; 8]> {
+        let cmd = req[0];
+        let index = u16::from_le_bytes([req[1], req[2]]);
+        let sub = req[3];
+        match cmd >> 5 {
+            // Initiate download.
+            1 => {
+                self.transfer = Transfer::Idle;
+                let expedited = cmd & 0x02 != 0;
+                let sized = cmd & 0x01 != 0;
+                let r = if expedited {
+                    let n = if sized {
+                        usize::from((cmd >> 2) & 3)
+                    } else {
+                        0
+                    };
+                    self.write(index, sub, req.get(4..8 - n).unwrap_or(&[]))
+                } else {
+                    let size = sized
+                        .then(|| u32::from_le_bytes([req[4], req[5], req[6], req[7]]) as usize);
+                    let fits = match size {
+                        Some(s) if s > SdoData::CAPACITY => Err(Abort::LengthTooHigh),
+                        _ => Ok(()),
+                    };
+                    self.check_write(index, sub).and(fits).map(|()| {
+                        self.transfer = Transfer::Download {
+                            index,
+                            sub,
+                            toggle: 0,
+                            data: SdoData::default(),
+                            size,
+                            since: now_us,
+                        };
+                    })
+                };
+                Some(match r {
+                    Ok(()) => [0x60, req[1], req[2], sub, 0, 0, 0, 0],
+                    Err(a) => abort_frame(index, sub, a),
+                })
+            }
+            // Download segment.
+            0 => {
+                if let Err(resp) = self.check_segment(cmd) {
+                    return Some(resp);
+                }
+                let Transfer::Download {
+                    index,
+                    sub,
+                    toggle,
+                    mut data,
+                    size,
+                    ..
+                } = self.transfer
+                else {
+                    return Some(abort_frame(0, 0, Abort::Command));
+                };
+                let t = toggle;
+                let unused = usize::from((cmd >> 1) & 7);
+                if !data.extend(req.get(1..8 - unused).unwrap_or(&[])) {
+                    self.transfer = Transfer::Idle;
+                    return Some(abort_frame(index, sub, Abort::OutOfMemory));
+                }
+                if cmd & 1 != 0 {
+                    self.transfer = Transfer::Idle;
+                    let r = match size {
+                        Some(s) if s != data.as_slice().len() => Err(Abort::Length),
+                        _ => self.write(index, sub, data.as_slice()),
+                    };
+                    if let Err(a) = r {
+                        return Some(abort_frame(index, sub, a));
+                    }
+                } else {
+                    self.transfer = Transfer::Download {
+                        index,
+                        sub,
+                        toggle: toggle ^ 1,
+                        data,
+                        size,
+                        since: now_us,
+                    };
+                }
+                Some([0x20 | (t << 4), 0, 0, 0, 0, 0, 0, 0])
+            }
+            // Initiate upload.
+            2 => {
+                self.transfer = Transfer::Idle;
+                let data = match self.read(index, sub) {
+                    Ok(d) => d,
+                    Err(a) => return Some(abort_frame(index, sub, a)),
+                };
+                let bytes = data.as_slice();
+                let mut resp = [0, req[1], req[2], sub, 0, 0, 0, 0];
+                if bytes.len() <= 4 {
+                    resp[0] = 0x43 | (((4 - bytes.len()) as u8) << 2);
+                    for (d, s) in resp.iter_mut().skip(4).zip(bytes) {
+                        *d = *s;
+                    }
+                } else {
+                    resp[0] = 0x41;
+                    let n = (bytes.len() as u32).to_le_bytes();
+                    resp[4..8].copy_from_slice(&n);
+                    self.transfer = Transfer::Upload {
+                        index,
+                        sub,
+                        toggle: 0,
+                        data,
+                        pos: 0,
+                        since: now_us,
+                    };
+                }
+                Some(resp)
+            }
+            // Upload segment.
+            3 => {
+                if let Err(resp) = self.check_segment(cmd) {
+                    return Some(resp);
+                }
+                let Transfer::Upload {
+                    index,
+                    sub,
+                    toggle,
+                    data,
+                    pos,
+                    ..
+                } = self.transfer
+                else {
+                    return Some(abort_frame(0, 0, Abort::Command));
+                };
+                let t = toggle;
+                let rest = data.as_slice().get(pos..).unwrap_or(&[]);
+                let chunk = rest.get(..7).unwrap_or(rest);
+                let last = chunk.len() == rest.len();
+                let mut resp = [0u8; 8];
+                resp[0] = (t << 4) | (((7 - chunk.len()) as u8) << 1) | u8::from(last);
+                for (d, s) in resp.iter_mut().skip(1).zip(chunk) {
+                    *d = *s;
+                }
+                self.transfer = if last {
+                    Transfer::Idle
+                } else {
+                    Transfer::Upload {
+                        index,
+                        sub,
+                        toggle: toggle ^ 1,
+                        data,
+                        pos: pos + chunk.len(),
+                        since: now_us,
+                    }
+                };
+                Some(resp)
+            }
+            // Abort from the client: no answer.
+            4 => {
+                self.transfer = Transfer::Idle;
+                None
+            }
+            // Block transfers and anything else.
+            _ => {
+                self.transfer = Transfer::Idle;
+                Some(abort_frame(index, sub, Abort::Command))
+            }
+        }
+    }
+
+    /// A segment request (`ccs` 0 download, 3 upload) against the transfer in progress: the
+    /// abort frame when there is none of that direction or its toggle bit is wrong (the
+    /// transfer then ends).
+    fn check_segment(&mut self, cmd: u8) -> Result<(), [u8; 8]> {
+        let download = cmd >> 5 == 0;
+        let (index, sub, toggle) = match self.transfer {
+            Transfer::Download {
+                index, sub, toggle, ..
+            } if download => (index, sub, toggle),
+            Transfer::Upload {
+                index, sub, toggle, ..
+            } if !download => (index, sub, toggle),
+            _ => return Err(abort_frame(0, 0, Abort::Command)),
+        };
+        if (cmd >> 4) & 1 != toggle {
+            self.transfer = Transfer::Idle;
+            return Err(abort_frame(index, sub, Abort::Toggle));
+        }
+        Ok(())
+    }
+
+    /// The highest sub-index object `o` has now (0 for a `VAR`).
+    fn sub_count(&self, o: &Object) -> u8 {
+        match (o.kind, o.item) {
+            (Kind::Var, _) => 0,
+            (_, Item::ErrorField) => self.history_len,
+            (_, Item::Param(controller_core::Param::Neighbours)) => {
+                self.store.sections.agent.neighbour_count as u8
+            }
+            (_, Item::Param(_)) => N.min(usize::from(od::MAX_STEPS)) as u8,
+            (Kind::Array { len } | Kind::Record { len }, _) => len,
+        }
+    }
+
+    fn object(&self, index: u16, sub: u8) -> Result<&'static Object, Abort> {
+        let o = find(index).ok_or(Abort::NoObject)?;
+        if sub > self.sub_count(o) {
+            return Err(Abort::NoSubIndex);
+        }
+        Ok(o)
+    }
+
+    /// Read an entry (the SDO upload's data).
+    pub fn read(&self, index: u16, sub: u8) -> Result<SdoData, Abort> {
+        let o = self.object(index, sub)?;
+        if sub == 0 && o.kind != Kind::Var {
+            return Ok(Value::Unsigned(u32::from(self.sub_count(o))).encode(DataType::Unsigned8));
+        }
+        let u = |v: u32| Ok(Value::Unsigned(v));
+        let v = match o.item {
+            Item::DeviceType => u(0),
+            Item::ErrorRegister => u(u32::from(self.register)),
+            Item::ErrorField => u(self
+                .history
+                .get(usize::from(sub).wrapping_sub(1))
+                .copied()
+                .unwrap_or(0)),
+            Item::SyncCobId => u(u32::from(SYNC_ID)),
+            Item::DeviceName => return Ok(string(DEVICE_NAME)),
+            Item::SoftwareVersion => return Ok(string(env!("CARGO_PKG_VERSION"))),
+            Item::Store | Item::Restore => u(1),
+            Item::EmcyCobId => u(u32::from(emcy_id(self.node_id))),
+            Item::HeartbeatConsumer => u(self
+                .consumers
+                .get(usize::from(sub).wrapping_sub(1))
+                .map_or(0, |c| c.raw)),
+            Item::HeartbeatProducer => u(u32::from(self.heartbeat_ms)),
+            Item::Identity => u(match sub {
+                1 => self.identity.vendor,
+                2 => self.identity.product,
+                3 => self.identity.revision,
+                _ => self.identity.serial,
+            }),
+            Item::SdoServer => u(u32::from(if sub == 1 {
+                sdo_rx_id(self.node_id)
+            } else {
+                sdo_tx_id(self.node_id)
+            })),
+            Item::Param(p) => self.store.read_param(p, sub).ok_or(Abort::NoSubIndex),
+            Item::Setting(s) => Ok(self.store.read_setting(s)),
+        }?;
+        Ok(v.encode(o.data_type))
+    }
+
+    fn check_write(&self, index: u16, sub: u8) -> Result<&'static Object, Abort> {
+        let o = self.object(index, sub)?;
+        if sub == 0 && o.kind != Kind::Var {
+            return if o.item == Item::ErrorField {
+                Ok(o)
+            } else {
+                Err(Abort::ReadOnly)
+            };
+        }
+        if o.access != Access::ReadWrite {
+            return Err(Abort::ReadOnly);
+        }
+        if matches!(o.item, Item::Param(_) | Item::Setting(_))
+            && self.nmt != NmtState::PreOperational
+        {
+            return Err(Abort::DeviceState);
+        }
+        Ok(o)
+    }
+
+    /// Write an entry (the SDO download's data): refused with the abort code, the value left
+    /// unchanged, unless every check passes.
+    pub fn write(&mut self, index: u16, sub: u8, bytes: &[u8]) -> Result<(), Abort> {
+        let o = self.check_write(index, sub)?;
+        let t = if sub == 0 && o.kind != Kind::Var {
+            DataType::Unsigned8
+        } else {
+            o.data_type
+        };
+        let v = Value::decode(t, bytes)?;
+        let raw = match v {
+            Value::Unsigned(u) => u,
+            _ => 0,
+        };
+        match o.item {
+            Item::ErrorField if raw == 0 => {
+                self.history_len = 0;
+                self.history = [0; od::ERROR_HISTORY as usize];
+            }
+            Item::ErrorField => return Err(Abort::ValueRange),
+            Item::Store if raw == SAVE_SIGNATURE => {
+                self.events.push(Event::Store);
+            }
+            Item::Restore if raw == LOAD_SIGNATURE => {
+                self.store = self.defaults.clone();
+                self.events.push(Event::Restore);
+            }
+            Item::Store | Item::Restore => return Err(Abort::Transfer),
+            Item::HeartbeatConsumer => self.write_consumer(sub, raw)?,
+            Item::HeartbeatProducer => self.set_heartbeat_ms(raw as u16),
+            Item::Param(p) => {
+                self.store.write_param(p, sub, v)?;
+                self.events.push(Event::Written(index, sub));
+            }
+            Item::Setting(s) => {
+                self.store.write_setting(s, v)?;
+                self.events.push(Event::Written(index, sub));
+            }
+            _ => return Err(Abort::ReadOnly),
+        }
+        Ok(())
+    }
+
+    fn write_consumer(&mut self, k: u8, raw: u32) -> Result<(), Abort> {
+        let node = (raw >> 16) as u8;
+        if raw >> 24 != 0 || node > MAX_NODE_ID {
+            return Err(Abort::ValueRange);
+        }
+        let dup = self.consumers.iter().enumerate().any(|(j, c)| {
+            j + 1 != usize::from(k) && raw & 0xFFFF != 0 && c.time_us() > 0 && c.node() == node
+        });
+        if dup {
+            return Err(Abort::ParamIncompatible);
+        }
+        let c = self
+            .consumers
+            .get_mut(usize::from(k).wrapping_sub(1))
+            .ok_or(Abort::NoSubIndex)?;
+        *c = Consumer {
+            raw,
+            ..Consumer::default()
+        };
+        Ok(())
+    }
+
+    /// The persisted form of every writable manufacturer entry and the heartbeat settings
+    /// (`0x1016`, `0x1017`): a `CO1\0` tag, then records `index (u16 LE), sub, length, bytes`.
+    /// Returns the bytes written into `out`, `None` if it is too small.
+    pub fn save(&self, out: &mut [u8]) -> Option<usize> {
+        let mut w = Writer { out, pos: 0 };
+        w.put(STORE_TAG)?;
+        for o in OBJECTS.iter().filter(|o| persisted(o)) {
+            let subs = match o.kind {
+                Kind::Var => 0..=0,
+                _ => 1..=self.sub_count(o),
+            };
+            for sub in subs {
+                if let Ok(d) = self.read(o.index, sub) {
+                    let i = o.index.to_le_bytes();
+                    w.put(&[i[0], i[1], sub, d.as_slice().len() as u8])?;
+                    w.put(d.as_slice())?;
+                }
+            }
+        }
+        Some(w.pos)
+    }
+
+    /// Load what [`Self::save`] wrote, as writes in pre-operational; on any refusal nothing
+    /// changes and the abort is returned.
+    pub fn load(&mut self, bytes: &[u8]) -> Result<(), Abort> {
+        let saved = (
+            self.store.clone(),
+            self.heartbeat_ms,
+            self.consumers,
+            self.nmt,
+        );
+        self.nmt = NmtState::PreOperational;
+        let r = self.load_records(bytes);
+        self.nmt = saved.3;
+        if r.is_err() {
+            self.store = saved.0;
+            self.heartbeat_ms = saved.1;
+            self.consumers = saved.2;
+        }
+        // Loading is not a bus write: no `Written` events.
+        let mut kept = Fifo::<Event, 16>::new();
+        while let Some(e) = self.events.pop() {
+            if !matches!(e, Event::Written(..)) {
+                kept.push(e);
+            }
+        }
+        self.events = kept;
+        r
+    }
+
+    fn load_records(&mut self, bytes: &[u8]) -> Result<(), Abort> {
+        let mut rest = bytes.strip_prefix(STORE_TAG).ok_or(Abort::Transfer)?;
+        // Records one by one: a later record may need an earlier one (c1 with c2), so a
+        // refusal is retried after the others once.
+        let mut retry = false;
+        while let [i0, i1, sub, len, tail @ ..] = rest {
+            let n = usize::from(*len);
+            let data = tail.get(..n).ok_or(Abort::Transfer)?;
+            let index = u16::from_le_bytes([*i0, *i1]);
+            if self.write(index, *sub, data).is_err() {
+                retry = true;
+            }
+            rest = tail.get(n..).unwrap_or(&[]);
+        }
+        if !rest.is_empty() {
+            return Err(Abort::Transfer);
+        }
+        if retry {
+            let mut rest = bytes.get(STORE_TAG.len()..).unwrap_or(&[]);
+            while let [i0, i1, sub, len, tail @ ..] = rest {
+                let n = usize::from(*len);
+                let data = tail.get(..n).unwrap_or(&[]);
+                self.write(u16::from_le_bytes([*i0, *i1]), *sub, data)?;
+                rest = tail.get(n..).unwrap_or(&[]);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// `0x1008`.
+pub const DEVICE_NAME: &str = "agent-node";
+const STORE_TAG: &[u8] = b"CO1\0";
+
+fn persisted(o: &Object) -> bool {
+    match o.item {
+        Item::HeartbeatConsumer | Item::HeartbeatProducer => true,
+        Item::Param(_) | Item::Setting(_) => o.access == Access::ReadWrite,
+        _ => false,
+    }
+}
+
+struct Writer<'a> {
+    out: &'a mut [u8],
+    pos: usize,
+}
+
+impl Writer<'_> {
+    fn put(&mut self, b: &[u8]) -> Option<()> {
+        let end = self.pos + b.len();
+        self.out.get_mut(self.pos..end)?.copy_from_slice(b);
+        self.pos = end;
+        Some(())
+    }
+}
+
+fn string(s: &str) -> SdoData {
+    let mut d = SdoData::default();
+    let b = s.as_bytes();
+    d.extend(b.get(..SdoData::CAPACITY).unwrap_or(b));
+    d
+}
+
+/// A CANopen frame as a bus monitor reads it ([`decode`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Message {
+    /// NMT command to `node` (0: all).
+    Nmt {
+        /// The command (`None`: an unknown specifier).
+        command: Option<NmtCommand>,
+        /// Addressed node-ID, 0 for all.
+        node: u8,
+    },
+    /// SYNC.
+    Sync,
+    /// Emergency of `node`.
+    Emcy {
+        /// Sender.
+        node: u8,
+        /// Error code (`0x0000`: error reset).
+        code: u16,
+        /// Error register.
+        register: u8,
+        /// Manufacturer-specific bytes ([`Fault::info`]).
+        info: [u8; 5],
+    },
+    /// An SDO frame between a client and server `node`.
+    Sdo {
+        /// The server.
+        node: u8,
+        /// Client → server (a request), else the server's answer.
+        request: bool,
+        /// Command byte.
+        command: u8,
+        /// Index and sub-index (of an initiate or abort frame; else 0).
+        index: u16,
+        /// Sub-index.
+        sub: u8,
+        /// The abort code of an abort frame.
+        abort: Option<u32>,
+    },
+    /// Heartbeat or boot-up of `node`.
+    Heartbeat {
+        /// Sender.
+        node: u8,
+        /// Its NMT state (`None`: an unknown byte).
+        state: Option<NmtState>,
+    },
+}
+
+/// The CANopen message of a frame of the predefined connection set; `None` for PDOs and
+/// identifiers outside the set.
+pub fn decode(id: u16, data: &[u8]) -> Option<Message> {
+    let node = (id & 0x7F) as u8;
+    let byte = |k: usize| data.get(k).copied().unwrap_or(0);
+    match id & !0x7F {
+        _ if id == NMT_ID => Some(Message::Nmt {
+            command: NmtCommand::from_code(byte(0)),
+            node: byte(1),
+        }),
+        _ if id == SYNC_ID => Some(Message::Sync),
+        0x080 => Some(Message::Emcy {
+            node,
+            code: u16::from_le_bytes([byte(0), byte(1)]),
+            register: byte(2),
+            info: [byte(3), byte(4), byte(5), byte(6), byte(7)],
+        }),
+        0x580 | 0x600 if node > 0 => {
+            let command = byte(0);
+            let initiate_or_abort = matches!(command >> 5, 1..=4) || command == 0x80;
+            let (index, sub) = if initiate_or_abort && command >> 5 != 3 {
+                (u16::from_le_bytes([byte(1), byte(2)]), byte(3))
+            } else {
+                (0, 0)
+            };
+            Some(Message::Sdo {
+                node,
+                request: id & !0x7F == 0x600,
+                command,
+                index,
+                sub,
+                abort: (command == 0x80)
+                    .then(|| u32::from_le_bytes([byte(4), byte(5), byte(6), byte(7)])),
+            })
+        }
+        0x700 if node > 0 => Some(Message::Heartbeat {
+            node,
+            state: NmtState::from_code(byte(0)),
+        }),
+        _ => None,
+    }
+}
+
+/// The SDO abort frame's data.
+pub fn abort_frame(index: u16, sub: u8, a: Abort) -> [u8; 8] {
+    let i = index.to_le_bytes();
+    let c = a.code().to_le_bytes();
+    [0x80, i[0], i[1], sub, c[0], c[1], c[2], c[3]]
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,988 @@
+//! The object dictionary: a `static` table of objects ([`OBJECTS`]) and the values behind
+//! them ([`ParamStore`] for the manufacturer entries; the communication entries live in
+//! [`super::Device`]).
+//!
+//! | index | object |
+//! |---|---|
+//! | `0x1000`–`0x1200` | communication profile (CiA 301 §7.5): device type, error register, pre-defined error field, COB-IDs, names, store/restore, heartbeat, identity, SDO server |
+//! | `0x2000 + k` | `controller_core::param::Param::ALL[k]`, named by its scenario key |
+//! | `0x2100 + k` | [`Setting::ALL`]`[k]`: the node's own settings |
+//!
+//! The manufacturer entries are generated from `controller_core::param` by a `const fn`: a new
+//! [`Param`] gets its object without an edit here. A per-step parameter is an `ARRAY`
+//! (sub-index 0: the state order `n`, sub-index `j`: step `j`); every other one a `VAR`.
+//! Numbers are `REAL32`, counts and names `UNSIGNED8` (the position in the list of names),
+//! switches `BOOLEAN`. An optional number (`controller.c1`, `safety.u_max`, …) reads NaN when
+//! absent and is cleared by writing NaN.
+
+use controller_core::{
+    param::{DefaultValue, Range, DIRECTIONS, GAIN_READINGS, SCHEMES},
+    ConfigError, ControllerConfig, GainReading, Param, Params, QuantizerDirection, Reason,
+    SchemeName, Sections,
+};
+
+use super::{Abort, SdoData};
+use crate::node::NodeConfig;
+use crate::supervisor::{NeighbourLoss, SafePolicy, Supervisor, SupervisorConfig};
+
+/// Most steps `n` (state order) a per-step array can hold.
+pub const MAX_STEPS: u8 = 4;
+/// Most neighbours a node's settings can list.
+pub const MAX_NEIGHBOURS: usize = 16;
+/// Entries of the heartbeat consumer (`0x1016`).
+pub const HEARTBEAT_CONSUMERS: u8 = 8;
+/// Entries of the pre-defined error field (`0x1003`).
+pub const ERROR_HISTORY: u8 = 8;
+/// First index of the generated `controller_core::param` entries.
+pub const PARAM_BASE: u16 = 0x2000;
+/// First index of the node's settings.
+pub const SETTING_BASE: u16 = 0x2100;
+
+/// CiA 301 data types (the EDS `DataType` codes).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DataType {
+    /// `BOOLEAN` (0x0001).
+    Boolean,
+    /// `UNSIGNED8` (0x0005).
+    Unsigned8,
+    /// `UNSIGNED16` (0x0006).
+    Unsigned16,
+    /// `UNSIGNED32` (0x0007).
+    Unsigned32,
+    /// `REAL32` (0x0008), IEEE 754 single precision.
+    Real32,
+    /// `VISIBLE_STRING` (0x0009).
+    VisibleString,
+}
+
+impl DataType {
+    /// The CiA 301 code.
+    pub const fn code(self) -> u16 {
+        match self {
+            Self::Boolean => 0x0001,
+            Self::Unsigned8 => 0x0005,
+            Self::Unsigned16 => 0x0006,
+            Self::Unsigned32 => 0x0007,
+            Self::Real32 => 0x0008,
+            Self::VisibleString => 0x0009,
+        }
+    }
+
+    /// Bytes of a value (`None`: variable, a string).
+    pub const fn size(self) -> Option<usize> {
+        match self {
+            Self::Boolean | Self::Unsigned8 => Some(1),
+            Self::Unsigned16 => Some(2),
+            Self::Unsigned32 | Self::Real32 => Some(4),
+            Self::VisibleString => None,
+        }
+    }
+}
+
+/// Who may read and write an object's values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Access {
+    /// Read only, may change (`ro`).
+    ReadOnly,
+    /// Read only, never changes (`const`).
+    Const,
+    /// Read and write (`rw`); manufacturer entries only in pre-operational.
+    ReadWrite,
+}
+
+impl Access {
+    /// The EDS `AccessType`.
+    pub const fn eds(self) -> &'static str {
+        match self {
+            Self::ReadOnly => "ro",
+            Self::Const => "const",
+            Self::ReadWrite => "rw",
+        }
+    }
+}
+
+/// A node setting that is not a controller parameter: its CANopen node-ID and the `[node]`
+/// keys of docs/SCENARIO.md (supervision of §10 of docs/NETWORK.md).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Setting {
+    /// `node.node_id`: CANopen node-ID = agent number `i` (its value frames, heartbeat, SDO).
+    NodeId,
+    /// `network.stale_timeout`: a neighbour value older than this is stale.
+    StaleTimeout,
+    /// `node.safe_state.policy`.
+    Policy,
+    /// `node.safe_state.stop_decel`.
+    StopDecel,
+    /// `node.safe_state.sensor_policy`.
+    SensorPolicy,
+    /// `node.safe_state.ramp_rate`.
+    RampRate,
+    /// `node.safe_state.reentry_rate`.
+    ReentryRate,
+    /// `node.safe_state.leader_timeout` (0: not supervised).
+    LeaderTimeout,
+    /// `node.safe_state.neighbour_timeout` (0: not supervised).
+    NeighbourTimeout,
+    /// `node.safe_state.neighbour_loss`.
+    NeighbourLoss,
+    /// `node.safe_state.sensor_timeout` (0: not supervised).
+    SensorTimeout,
+    /// `node.safe_state.recover_dwell`.
+    RecoverDwell,
+}
+
+/// Names of `node.safe_state.policy` and `sensor_policy`, in the order of their `UNSIGNED8`.
+pub const POLICIES: &[&str] = &["hold-position", "stop", "hold", "ramp", "off"];
+/// Names of `node.safe_state.neighbour_loss`.
+pub const NEIGHBOUR_LOSSES: &[&str] = &["all", "any"];
+
+/// Key, unit, type and range of a [`Setting`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SettingSpec {
+    /// Key as docs/SCENARIO.md names it.
+    pub key: &'static str,
+    /// Unit (`–`: none).
+    pub unit: &'static str,
+    /// Type on the bus.
+    pub data_type: DataType,
+    /// Accepted values, as docs/SCENARIO.md writes them.
+    pub range: &'static str,
+    /// Names of an `UNSIGNED8` choice (empty otherwise).
+    pub names: &'static [&'static str],
+}
+
+const fn setting(
+    key: &'static str,
+    unit: &'static str,
+    data_type: DataType,
+    range: &'static str,
+) -> SettingSpec {
+    SettingSpec {
+        key,
+        unit,
+        data_type,
+        range,
+        names: &[],
+    }
+}
+
+const fn choice(key: &'static str, names: &'static [&'static str]) -> SettingSpec {
+    SettingSpec {
+        names,
+        ..setting(key, "–", DataType::Unsigned8, "one of the names")
+    }
+}
+
+impl Setting {
+    /// Every setting, in index order (`0x2100 + k`).
+    /// The rates come before the policies that need them, so a stored set loads in order.
+    pub const ALL: [Self; 12] = [
+        Self::NodeId,
+        Self::StaleTimeout,
+        Self::StopDecel,
+        Self::RampRate,
+        Self::Policy,
+        Self::SensorPolicy,
+        Self::ReentryRate,
+        Self::LeaderTimeout,
+        Self::NeighbourTimeout,
+        Self::NeighbourLoss,
+        Self::SensorTimeout,
+        Self::RecoverDwell,
+    ];
+
+    /// Key, unit, type, range.
+    pub const fn spec(self) -> SettingSpec {
+        use DataType::{Real32 as R, Unsigned8 as U8};
+        match self {
+            Self::NodeId => setting("node.node_id", "–", U8, "1..=127; applied at reset"),
+            Self::StaleTimeout => setting("network.stale_timeout", "s", R, "[1e-6, 1e6]"),
+            Self::Policy => choice("node.safe_state.policy", POLICIES),
+            Self::StopDecel => setting("node.safe_state.stop_decel", "[y]/s2", R, "> 0; NaN: none"),
+            Self::SensorPolicy => choice("node.safe_state.sensor_policy", POLICIES),
+            Self::RampRate => setting("node.safe_state.ramp_rate", "[u]/s", R, "> 0; NaN: none"),
+            Self::ReentryRate => setting("node.safe_state.reentry_rate", "[y]/s", R, "> 0"),
+            Self::LeaderTimeout => setting(
+                "node.safe_state.leader_timeout",
+                "s",
+                R,
+                "0 (off) or [1e-6, 1e6]",
+            ),
+            Self::NeighbourTimeout => setting(
+                "node.safe_state.neighbour_timeout",
+                "s",
+                R,
+                "0 (off) or [1e-6, 1e6]",
+            ),
+            Self::NeighbourLoss => choice("node.safe_state.neighbour_loss", NEIGHBOUR_LOSSES),
+            Self::SensorTimeout => setting(
+                "node.safe_state.sensor_timeout",
+                "s",
+                R,
+                "0 (off) or [1e-6, 1e6]",
+            ),
+            Self::RecoverDwell => setting("node.safe_state.recover_dwell", "s", R, "[0, 1e6]"),
+        }
+    }
+}
+
+/// What an object of the table stands for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Item {
+    /// `0x1000` device type.
+    DeviceType,
+    /// `0x1001` error register.
+    ErrorRegister,
+    /// `0x1003` pre-defined error field.
+    ErrorField,
+    /// `0x1005` COB-ID SYNC.
+    SyncCobId,
+    /// `0x1008` manufacturer device name.
+    DeviceName,
+    /// `0x100A` manufacturer software version.
+    SoftwareVersion,
+    /// `0x1010` store parameters.
+    Store,
+    /// `0x1011` restore default parameters.
+    Restore,
+    /// `0x1014` COB-ID EMCY.
+    EmcyCobId,
+    /// `0x1016` consumer heartbeat time.
+    HeartbeatConsumer,
+    /// `0x1017` producer heartbeat time.
+    HeartbeatProducer,
+    /// `0x1018` identity.
+    Identity,
+    /// `0x1200` SDO server parameter.
+    SdoServer,
+    /// A controller parameter.
+    Param(Param),
+    /// A node setting.
+    Setting(Setting),
+}
+
+/// Object code: a single value or an array of them (sub-index 0: the highest sub-index).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Kind {
+    /// `VAR` (object code 7), sub-index 0 only.
+    Var,
+    /// `ARRAY` (8): sub-index 0 `UNSIGNED8` count, `1..=len` of [`Object::data_type`].
+    Array {
+        /// Highest sub-index the table has.
+        len: u8,
+    },
+    /// `RECORD` (9) of `UNSIGNED32` entries: like an array, each sub-index with a name.
+    Record {
+        /// Highest sub-index.
+        len: u8,
+    },
+}
+
+/// One object of the dictionary.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Object {
+    /// Index.
+    pub index: u16,
+    /// `ParameterName` (a scenario key for the manufacturer entries).
+    pub name: &'static str,
+    /// Object code.
+    pub kind: Kind,
+    /// Type of the value(s) (sub-index 0 of an array is `UNSIGNED8`).
+    pub data_type: DataType,
+    /// Access of the value(s).
+    pub access: Access,
+    /// What it stands for.
+    pub item: Item,
+    /// Mappable into a PDO.
+    pub pdo: bool,
+}
+
+const fn comm(
+    index: u16,
+    name: &'static str,
+    kind: Kind,
+    data_type: DataType,
+    access: Access,
+    item: Item,
+) -> Object {
+    Object {
+        index,
+        name,
+        kind,
+        data_type,
+        access,
+        item,
+        pdo: false,
+    }
+}
+
+const COMM: [Object; 13] = {
+    use Access::{Const as C, ReadOnly as RO, ReadWrite as RW};
+    use DataType::{Unsigned16 as U16, Unsigned32 as U32, Unsigned8 as U8, VisibleString as S};
+    use Kind::{Array, Record, Var};
+    [
+        comm(0x1000, "Device type", Var, U32, C, Item::DeviceType),
+        comm(0x1001, "Error register", Var, U8, RO, Item::ErrorRegister),
+        comm(
+            0x1003,
+            "Pre-defined error field",
+            Array { len: ERROR_HISTORY },
+            U32,
+            RO,
+            Item::ErrorField,
+        ),
+        comm(0x1005, "COB-ID SYNC", Var, U32, C, Item::SyncCobId),
+        comm(
+            0x1008,
+            "Manufacturer device name",
+            Var,
+            S,
+            C,
+            Item::DeviceName,
+        ),
+        comm(
+            0x100A,
+            "Manufacturer software version",
+            Var,
+            S,
+            C,
+            Item::SoftwareVersion,
+        ),
+        comm(
+            0x1010,
+            "Store parameters",
+            Record { len: 1 },
+            U32,
+            RW,
+            Item::Store,
+        ),
+        comm(
+            0x1011,
+            "Restore default parameters",
+            Record { len: 1 },
+            U32,
+            RW,
+            Item::Restore,
+        ),
+        comm(0x1014, "COB-ID EMCY", Var, U32, RO, Item::EmcyCobId),
+        comm(
+            0x1016,
+            "Consumer heartbeat time",
+            Array {
+                len: HEARTBEAT_CONSUMERS,
+            },
+            U32,
+            RW,
+            Item::HeartbeatConsumer,
+        ),
+        comm(
+            0x1017,
+            "Producer heartbeat time",
+            Var,
+            U16,
+            RW,
+            Item::HeartbeatProducer,
+        ),
+        comm(
+            0x1018,
+            "Identity object",
+            Record { len: 4 },
+            U32,
+            RO,
+            Item::Identity,
+        ),
+        comm(
+            0x1200,
+            "SDO server parameter",
+            Record { len: 2 },
+            U32,
+            RO,
+            Item::SdoServer,
+        ),
+    ]
+};
+
+/// Type of a parameter's object.
+pub const fn param_type(p: Param) -> DataType {
+    match p.spec().range {
+        Range::Bool => DataType::Boolean,
+        Range::Count { .. } | Range::OneOf(_) => DataType::Unsigned8,
+        _ => match p {
+            Param::Neighbours | Param::StateOrder => DataType::Unsigned8,
+            Param::Pinned => DataType::Boolean,
+            _ => DataType::Real32,
+        },
+    }
+}
+
+/// Read-only parameters: the graph and the plant are not the node's to change.
+pub const fn param_access(p: Param) -> Access {
+    match p.spec().range {
+        Range::Elsewhere => Access::ReadOnly,
+        _ => Access::ReadWrite,
+    }
+}
+
+const fn param_object(k: usize, p: Param) -> Object {
+    let spec = p.spec();
+    let kind = if spec.per_step {
+        Kind::Array { len: MAX_STEPS }
+    } else if matches!(p, Param::Neighbours) {
+        Kind::Array {
+            len: MAX_NEIGHBOURS as u8,
+        }
+    } else {
+        Kind::Var
+    };
+    Object {
+        index: PARAM_BASE + k as u16,
+        name: spec.key,
+        kind,
+        data_type: param_type(p),
+        access: param_access(p),
+        item: Item::Param(p),
+        pdo: false,
+    }
+}
+
+const fn setting_object(k: usize, s: Setting) -> Object {
+    let spec = s.spec();
+    Object {
+        index: SETTING_BASE + k as u16,
+        name: spec.key,
+        kind: Kind::Var,
+        data_type: spec.data_type,
+        access: Access::ReadWrite,
+        item: Item::Setting(s),
+        pdo: false,
+    }
+}
+
+/// Objects in the dictionary.
+pub const OBJECT_COUNT: usize = COMM.len() + Param::ALL.len() + Setting::ALL.len();
+
+const fn build() -> [Object; OBJECT_COUNT] {
+    let mut t = [COMM[0]; OBJECT_COUNT];
+    let mut k = 0;
+    while k < COMM.len() {
+        t[k] = COMM[k];
+        k += 1;
+    }
+    let mut j = 0;
+    while j < Param::ALL.len() {
+        t[k] = param_object(j, Param::ALL[j]);
+        k += 1;
+        j += 1;
+    }
+    j = 0;
+    while j < Setting::ALL.len() {
+        t[k] = setting_object(j, Setting::ALL[j]);
+        k += 1;
+        j += 1;
+    }
+    t
+}
+
+/// The object dictionary, sorted by index: [`COMM`] entries, then one object per
+/// [`Param::ALL`] entry, then one per [`Setting::ALL`] entry.
+pub static OBJECTS: [Object; OBJECT_COUNT] = build();
+
+/// The object at `index`.
+pub fn find(index: u16) -> Option<&'static Object> {
+    OBJECTS
+        .binary_search_by_key(&index, |o| o.index)
+        .ok()
+        .and_then(|k| OBJECTS.get(k))
+}
+
+/// Name of sub-index `sub` of a record or array (the EDS `ParameterName`).
+pub fn sub_name(o: &Object, sub: u8) -> &'static str {
+    match (o.item, sub) {
+        (_, 0) => "Highest sub-index supported",
+        (Item::Store, _) => "Save all parameters",
+        (Item::Restore, _) => "Restore all default parameters",
+        (Item::Identity, 1) => "Vendor-ID",
+        (Item::Identity, 2) => "Product code",
+        (Item::Identity, 3) => "Revision number",
+        (Item::Identity, _) => "Serial number",
+        (Item::SdoServer, 1) => "COB-ID client to server",
+        (Item::SdoServer, _) => "COB-ID server to client",
+        (Item::HeartbeatConsumer, _) => "Consumer heartbeat time",
+        (Item::ErrorField, _) => "Standard error field",
+        (Item::Param(Param::Neighbours), _) => "Neighbour",
+        _ => "Step",
+    }
+}
+
+/// Why a [`ConfigError`] refused a write of `written`: `0x0609_0030`/`31`/`32` when the
+/// written value is out of its own range, `0x0604_0043` (general parameter incompatibility)
+/// when it conflicts with another parameter.
+pub fn config_abort(e: &ConfigError, written: Param) -> Abort {
+    if e.param() != written {
+        return Abort::ParamIncompatible;
+    }
+    match e.reason() {
+        Reason::Exceeds(_) | Reason::TooLarge | Reason::OverCapacity => Abort::ValueTooHigh,
+        Reason::NotAbove(_) | Reason::BelowInitialEstimates => Abort::ValueTooLow,
+        Reason::Unpaired
+        | Reason::BaselineOnly
+        | Reason::Conflicts(_)
+        | Reason::NotBuilt
+        | Reason::Isolated
+        | Reason::StepCount { .. } => Abort::ParamIncompatible,
+        _ => Abort::ValueRange,
+    }
+}
+
+/// The node's own settings as they are stored (the [`Setting`] objects).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NodeSettings {
+    /// Node-ID in use (= agent number).
+    pub node_id: u8,
+    /// Node-ID written and not yet applied (applied by reset node / reset communication).
+    pub pending_node_id: u8,
+    /// The neighbours heard (read only), `neighbour_count` of them.
+    pub neighbours: [u8; MAX_NEIGHBOURS],
+    /// Stale timeout (s).
+    pub stale_timeout: f32,
+    /// Supervision; the policies' rates are [`Self::stop_decel`], [`Self::ramp_rate`].
+    pub supervisor: SupervisorConfig,
+    /// `stop_decel` (NaN: none).
+    pub stop_decel: f32,
+    /// `ramp_rate` (NaN: none).
+    pub ramp_rate: f32,
+}
+
+const fn policy_index(p: SafePolicy) -> u8 {
+    match p {
+        SafePolicy::HoldPosition => 0,
+        SafePolicy::Stop { .. } => 1,
+        SafePolicy::Hold => 2,
+        SafePolicy::Ramp { .. } => 3,
+        SafePolicy::Off => 4,
+    }
+}
+
+fn policy_from(index: u8, decel: f32, rate: f32) -> Option<SafePolicy> {
+    Some(match index {
+        0 => SafePolicy::HoldPosition,
+        1 => SafePolicy::Stop { decel },
+        2 => SafePolicy::Hold,
+        3 => SafePolicy::Ramp { rate },
+        4 => SafePolicy::Off,
+        _ => return None,
+    })
+}
+
+fn secs(us: Option<u64>) -> f32 {
+    us.map_or(0.0, |us| (us as f64 * 1e-6) as f32)
+}
+
+/// Seconds to µs for a timeout: 0 is none; finite, in `[0, 1e6]`.
+fn micros(s: f32) -> Result<Option<u64>, Abort> {
+    if s.is_nan() {
+        return Err(Abort::ValueRange);
+    }
+    if s < 0.0 {
+        return Err(Abort::ValueTooLow);
+    }
+    if s > 1e6 {
+        return Err(Abort::ValueTooHigh);
+    }
+    let us = (f64::from(s) * 1e6 + 0.5) as u64;
+    Ok((us > 0).then_some(us))
+}
+
+/// A decoded value of a numeric object.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Value {
+    /// `BOOLEAN`.
+    Bool(bool),
+    /// `UNSIGNED8`, `UNSIGNED16`, `UNSIGNED32`.
+    Unsigned(u32),
+    /// `REAL32`.
+    Real(f32),
+}
+
+impl Value {
+    /// Little-endian bytes of type `t`.
+    pub fn encode(self, t: DataType) -> SdoData {
+        let mut d = SdoData::default();
+        let (bytes, n) = match (self, t) {
+            (Self::Real(v), _) => (v.to_le_bytes(), 4),
+            (Self::Bool(b), _) => ([u8::from(b), 0, 0, 0], 1),
+            (Self::Unsigned(v), t) => (v.to_le_bytes(), t.size().unwrap_or(4)),
+        };
+        d.extend(bytes.get(..n).unwrap_or(&bytes));
+        d
+    }
+
+    /// The value of type `t` in `bytes` (exactly its size, else the length abort).
+    pub fn decode(t: DataType, bytes: &[u8]) -> Result<Self, Abort> {
+        let size = t.size().ok_or(Abort::ReadOnly)?;
+        if bytes.len() > size {
+            return Err(Abort::LengthTooHigh);
+        }
+        if bytes.len() < size {
+            return Err(Abort::LengthTooLow);
+        }
+        let mut b = [0u8; 4];
+        for (d, s) in b.iter_mut().zip(bytes) {
+            *d = *s;
+        }
+        Ok(match t {
+            DataType::Boolean => match b[0] {
+                0 => Self::Bool(false),
+                1 => Self::Bool(true),
+                _ => return Err(Abort::ValueRange),
+            },
+            DataType::Real32 => Self::Real(f32::from_le_bytes(b)),
+            _ => Self::Unsigned(u32::from_le_bytes(b)),
+        })
+    }
+}
+
+/// The values behind the manufacturer entries: the scenario sections of the controller (as a
+/// scenario file gives them) and the node's settings. Every write is checked by the
+/// constructors a scenario file goes through — `ControllerConfig::from_sections` and
+/// `Params::new` for a controller parameter, `Supervisor::new` for a setting — on a copy, and
+/// committed only when they accept it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamStore<const N: usize> {
+    /// The controller's sections.
+    pub sections: Sections<N>,
+    /// The node's settings.
+    pub node: NodeSettings,
+    /// The node's neighbour capacity `K`.
+    pub capacity: usize,
+}
+
+/// Why a store could not be built from a configuration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StoreError {
+    /// More neighbours than [`MAX_NEIGHBOURS`] or a node-ID outside `1..=127`.
+    Unrepresentable,
+}
+
+impl<const N: usize> ParamStore<N> {
+    /// The store of a node built from these configurations.
+    pub fn new<const K: usize>(
+        node: &NodeConfig<K>,
+        controller: &ControllerConfig<N>,
+    ) -> Result<Self, StoreError> {
+        let mut neighbours = [0u8; MAX_NEIGHBOURS];
+        let listed = node
+            .neighbours
+            .get(..controller.neighbour_count)
+            .ok_or(StoreError::Unrepresentable)?;
+        if listed.len() > MAX_NEIGHBOURS || !(1..=127).contains(&node.agent) {
+            return Err(StoreError::Unrepresentable);
+        }
+        for (d, s) in neighbours.iter_mut().zip(listed) {
+            *d = *s;
+        }
+        let sup = node.supervisor;
+        let (decel, rate) = match (sup.policy, sup.sensor_policy) {
+            (SafePolicy::Stop { decel }, _) => (decel, f32::NAN),
+            (SafePolicy::Ramp { rate }, _) | (_, SafePolicy::Ramp { rate }) => (f32::NAN, rate),
+            _ => (f32::NAN, f32::NAN),
+        };
+        Ok(Self {
+            sections: Sections::from(*controller),
+            node: NodeSettings {
+                node_id: node.agent,
+                pending_node_id: node.agent,
+                neighbours,
+                stale_timeout: (node.stale_timeout_us as f64 * 1e-6) as f32,
+                supervisor: sup,
+                stop_decel: decel,
+                ramp_rate: rate,
+            },
+            capacity: K,
+        })
+    }
+
+    /// The controller configuration the store holds, validated as a scenario file is.
+    pub fn controller(&self) -> Result<ControllerConfig<N>, ConfigError> {
+        let cfg = self.sections.config()?;
+        Params::new(&cfg, self.capacity)?;
+        Ok(cfg)
+    }
+
+    /// The node's supervision settings.
+    pub fn supervisor(&self) -> SupervisorConfig {
+        self.node.supervisor
+    }
+
+    /// The value of a parameter's object; `sub` is the step of a per-step parameter or the
+    /// neighbour slot (1-based), else 0.
+    pub fn read_param(&self, p: Param, sub: u8) -> Option<Value> {
+        let s = &self.sections;
+        let c = &s.controller;
+        let opt = |v: Option<f32>| Value::Real(v.unwrap_or(f32::NAN));
+        let step = |v: &heapless::Vec<f32, N>| {
+            v.get(usize::from(sub).checked_sub(1)?)
+                .copied()
+                .map(Value::Real)
+        };
+        let real = Value::Real;
+        Some(match p {
+            Param::H => real(s.agent.h),
+            Param::Scheme => Value::Unsigned(u32::from(c.scheme == SchemeName::PrescribedTime)),
+            Param::Ts => real(c.ts),
+            Param::Zeta => real(c.zeta),
+            Param::ACheck => return step(&c.a_check),
+            Param::P => real(c.p),
+            Param::Eta => real(c.eta),
+            Param::Tau => real(c.tau),
+            Param::Gamma => real(c.gamma),
+            Param::MtnOrder => Value::Unsigned(c.mtn_order),
+            Param::PhiLow => return step(&c.phi_low),
+            Param::PhiUp => return step(&c.phi_up),
+            Param::EpsBar => return step(&c.eps_bar),
+            Param::DiffL1 => real(c.diff_l1),
+            Param::DiffL2 => real(c.diff_l2),
+            Param::Varpi0 => real(c.varpi0),
+            Param::VarpiDecay => real(c.varpi_decay),
+            Param::VarpiMin => real(c.varpi_min),
+            Param::Mu0 => real(c.mu0),
+            Param::Xi0 => real(c.xi0),
+            Param::Lambda0 => real(c.lambda0),
+            Param::EstimateMax => real(c.estimate_max),
+            Param::C1 => opt(c.c1),
+            Param::C2 => opt(c.c2),
+            Param::GainReading => {
+                Value::Unsigned(u32::from(c.gain_reading == GainReading::Printed))
+            }
+            Param::Kappa => opt(c.kappa),
+            Param::MuMax => opt(c.mu_max),
+            Param::TPrescribed => opt(c.t_prescribed),
+            Param::QuantizerEnabled => Value::Bool(s.quantizer.enabled),
+            Param::Rho => real(s.quantizer.rho),
+            Param::UMin => real(s.quantizer.u_min),
+            Param::Direction => Value::Unsigned(u32::from(
+                s.quantizer.direction == QuantizerDirection::Magnitude,
+            )),
+            Param::SafetyEnabled => Value::Bool(s.safety.enabled),
+            Param::UMax => opt(s.safety.u_max),
+            Param::DuMax => opt(s.safety.du_max),
+            Param::RecoveryRate => real(s.safety.recovery_rate),
+            Param::RecoveryJump => real(s.safety.recovery_jump),
+            Param::Neighbours => Value::Unsigned(u32::from(
+                *self
+                    .node
+                    .neighbours
+                    .get(..s.agent.neighbour_count)?
+                    .get(usize::from(sub).checked_sub(1)?)?,
+            )),
+            Param::Pinned => Value::Bool(s.agent.pinned),
+            Param::StateOrder => Value::Unsigned(N as u32),
+        })
+    }
+
+    /// Write a parameter (see [`Self::read_param`] for `sub`): checked on a copy by the
+    /// scenario file's constructors and committed only if they accept it; the abort says why
+    /// not, and the store is unchanged.
+    pub fn write_param(&mut self, p: Param, sub: u8, v: Value) -> Result<(), Abort> {
+        let mut next = self.sections.clone();
+        set_param(&mut next, p, sub, v)?;
+        let cfg = next.config().map_err(|e| config_abort(&e, p))?;
+        Params::new(&cfg, self.capacity).map_err(|e| config_abort(&e, p))?;
+        self.sections = next;
+        Ok(())
+    }
+
+    /// The value of a setting's object.
+    pub fn read_setting(&self, s: Setting) -> Value {
+        let n = &self.node;
+        let sup = &n.supervisor;
+        match s {
+            Setting::NodeId => Value::Unsigned(u32::from(n.pending_node_id)),
+            Setting::StaleTimeout => Value::Real(n.stale_timeout),
+            Setting::Policy => Value::Unsigned(u32::from(policy_index(sup.policy))),
+            Setting::StopDecel => Value::Real(n.stop_decel),
+            Setting::SensorPolicy => Value::Unsigned(u32::from(policy_index(sup.sensor_policy))),
+            Setting::RampRate => Value::Real(n.ramp_rate),
+            Setting::ReentryRate => Value::Real(sup.reentry_rate),
+            Setting::LeaderTimeout => Value::Real(secs(sup.leader_timeout_us)),
+            Setting::NeighbourTimeout => Value::Real(secs(sup.neighbour_timeout_us)),
+            Setting::NeighbourLoss => {
+                Value::Unsigned(u32::from(sup.neighbour_loss == NeighbourLoss::Any))
+            }
+            Setting::SensorTimeout => Value::Real(secs(sup.sensor_timeout_us)),
+            Setting::RecoverDwell => Value::Real(secs(Some(sup.recover_dwell_us))),
+        }
+    }
+
+    /// Write a setting, checked on a copy by `Supervisor::new` (and the node's own checks).
+    pub fn write_setting(&mut self, s: Setting, v: Value) -> Result<(), Abort> {
+        let mut n = self.node;
+        let real = match v {
+            Value::Real(x) => x,
+            _ => f32::NAN,
+        };
+        let index = match v {
+            Value::Unsigned(u) => u8::try_from(u).map_err(|_| Abort::ValueTooHigh)?,
+            _ => 0,
+        };
+        let sup = &mut n.supervisor;
+        match s {
+            Setting::NodeId if !(1..=127).contains(&index) => return Err(Abort::ValueRange),
+            Setting::NodeId => n.pending_node_id = index,
+            Setting::StaleTimeout => {
+                if micros(real)?.is_none() {
+                    return Err(Abort::ValueTooLow);
+                }
+                n.stale_timeout = real;
+            }
+            Setting::Policy | Setting::SensorPolicy => {
+                let p = policy_from(index, n.stop_decel, n.ramp_rate).ok_or(Abort::ValueRange)?;
+                if s == Setting::Policy {
+                    sup.policy = p;
+                } else {
+                    sup.sensor_policy = p;
+                }
+            }
+            Setting::StopDecel => {
+                n.stop_decel = real;
+                if let SafePolicy::Stop { decel } = &mut sup.policy {
+                    *decel = real;
+                }
+            }
+            Setting::RampRate => {
+                n.ramp_rate = real;
+                for p in [&mut sup.policy, &mut sup.sensor_policy] {
+                    if let SafePolicy::Ramp { rate } = p {
+                        *rate = real;
+                    }
+                }
+            }
+            Setting::ReentryRate => sup.reentry_rate = real,
+            Setting::LeaderTimeout => sup.leader_timeout_us = micros(real)?,
+            Setting::NeighbourTimeout => sup.neighbour_timeout_us = micros(real)?,
+            Setting::NeighbourLoss => {
+                sup.neighbour_loss = match index {
+                    0 => NeighbourLoss::All,
+                    1 => NeighbourLoss::Any,
+                    _ => return Err(Abort::ValueRange),
+                };
+            }
+            Setting::SensorTimeout => sup.sensor_timeout_us = micros(real)?,
+            Setting::RecoverDwell => sup.recover_dwell_us = micros(real)?.unwrap_or(0),
+        }
+        Supervisor::new(sup).map_err(|_| Abort::ValueRange)?;
+        self.node = n;
+        Ok(())
+    }
+}
+
+/// Set one parameter in `s` (no validation beyond the encoding: names by position, counts).
+fn set_param<const N: usize>(
+    s: &mut Sections<N>,
+    p: Param,
+    sub: u8,
+    v: Value,
+) -> Result<(), Abort> {
+    let (real, unsigned, switch) = match v {
+        Value::Real(x) => (x, 0, false),
+        Value::Unsigned(u) => (f32::NAN, u, false),
+        Value::Bool(b) => (f32::NAN, 0, b),
+    };
+    let opt = (!real.is_nan()).then_some(real);
+    let names = |list: &[&str]| {
+        if (unsigned as usize) < list.len() {
+            Ok(unsigned == 1)
+        } else {
+            Err(Abort::ValueRange)
+        }
+    };
+    let c = &mut s.controller;
+    let step = |v: &mut heapless::Vec<f32, N>| -> Result<(), Abort> {
+        let slot = usize::from(sub)
+            .checked_sub(1)
+            .and_then(|j| v.get_mut(j))
+            .ok_or(Abort::NoSubIndex)?;
+        *slot = real;
+        Ok(())
+    };
+    match p {
+        Param::H => s.agent.h = real,
+        Param::Scheme => {
+            c.scheme = if names(SCHEMES)? {
+                SchemeName::PrescribedTime
+            } else {
+                SchemeName::PredefinedTime
+            };
+        }
+        Param::Ts => c.ts = real,
+        Param::Zeta => c.zeta = real,
+        Param::ACheck => step(&mut c.a_check)?,
+        Param::P => c.p = real,
+        Param::Eta => c.eta = real,
+        Param::Tau => c.tau = real,
+        Param::Gamma => c.gamma = real,
+        Param::MtnOrder => c.mtn_order = unsigned,
+        Param::PhiLow => step(&mut c.phi_low)?,
+        Param::PhiUp => step(&mut c.phi_up)?,
+        Param::EpsBar => step(&mut c.eps_bar)?,
+        Param::DiffL1 => c.diff_l1 = real,
+        Param::DiffL2 => c.diff_l2 = real,
+        Param::Varpi0 => c.varpi0 = real,
+        Param::VarpiDecay => c.varpi_decay = real,
+        Param::VarpiMin => c.varpi_min = real,
+        Param::Mu0 => c.mu0 = real,
+        Param::Xi0 => c.xi0 = real,
+        Param::Lambda0 => c.lambda0 = real,
+        Param::EstimateMax => c.estimate_max = real,
+        Param::C1 => c.c1 = opt,
+        Param::C2 => c.c2 = opt,
+        Param::GainReading => {
+            c.gain_reading = if names(GAIN_READINGS)? {
+                GainReading::Printed
+            } else {
+                GainReading::Reconstructed
+            };
+        }
+        Param::Kappa => c.kappa = opt,
+        Param::MuMax => c.mu_max = opt,
+        Param::TPrescribed => c.t_prescribed = opt,
+        Param::QuantizerEnabled => s.quantizer.enabled = switch,
+        Param::Rho => s.quantizer.rho = real,
+        Param::UMin => s.quantizer.u_min = real,
+        Param::Direction => {
+            s.quantizer.direction = if names(DIRECTIONS)? {
+                QuantizerDirection::Magnitude
+            } else {
+                QuantizerDirection::Signed
+            };
+        }
+        Param::SafetyEnabled => s.safety.enabled = switch,
+        Param::UMax => s.safety.u_max = opt,
+        Param::DuMax => s.safety.du_max = opt,
+        Param::RecoveryRate => s.safety.recovery_rate = real,
+        Param::RecoveryJump => s.safety.recovery_jump = real,
+        Param::Neighbours | Param::Pinned | Param::StateOrder => return Err(Abort::ReadOnly),
+    }
+    Ok(())
+}
+
+/// The default of a parameter as an EDS `DefaultValue` can state it (a number; a name's
+/// position; a switch), `None` when computed, absent or given elsewhere.
+pub fn param_default(p: Param) -> Option<Value> {
+    let spec = p.spec();
+    match spec.default {
+        DefaultValue::Num(v) | DefaultValue::PerStep(v) => Some(match spec.range {
+            Range::Count { .. } => Value::Unsigned(v as u32),
+            _ => Value::Real(v as f32),
+        }),
+        DefaultValue::Bool(b) => Some(Value::Bool(b)),
+        DefaultValue::Name(n) => match spec.range {
+            Range::OneOf(names) => names
+                .iter()
+                .position(|m| *m == n)
+                .map(|k| Value::Unsigned(k as u32)),
+            _ => None,
+        },
+        _ => None,
+    }
+}

@@ -1,0 +1,481 @@
+//! Frame layouts byte by byte (CiA 301), refusals that leave the value unchanged.
+
+use super::od::{ParamStore, OBJECTS, PARAM_BASE, SETTING_BASE};
+use super::*;
+use crate::node::NodeConfig;
+use controller_core::{ControllerConfig, Param};
+
+const ID: u8 = 3;
+
+fn device() -> Device<2> {
+    let node = NodeConfig::new(ID, [1, 2, 0, 0], 2_500);
+    let ctrl = ControllerConfig::<2> {
+        neighbour_count: 2,
+        pinned: false,
+        ..ControllerConfig::default()
+    };
+    let store = ParamStore::new(&node, &ctrl).expect("representable");
+    let mut d = Device::new(store, Identity::default(), false);
+    d.boot(0);
+    d
+}
+
+fn frames(d: &mut Device<2>) -> Vec<(u16, Vec<u8>)> {
+    core::iter::from_fn(|| d.next_tx())
+        .map(|f| (f.id, f.data().to_vec()))
+        .collect()
+}
+
+fn events(d: &mut Device<2>) -> Vec<Event> {
+    core::iter::from_fn(|| d.next_event()).collect()
+}
+
+fn param_index(p: Param) -> u16 {
+    PARAM_BASE + Param::ALL.iter().position(|q| *q == p).expect("listed") as u16
+}
+
+/// One SDO request, its one response.
+fn sdo(d: &mut Device<2>, req: [u8; 8]) -> [u8; 8] {
+    assert!(d.on_frame(sdo_rx_id(ID), &req, 10));
+    let f = frames(d);
+    assert_eq!(f.len(), 1, "{f:x?}");
+    assert_eq!(f[0].0, 0x583);
+    f[0].1.clone().try_into().expect("8 bytes")
+}
+
+fn download(d: &mut Device<2>, index: u16, sub: u8, v: &[u8]) -> [u8; 8] {
+    let i = index.to_le_bytes();
+    let mut req = [
+        0x23 | (((4 - v.len()) as u8) << 2),
+        i[0],
+        i[1],
+        sub,
+        0,
+        0,
+        0,
+        0,
+    ];
+    req[4..4 + v.len()].copy_from_slice(v);
+    sdo(d, req)
+}
+
+fn upload(d: &mut Device<2>, index: u16, sub: u8) -> [u8; 8] {
+    let i = index.to_le_bytes();
+    sdo(d, [0x40, i[0], i[1], sub, 0, 0, 0, 0])
+}
+
+#[test]
+fn boot_up_then_pre_operational_heartbeat() {
+    let mut d = device();
+    assert_eq!(frames(&mut d), vec![(0x703, vec![0x00])]);
+    assert_eq!(d.nmt(), NmtState::PreOperational);
+    assert_eq!(events(&mut d), vec![Event::Nmt(NmtState::PreOperational)]);
+    // 0x1017 = 100 ms over SDO: the heartbeat follows at once, then every 100 ms.
+    assert_eq!(
+        download(&mut d, 0x1017, 0, &100u16.to_le_bytes()),
+        [0x60, 0x17, 0x10, 0, 0, 0, 0, 0]
+    );
+    d.tick(1_000);
+    d.tick(50_000);
+    d.tick(101_000);
+    assert_eq!(
+        frames(&mut d),
+        vec![(0x703, vec![0x7F]), (0x703, vec![0x7F])]
+    );
+    assert!(!d.outputs_enabled());
+}
+
+#[test]
+fn nmt_start_stop_pre_operational_and_addressing() {
+    let mut d = device();
+    frames(&mut d);
+    events(&mut d);
+    d.set_heartbeat_ms(10);
+    // Addressed to node 4: ignored.
+    d.on_frame(NMT_ID, &[0x01, 4], 0);
+    assert_eq!(d.nmt(), NmtState::PreOperational);
+    d.on_frame(NMT_ID, &[0x01, ID], 0);
+    assert_eq!(d.nmt(), NmtState::Operational);
+    assert!(d.outputs_enabled());
+    d.tick(0);
+    assert_eq!(frames(&mut d), vec![(0x703, vec![0x05])]);
+    // Broadcast stop: no SDO answer in stopped, heartbeat 0x04.
+    d.on_frame(NMT_ID, &[0x02, 0], 0);
+    assert_eq!(d.nmt(), NmtState::Stopped);
+    d.on_frame(sdo_rx_id(ID), &[0x40, 0, 0x10, 0, 0, 0, 0, 0], 1);
+    d.tick(10_000);
+    assert_eq!(frames(&mut d), vec![(0x703, vec![0x04])]);
+    d.on_frame(NMT_ID, &[0x80, ID], 0);
+    assert_eq!(d.nmt(), NmtState::PreOperational);
+    assert_eq!(
+        events(&mut d),
+        vec![
+            Event::Nmt(NmtState::Operational),
+            Event::Nmt(NmtState::Stopped),
+            Event::Nmt(NmtState::PreOperational)
+        ]
+    );
+}
+
+#[test]
+fn reset_communication_applies_a_written_node_id() {
+    let mut d = device();
+    frames(&mut d);
+    assert_eq!(download(&mut d, SETTING_BASE, 0, &[9])[0], 0x60);
+    assert_eq!(d.node_id(), ID, "applied only at reset");
+    frames(&mut d);
+    d.on_frame(NMT_ID, &[0x82, ID], 0);
+    assert_eq!(d.node_id(), 9);
+    assert_eq!(frames(&mut d), vec![(0x709, vec![0x00])]);
+    // Node 3 no longer answers; node 9 does, and refuses node-ID 128.
+    assert!(!d.on_frame(0x603, &[0x40, 0, 0x10, 0, 0, 0, 0, 0], 1));
+    d.on_frame(0x609, &[0x2F, 0x00, 0x21, 0, 128, 0, 0, 0], 1);
+    assert_eq!(
+        frames(&mut d),
+        vec![(0x589, vec![0x80, 0x00, 0x21, 0, 0x30, 0x00, 0x09, 0x06])]
+    );
+}
+
+#[test]
+fn expedited_upload_of_device_type_and_identity() {
+    let mut d = device();
+    frames(&mut d);
+    assert_eq!(upload(&mut d, 0x1000, 0), [0x43, 0x00, 0x10, 0, 0, 0, 0, 0]);
+    assert_eq!(upload(&mut d, 0x1018, 0), [0x4F, 0x18, 0x10, 0, 4, 0, 0, 0]);
+    assert_eq!(
+        upload(&mut d, 0x1014, 0),
+        [0x43, 0x14, 0x10, 0, 0x83, 0, 0, 0]
+    );
+    // Missing object and sub-index.
+    assert_eq!(
+        upload(&mut d, 0x1234, 0),
+        [0x80, 0x34, 0x12, 0, 0x00, 0x00, 0x02, 0x06]
+    );
+    assert_eq!(
+        upload(&mut d, 0x1000, 1),
+        [0x80, 0x00, 0x10, 1, 0x11, 0x00, 0x09, 0x06]
+    );
+    // Read-only.
+    assert_eq!(
+        download(&mut d, 0x1000, 0, &[1, 0, 0, 0]),
+        [0x80, 0x00, 0x10, 0, 0x02, 0x00, 0x01, 0x06]
+    );
+}
+
+#[test]
+fn a_refused_write_aborts_with_the_range_code_and_leaves_the_value() {
+    let mut d = device();
+    frames(&mut d);
+    let zeta = param_index(Param::Zeta);
+    let i = zeta.to_le_bytes();
+    let before = upload(&mut d, zeta, 0);
+    assert_eq!(&before[4..8], &0.1f32.to_le_bytes());
+    // ζ = 1.5 is outside (0, 1): 0x0609_0030.
+    assert_eq!(
+        download(&mut d, zeta, 0, &1.5f32.to_le_bytes()),
+        [0x80, i[0], i[1], 0, 0x30, 0x00, 0x09, 0x06]
+    );
+    assert_eq!(upload(&mut d, zeta, 0), before);
+    // A value in range is taken.
+    assert_eq!(
+        download(&mut d, zeta, 0, &0.2f32.to_le_bytes()),
+        [0x60, i[0], i[1], 0, 0, 0, 0, 0]
+    );
+    assert_eq!(&upload(&mut d, zeta, 0)[4..8], &0.2f32.to_le_bytes());
+    // φ_up below φ_low of step 2: too low for φ_up (`AtLeast`), via the constructor.
+    let phi_low = param_index(Param::PhiLow);
+    let r = download(&mut d, phi_low, 2, &5.0f32.to_le_bytes());
+    assert_eq!(&r[4..8], &0x0609_0031u32.to_le_bytes(), "{r:x?}");
+    assert_eq!(&upload(&mut d, phi_low, 2)[4..8], &1.0f32.to_le_bytes());
+    // A baseline parameter with the predefined-time scheme: incompatible.
+    let kappa = param_index(Param::Kappa);
+    let r = download(&mut d, kappa, 0, &2.0f32.to_le_bytes());
+    assert_eq!(&r[4..8], &0x0604_0043u32.to_le_bytes());
+    // A name by position beyond the list.
+    let r = download(&mut d, param_index(Param::Scheme), 0, &[2]);
+    assert_eq!(&r[4..8], &0x0609_0030u32.to_le_bytes());
+    // Wrong length.
+    let r = download(&mut d, zeta, 0, &[1, 2]);
+    assert_eq!(&r[4..8], &0x0607_0013u32.to_le_bytes());
+}
+
+#[test]
+fn manufacturer_writes_only_in_pre_operational() {
+    let mut d = device();
+    d.on_frame(NMT_ID, &[0x01, ID], 0);
+    frames(&mut d);
+    let zeta = param_index(Param::Zeta);
+    let r = download(&mut d, zeta, 0, &0.2f32.to_le_bytes());
+    assert_eq!(&r[4..8], &0x0800_0022u32.to_le_bytes());
+    assert_eq!(&upload(&mut d, zeta, 0)[4..8], &0.1f32.to_le_bytes());
+    // Reads work in operational.
+    assert_eq!(upload(&mut d, 0x1001, 0)[0], 0x4F);
+}
+
+#[test]
+fn segmented_upload_of_the_device_name() {
+    let mut d = device();
+    frames(&mut d);
+    assert_eq!(
+        upload(&mut d, 0x1008, 0),
+        [0x41, 0x08, 0x10, 0, 10, 0, 0, 0]
+    );
+    assert_eq!(
+        sdo(&mut d, [0x60, 0, 0, 0, 0, 0, 0, 0]),
+        [0x00, b'a', b'g', b'e', b'n', b't', b'-', b'n']
+    );
+    // Toggle 1, 4 bytes unused, last.
+    assert_eq!(
+        sdo(&mut d, [0x70, 0, 0, 0, 0, 0, 0, 0]),
+        [0x19, b'o', b'd', b'e', 0, 0, 0, 0]
+    );
+    // No transfer in progress now.
+    assert_eq!(sdo(&mut d, [0x60, 0, 0, 0, 0, 0, 0, 0])[0], 0x80);
+}
+
+#[test]
+fn segmented_download_and_toggle_error() {
+    let mut d = device();
+    frames(&mut d);
+    let ts = param_index(Param::Ts);
+    let i = ts.to_le_bytes();
+    let v = 3.0f32.to_le_bytes();
+    assert_eq!(
+        sdo(&mut d, [0x21, i[0], i[1], 0, 4, 0, 0, 0]),
+        [0x60, i[0], i[1], 0, 0, 0, 0, 0]
+    );
+    // Toggle 0, 3 bytes unused, last.
+    assert_eq!(
+        sdo(&mut d, [0x07, v[0], v[1], v[2], v[3], 0, 0, 0]),
+        [0x20, 0, 0, 0, 0, 0, 0, 0]
+    );
+    assert_eq!(&upload(&mut d, ts, 0)[4..8], &v);
+    // A segment with the wrong toggle: 0x0503_0000, value unchanged.
+    sdo(&mut d, [0x21, i[0], i[1], 0, 4, 0, 0, 0]);
+    let r = sdo(&mut d, [0x17, 0, 0, 0x80, 0x40, 0, 0, 0]);
+    assert_eq!(r, [0x80, i[0], i[1], 0, 0x00, 0x00, 0x03, 0x05]);
+    assert_eq!(&upload(&mut d, ts, 0)[4..8], &v);
+    // A transfer left hanging times out.
+    sdo(&mut d, [0x21, i[0], i[1], 0, 4, 0, 0, 0]);
+    d.tick(10 + SDO_TIMEOUT_US + 1);
+    assert_eq!(
+        frames(&mut d),
+        vec![(0x583, vec![0x80, i[0], i[1], 0, 0x00, 0x00, 0x04, 0x05])]
+    );
+}
+
+#[test]
+fn emcy_error_register_and_error_field() {
+    let mut d = device();
+    frames(&mut d);
+    d.report(Fault::SafeState(0b001), 0);
+    assert_eq!(
+        frames(&mut d),
+        vec![(0x083, vec![0x50, 0x82, 0x11, 1, 0b001, 0, 0, 0])]
+    );
+    assert_eq!(d.error_register(), 0x11);
+    assert_eq!(
+        upload(&mut d, 0x1001, 0),
+        [0x4F, 0x01, 0x10, 0, 0x11, 0, 0, 0]
+    );
+    // Reported once while active.
+    d.report(Fault::SafeState(0b001), 0);
+    assert!(frames(&mut d).is_empty());
+    d.report(Fault::Overrun, 7);
+    assert_eq!(
+        frames(&mut d),
+        vec![(0x083, vec![0x00, 0x62, 0x91, 4, 0, 7, 0, 0])]
+    );
+    assert_eq!(upload(&mut d, 0x1003, 0), [0x4F, 0x03, 0x10, 0, 2, 0, 0, 0]);
+    assert_eq!(upload(&mut d, 0x1003, 1)[4..8], 0x6200u32.to_le_bytes());
+    assert_eq!(upload(&mut d, 0x1003, 2)[4..8], 0x8250u32.to_le_bytes());
+    d.clear(Fault::SafeState(0));
+    assert_eq!(frames(&mut d), vec![(0x083, vec![0; 8])]);
+    assert_eq!(d.error_register(), 0);
+    // Writing 0 to sub-index 0 clears the history; anything else is refused.
+    assert_eq!(download(&mut d, 0x1003, 0, &[1])[0], 0x80);
+    assert_eq!(download(&mut d, 0x1003, 0, &[0])[0], 0x60);
+    assert_eq!(upload(&mut d, 0x1003, 0)[4], 0);
+    // Sensor loss: 0x7300; not sent while stopped (but recorded).
+    d.on_frame(NMT_ID, &[0x02, ID], 0);
+    d.report(Fault::SafeState(0b100), 0);
+    assert!(frames(&mut d).is_empty());
+    assert_eq!(d.error_register(), 0x81);
+}
+
+#[test]
+fn heartbeat_consumer_loses_and_regains_a_node() {
+    let mut d = device();
+    d.set_consumer(1, 5, 100).expect("entry 1");
+    assert_eq!(d.set_consumer(2, 5, 50), Err(Abort::ParamIncompatible));
+    frames(&mut d);
+    events(&mut d);
+    d.on_frame(0x705, &[0x05], 1_000);
+    assert_eq!(d.consumed_state(5), Some(NmtState::Operational));
+    d.tick(100_000);
+    assert!(events(&mut d).is_empty());
+    d.tick(101_001);
+    assert_eq!(events(&mut d), vec![Event::HeartbeatLost(5)]);
+    assert_eq!(
+        frames(&mut d),
+        vec![(0x083, vec![0x30, 0x81, 0x11, 9, 5, 0, 0, 0])]
+    );
+    d.on_frame(0x705, &[0x7F], 120_000);
+    assert_eq!(events(&mut d), vec![Event::HeartbeatResumed(5)]);
+    assert_eq!(frames(&mut d), vec![(0x083, vec![0; 8])]);
+}
+
+#[test]
+fn every_generated_entry_reads_back_what_is_written() {
+    let mut d = device();
+    frames(&mut d);
+    let mut checked = 0;
+    for o in OBJECTS.iter() {
+        let subs = match o.kind {
+            od::Kind::Var => 0..=0,
+            _ => 1..=d.sub_count(o),
+        };
+        for sub in subs {
+            let v = d.read(o.index, sub).expect("readable");
+            let r = d.write(o.index, sub, v.as_slice());
+            match o.item {
+                od::Item::Param(_) | od::Item::Setting(_) if o.access == od::Access::ReadWrite => {
+                    // Writing an entry's own value back is always accepted, except an absent
+                    // optional paired value (c1 alone) which the constructor refuses.
+                    if let Err(a) = r {
+                        assert!(
+                            a == Abort::ParamIncompatible,
+                            "{:#06x}/{sub} {}: {a:?}",
+                            o.index,
+                            o.name
+                        );
+                    }
+                    assert_eq!(d.read(o.index, sub), Ok(v), "{:#06x}/{sub}", o.index);
+                    checked += 1;
+                }
+                _ => {}
+            }
+        }
+    }
+    assert!(checked > 40, "{checked}");
+}
+
+#[test]
+fn table_is_sorted_and_holds_every_param() {
+    assert!(OBJECTS.windows(2).all(|w| w[0].index < w[1].index));
+    for p in Param::ALL {
+        let o = od::find(param_index(p)).expect("object");
+        assert_eq!(o.name, p.key());
+    }
+}
+
+#[test]
+fn store_then_load_into_a_fresh_device_and_restore_defaults() {
+    let mut d = device();
+    frames(&mut d);
+    let zeta = param_index(Param::Zeta);
+    download(&mut d, zeta, 0, &0.25f32.to_le_bytes());
+    download(&mut d, 0x1017, 0, &50u16.to_le_bytes());
+    events(&mut d);
+    assert_eq!(
+        download(&mut d, 0x1010, 1, &SAVE_SIGNATURE.to_le_bytes())[0],
+        0x60
+    );
+    assert_eq!(events(&mut d), vec![Event::Store]);
+    let mut buf = [0u8; 1024];
+    let n = d.save(&mut buf).expect("fits");
+    let mut fresh = device();
+    frames(&mut fresh);
+    events(&mut fresh);
+    fresh.load(&buf[..n]).expect("loads");
+    assert_eq!(&upload(&mut fresh, zeta, 0)[4..8], &0.25f32.to_le_bytes());
+    assert_eq!(upload(&mut fresh, 0x1017, 0)[4], 50);
+    // A corrupted copy is refused whole.
+    let mut bad = buf;
+    bad[0] = b'X';
+    assert!(fresh.load(&bad[..n]).is_err());
+    // Wrong signature, then "load": defaults back.
+    assert_eq!(
+        &download(&mut fresh, 0x1011, 1, &[1, 2, 3, 4])[4..8],
+        &0x0800_0020u32.to_le_bytes()
+    );
+    assert_eq!(
+        download(&mut fresh, 0x1011, 1, &LOAD_SIGNATURE.to_le_bytes())[0],
+        0x60
+    );
+    // The defaults are the values the device was built with, not the loaded ones.
+    assert_eq!(&upload(&mut fresh, zeta, 0)[4..8], &0.1f32.to_le_bytes());
+    assert_eq!(events(&mut fresh), vec![Event::Restore]);
+}
+
+#[test]
+fn eds_lists_every_object_with_name_and_access() {
+    let d = device();
+    let mut s = String::new();
+    eds::write_eds(&mut s, &d, "agent-node.eds").expect("fmt");
+    for o in OBJECTS.iter() {
+        let head = format!("[{:04X}]\nParameterName={}\n", o.index, o.name);
+        assert!(s.contains(&head), "{head}");
+    }
+    assert!(s.contains("[1014]\nParameterName=COB-ID EMCY\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue=$NODEID+0x80\n"));
+    let zeta = format!(
+        "[{:04X}]\nParameterName=controller.zeta\nObjectType=0x7\nDataType=0x0008\nAccessType=rw\nDefaultValue=0.1\n",
+        param_index(Param::Zeta)
+    );
+    assert!(s.contains(&zeta), "{zeta}");
+    let a_check = format!("[{:04X}sub2]\n", param_index(Param::ACheck));
+    assert!(s.contains(&a_check));
+    assert!(!s.contains(&format!("[{:04X}sub3]\n", param_index(Param::ACheck))));
+}
+
+#[test]
+fn a_monitor_decodes_nmt_emcy_sdo_and_heartbeat() {
+    assert_eq!(
+        decode(0x000, &[0x01, 2]),
+        Some(Message::Nmt {
+            command: Some(NmtCommand::Start),
+            node: 2
+        })
+    );
+    assert_eq!(
+        decode(0x082, &[0x50, 0x82, 0x11, 1, 1, 1, 0, 0]),
+        Some(Message::Emcy {
+            node: 2,
+            code: 0x8250,
+            register: 0x11,
+            info: [1, 1, 1, 0, 0]
+        })
+    );
+    assert_eq!(
+        decode(0x582, &[0x80, 0x03, 0x20, 0, 0x30, 0, 0x09, 0x06]),
+        Some(Message::Sdo {
+            node: 2,
+            request: false,
+            command: 0x80,
+            index: 0x2003,
+            sub: 0,
+            abort: Some(0x0609_0030)
+        })
+    );
+    assert_eq!(
+        decode(0x602, &[0x40, 0x00, 0x10, 0, 0, 0, 0, 0]),
+        Some(Message::Sdo {
+            node: 2,
+            request: true,
+            command: 0x40,
+            index: 0x1000,
+            sub: 0,
+            abort: None
+        })
+    );
+    assert_eq!(
+        decode(0x702, &[0x7F]),
+        Some(Message::Heartbeat {
+            node: 2,
+            state: Some(NmtState::PreOperational)
+        })
+    );
+    // A value frame and the project's own heartbeat are not CANopen messages.
+    assert_eq!(decode(0x103, &[0; 4]), None);
+    assert_eq!(decode(0x782, &[0; 8]), None);
+}
