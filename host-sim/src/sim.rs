@@ -358,7 +358,7 @@ where
         Ok(Self {
             leader: world.leader,
             faults: world.faults,
-            inputs: StageInputs::new(members.len()),
+            inputs: StageInputs::new(members.len(), world.substeps),
             members,
             groups,
             plant,
@@ -472,17 +472,14 @@ where
     /// integrated in parallel with the same result at any thread count.
     fn integrate(&mut self, t: f64) {
         let dt = self.h / f64::from(self.substeps);
-        let (plant, faults, members) = (&self.plant, &self.faults, &self.members);
         self.inputs.begin_sample();
         for s in 0..self.substeps {
             let t0 = t + f64::from(s) * dt;
             let times = [t0, t0 + 0.5 * dt, t0 + dt];
-            let at = times.map(|tt| {
-                self.inputs
-                    .index(tt, plant, |r, l| faults.effect(members[r], l, tt))
-            });
+            let at = times.map(|tt| self.inputs.index(tt));
             self.inputs.at.push(at);
         }
+        self.inputs.fill(&self.plant, &self.faults, &self.members);
         let (plant, inputs) = (&self.plant, &self.inputs);
         let step = |g: &mut Group<N, M>, x: &mut [[f64; N]]| {
             advance(plant, inputs, g, dt);
@@ -508,60 +505,90 @@ const BATCH: usize = 4;
 /// The inputs of one sample's RK4 stages that depend on time only: the plant's time terms and
 /// every fault class's actuator effects, computed once per distinct stage time (a substep's end
 /// is usually the next one's start, to the bit, and the sample's last is the next sample's first).
+///
+/// Fixed-size storage sized once per run (no allocation per sample): at most `3 · substeps`
+/// stage times per sample plus the one carried over from the sample before.
 struct StageInputs<T, const M: usize> {
     /// The distinct stage times of this sample (the first may be the previous sample's last).
     times: Vec<f64>,
     /// Per stage time, the plant's time terms.
     terms: Vec<T>,
-    /// Per stage time and fault class, the actuator effects.
-    effects: Vec<[ActuatorEffect; M]>,
+    /// Per fault class and actuator, the effect at each stage time: `effects[(c M + l) stride + i]`.
+    effects: Vec<ActuatorEffect>,
+    /// Stage times room per class and actuator in `effects`.
+    stride: usize,
     /// Fault classes.
     classes: usize,
     /// Per substep the indices of its start, midpoint and end in `times`.
     at: Vec<[usize; 3]>,
+    /// The first stage time of this sample whose terms and effects are still to be computed.
+    fresh: usize,
 }
 
 impl<T: Copy, const M: usize> StageInputs<T, M> {
-    fn new(classes: usize) -> Self {
+    fn new(classes: usize, substeps: u32) -> Self {
+        let substeps = substeps as usize;
+        let stride = 3 * substeps + 1;
         Self {
-            times: Vec::new(),
-            terms: Vec::new(),
-            effects: Vec::new(),
+            times: Vec::with_capacity(stride),
+            terms: Vec::with_capacity(stride),
+            effects: vec![ActuatorEffect::HEALTHY; classes * M * stride],
+            stride,
             classes,
-            at: Vec::new(),
+            at: Vec::with_capacity(substeps),
+            fresh: 0,
         }
     }
 
-    /// Forgets the last sample's stage times but its last one.
+    /// Forgets the last sample's stage times but its last one (moved to the front).
     fn begin_sample(&mut self) {
-        let keep = self.times.len().saturating_sub(1);
-        self.times.drain(..keep);
-        self.terms.drain(..keep);
-        self.effects.drain(..keep * self.classes);
+        if let Some(last) = self.times.len().checked_sub(1) {
+            self.times.swap(0, last);
+            self.terms.swap(0, last);
+            for row in self.effects.chunks_exact_mut(self.stride) {
+                row.swap(0, last);
+            }
+            self.times.truncate(1);
+            self.terms.truncate(1);
+        }
+        self.fresh = self.times.len();
         self.at.clear();
     }
 
-    /// The index of stage time `t`: the last one if equal to it, else a new one with the time
-    /// terms of `plant` and `effect(class, actuator)` of every fault class.
-    fn index<const N: usize, P: Plant<N, M, Time = T>>(
+    /// The index of stage time `t`: the last one if equal to it, else a new one (its terms and
+    /// effects follow in [`StageInputs::fill`]).
+    #[inline]
+    fn index(&mut self, t: f64) -> usize {
+        match self.times.last() {
+            Some(l) if l.to_bits() == t.to_bits() => self.times.len() - 1,
+            _ => {
+                self.times.push(t);
+                self.times.len() - 1
+            }
+        }
+    }
+
+    /// The time terms of `plant` and the effects of every fault class (class `c` as its agent
+    /// `members[c]` of `faults`) at the stage times added since [`StageInputs::begin_sample`].
+    fn fill<const N: usize, P: Plant<N, M, Time = T>>(
         &mut self,
-        t: f64,
         plant: &P,
-        effect: impl Fn(usize, usize) -> ActuatorEffect,
-    ) -> usize {
-        if self
-            .times
-            .last()
-            .is_some_and(|l| l.to_bits() == t.to_bits())
+        faults: &FaultSchedule,
+        members: &[usize],
+    ) {
+        let new = self.times.get(self.fresh..).unwrap_or_default();
+        self.terms.extend(new.iter().map(|&t| plant.at(t)));
+        let (from, to) = (self.fresh, self.times.len());
+        for (row, (c, l)) in self
+            .effects
+            .chunks_exact_mut(self.stride)
+            .zip((0..self.classes).flat_map(|c| (0..M).map(move |l| (c, l))))
         {
-            return self.times.len() - 1;
+            if let (Some(&agent), Some(out)) = (members.get(c), row.get_mut(from..to)) {
+                faults.effects_at(agent, l, new, out);
+            }
         }
-        self.times.push(t);
-        self.terms.push(plant.at(t));
-        for c in 0..self.classes {
-            self.effects.push(std::array::from_fn(|l| effect(c, l)));
-        }
-        self.times.len() - 1
+        self.fresh = to;
     }
 
     /// Substep `s`'s time terms at its start, midpoint and end.
@@ -575,7 +602,7 @@ impl<T: Copy, const M: usize> StageInputs<T, M> {
     #[inline(always)]
     fn act<const N: usize>(&self, s: usize, g: &Group<N, M>) -> [Lanes<M, BATCH>; 3] {
         let [t0, t1, t2] = self.at[s];
-        let effect = |i: usize, c: usize, l: usize| self.effects[i * self.classes + c][l];
+        let effect = |i: usize, c: usize, l: usize| self.effects[(c * M + l) * self.stride + i];
         match g.class {
             Classes::Healthy => [g.q; 3],
             Classes::One(c) => {
