@@ -522,7 +522,8 @@ struct StageInputs<T, const M: usize> {
     times: Vec<f64>,
     /// Per stage time, the plant's time terms.
     terms: Vec<T>,
-    /// Per fault class and actuator, the effect at each stage time: `effects[(c M + l) stride + i]`.
+    /// Per fault class `c` and actuator `l`, the effect at each stage time `i`:
+    /// `effects[(c M + l) stride + i]`.
     effects: Vec<ActuatorEffect>,
     /// Stage times room per class and actuator in `effects`.
     stride: usize,
@@ -555,10 +556,10 @@ impl<T: Copy, const M: usize> StageInputs<T, M> {
     /// Forgets the last sample's stage times but its last one (moved to the front).
     fn begin_sample(&mut self) {
         if let Some(last) = self.times.len().checked_sub(1) {
-            self.times.swap(0, last);
-            self.terms.swap(0, last);
+            to_front(&mut self.times, last);
+            to_front(&mut self.terms, last);
             for row in self.effects.chunks_exact_mut(self.stride) {
-                row.swap(0, last);
+                to_front(row, last);
             }
             self.times.truncate(1);
             self.terms.truncate(1);
@@ -663,6 +664,13 @@ impl<T: Copy, const M: usize> StageInputs<T, M> {
                 [at(t0), at(t1), at(t2)]
             }
         }
+    }
+}
+
+/// Moves entry `i` of `v` to the front (if there is one).
+fn to_front<X>(v: &mut [X], i: usize) {
+    if i < v.len() {
+        v.swap(0, i);
     }
 }
 

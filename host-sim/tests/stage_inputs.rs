@@ -7,32 +7,24 @@
 use std::sync::Arc;
 
 use host_sim::{
-    faults::{ActuatorEffect, Agents, FaultKind, FaultRule, FaultSchedule},
+    faults::{ActuatorEffect, FaultRule, FaultSchedule},
     run::{run, RunOptions},
     scenario::{self, Setup},
     sim::SharedStageTerms,
-    Result,
+    Error, Result,
 };
 
-fn rule(
-    actuator: i64,
-    kind: FaultKind,
-    start: f64,
-    period: Option<f64>,
-    length: Option<f64>,
-) -> FaultRule {
-    FaultRule {
-        agents: Agents::All,
-        actuator,
-        kind,
-        gain: (kind == FaultKind::Partial).then_some(0.5),
-        bias: None,
-        amplitude: (kind == FaultKind::Stuck).then_some(1.0),
-        omega: (kind == FaultKind::Stuck).then_some(1.0),
-        start,
-        period,
-        length,
-    }
+/// A `[[faults.rule]]` for all agents as a scenario file writes it: actuator `l`, `kind`
+/// (half gain, or stuck at `sin t`), first window at `start`, then the keys of `window`.
+fn rule(l: i64, kind: &str, start: f64, window: &str) -> Result<FaultRule> {
+    let effect = match kind {
+        "partial" => "gain = 0.5",
+        _ => "amplitude = 1.0\nomega = 1.0",
+    };
+    let text = format!(
+        "agents = \"all\"\nactuator = {l}\nkind = \"{kind}\"\n{effect}\nstart = {start:?}\n{window}"
+    );
+    toml::from_str(&text).map_err(|e| Error::invalid("faults.rule", e))
 }
 
 /// Window edges inside samples are the hard case: rules start on a stage time, just before
@@ -66,24 +58,13 @@ fn effects_over_a_sample_are_the_effects_at_each_instant() -> Result<()> {
     let mut out = [ActuatorEffect::HEALTHY; 12];
     for &start in &starts {
         let period = uniform(0.2, 0.9);
+        let repeating = |share: f64| format!("period = {period:?}\nlength = {:?}", share * period);
         let rules = [
-            rule(
-                1,
-                FaultKind::Partial,
-                start,
-                Some(period),
-                Some(0.5 * period),
-            ),
-            rule(1, FaultKind::Partial, start + 0.1, None, Some(0.3)),
-            rule(
-                1,
-                FaultKind::Stuck,
-                start,
-                Some(period),
-                Some(0.25 * period),
-            ),
-            rule(2, FaultKind::Stuck, start, None, None),
-            rule(2, FaultKind::Partial, 0.5 * start, Some(0.4), Some(0.2)),
+            rule(1, "partial", start, &repeating(0.5))?,
+            rule(1, "partial", start + 0.1, "length = 0.3")?,
+            rule(1, "stuck", start, &repeating(0.25))?,
+            rule(2, "stuck", start, "")?,
+            rule(2, "partial", 0.5 * start, "period = 0.4\nlength = 0.2")?,
         ];
         let s = FaultSchedule::compile(&rules, 1, 2)?;
         for k in 0..samples {
