@@ -5,16 +5,17 @@
 //! from agent 1 plus two random links per agent, initial states drawn in Example 1's box), each
 //! run about 400,000 agent-steps. Criterion's throughput is agent-steps per second; its inverse
 //! is the cost per agent-step (docs/SCALING.md). Also the cost of one plant right-hand side,
-//! built-in and custom.
+//! built-in and custom, and one run of Example 1 as a campaign makes it (`campaign_run`).
 
-use std::hint::black_box;
+use std::{hint::black_box, sync::Arc};
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use host_sim::{
     generate::{self, Family, GraphRecipe},
     plant::{Example1, Plant, PlantModel},
-    run::simulate,
+    run::{run, simulate, RunOptions},
     scenario::{self, Setup},
+    sim::SharedStageTerms,
 };
 
 fn shipped(file: &str) -> Setup {
@@ -79,6 +80,30 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
+/// One run of Example 1 as a campaign makes it (`host-sim sweep`, e.g.
+/// `campaigns/example1-10k.toml`): no file output, the plant's time terms at the RK4 stage
+/// times shared with the runs before it. Throughput in agent-steps, so criterion's inverse is
+/// the cost of one agent-step of such a run.
+fn campaign_run(c: &mut Criterion) {
+    let _ = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build_global();
+    let setup = shipped("example1.toml");
+    let opts = RunOptions {
+        stage_terms: Some(Arc::new(SharedStageTerms::default())),
+        ..RunOptions::default()
+    };
+    let summary = run(&setup, &opts).expect("run").summary;
+    assert!(!summary.diverged, "example1 diverged");
+    let mut g = c.benchmark_group("campaign_run");
+    g.sample_size(10);
+    g.throughput(Throughput::Elements(setup.samples * setup.agents() as u64));
+    g.bench_function("example1_4_agents_10s", |b| {
+        b.iter(|| run(black_box(&setup), &opts).expect("run"))
+    });
+    g.finish();
+}
+
 /// One evaluation of Example 1's `f(t, x, a)`: the built-in model and its expressions.
 fn rhs(c: &mut Criterion) {
     let PlantModel::Custom(custom) = shipped("example1-custom.toml").plant else {
@@ -101,5 +126,5 @@ fn rhs(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench, rhs);
+criterion_group!(benches, bench, campaign_run, rhs);
 criterion_main!(benches);

@@ -256,12 +256,52 @@ impl Compiled {
         if t < self.start {
             return false;
         }
+        self.phase(t).1
+    }
+
+    /// For `t ≥ start`: the period index `k` (0 without a period) and whether `t` lies in
+    /// window `k`.
+    #[inline]
+    fn phase(&self, t: f64) -> (f64, bool) {
         let mut s = t - self.start;
+        let mut k = 0.0;
         if let Some(p) = self.period {
             // `rem_euclid` without the slow software `fmod`.
-            s -= p * (s / p).floor();
+            k = (s / p).floor();
+            s -= p * k;
         }
-        self.length.is_none_or(|l| s < l)
+        (k, self.length.is_none_or(|l| s < l))
+    }
+
+    /// `Some(a)` when [`Compiled::active`] is `a` at every `t ∈ [lo, hi]`, found from the two
+    /// ends alone; `None` when the interval may hold a window edge. Exact, not a tolerance:
+    /// every rounded step of `active` (`t − start`, `/ period`, `floor`, `− period·k`) is
+    /// monotone in `t`, so within one period index `k` it is true and then false, and two
+    /// ends in the same period with the same value settle every instant between them.
+    #[inline]
+    fn steady(&self, lo: f64, hi: f64) -> Option<bool> {
+        if hi < self.start {
+            return Some(false);
+        }
+        if lo < self.start {
+            return None;
+        }
+        let (k_lo, a_lo) = self.phase(lo);
+        let (k_hi, a_hi) = self.phase(hi);
+        (k_lo == k_hi && a_lo == a_hi).then_some(a_lo)
+    }
+
+    /// This rule's part of the effect at `t` (it is active then): eq. (3)'s `ϱ` and `ū`.
+    #[inline]
+    fn act_on(&self, e: &mut ActuatorEffect, t: f64) {
+        match self.effect {
+            Effect::Partial(g) => e.gain *= g,
+            Effect::Stuck {
+                bias,
+                amplitude,
+                omega,
+            } => e.stuck = Some(bias + amplitude * (omega * t).sin()),
+        }
     }
 
     fn total_loss(&self) -> bool {
@@ -500,21 +540,43 @@ impl FaultSchedule {
     /// What the faults of actuator `l` of agent `i` do at time `t` (eq. 3's `ϱ(t)`, `ū(t)`).
     #[inline]
     pub fn effect(&self, i: usize, l: usize, t: f64) -> ActuatorEffect {
-        let mut gain = 1.0;
-        let mut stuck = None;
+        let mut e = ActuatorEffect::HEALTHY;
         for c in &self.rules[i * self.m + l] {
             if c.active(t) {
-                match c.effect {
-                    Effect::Partial(g) => gain *= g,
-                    Effect::Stuck {
-                        bias,
-                        amplitude,
-                        omega,
-                    } => stuck = Some(bias + amplitude * (omega * t).sin()),
+                c.act_on(&mut e, t);
+            }
+        }
+        e
+    }
+
+    /// [`FaultSchedule::effect`] of actuator `l` of agent `i` at each of `times`, into `out`
+    /// (one per time; the same values). A rule whose window edges miss the span of `times`
+    /// is tested once for all of them ([`Compiled::steady`]) instead of at every instant.
+    pub fn effects_at(&self, i: usize, l: usize, times: &[f64], out: &mut [ActuatorEffect]) {
+        out.fill(ActuatorEffect::HEALTHY);
+        let Some(rules) = self.rules.get(i * self.m + l) else {
+            return;
+        };
+        let lo = times.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = times.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        // Rules in their order at every instant, as `effect` takes them: the same products.
+        for c in rules {
+            match c.steady(lo, hi) {
+                Some(false) => {}
+                Some(true) => {
+                    for (e, &t) in out.iter_mut().zip(times) {
+                        c.act_on(e, t);
+                    }
+                }
+                None => {
+                    for (e, &t) in out.iter_mut().zip(times) {
+                        if c.active(t) {
+                            c.act_on(e, t);
+                        }
+                    }
                 }
             }
         }
-        ActuatorEffect { gain, stuck }
     }
 
     /// Fault classes: agents with the same rules on every actuator share one, so a stage's
@@ -553,6 +615,12 @@ pub struct ActuatorEffect {
 }
 
 impl ActuatorEffect {
+    /// No fault: `ϱ = 1`, not stuck.
+    pub const HEALTHY: Self = Self {
+        gain: 1.0,
+        stuck: None,
+    };
+
     /// `q^f` for the quantized command `q`.
     #[inline]
     pub fn on(self, q: f64) -> f64 {

@@ -35,7 +35,7 @@ use crate::{
         table::Table,
     },
     scenario::{self, Scenario, Setup},
-    sim::{Agents, Linked, Observer, Sim, World},
+    sim::{Agents, Linked, Observer, SharedStageTerms, Sim, StageTerms, World},
 };
 
 /// What a run writes and shows.
@@ -66,6 +66,9 @@ pub struct RunOptions {
     /// Shared with whoever waits for the run (another thread): a stop request, checked at every
     /// sample, and the samples done.
     pub watch: Option<Arc<Watch>>,
+    /// Example 1's time terms shared with other runs (a campaign's): the first run that needs
+    /// them computes them.
+    pub stage_terms: Option<Arc<SharedStageTerms>>,
 }
 
 /// A run watched from another thread (the Python package's `run`, which waits for signals
@@ -200,6 +203,7 @@ impl RunRequest {
             link_trace: self.link_trace,
             worst: false,
             watch: None,
+            stage_terms: None,
         })
     }
 }
@@ -284,13 +288,13 @@ pub fn run(setup: &Setup, opts: &RunOptions) -> Result<RunResult> {
         NetworkKind::Ideal => run_with_link(setup, opts, IdealLink),
         NetworkKind::Can | NetworkKind::Pil | NetworkKind::Socketcan => match &setup.plant {
             PlantModel::Example1(p) => {
-                run_with::<_, _, 2, 2>(setup, *p, bus_agents(setup, trace)?, opts)
+                run_with::<_, _, 2, 2>(setup, *p, bus_agents(setup, trace)?, opts, None)
             }
             PlantModel::Manipulator(p) => {
-                run_with::<_, _, 2, 2>(setup, *p, bus_agents(setup, trace)?, opts)
+                run_with::<_, _, 2, 2>(setup, *p, bus_agents(setup, trace)?, opts, None)
             }
             PlantModel::Custom(p) => {
-                run_with::<_, _, 2, 2>(setup, (**p).clone(), bus_agents(setup, trace)?, opts)
+                run_with::<_, _, 2, 2>(setup, (**p).clone(), bus_agents(setup, trace)?, opts, None)
             }
             PlantModel::Library { .. } => Err(library()),
         },
@@ -301,8 +305,16 @@ pub fn run(setup: &Setup, opts: &RunOptions) -> Result<RunResult> {
 /// model; `[network]` is not consulted); dispatches on the plant model (and so its `(n, m)`).
 pub fn run_with_link<L: LinkModel>(setup: &Setup, opts: &RunOptions, link: L) -> Result<RunResult> {
     match &setup.plant {
-        PlantModel::Example1(p) => run_with::<_, _, 2, 2>(setup, *p, linked(setup, link)?, opts),
-        PlantModel::Manipulator(p) => run_with::<_, _, 2, 2>(setup, *p, linked(setup, link)?, opts),
+        PlantModel::Example1(p) => {
+            let terms = opts.stage_terms.as_ref().map(|shared| {
+                let sim = &setup.scenario.simulation;
+                shared.example1(sim.h, sim.substeps, setup.samples)
+            });
+            run_with::<_, _, 2, 2>(setup, *p, linked(setup, link)?, opts, terms)
+        }
+        PlantModel::Manipulator(p) => {
+            run_with::<_, _, 2, 2>(setup, *p, linked(setup, link)?, opts, None)
+        }
         PlantModel::Custom(p) => {
             with_sizes!(p.n(), p.m(), run_custom(setup, opts, (**p).clone(), link))
         }
@@ -344,7 +356,7 @@ where
             "a plant given in Rust runs over the ideal link",
         ));
     }
-    run_with::<_, _, N, M>(setup, plant, linked(setup, IdealLink)?, opts)
+    run_with::<_, _, N, M>(setup, plant, linked(setup, IdealLink)?, opts, None)
 }
 
 /// A custom plant of `N` states and `M` actuators under host-sim's controllers over `link`.
@@ -354,7 +366,7 @@ fn run_custom<const N: usize, const M: usize>(
     plant: Custom,
     link: impl LinkModel,
 ) -> Result<RunResult> {
-    run_with::<_, _, N, M>(setup, plant, linked(setup, link)?, opts)
+    run_with::<_, _, N, M>(setup, plant, linked(setup, link)?, opts, None)
 }
 
 /// What the simulation loop needs of `setup`: leader, faults, initial states and timing.
@@ -416,11 +428,15 @@ fn run_with<P: Plant<N, M> + Sync, A: Agents<N, M>, const N: usize, const M: usi
     plant: P,
     agents: A,
     opts: &RunOptions,
+    terms: Option<Arc<StageTerms<P::Time>>>,
 ) -> Result<RunResult>
 where
     P::Time: Sync,
 {
     let mut sim = Sim::<_, _, N, M>::with_agents(world(setup), plant, agents)?;
+    if let Some(terms) = terms {
+        sim.share_stage_terms(terms);
+    }
     let mut metrics = Metrics::new(setup);
     let mut recorder = (opts.plots || opts.record).then(|| {
         Recorder::new(setup.samples, setup.agents(), setup.m()).with_faults(setup.faults.clone())

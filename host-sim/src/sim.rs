@@ -11,6 +11,8 @@
 
 mod clocked;
 
+use std::sync::{Arc, OnceLock};
+
 use controller_core::{Controller, ControllerConfig, Gains, Link, StepOutput};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -25,7 +27,7 @@ use crate::{
     graph::Graph,
     leader::Leader,
     network::ideal::{Inbox, LinkModel},
-    plant::{rk4, Lanes, Plant},
+    plant::{rk4, Example1, Lanes, Plant},
 };
 
 /// What the loop needs from a validated scenario besides plant and agents.
@@ -299,6 +301,8 @@ pub struct Sim<P: Plant<N, M>, A, const N: usize, const M: usize> {
     members: Vec<usize>,
     /// Time terms and fault effects of the stages of the sample being integrated.
     inputs: StageInputs<P::Time, M>,
+    /// The plant's time terms at this run's stage times, computed before (by another run).
+    stage_terms: Option<Arc<StageTerms<P::Time>>>,
     plant: P,
     agents: A,
     /// Plant states at `t_k`, per agent.
@@ -358,7 +362,8 @@ where
         Ok(Self {
             leader: world.leader,
             faults: world.faults,
-            inputs: StageInputs::new(members.len()),
+            inputs: StageInputs::new(members.len(), world.substeps),
+            stage_terms: None,
             members,
             groups,
             plant,
@@ -377,6 +382,14 @@ where
     /// The gains in force (agent 1's; all agents share the design values).
     pub fn gains(&self) -> Gains {
         self.agents.gains()
+    }
+
+    /// Takes the plant's time terms from `terms` (computed before, e.g. by another run of a
+    /// campaign) instead of computing them, if it holds this run's stage times.
+    pub fn share_stage_terms(&mut self, terms: Arc<StageTerms<P::Time>>) {
+        if terms.fits(self.h, self.substeps, self.samples) {
+            self.stage_terms = Some(terms);
+        }
     }
 
     /// The agents (e.g. to read network statistics after a run).
@@ -472,17 +485,10 @@ where
     /// integrated in parallel with the same result at any thread count.
     fn integrate(&mut self, t: f64) {
         let dt = self.h / f64::from(self.substeps);
-        let (plant, faults, members) = (&self.plant, &self.faults, &self.members);
-        self.inputs.begin_sample();
-        for s in 0..self.substeps {
-            let t0 = t + f64::from(s) * dt;
-            let times = [t0, t0 + 0.5 * dt, t0 + dt];
-            let at = times.map(|tt| {
-                self.inputs
-                    .index(tt, plant, |r, l| faults.effect(members[r], l, tt))
-            });
-            self.inputs.at.push(at);
-        }
+        self.inputs.stage_times(t, self.h, self.substeps);
+        let shared = self.stage_terms.as_deref();
+        self.inputs
+            .fill(&self.plant, shared, &self.faults, &self.members);
         let (plant, inputs) = (&self.plant, &self.inputs);
         let step = |g: &mut Group<N, M>, x: &mut [[f64; N]]| {
             advance(plant, inputs, g, dt);
@@ -508,60 +514,119 @@ const BATCH: usize = 4;
 /// The inputs of one sample's RK4 stages that depend on time only: the plant's time terms and
 /// every fault class's actuator effects, computed once per distinct stage time (a substep's end
 /// is usually the next one's start, to the bit, and the sample's last is the next sample's first).
+///
+/// Fixed-size storage sized once per run (no allocation per sample): at most `3 · substeps`
+/// stage times per sample plus the one carried over from the sample before.
 struct StageInputs<T, const M: usize> {
     /// The distinct stage times of this sample (the first may be the previous sample's last).
     times: Vec<f64>,
     /// Per stage time, the plant's time terms.
     terms: Vec<T>,
-    /// Per stage time and fault class, the actuator effects.
-    effects: Vec<[ActuatorEffect; M]>,
+    /// Per fault class `c` and actuator `l`, the effect at each stage time `i`:
+    /// `effects[(c M + l) stride + i]`.
+    effects: Vec<ActuatorEffect>,
+    /// Stage times room per class and actuator in `effects`.
+    stride: usize,
     /// Fault classes.
     classes: usize,
     /// Per substep the indices of its start, midpoint and end in `times`.
     at: Vec<[usize; 3]>,
+    /// The first stage time of this sample whose terms and effects are still to be computed.
+    fresh: usize,
+    /// Distinct stage times of the run so far: the index of the next one in a [`StageTerms`].
+    cursor: usize,
 }
 
 impl<T: Copy, const M: usize> StageInputs<T, M> {
-    fn new(classes: usize) -> Self {
+    fn new(classes: usize, substeps: u32) -> Self {
+        let substeps = substeps as usize;
+        let stride = 3 * substeps + 1;
         Self {
-            times: Vec::new(),
-            terms: Vec::new(),
-            effects: Vec::new(),
+            times: Vec::with_capacity(stride),
+            terms: Vec::with_capacity(stride),
+            effects: vec![ActuatorEffect::HEALTHY; classes * M * stride],
+            stride,
             classes,
-            at: Vec::new(),
+            at: Vec::with_capacity(substeps),
+            fresh: 0,
+            cursor: 0,
         }
     }
 
-    /// Forgets the last sample's stage times but its last one.
+    /// Forgets the last sample's stage times but its last one (moved to the front).
     fn begin_sample(&mut self) {
-        let keep = self.times.len().saturating_sub(1);
-        self.times.drain(..keep);
-        self.terms.drain(..keep);
-        self.effects.drain(..keep * self.classes);
+        if let Some(last) = self.times.len().checked_sub(1) {
+            to_front(&mut self.times, last);
+            to_front(&mut self.terms, last);
+            for row in self.effects.chunks_exact_mut(self.stride) {
+                to_front(row, last);
+            }
+            self.times.truncate(1);
+            self.terms.truncate(1);
+        }
+        self.fresh = self.times.len();
         self.at.clear();
     }
 
-    /// The index of stage time `t`: the last one if equal to it, else a new one with the time
-    /// terms of `plant` and `effect(class, actuator)` of every fault class.
-    fn index<const N: usize, P: Plant<N, M, Time = T>>(
+    /// The stage times of the sample at `t` (period `h`, `substeps` RK4 steps): each substep's
+    /// start, midpoint and end.
+    fn stage_times(&mut self, t: f64, h: f64, substeps: u32) {
+        let dt = h / f64::from(substeps);
+        self.begin_sample();
+        for s in 0..substeps {
+            let t0 = t + f64::from(s) * dt;
+            let times = [t0, t0 + 0.5 * dt, t0 + dt];
+            let at = times.map(|tt| self.index(tt));
+            self.at.push(at);
+        }
+    }
+
+    /// The index of stage time `t`: the last one if equal to it, else a new one (its terms and
+    /// effects follow in [`StageInputs::fill`]).
+    #[inline]
+    fn index(&mut self, t: f64) -> usize {
+        match self.times.last() {
+            Some(l) if l.to_bits() == t.to_bits() => self.times.len() - 1,
+            _ => {
+                self.times.push(t);
+                self.times.len() - 1
+            }
+        }
+    }
+
+    /// The time terms of `plant` (from `shared` where it has them) and the effects of every
+    /// fault class (class `c` as its agent `members[c]` of `faults`) at the stage times added
+    /// since [`StageInputs::begin_sample`].
+    fn fill<const N: usize, P: Plant<N, M, Time = T>>(
         &mut self,
-        t: f64,
         plant: &P,
-        effect: impl Fn(usize, usize) -> ActuatorEffect,
-    ) -> usize {
-        if self
-            .times
-            .last()
-            .is_some_and(|l| l.to_bits() == t.to_bits())
+        shared: Option<&StageTerms<T>>,
+        faults: &FaultSchedule,
+        members: &[usize],
+    ) {
+        let new = self.times.get(self.fresh..).unwrap_or_default();
+        let shared = shared
+            .and_then(|s| s.terms.get(self.cursor..))
+            .unwrap_or_default();
+        // The run's `k`-th distinct stage time is the table's `k`-th (the same code makes both
+        // sequences); past its end, or without one, the plant computes its terms.
+        let mut from_table = shared.iter();
+        self.terms.extend(
+            new.iter()
+                .map(|&t| from_table.next().copied().unwrap_or_else(|| plant.at(t))),
+        );
+        self.cursor += new.len();
+        let (from, to) = (self.fresh, self.times.len());
+        for (row, (c, l)) in self
+            .effects
+            .chunks_exact_mut(self.stride)
+            .zip((0..self.classes).flat_map(|c| (0..M).map(move |l| (c, l))))
         {
-            return self.times.len() - 1;
+            if let (Some(&agent), Some(out)) = (members.get(c), row.get_mut(from..to)) {
+                faults.effects_at(agent, l, new, out);
+            }
         }
-        self.times.push(t);
-        self.terms.push(plant.at(t));
-        for c in 0..self.classes {
-            self.effects.push(std::array::from_fn(|l| effect(c, l)));
-        }
-        self.times.len() - 1
+        self.fresh = to;
     }
 
     /// Substep `s`'s time terms at its start, midpoint and end.
@@ -575,7 +640,7 @@ impl<T: Copy, const M: usize> StageInputs<T, M> {
     #[inline(always)]
     fn act<const N: usize>(&self, s: usize, g: &Group<N, M>) -> [Lanes<M, BATCH>; 3] {
         let [t0, t1, t2] = self.at[s];
-        let effect = |i: usize, c: usize, l: usize| self.effects[i * self.classes + c][l];
+        let effect = |i: usize, c: usize, l: usize| self.effects[(c * M + l) * self.stride + i];
         match g.class {
             Classes::Healthy => [g.q; 3],
             Classes::One(c) => {
@@ -599,6 +664,75 @@ impl<T: Copy, const M: usize> StageInputs<T, M> {
                 [at(t0), at(t1), at(t2)]
             }
         }
+    }
+}
+
+/// Moves entry `i` of `v` to the front (if there is one).
+fn to_front<X>(v: &mut [X], i: usize) {
+    if i < v.len() {
+        v.swap(0, i);
+    }
+}
+
+/// The plant's time terms (`Plant::at`) at every distinct RK4 stage time of a run, in order:
+/// they depend on the sample period, the substeps and the number of samples only, so the runs
+/// of a campaign that share these (and the plant) share one table instead of each computing
+/// them (Example 1: `cos t` at nine stage times per sample).
+#[derive(Debug)]
+pub struct StageTerms<T> {
+    h: f64,
+    substeps: u32,
+    samples: u64,
+    terms: Vec<T>,
+}
+
+impl<T: Copy> StageTerms<T> {
+    /// The terms of `plant` at the stage times of `samples` samples of period `h`, `substeps`
+    /// RK4 steps each: the times of [`Sim::run`], found by the same code.
+    pub fn new<const N: usize, const M: usize, P: Plant<N, M, Time = T>>(
+        plant: &P,
+        h: f64,
+        substeps: u32,
+        samples: u64,
+    ) -> Self {
+        let mut inputs = StageInputs::<T, M>::new(0, substeps);
+        let mut terms = Vec::new();
+        let faults = FaultSchedule::healthy(0, M);
+        for k in 0..samples {
+            inputs.stage_times(k as f64 * h, h, substeps);
+            inputs.fill(plant, None, &faults, &[]);
+            terms.extend(inputs.terms.iter().skip(usize::from(k > 0)));
+        }
+        Self {
+            h,
+            substeps,
+            samples,
+            terms,
+        }
+    }
+
+    /// Whether this table holds the stage times of a run of `samples` samples of period `h`,
+    /// `substeps` RK4 steps each (a shorter run uses its beginning).
+    pub fn fits(&self, h: f64, substeps: u32, samples: u64) -> bool {
+        self.h.to_bits() == h.to_bits() && self.substeps == substeps && self.samples >= samples
+    }
+}
+
+/// Example 1's time terms ([`StageTerms`] of `cos t`), computed by the first run that asks
+/// for them and shared by the runs after it (the runs of a campaign).
+#[derive(Debug, Default)]
+pub struct SharedStageTerms(OnceLock<Arc<StageTerms<f64>>>);
+
+impl SharedStageTerms {
+    /// The table of Example 1 for `samples` samples of period `h`, `substeps` RK4 steps each:
+    /// the one computed before, or a new one. A run whose timing differs from the first run's
+    /// gets the first one's, which [`Sim::share_stage_terms`] then declines.
+    pub fn example1(&self, h: f64, substeps: u32, samples: u64) -> Arc<StageTerms<f64>> {
+        Arc::clone(
+            self.0.get_or_init(|| {
+                Arc::new(StageTerms::new::<2, 2, _>(&Example1, h, substeps, samples))
+            }),
+        )
     }
 }
 

@@ -25,6 +25,7 @@ use crate::{
     metrics::Summary,
     report::{self, csv::Format, parquet, table::Results, write_atomic},
     run::{run, RunOptions, Watch},
+    sim::SharedStageTerms,
 };
 use spec::{CampaignFile, Plan};
 
@@ -237,8 +238,9 @@ pub fn sweep_with(
             }
             journal.sync()
         });
+        let terms = Arc::new(SharedStageTerms::default());
         todo.par_iter().for_each_with(tx, |tx, &r| {
-            let _ = tx.send(run_row(&plan, out, r, opts.watch));
+            let _ = tx.send(run_row(&plan, out, r, opts.watch, &terms));
         });
         handle
             .join()
@@ -261,7 +263,13 @@ pub fn sweep_with(
 
 /// One run to its row; per-run outputs when the campaign asks for them. An interrupted run
 /// (`watch`) is no row.
-fn run_row(plan: &Plan, out: &Path, r: u64, watch: Option<&Arc<Watch>>) -> Result<String> {
+fn run_row(
+    plan: &Plan,
+    out: &Path,
+    r: u64,
+    watch: Option<&Arc<Watch>>,
+    terms: &Arc<SharedStageTerms>,
+) -> Result<String> {
     if let Some(w) = watch {
         w.check()?;
     }
@@ -280,12 +288,14 @@ fn run_row(plan: &Plan, out: &Path, r: u64, watch: Option<&Arc<Watch>>) -> Resul
                 link_trace: None,
                 worst: false,
                 watch,
+                stage_terms: Some(Arc::clone(terms)),
                 ..RunOptions::default()
             };
             run(&setup, &opts).map(|x| x.summary)
         } else {
             let opts = RunOptions {
                 watch,
+                stage_terms: Some(Arc::clone(terms)),
                 ..RunOptions::default()
             };
             run(&setup, &opts).map(|x| x.summary)
