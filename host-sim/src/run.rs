@@ -505,9 +505,9 @@ where
                 s.draw(dir, setup)?;
             }
             sim.agents()
-                .draw(dir, setup.scenario.simulation.h, &setup.scenario.name)?;
+                .draw(dir, setup.scenario.simulation.h, &setup.figure_title())?;
             if let Some(c) = &clocks {
-                report::clocks::draw(dir, c, &setup.scenario.name)?;
+                report::clocks::draw(dir, c, &setup.figure_title(), setup.figures())?;
             }
         }
     }

@@ -93,3 +93,60 @@ pub fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
         .border_style(BLACK)
         .draw()
 }
+
+/// The corner of a chart over `x` × `y` where a legend covers the fewest of `points` (in the
+/// chart's coordinates, log axes already as their logarithm): a legend box is about 45 % of the
+/// width and 30 % of the height. Ties go to the upper right, upper left, lower right, lower left.
+pub fn free_corner(
+    points: impl IntoIterator<Item = (f64, f64)>,
+    x: std::ops::Range<f64>,
+    y: std::ops::Range<f64>,
+) -> SeriesLabelPosition {
+    let (w, h) = (x.end - x.start, y.end - y.start);
+    let mut count = [0usize; 4];
+    for (px, py) in points {
+        let (u, v) = ((px - x.start) / w, (py - y.start) / h);
+        if !(u.is_finite() && v.is_finite()) {
+            continue;
+        }
+        let (right, left, top, bottom) = (u >= 0.55, u <= 0.45, v >= 0.7, v <= 0.3);
+        for (k, inside) in [top && right, top && left, bottom && right, bottom && left]
+            .into_iter()
+            .enumerate()
+        {
+            if let Some(c) = count.get_mut(k).filter(|_| inside) {
+                *c += 1;
+            }
+        }
+    }
+    let best = (0..4).min_by_key(|&k| count.get(k).copied().unwrap_or(0));
+    match best {
+        Some(1) => SeriesLabelPosition::UpperLeft,
+        Some(2) => SeriesLabelPosition::LowerRight,
+        Some(3) => SeriesLabelPosition::LowerLeft,
+        _ => SeriesLabelPosition::UpperRight,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_legend_goes_where_the_data_is_not() {
+        let rising = (0..20).map(|k| (f64::from(k), f64::from(k)));
+        assert!(matches!(
+            free_corner(rising, 0.0..19.0, 0.0..19.0),
+            SeriesLabelPosition::UpperLeft
+        ));
+        let top = (0..20).map(|k| (f64::from(k), 18.5));
+        assert!(matches!(
+            free_corner(top, 0.0..19.0, 0.0..19.0),
+            SeriesLabelPosition::LowerRight
+        ));
+        assert!(matches!(
+            free_corner([], 0.0..1.0, 0.0..1.0),
+            SeriesLabelPosition::UpperRight
+        ));
+    }
+}
