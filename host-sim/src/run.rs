@@ -504,8 +504,12 @@ where
             if let Some(s) = &spread {
                 s.draw(dir, setup)?;
             }
-            sim.agents()
-                .draw(dir, setup.scenario.simulation.h, &setup.figure_title())?;
+            sim.agents().draw(
+                dir,
+                setup.scenario.simulation.h,
+                &setup.figure_title(),
+                setup.figures(),
+            )?;
             if let Some(c) = &clocks {
                 report::clocks::draw(dir, c, &setup.figure_title(), setup.figures())?;
             }

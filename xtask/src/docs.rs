@@ -403,6 +403,8 @@ enum Figure<'a> {
     Network(&'a str),
     Reliability(&'a str),
     WallExample1,
+    /// The run time of `cargo xtask reproduction`, written by that command alone.
+    WallReproduction,
     Claims,
     ClaimsBands,
     ClaimsReadings,
@@ -496,6 +498,7 @@ fn parse(name: &str) -> Option<Figure<'_>> {
             Figure::Reliability(&name["reliability.".len()..])
         }
         ["wall", "example1-run"] => Figure::WallExample1,
+        ["wall", "reproduction"] => Figure::WallReproduction,
         ["claims"] => Figure::Claims,
         ["claims", "bands"] => Figure::ClaimsBands,
         ["claims", "readings"] => Figure::ClaimsReadings,
@@ -546,6 +549,12 @@ fn render(name: &str, src: &mut Sources) -> Result<Option<String>> {
         Figure::Network(name) => network::render(src, name)?,
         Figure::Reliability(name) => reliability::render(src, name)?,
         Figure::WallExample1 => wall_example1(src)?,
+        Figure::WallReproduction => {
+            return Err(format!(
+                "written by `cargo xtask reproduction` alone (it measures its own run time), \
+                 kept by `docs`; block `fig:{REPRODUCTION_TIME}`"
+            ))
+        }
         Figure::Claims => claims::table(src)?,
         Figure::ClaimsBands => claims::bands_table(src)?,
         Figure::ClaimsReadings => claims::readings_table(src)?,

@@ -701,6 +701,7 @@ fn named(key: &str, (y, u): (&str, &str)) -> (String, String) {
         "clock.drift_ppm" => ("clock drift", "ppm".into()),
         "clock.jitter_us" => ("clock jitter", "µs".into()),
         "clock.offset_us" => ("clock offset", "µs".into()),
+        "clock.sync" => ("clock synchronisation", "–".into()),
         "network.loss" => ("frame loss probability", "–".into()),
         "plant.x0" => ("initial state", y.to_string()),
         "faults.rule" => return (fault_words(index), "s".into()),
