@@ -376,31 +376,21 @@ fn no_figure_text_is_a_scenario_key_a_file_name_or_an_identifier() {
     let dir = tmp("figures-words");
     let e2 = scenario_path("example2.toml");
     let base = scenario_path("example2-baseline.toml");
+    let can = scenario_path("example1-can.toml");
     let (e2, base) = (e2.to_str().expect("path"), base.to_str().expect("path"));
+    let can = can.to_str().expect("path");
     let short = ["--set", "simulation.t_end=1.5", "--quiet"];
     for (what, args) in [
         ("run", vec!["run", e2]),
         ("baseline", vec!["run", base]),
         ("compare", vec!["compare", e2, base]),
+        ("clocks", vec!["run", can, "--set", "clock.offset_us=200"]),
     ] {
         let mut a = args;
         a.extend(short);
         run(&a, &dir.join(what));
     }
     run(&["graph", e2], &dir.join("graph"));
-    let can = scenario_path("example1-can.toml");
-    run(
-        &[
-            "run",
-            can.to_str().expect("path"),
-            "--set",
-            "simulation.t_end=1",
-            "--set",
-            "clock.offset_us=200",
-            "--quiet",
-        ],
-        &dir.join("clocks"),
-    );
     let campaigns = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/campaigns");
     for name in ["line", "monte-carlo"] {
         let file = campaigns.join(format!("{name}.toml"));
