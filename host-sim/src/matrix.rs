@@ -455,13 +455,21 @@ impl Figure for MatrixFigure<'_> {
             .filter(|u| u.is_finite())
             .fold(1.0, f64::max)
             * 30.0;
+        // Two empty decades below the smallest value: room for the legend under the data.
+        let u_lo = results
+            .iter()
+            .map(|r| r.max_abs_u)
+            .filter(|u| u.is_finite() && *u > 0.0)
+            .fold(u_hi, f64::min)
+            .max(1e-6)
+            / 100.0;
         let caption = format!("{title}: largest command from the fault's start");
         let mut c = cartesian(
             &halves[0],
             style,
             &caption,
             FRAME,
-            (0.0..x_end, (1.0..u_hi).log_scale()),
+            (0.0..x_end, (u_lo..u_hi).log_scale()),
         )
         .map_err(drawing_error)?;
         let u_label = format!("max |u| [{u_unit}] (log scale)");
@@ -484,7 +492,10 @@ impl Figure for MatrixFigure<'_> {
                 &mut c,
                 (0.0, x_end),
                 m,
-                format!("command limit u_max = {m} {u_unit}"),
+                match u_unit {
+                    "–" | "" => format!("command limit u_max = {m}"),
+                    u => format!("command limit u_max = {m} {u}"),
+                },
             )?;
         }
         for (on, color, name) in [(false, RED, "safety off"), (true, BLUE, "safety on")] {
@@ -497,7 +508,7 @@ impl Figure for MatrixFigure<'_> {
                     if r.diverged_at.is_some() {
                         (x, u_hi / 1.5, true)
                     } else {
-                        (x, r.max_abs_u.max(1.0), false)
+                        (x, r.max_abs_u.max(u_lo), false)
                     }
                 })
                 .collect();
@@ -522,7 +533,7 @@ impl Figure for MatrixFigure<'_> {
                 .legend(move |(x, y)| Cross::new((x + 9, y), 5, color.stroke_width(2)));
             }
         }
-        let corner = free_corner(drawn, 0.0..x_end, 0.0..u_hi.log10());
+        let corner = free_corner(drawn, 0.0..x_end, u_lo.log10()..u_hi.log10());
         legend(&mut c, style, corner, 13).map_err(drawing_error)?;
 
         let t_hi = results

@@ -903,6 +903,16 @@ fn monte_carlo<DB: DrawingBackend>(
         step.push((s, share(k + 1)));
     }
     step.push((tmax, share(settled.len())));
+    // Everything drawn, for the legend's corner: the CDF's corners, the 2Tₛ line and the
+    // stacked shares at the right edge (sampled).
+    let mut drawn = step.clone();
+    drawn.extend((0..=20).map(|k| (predefined, 1.02 * f64::from(k) / 20.0)));
+    drawn.extend((0..=20).map(|k| {
+        (
+            tmax,
+            share(settled.len()) + (1.0 - share(settled.len())) * f64::from(k) / 20.0,
+        )
+    }));
     c.draw_series(LineSeries::new(step, blue.stroke_width(2)))
         .map_err(err)?
         .label("empirical CDF")
@@ -932,7 +942,8 @@ fn monte_carlo<DB: DrawingBackend>(
     .map_err(err)?
     .label(format!("predefined time 2Tₛ = {} s", short(predefined)))
     .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], grey));
-    legend(&mut c, style, SeriesLabelPosition::LowerRight, 13).map_err(err)
+    let corner = free_corner(drawn, 0.0..tmax, 0.0..1.02);
+    legend(&mut c, style, corner, 13).map_err(err)
 }
 
 #[cfg(test)]
