@@ -426,6 +426,53 @@ impl Param {
         }
     }
 
+    /// The parameter as figure text names it: the paper's symbol with a few words, e.g.
+    /// `predefined time Tₛ` (the unit is [`Spec::unit`]).
+    pub const fn label(self) -> &'static str {
+        match self {
+            Self::H => "sample period h",
+            Self::Scheme => "control scheme",
+            Self::Ts => "predefined time Tₛ",
+            Self::Zeta => "gain constant ζ",
+            Self::ACheck => "MTN design constant ǎ",
+            Self::P => "adaptation gain p of μ̂",
+            Self::Eta => "adaptation gain η of ξ̂",
+            Self::Tau => "adaptation gain τ of λ̂",
+            Self::Gamma => "smoothing width γ",
+            Self::MtnOrder => "MTN order m",
+            Self::PhiLow => "lower control-gain bound φ",
+            Self::PhiUp => "upper control-gain bound φ̄",
+            Self::EpsBar => "differentiator error bound ε̄",
+            Self::DiffL1 => "differentiator gain ℓ₁",
+            Self::DiffL2 => "differentiator gain ℓ₂",
+            Self::Varpi0 => "smoothing width ϖ(0)",
+            Self::VarpiDecay => "smoothing decay κ",
+            Self::VarpiMin => "smoothing floor ϖ min",
+            Self::Mu0 => "initial estimate μ̂(0)",
+            Self::Xi0 => "initial estimate ξ̂(0)",
+            Self::Lambda0 => "initial estimate λ̂(0)",
+            Self::EstimateMax => "estimate bound",
+            Self::C1 => "gain c₁",
+            Self::C2 => "gain c₂",
+            Self::GainReading => "gain reading",
+            Self::Kappa => "baseline exponent κ",
+            Self::MuMax => "baseline cap μ max",
+            Self::TPrescribed => "prescribed time T",
+            Self::QuantizerEnabled => "quantizer",
+            Self::Rho => "quantizer level ratio ρ",
+            Self::UMin => "quantizer smallest level u min",
+            Self::Direction => "quantizer direction",
+            Self::SafetyEnabled => "safety layer",
+            Self::UMax => "command limit u max",
+            Self::DuMax => "command rate limit",
+            Self::RecoveryRate => "recovery rate",
+            Self::RecoveryJump => "recovery jump",
+            Self::Neighbours => "neighbours",
+            Self::Pinned => "pinned to the leader",
+            Self::StateOrder => "plant model",
+        }
+    }
+
     /// The scenario key, e.g. `controller.ts`.
     ///
     /// ```

@@ -17,7 +17,7 @@ use crate::{
     metrics::{self, Summary, WindowKind, WindowSpec},
     report::{self, fmt_time, plots::Recorder},
     run::{run, RunOptions},
-    scenario::{SchemeName, Setup},
+    scenario::Setup,
 };
 
 /// One scheme judged after its own deadline and after the common instant.
@@ -277,10 +277,7 @@ fn band_label(band: f64, y_unit: &str) -> String {
 /// The scheme of a run as the paper names it, for figure text: "predefined-time (proposed)",
 /// "prescribed-time [39]"; when both runs have the same scheme, "(a)"/"(b)" tells them apart.
 fn scheme_label(s: &Setup, other: &Setup, tag: &str) -> String {
-    let name = |s: &Setup| match s.scenario.controller.scheme {
-        SchemeName::PredefinedTime => "predefined-time (proposed)",
-        SchemeName::PrescribedTime => "prescribed-time [39]",
-    };
+    let name = Setup::scheme_name;
     if name(s) == name(other) {
         format!("{} {tag}", name(s))
     } else {

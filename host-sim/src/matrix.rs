@@ -27,8 +27,10 @@ use crate::{
     faults::{Agents, FaultKind, FaultRule, SensorFault},
     figure::{
         self,
-        chart::{axes, cartesian, legend, Frame},
-        drawing_error, grid, DrawResult, Figure, FigureStyle, Format,
+        chart::{axes, cartesian, free_corner, legend, Frame},
+        drawing_error, grid,
+        text::short,
+        DrawResult, Figure, FigureStyle, Format,
     },
     network::spec::{EventName, NetworkEvent, NetworkKind},
     run::{run, RunOptions},
@@ -365,29 +367,42 @@ pub fn markdown(results: &[CellResult], two_ts: f64, u_max: Option<f64>) -> Stri
     out
 }
 
-/// `matrix.png`: per cell (numbered as in the table), `max |u|` from the fault's start
-/// (log scale) and the time back in band, safety on and off; diverged runs on the top edge.
+/// The words of a fault-matrix or torque-limit figure: its title (the scheme as the paper
+/// names it, never a scenario's name), the predefined time `2 T_s` [s], and the plant's output
+/// and input units.
+#[derive(Debug, Clone, Copy)]
+pub struct FigureText<'a> {
+    /// Title, e.g. `Example 2, predefined-time (proposed)`.
+    pub title: &'a str,
+    /// `2 T_s` [s].
+    pub two_ts: f64,
+    /// Output and input units, e.g. `("rad", "N·m")`.
+    pub units: (&'a str, &'a str),
+}
+
+/// `matrix.<ext>` in `dir` (every format of `output`): per cell (numbered as in the table),
+/// `max |u|` from the fault's start (log scale) and the time back in band, safety on and off;
+/// diverged runs on the top edge.
 pub fn draw(
-    path: &Path,
+    dir: &Path,
+    output: figure::Output,
     results: &[CellResult],
-    two_ts: f64,
     u_max: Option<f64>,
-    title: &str,
+    text: FigureText<'_>,
 ) -> Result<()> {
     let chart = MatrixFigure {
         results,
-        two_ts,
         u_max,
-        title,
+        text,
     };
-    figure::save(path, &FigureStyle::px(1400, 900), &chart)
+    let style = FigureStyle::px(1400, 900).with(output);
+    figure::save_png_and_svg(dir, "matrix", &style, &chart)
 }
 
 struct MatrixFigure<'a> {
     results: &'a [CellResult],
-    two_ts: f64,
     u_max: Option<f64>,
-    title: &'a str,
+    text: FigureText<'a>,
 }
 
 /// Captions 18 px, margin 10, room for the tick labels.
@@ -425,7 +440,8 @@ impl Figure for MatrixFigure<'_> {
         style: &FigureStyle,
         _: Format,
     ) -> DrawResult {
-        let (results, two_ts, title) = (self.results, self.two_ts, self.title);
+        let (results, two_ts, title) = (self.results, self.text.two_ts, self.text.title);
+        let (_, u_unit) = self.text.units;
         let n = results.iter().filter(|r| r.safety).count().max(1);
         let halves = grid(root, (2, 1));
         let index = |k: usize| (k + 1) as f64;
@@ -439,22 +455,48 @@ impl Figure for MatrixFigure<'_> {
             .filter(|u| u.is_finite())
             .fold(1.0, f64::max)
             * 30.0;
-        let caption = format!("{title}: max |u| from the fault's start (log); x = diverged");
+        // Two empty decades below the smallest value: room for the legend under the data.
+        let u_lo = results
+            .iter()
+            .map(|r| r.max_abs_u)
+            .filter(|u| u.is_finite() && *u > 0.0)
+            .fold(u_hi, f64::min)
+            .max(1e-6)
+            / 100.0;
+        let caption = format!("{title}: largest command from the fault's start");
         let mut c = cartesian(
             &halves[0],
             style,
             &caption,
             FRAME,
-            (0.0..x_end, (1.0..u_hi).log_scale()),
+            (0.0..x_end, (u_lo..u_hi).log_scale()),
         )
         .map_err(drawing_error)?;
-        axes(&mut c, style, ("cell (table row)", "max |u|"), (13, 13))
-            .x_label_formatter(&|v| format!("{v:.0}"))
-            .y_label_formatter(&|v| format!("{v:.0}"))
-            .draw()
-            .map_err(drawing_error)?;
+        let u_label = format!("max |u| [{u_unit}] (log scale)");
+        axes(
+            &mut c,
+            style,
+            ("fault case (numbered as in the matrix table)", &u_label),
+            (13, 13),
+        )
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .y_label_formatter(&|v| short(*v))
+        .draw()
+        .map_err(drawing_error)?;
+        // Everything drawn, for the legend's corner (log axis as its logarithm).
+        let mut drawn: Vec<(f64, f64)> = Vec::new();
+        let across = |y: f64| (0..=40).map(move |k| (x_end * f64::from(k) / 40.0, y));
         if let Some(m) = self.u_max {
-            reference_line(&mut c, (0.0, x_end), m, format!("u_max = {m}"))?;
+            drawn.extend(across(m.log10()));
+            reference_line(
+                &mut c,
+                (0.0, x_end),
+                m,
+                match u_unit {
+                    "–" | "" => format!("command limit u_max = {m}"),
+                    u => format!("command limit u_max = {m} {u}"),
+                },
+            )?;
         }
         for (on, color, name) in [(false, RED, "safety off"), (true, BLUE, "safety on")] {
             let pts: Vec<(f64, f64, bool)> = results
@@ -466,10 +508,11 @@ impl Figure for MatrixFigure<'_> {
                     if r.diverged_at.is_some() {
                         (x, u_hi / 1.5, true)
                     } else {
-                        (x, r.max_abs_u.max(1.0), false)
+                        (x, r.max_abs_u.max(u_lo), false)
                     }
                 })
                 .collect();
+            drawn.extend(pts.iter().map(|&(x, y, _)| (x, y.log10())));
             c.draw_series(
                 pts.iter()
                     .filter(|p| !p.2)
@@ -478,34 +521,53 @@ impl Figure for MatrixFigure<'_> {
             .map_err(drawing_error)?
             .label(name)
             .legend(move |(x, y)| Circle::new((x + 9, y), 4, color.filled()));
-            c.draw_series(
-                pts.iter()
-                    .filter(|p| p.2)
-                    .map(|&(x, y, _)| Cross::new((x, y), 6, color.stroke_width(2))),
-            )
-            .map_err(drawing_error)?;
+            let diverged: Vec<_> = pts.iter().filter(|p| p.2).collect();
+            if !diverged.is_empty() {
+                c.draw_series(
+                    diverged
+                        .iter()
+                        .map(|&&(x, y, _)| Cross::new((x, y), 6, color.stroke_width(2))),
+                )
+                .map_err(drawing_error)?
+                .label(format!("{name}: diverged (drawn at the top)"))
+                .legend(move |(x, y)| Cross::new((x + 9, y), 5, color.stroke_width(2)));
+            }
         }
-        legend(&mut c, style, SeriesLabelPosition::UpperLeft, 13).map_err(drawing_error)?;
+        let corner = free_corner(drawn, 0.0..x_end, u_lo.log10()..u_hi.log10());
+        legend(&mut c, style, corner, 13).map_err(drawing_error)?;
 
         let t_hi = results
             .iter()
             .filter_map(|r| r.back_in_band_s)
             .fold(2.0 * two_ts, f64::max)
             * 1.15;
-        let mut c = cartesian(
-            &halves[1],
-            style,
-            "time back in band after the fault ends [s] (whole-run faults: from 0); x = diverged or never back",
-            FRAME,
-            (0.0..x_end, 0.0..t_hi),
-        )
-        .map_err(drawing_error)?;
-        axes(&mut c, style, ("cell (table row)", "s"), (13, 13))
-            .x_label_formatter(&|v| format!("{v:.0}"))
-            .draw()
+        let band = results.first().map_or(f64::NAN, |r| r.band);
+        let caption = format!(
+            "time back in band b = {} after the fault ends (whole-run faults: from 0)",
+            short(band)
+        );
+        let mut c = cartesian(&halves[1], style, &caption, FRAME, (0.0..x_end, 0.0..t_hi))
             .map_err(drawing_error)?;
-        reference_line(&mut c, (0.0, x_end), two_ts, format!("2 Ts = {two_ts} s"))?;
-        for (on, color) in [(false, RED), (true, BLUE)] {
+        axes(
+            &mut c,
+            style,
+            (
+                "fault case (numbered as in the matrix table)",
+                "time back in band [s]",
+            ),
+            (13, 13),
+        )
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .draw()
+        .map_err(drawing_error)?;
+        reference_line(
+            &mut c,
+            (0.0, x_end),
+            two_ts,
+            format!("predefined time 2Tₛ = {two_ts} s"),
+        )?;
+        let mut drawn: Vec<(f64, f64)> = across(two_ts).collect();
+        for (on, color, name) in [(false, RED, "safety off"), (true, BLUE, "safety on")] {
             let pts: Vec<(f64, Option<f64>)> = results
                 .iter()
                 .zip(&cell_no)
@@ -517,19 +579,26 @@ impl Figure for MatrixFigure<'_> {
                     )
                 })
                 .collect();
+            drawn.extend(pts.iter().map(|&(x, y)| (x, y.unwrap_or(t_hi / 1.08))));
             c.draw_series(
                 pts.iter()
                     .filter_map(|&(x, y)| y.map(|y| Circle::new((x, y), 4, color.filled()))),
             )
             .map_err(drawing_error)?;
-            c.draw_series(
-                pts.iter()
-                    .filter(|p| p.1.is_none())
-                    .map(|&(x, _)| Cross::new((x, t_hi / 1.08), 6, color.stroke_width(2))),
-            )
-            .map_err(drawing_error)?;
+            let never: Vec<_> = pts.iter().filter(|p| p.1.is_none()).collect();
+            if !never.is_empty() {
+                c.draw_series(
+                    never
+                        .iter()
+                        .map(|&&(x, _)| Cross::new((x, t_hi / 1.08), 6, color.stroke_width(2))),
+                )
+                .map_err(drawing_error)?
+                .label(format!("{name}: diverged or never back (drawn at the top)"))
+                .legend(move |(x, y)| Cross::new((x + 9, y), 5, color.stroke_width(2)));
+            }
         }
-        legend(&mut c, style, SeriesLabelPosition::UpperLeft, 13).map_err(drawing_error)
+        let corner = free_corner(drawn, 0.0..x_end, 0.0..t_hi);
+        legend(&mut c, style, corner, 13).map_err(drawing_error)
     }
 }
 
@@ -546,25 +615,22 @@ pub struct LimitPoint {
     pub saturated_fraction: f64,
 }
 
-/// Settling time and max error after `2 T_s` against `u_max` (log x), with the `2 T_s` line.
+/// Settling time into the band `band` and max error after `2 T_s` against `u_max` (log x),
+/// with the `2 T_s` line, into `path` (`.png`, `.svg` or `.pdf`).
 pub fn draw_limit_sweep(
     path: &Path,
     points: &[LimitPoint],
-    two_ts: f64,
-    title: &str,
+    band: f64,
+    text: FigureText<'_>,
 ) -> Result<()> {
-    let chart = LimitSweep {
-        points,
-        two_ts,
-        title,
-    };
+    let chart = LimitSweep { points, band, text };
     figure::save(path, &FigureStyle::px(1100, 800), &chart)
 }
 
 struct LimitSweep<'a> {
     points: &'a [LimitPoint],
-    two_ts: f64,
-    title: &'a str,
+    band: f64,
+    text: FigureText<'a>,
 }
 
 impl Figure for LimitSweep<'_> {
@@ -574,7 +640,8 @@ impl Figure for LimitSweep<'_> {
         style: &FigureStyle,
         _: Format,
     ) -> DrawResult {
-        let (points, two_ts) = (self.points, self.two_ts);
+        let (points, two_ts) = (self.points, self.text.two_ts);
+        let (y_unit, u_unit) = self.text.units;
         let (lo, hi) = points.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), p| {
             (lo.min(p.u_max), hi.max(p.u_max))
         });
@@ -591,25 +658,32 @@ impl Figure for LimitSweep<'_> {
         let halves = grid(root, (2, 1));
         let settling: fn(&LimitPoint) -> Option<f64> = |p| p.settling_time;
         let error: fn(&LimitPoint) -> Option<f64> = |p| p.max_error_after_predefined_time;
+        let band = format!("b = {} {y_unit}", short(self.band));
         let panels = [
-            ("settling time (band settle_band) [s]", t_hi, settling),
-            ("max |y_i - y_d| after 2 Ts", e_hi, error),
+            (format!("settling time into {band} [s]"), t_hi, settling),
+            (format!("max |yᵢ − y_d| after 2Tₛ [{y_unit}]"), e_hi, error),
         ];
+        let x_label = format!("command limit u_max per actuator [{u_unit}] (log scale)");
         for (k, ((label, y_hi, value), area)) in panels.into_iter().zip(&halves).enumerate() {
             let caption = if k == 0 {
-                format!("{}: torque limit u_max vs settling", self.title)
+                format!("{}: settling time under a command limit", self.text.title)
             } else {
-                "tracking error after the predefined time 2 Ts".to_string()
+                "tracking error after the predefined time 2Tₛ".to_string()
             };
             let frame = Frame {
                 x_labels: 34,
                 ..FRAME
             };
-            let x_range = (lo / 1.2..hi * 1.2).log_scale();
+            // Ticks at 1, 2, 5 × 10ᵏ across the range: the log axis alone labels only decades.
+            let ticks: Vec<f64> = (-3..=6)
+                .flat_map(|k| [1.0, 2.0, 5.0].map(|m| m * 10f64.powi(k)))
+                .filter(|v| (lo / 1.2..=hi * 1.2).contains(v))
+                .collect();
+            let x_range = (lo / 1.2..hi * 1.2).log_scale().with_key_points(ticks);
             let mut c = cartesian(area, style, &caption, frame, (x_range, 0.0..y_hi))
                 .map_err(drawing_error)?;
-            axes(&mut c, style, ("u_max per actuator (log)", label), (13, 13))
-                .x_label_formatter(&|v| format!("{v:.0}"))
+            axes(&mut c, style, (&x_label, &label), (13, 13))
+                .x_label_formatter(&|v| short(*v))
                 .draw()
                 .map_err(drawing_error)?;
             if k == 0 {
@@ -617,27 +691,46 @@ impl Figure for LimitSweep<'_> {
                     &mut c,
                     (lo / 1.2, hi * 1.2),
                     two_ts,
-                    format!("2 Ts = {two_ts} s"),
+                    format!("predefined time 2Tₛ = {two_ts} s"),
                 )?;
             }
             let pts: Vec<(f64, f64)> = points
                 .iter()
                 .filter_map(|p| value(p).map(|v| (p.u_max, v)))
                 .collect();
+            // Everything drawn, for the legend's corner (log axis as its logarithm).
+            let (x0, x1) = ((lo / 1.2).log10(), (hi * 1.2).log10());
+            let mut drawn: Vec<(f64, f64)> = points
+                .iter()
+                .map(|p| (p.u_max.log10(), value(p).unwrap_or(y_hi / 1.1)))
+                .collect();
+            if k == 0 {
+                drawn.extend((0..=40).map(|j| (x0 + (x1 - x0) * f64::from(j) / 40.0, two_ts)));
+            }
             c.draw_series(LineSeries::new(pts.clone(), BLUE.stroke_width(2)))
                 .map_err(drawing_error)?;
             c.draw_series(pts.iter().map(|&p| Circle::new(p, 4, BLUE.filled())))
                 .map_err(drawing_error)?
-                .label("Example 2, [safety] u_max")
+                .label("one run per command limit")
                 .legend(|(x, y)| Circle::new((x + 9, y), 4, BLUE.filled()));
             let never: Vec<(f64, f64)> = points
                 .iter()
                 .filter(|p| value(p).is_none())
                 .map(|p| (p.u_max, y_hi / 1.1))
                 .collect();
-            c.draw_series(never.iter().map(|&p| Cross::new(p, 6, RED.stroke_width(2))))
-                .map_err(drawing_error)?;
-            legend(&mut c, style, SeriesLabelPosition::UpperRight, 13).map_err(drawing_error)?;
+            if !never.is_empty() {
+                let what = if k == 0 {
+                    "never settled (drawn at the top)"
+                } else {
+                    "no value (drawn at the top)"
+                };
+                c.draw_series(never.iter().map(|&p| Cross::new(p, 6, RED.stroke_width(2))))
+                    .map_err(drawing_error)?
+                    .label(what)
+                    .legend(|(x, y)| Cross::new((x + 9, y), 5, RED.stroke_width(2)));
+            }
+            let corner = free_corner(drawn, x0..x1, 0.0..y_hi);
+            legend(&mut c, style, corner, 13).map_err(drawing_error)?;
         }
         Ok(())
     }

@@ -520,10 +520,14 @@ where
             if let Some(s) = &spread {
                 s.draw(dir, setup)?;
             }
-            sim.agents()
-                .draw(dir, setup.scenario.simulation.h, &setup.scenario.name)?;
+            sim.agents().draw(
+                dir,
+                setup.scenario.simulation.h,
+                &setup.figure_title(),
+                setup.figures(),
+            )?;
             if let Some(c) = &clocks {
-                report::clocks::draw(dir, c, &setup.scenario.name)?;
+                report::clocks::draw(dir, c, &setup.figure_title(), setup.figures())?;
             }
         }
     }

@@ -166,6 +166,30 @@ impl Setup {
             .unwrap_or_default()
     }
 
+    /// The scheme as the paper names it, "predefined-time (proposed)" or "prescribed-time
+    /// [39]": the words figures and tables use for a run instead of the scenario's name.
+    pub fn scheme_name(&self) -> &'static str {
+        match self.scenario.controller.scheme {
+            SchemeName::PredefinedTime => "predefined-time (proposed)",
+            SchemeName::PrescribedTime => "prescribed-time [39]",
+        }
+    }
+
+    /// The title of the run's figures: the scheme and its time parameter, e.g.
+    /// "predefined-time (proposed), Tₛ = 2 s" (never the scenario's name, which is a file-like
+    /// identifier).
+    pub fn figure_title(&self) -> String {
+        let c = &self.scenario.controller;
+        match c.scheme {
+            SchemeName::PredefinedTime => format!("{}, Tₛ = {} s", self.scheme_name(), c.ts),
+            SchemeName::PrescribedTime => format!(
+                "{}, T = {} s",
+                self.scheme_name(),
+                c.t_prescribed.unwrap_or(c.ts)
+            ),
+        }
+    }
+
     /// The predefined settling time `2 T_s`.
     pub fn predefined_time(&self) -> f64 {
         2.0 * self.scenario.controller.ts

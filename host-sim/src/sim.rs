@@ -140,8 +140,15 @@ pub trait Agents<const N: usize, const M: usize> {
     fn socketcan(&self) -> Option<SocketcanSummary> {
         None
     }
-    /// Figures of the agents' own (e.g. the firmware's cost per step) into `dir`.
-    fn draw(&self, _dir: &std::path::Path, _h: f64, _title: &str) -> Result<()> {
+    /// Figures of the agents' own (e.g. the firmware's cost per step) into `dir`, titled
+    /// `title`, in the formats of `output` (`[figures]`).
+    fn draw(
+        &self,
+        _dir: &std::path::Path,
+        _h: f64,
+        _title: &str,
+        _output: crate::figure::Output,
+    ) -> Result<()> {
         Ok(())
     }
     /// Called once after the last sample (flush a trace, stop emulators, collect figures).

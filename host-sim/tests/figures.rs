@@ -284,3 +284,236 @@ fn graph_command_draws_the_communication_graph() {
         "one arrow head per link and pinning"
     );
 }
+
+/// The text of every `<text>` element of an SVG, unescaped enough to read.
+fn svg_words(svg: &str) -> Vec<String> {
+    let mut words = Vec::new();
+    let mut rest = svg;
+    while let Some(start) = rest.find("<text") {
+        rest = &rest[start..];
+        let Some(open) = rest.find('>') else { break };
+        let Some(close) = rest.find("</text>") else {
+            break;
+        };
+        if open < close {
+            let t = rest[open + 1..close].trim();
+            if !t.is_empty() {
+                words.push(
+                    t.replace("&lt;", "<")
+                        .replace("&gt;", ">")
+                        .replace("&amp;", "&"),
+                );
+            }
+        }
+        rest = &rest[close + 7..];
+    }
+    words
+}
+
+/// The paper's own symbols that look like identifiers: `y_d` (the leader), `u_max`, `u_min`.
+const PAPER_SYMBOLS: [&str; 3] = ["y_d", "u_max", "u_min"];
+
+/// What in `text` is a scenario key, a file name or a code identifier: a word of the form
+/// `[a-z]+_[a-z]+` other than the paper's symbols, a `section.` prefix of a key, a file
+/// extension, or a shipped scenario's name.
+fn identifiers(text: &str) -> Vec<String> {
+    let mut found = Vec::new();
+    for word in text.split(|c: char| !(c.is_ascii_alphanumeric() || c == '_' || c == '.')) {
+        let word = word.trim_matches('.');
+        let snake = word.split('.').any(|w| {
+            w.split('_').count() > 1
+                && w.split('_')
+                    .all(|p| !p.is_empty() && p.chars().all(|c| c.is_ascii_lowercase()))
+                && !PAPER_SYMBOLS.contains(&w)
+        });
+        let keyed = [
+            "controller.",
+            "simulation.",
+            "quantizer.",
+            "safety.",
+            "faults.",
+            "network.",
+            "plant.",
+            "clock.",
+            "figures.",
+        ]
+        .iter()
+        .any(|s| word.starts_with(s));
+        let file = [".toml", ".csv", ".json", ".png", ".svg", ".md"]
+            .iter()
+            .any(|e| word.ends_with(e));
+        let scenario = word.starts_with("example1") || word.starts_with("example2");
+        if snake || keyed || file || scenario {
+            found.push(word.to_string());
+        }
+    }
+    found
+}
+
+#[test]
+fn the_identifier_check_finds_keys_files_and_scenario_names() {
+    assert_eq!(
+        identifiers("total_u_energy over controller.c1 x controller.c2"),
+        ["total_u_energy", "controller.c1", "controller.c2"]
+    );
+    assert_eq!(
+        identifiers("settling time (band settle_band) [s]"),
+        ["settle_band"]
+    );
+    assert_eq!(identifiers("example2-baseline: outputs"), ["example2"]);
+    assert_eq!(identifiers("see results.csv"), ["results.csv"]);
+    assert!(identifiers("max |yᵢ − y_d| after 2Tₛ [rad]; u_max = 20 N·m").is_empty());
+}
+
+/// Every figure host-sim writes, rendered as SVG, reads as words and units: the run figures of
+/// both schemes, the communication graph, the clocks of a CAN run, the comparison, the campaign line, map and Monte
+/// Carlo figures, the fault matrix and the torque-limit sweep. `[figures] format` reaches the
+/// campaign figures through the campaign's `set` and the fault matrix through the scenario.
+#[test]
+fn no_figure_text_is_a_scenario_key_a_file_name_or_an_identifier() {
+    use host_sim::matrix;
+
+    let dir = tmp("figures-words");
+    let e2 = scenario_path("example2.toml");
+    let base = scenario_path("example2-baseline.toml");
+    let can = scenario_path("example1-can.toml");
+    let (e2, base) = (e2.to_str().expect("path"), base.to_str().expect("path"));
+    let can = can.to_str().expect("path");
+    let short = ["--set", "simulation.t_end=1.5", "--quiet"];
+    for (what, args) in [
+        ("run", vec!["run", e2]),
+        ("baseline", vec!["run", base]),
+        ("compare", vec!["compare", e2, base]),
+        ("clocks", vec!["run", can, "--set", "clock.offset_us=200"]),
+    ] {
+        let mut a = args;
+        a.extend(short);
+        run(&a, &dir.join(what));
+    }
+    run(&["graph", e2], &dir.join("graph"));
+    let campaigns = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/campaigns");
+    for name in ["line", "monte-carlo"] {
+        let file = campaigns.join(format!("{name}.toml"));
+        run(
+            &["sweep", file.to_str().expect("path"), "--quiet"],
+            &dir.join(name),
+        );
+    }
+    // A map, its figures asked for as SVG only through the campaign's `set`.
+    let map = dir.join("map.toml");
+    let e1 = scenario_path("example1.toml");
+    std::fs::write(
+        &map,
+        format!(
+            "scenario = {:?}\nset = [\"simulation.t_end=1\", 'figures.format=\"svg\"']\n\
+             [[axis]]\nkey = \"controller.ts\"\nvalues = [0.5, 1.0]\n\
+             [[axis]]\nkey = \"controller.zeta\"\nvalues = [0.1, 0.2]\n\
+             [plot]\nmetric = \"total_u_energy\"\n",
+            e1.to_str().expect("path")
+        ),
+    )
+    .expect("map campaign");
+    run(
+        &["sweep", map.to_str().expect("path"), "--quiet"],
+        &dir.join("map"),
+    );
+    assert!(dir.join("map/map.svg").exists(), "the map as SVG");
+    assert!(
+        !dir.join("map/map.png").exists(),
+        "format = \"svg\" of the campaign's set reaches the map"
+    );
+    // The fault matrix and the torque-limit sweep, drawn from made-up results.
+    let results: Vec<matrix::CellResult> = matrix::cells(4, 2.0)
+        .into_iter()
+        .enumerate()
+        .flat_map(|(k, cell)| {
+            [false, true].map(|safety| matrix::CellResult {
+                cell: cell.clone(),
+                safety,
+                diverged_at: (k == 1 && !safety).then_some(2.5),
+                max_abs_u: 10.0 + k as f64,
+                max_abs_u_run: 10.0 + k as f64,
+                max_error_after_recovery: Some(0.1),
+                back_in_band_s: (k != 2).then_some(0.5),
+                band: 0.05,
+                saturated_fraction: 0.0,
+            })
+        })
+        .collect();
+    let text = matrix::FigureText {
+        title: "predefined-time (proposed), Tₛ = 0.5 s: fault matrix",
+        two_ts: 1.0,
+        units: ("rad", "N·m"),
+    };
+    let fig = dir.join("matrix");
+    std::fs::create_dir_all(&fig).expect("dir");
+    matrix::draw(
+        &fig,
+        host_sim::figure::Output::default(),
+        &results,
+        Some(20.0),
+        text,
+    )
+    .expect("matrix figure");
+    let points: Vec<matrix::LimitPoint> = [100.0, 20.0, 8.0, 5.0]
+        .map(|u_max| matrix::LimitPoint {
+            u_max,
+            settling_time: (u_max > 6.0).then_some(2.0 / u_max.sqrt()),
+            max_error_after_predefined_time: Some(0.05),
+            saturated_fraction: 0.0,
+        })
+        .to_vec();
+    for ext in ["svg", "png"] {
+        let path = fig.join(format!("torque-limit.{ext}"));
+        matrix::draw_limit_sweep(&path, &points, 0.05, text).expect("torque-limit figure");
+    }
+
+    let mut svgs = Vec::new();
+    let mut stack = vec![dir.clone()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).expect("dir") {
+            let p = e.expect("entry").path();
+            if p.is_dir() {
+                stack.push(p);
+            } else if p.extension().is_some_and(|x| x == "svg") {
+                svgs.push(p);
+            }
+        }
+    }
+    svgs.sort();
+    let stems: Vec<String> = svgs
+        .iter()
+        .filter_map(|p| p.file_stem().map(|s| s.to_string_lossy().into_owned()))
+        .collect();
+    for kind in [
+        "tracking",
+        "errors",
+        "inputs",
+        "estimates",
+        "graph",
+        "clocks",
+        "compare",
+        "compare-outputs",
+        "line",
+        "montecarlo",
+        "map",
+        "matrix",
+        "torque-limit",
+    ] {
+        assert!(
+            stems.iter().any(|s| s == kind),
+            "no {kind}.svg in {stems:?}"
+        );
+    }
+    let mut bad = Vec::new();
+    for p in &svgs {
+        let svg = std::fs::read_to_string(p).expect("svg");
+        for w in svg_words(&svg) {
+            let found = identifiers(&w);
+            if !found.is_empty() {
+                bad.push(format!("{}: {w:?} ({found:?})", p.display()));
+            }
+        }
+    }
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}

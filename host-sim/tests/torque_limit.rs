@@ -13,7 +13,7 @@
 mod common;
 
 use host_sim::{
-    matrix::{draw_limit_sweep, LimitPoint},
+    matrix::{draw_limit_sweep, FigureText, LimitPoint},
     run::simulate,
     scenario,
 };
@@ -98,7 +98,17 @@ fn example2_settling_time_against_the_torque_limit() {
     let dir = std::env::var_os("TORQUE_SWEEP_OUT")
         .map_or_else(|| common::tmp("torque-limit"), |d| root.join(d));
     std::fs::create_dir_all(&dir).expect("output directory");
-    draw_limit_sweep(&dir.join("torque-limit.png"), &points, 1.0, "Example 2").expect("figure");
+    let text = FigureText {
+        title: "Example 2, predefined-time (proposed)",
+        two_ts: 1.0,
+        units: ("rad", "N·m"),
+    };
+    let band = scenario::load(&common::scenario_path("example2.toml"), &[])
+        .expect("valid")
+        .scenario
+        .simulation
+        .settle_band;
+    draw_limit_sweep(&dir.join("torque-limit.png"), &points, band, text).expect("figure");
     let json = serde_json::json!({
         "scenario": "scenarios/example2.toml with safety.enabled = true, safety.u_max swept",
         "points": points.iter().map(|p| serde_json::json!({

@@ -183,7 +183,8 @@ pub fn docs(opts: &Options) -> Result<()> {
     let only_file = opts.only.as_deref().filter(|o| o.ends_with(".md"));
     let only_figure = opts.only.as_deref().filter(|o| !o.ends_with(".md"));
     let keep = |name: &str| {
-        (name.starts_with("wall.") && (opts.check || !opts.wall_clock))
+        name == REPRODUCTION_TIME
+            || (name.starts_with("wall.") && (opts.check || !opts.wall_clock))
             || (name == "claims.readings"
                 && (opts.check || opts.only.as_deref() != Some("claims.readings")))
             || only_figure.is_some_and(|only| only != name)
@@ -193,7 +194,7 @@ pub fn docs(opts: &Options) -> Result<()> {
     })?;
     // The images are copies of whole figures: handled with every document, or `--only images`.
     if opts.only.is_none() || opts.only.as_deref() == Some("images") {
-        let differ = images::images(&mut src, opts.check)?;
+        let differ = images::images(&mut src, opts.check, None)?;
         if !differ.is_empty() {
             return Err(format!(
                 "{} image(s) differ from what the current code draws (`cargo xtask docs` copies them):\n{}",
@@ -208,6 +209,46 @@ pub fn docs(opts: &Options) -> Result<()> {
     if opts.check {
         println!("docs: every measured figure and image matches");
     }
+    Ok(())
+}
+
+/// The document `cargo xtask reproduction` re-makes, and the block that states its run time.
+const REPRODUCTION: &str = "docs/REPRODUCTION.md";
+const REPRODUCTION_TIME: &str = "wall.reproduction";
+
+/// `cargo xtask reproduction`: every table, figure and image of `docs/REPRODUCTION.md` re-made
+/// from scratch (every source re-produced, as `docs --rerun`, the minutes-long readings table
+/// included), then the time it took written into the block `wall.reproduction` with the date and
+/// the machine.
+pub fn reproduction(_: &Options) -> Result<()> {
+    let start = Instant::now();
+    let root = workspace_root();
+    let mut src = Sources::new(true);
+    process(
+        &root,
+        Some(REPRODUCTION),
+        false,
+        |name| name.starts_with("wall."),
+        |name| render(name, &mut src),
+    )?;
+    let doc =
+        fs::read_to_string(root.join(REPRODUCTION)).map_err(|e| format!("{REPRODUCTION}: {e}"))?;
+    images::images(&mut src, false, Some(&doc))?;
+    let secs = start.elapsed().as_secs_f64();
+    let took = format!(
+        "{:.0} min ({secs:.0} s) on {}, {}",
+        secs / 60.0,
+        machine(),
+        today()
+    );
+    process(
+        &root,
+        Some(REPRODUCTION),
+        false,
+        |name| name != REPRODUCTION_TIME,
+        |name| Ok((name == REPRODUCTION_TIME).then(|| took.clone())),
+    )?;
+    println!("{REPRODUCTION}: re-made in {took}");
     Ok(())
 }
 
@@ -268,7 +309,7 @@ fn short(s: &str) -> String {
 }
 
 /// The figure names (patterns) and what they render.
-pub const CATALOGUE: [(&str, &str); 57] = [
+pub const CATALOGUE: [(&str, &str); 58] = [
     ("bench-table", "target bench table, Cortex-M4F step variants (target/bench/step.json)"),
     ("cores.table", "step per math back-end and node tick on every Cortex-M class (step.json)"),
     ("cores.mcu", "named CAN parts: worst step and node tick at the part's clock, share of 1 kHz, verdict"),
@@ -320,6 +361,7 @@ pub const CATALOGUE: [(&str, &str); 57] = [
     ("reliability.corruption.CASE.KEY", "Example 1's fault-matrix corruption cells run alone (CASE: 10, 30; KEY: bus-off, misses)"),
     ("reliability.matrix.CASE.KEY", "fault-matrix figures of the prose (KEY: band, band-off, on-max-u, off-max-u, off-diverged-min/max, off-back-max, not-met, not-met-min/max, outage-not-met-min/max, outage-off-back, outage-off-u, stuck-*, named cells)"),
     ("wall.example1-run", "wall time of host-sim run example1 (date and machine; --wall-clock)"),
+    ("wall.reproduction", "wall time of `cargo xtask reproduction` (date and machine; written by that command only)"),
     ("claims", "the paper's claims: rule, figures and verdict under each reading (D1 printed gains, D7 permanent faults)"),
     ("claims.readings", "every claim's verdict under each reading (D1 printed gains at h = 1 us, D7 permanent faults); minutes, skipped by --check"),
     ("claims.bands", "settling time of both schemes of Example 2 at bands 0.5x to 2x the final residual"),
@@ -365,6 +407,8 @@ enum Figure<'a> {
     Network(&'a str),
     Reliability(&'a str),
     WallExample1,
+    /// The run time of `cargo xtask reproduction`, written by that command alone.
+    WallReproduction,
     Claims,
     ClaimsBands,
     ClaimsReadings,
@@ -458,6 +502,7 @@ fn parse(name: &str) -> Option<Figure<'_>> {
             Figure::Reliability(&name["reliability.".len()..])
         }
         ["wall", "example1-run"] => Figure::WallExample1,
+        ["wall", "reproduction"] => Figure::WallReproduction,
         ["claims"] => Figure::Claims,
         ["claims", "bands"] => Figure::ClaimsBands,
         ["claims", "readings"] => Figure::ClaimsReadings,
@@ -508,6 +553,12 @@ fn render(name: &str, src: &mut Sources) -> Result<Option<String>> {
         Figure::Network(name) => network::render(src, name)?,
         Figure::Reliability(name) => reliability::render(src, name)?,
         Figure::WallExample1 => wall_example1(src)?,
+        Figure::WallReproduction => {
+            return Err(format!(
+                "written by `cargo xtask reproduction` alone (it measures its own run time), \
+                 kept by `docs`; block `fig:{REPRODUCTION_TIME}`"
+            ))
+        }
         Figure::Claims => claims::table(src)?,
         Figure::ClaimsBands => claims::bands_table(src)?,
         Figure::ClaimsReadings => claims::readings_table(src)?,

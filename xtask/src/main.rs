@@ -17,6 +17,8 @@
 //!   from the files the measuring commands write; `--check` fails naming each block that differs
 //!   (details: `docs.rs`).
 //!
+//! * `reproduction`: re-makes every table, figure and image of `docs/REPRODUCTION.md` from
+//!   scratch and states the time it took in that document (details: `docs.rs`).
 //! * `board-size`: builds the board firmware `boards/nucleo-g474re` in release, as shipped and
 //!   with `--features bench`, and fails when either's flash (text + data) exceeds 64 KiB or its
 //!   RAM (data + bss) 16 KiB (details: `board.rs`).
@@ -77,6 +79,11 @@ tasks:
       checks) the blocks of figure NAME alone. The documents' images (campaign maps, fault
       matrices, run figures) are copied from the figures the commands draw, and checked
       byte for byte, with every document or with --only images
+  reproduction
+      re-make every table, figure and image of docs/REPRODUCTION.md from scratch (every
+      source measured again, the readings table's runs at h = 1 us included: tens of
+      minutes) and write the time it took, with the date and the machine, into the
+      document's `wall.reproduction` block
   board-size [--no-run]
       build boards/nucleo-g474re in release, as shipped and with --features bench (unless
       --no-run: the ELFs as last built), print their text, data and bss, and fail if either's
@@ -129,6 +136,7 @@ fn main() -> ExitCode {
         "bench-target" => target::bench_target(&opts).map(|_| ()),
         "bench-gate" => gate::bench_gate(&opts),
         "docs" => docs::docs(&opts),
+        "reproduction" => docs::reproduction(&opts),
         "board-size" => board::board_size(&opts),
         "doc-coverage" => doccov::doc_coverage(),
         "help" | "--help" | "-h" => {

@@ -15,13 +15,14 @@ use crate::{
     error::{Error, Result},
     figure::{
         self,
-        chart::{axes, cartesian, legend, Frame},
+        chart::{axes, cartesian, free_corner, legend, Frame},
         drawing_error as err, grid,
         text::{short, tick_label},
         DrawResult, Figure, FigureStyle, Format,
     },
     scenario::Scenario,
 };
+use controller_core::param::Param;
 
 /// What a row says about the plotted metric.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -45,6 +46,8 @@ struct Table {
     ts: Vec<f64>,
     /// Output and input units of the plant.
     units: (String, String),
+    /// The settling band `b` of the runs (the base scenario's).
+    band: f64,
 }
 
 impl Table {
@@ -71,6 +74,7 @@ impl Table {
             settling: Vec::new(),
             ts: Vec::new(),
             units: ("–".into(), "–".into()),
+            band: f64::NAN,
         };
         for line in rows.values() {
             let mut rdr = csv::ReaderBuilder::new()
@@ -102,6 +106,19 @@ impl Table {
         label(key, (&self.units.0, &self.units.1))
     }
 
+    /// The name of `key` in a title (no unit).
+    fn name(&self, key: &str) -> String {
+        named(key, (&self.units.0, &self.units.1)).0
+    }
+
+    /// The settling band as figure text, `b = 0.05 rad`.
+    fn band_text(&self) -> String {
+        match self.units.0.as_str() {
+            "–" | "" => format!("b = {}", short(self.band)),
+            u => format!("b = {} {u}", short(self.band)),
+        }
+    }
+
     /// One cell per grid point: the median of the metric over its `draws` runs (diverged if
     /// none has a value and one diverged; invalid if all are).
     fn per_point(&self, draws: usize) -> Self {
@@ -113,6 +130,7 @@ impl Table {
             settling: Vec::new(),
             ts: Vec::new(),
             units: self.units.clone(),
+            band: self.band,
         };
         for (k, group) in self.cells.chunks(draws.max(1)).enumerate() {
             let mut v: Vec<f64> = group
@@ -163,6 +181,7 @@ impl Table {
                 .to_vec(),
             ts: take(&self.ts),
             units: self.units.clone(),
+            band: self.band,
         }
     }
 
@@ -226,15 +245,18 @@ pub fn draw(
 ) -> Result<Vec<PathBuf>> {
     let mut t = Table::new(&file.plot.metric, base.controller.ts, header, rows)?;
     t.units = units(base);
+    t.band = base.simulation.settle_band;
+    // `[figures]` of the base scenario, the campaign's `set` applied: formats and print size.
+    let output = base.figures.output(base.simulation.t_end)?;
     let mut written = Vec::new();
     if file.draws > 1 || (file.axis.is_empty() && !file.sample.is_empty()) {
-        let p = out.join("montecarlo.png");
-        figure::save(
-            &p,
-            &FigureStyle::px(1300, 560),
+        let style = FigureStyle::px(1300, 560).with(output);
+        written.extend(save(
+            out,
+            "montecarlo",
+            &style,
             &CampaignFigure::MonteCarlo(&t),
-        )?;
-        written.push(p);
+        )?);
     }
     let t = if file.draws > 1 {
         t.per_point(file.draws as usize)
@@ -242,34 +264,54 @@ pub fn draw(
         t
     };
     if file.axis.len() == 1 {
-        let p = out.join("line.png");
         let chart = CampaignFigure::Line(&t, &file.axis[0]);
-        figure::save(&p, &FigureStyle::px(1000, 600), &chart)?;
-        written.push(p);
+        let style = FigureStyle::px(1000, 600).with(output);
+        written.extend(save(out, "line", &style, &chart)?);
     } else if file.axis.len() == 2 {
-        let p = out.join("map.png");
-        written.push(map(&p, &t, &file.axis[0], &file.axis[1])?);
+        written.extend(map(out, "map", output, &t, &file.axis[0], &file.axis[1])?);
     } else if let [first, a, b] = &file.axis[..] {
         // One map per value of the first (slowest) axis: its cells are consecutive.
         let chunk = a.values.len() * b.values.len();
         for (n, v) in first.values.iter().enumerate() {
-            let what = format!("{} = {}", first.key, axis_label(v));
+            let what = format!("{} = {}", t.name(&first.key), axis_label(v));
             let part = t.slice(n * chunk..(n + 1) * chunk, &what);
-            let p = out.join(format!("map-{}.png", n + 1));
-            written.push(map(&p, &part, a, b)?);
+            let stem = format!("map-{}", n + 1);
+            written.extend(map(out, &stem, output, &part, a, b)?);
         }
     }
     Ok(written)
 }
 
-/// The heatmap of `t` over axes `a` × `b` into `p`.
-fn map(p: &Path, t: &Table, a: &Axis, b: &Axis) -> Result<PathBuf> {
+/// `out/stem.<ext>` in every format of the style; returns the paths written.
+fn save(
+    out: &Path,
+    stem: &str,
+    style: &FigureStyle,
+    figure: &CampaignFigure<'_>,
+) -> Result<Vec<PathBuf>> {
+    figure::save_png_and_svg(out, stem, style, figure)?;
+    Ok(style
+        .output()
+        .formats()
+        .map(|f| out.join(format!("{stem}.{}", f.extension())))
+        .collect())
+}
+
+/// The heatmap of `t` over axes `a` × `b` as `out/stem.<ext>`.
+fn map(
+    out: &Path,
+    stem: &str,
+    output: figure::Output,
+    t: &Table,
+    a: &Axis,
+    b: &Axis,
+) -> Result<Vec<PathBuf>> {
     let style = FigureStyle::px(
         (300 + 100 * a.values.len()).clamp(1000, 1800) as u32,
         (200 + 60 * b.values.len()).clamp(500, 1400) as u32,
-    );
-    figure::save(p, &style, &CampaignFigure::Heatmap(t, a, b))?;
-    Ok(p.to_path_buf())
+    )
+    .with(output);
+    save(out, stem, &style, &CampaignFigure::Heatmap(t, a, b))
 }
 
 /// The figures of a campaign.
@@ -329,10 +371,22 @@ fn heatmap<DB: DrawingBackend>(
     let (w, _) = root.dim_in_pixel();
     let (main, bar) = root.split_horizontally(w.saturating_sub(150));
     let metric = t.metric.as_str();
+    let settle = metric == "settling_time";
+    let note = if settle {
+        format!(" (into {}; orange frame: settled by 2Tₛ)", t.band_text())
+    } else {
+        String::new()
+    };
     let mut chart = cartesian(
         &main,
         style,
-        &format!("{metric} over {} x {}{}", a.key, b.key, t.summary),
+        &format!(
+            "{} over {} × {}{}{note}",
+            t.name(metric),
+            t.name(&a.key),
+            t.name(&b.key),
+            t.summary
+        ),
         Frame {
             caption: 18,
             ..FRAME
@@ -398,7 +452,7 @@ fn heatmap<DB: DrawingBackend>(
                 WHITE.stroke_width(1),
             )])
             .map_err(err)?;
-        if metric == "settling_time" {
+        if settle {
             if let Cell::Value(v) = cell {
                 if *v <= 2.0 * t.ts[run] {
                     chart
@@ -520,12 +574,22 @@ fn line<DB: DrawingBackend>(
     let mut c = cartesian(
         root,
         style,
-        &format!("{} over {}{}", t.metric, a.key, t.summary),
+        &format!(
+            "{} over {}{}{}",
+            t.name(&t.metric),
+            t.name(&a.key),
+            t.summary,
+            if settle {
+                format!(" (band {})", t.band_text())
+            } else {
+                String::new()
+            }
+        ),
         Frame {
             caption: 20,
             ..FRAME
         },
-        (xr, yr.clone()),
+        (xr.clone(), yr.clone()),
     )
     .map_err(err)?;
     mesh(
@@ -548,7 +612,7 @@ fn line<DB: DrawingBackend>(
     let blue = plotters::style::RGBColor(31, 119, 180);
     c.draw_series(LineSeries::new(pts.clone(), blue.stroke_width(2)))
         .map_err(err)?
-        .label(t.metric.as_str())
+        .label(t.name(&t.metric))
         .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], blue.stroke_width(2)));
     c.draw_series(pts.iter().map(|&p| Circle::new(p, 4, blue.filled())))
         .map_err(err)?;
@@ -579,6 +643,16 @@ fn line<DB: DrawingBackend>(
             .legend(move |(x, y)| Cross::new((x + 9, y), 6, colour.stroke_width(3)));
         }
     }
+    // Everything drawn, for the legend's corner: the values, the markers along the top and
+    // the 2Tₛ line (sampled).
+    let mut drawn = pts.clone();
+    drawn.extend(
+        t.cells
+            .iter()
+            .zip(&xs)
+            .filter(|(c, _)| !matches!(c, Cell::Value(_)))
+            .map(|(_, &x)| (xscale.to(x), top)),
+    );
     if settle {
         let grey = BLACK.mix(0.55).stroke_width(2);
         let pt: Vec<(f64, f64)> = xs
@@ -586,57 +660,85 @@ fn line<DB: DrawingBackend>(
             .zip(&t.ts)
             .map(|(&x, &ts)| (xscale.to(x), yscale.to(2.0 * ts)))
             .collect();
+        for w in pt.windows(2) {
+            if let [(x0, y0), (x1, y1)] = *w {
+                drawn.extend((0..=10).map(|k| {
+                    let f = f64::from(k) / 10.0;
+                    (x0 + f * (x1 - x0), y0 + f * (y1 - y0))
+                }));
+            }
+        }
         c.draw_series(LineSeries::new(pt, grey))
             .map_err(err)?
-            .label("predefined time 2Ts")
+            .label("predefined time 2Tₛ")
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], grey));
     }
-    legend(&mut c, style, SeriesLabelPosition::UpperRight, 13).map_err(err)
+    let corner = free_corner(drawn, xr, yr);
+    legend(&mut c, style, corner, 13).map_err(err)
 }
 
-/// The axis text of `key` (a results.csv column or a scenario key): a name and its unit,
+/// The axis text of `key` (a results.csv column or a scenario key): its name and unit,
 /// `[y]` and `[u]` written as the plant's output and input units.
-fn label(key: &str, (y, u): (&str, &str)) -> String {
-    let (name, unit) = match key {
+fn label(key: &str, units: (&str, &str)) -> String {
+    let (name, unit) = named(key, units);
+    format!("{name} [{unit}]")
+}
+
+/// The name and unit of `key` as figure text: the metrics and the keys outside the
+/// controller's parameter table here, every parameter through [`Param::label`] and its
+/// [`Param::spec`] unit (`controller.a_check[2]`: the constant of step 2). A key known to
+/// neither is written as words (`network.loss`: "network loss"), never as the key.
+fn named(key: &str, (y, u): (&str, &str)) -> (String, String) {
+    let (base, index) = key.split_once('[').map_or((key, ""), |(b, i)| (b, i));
+    let (name, unit) = match base {
         "max_error_after_predefined_time" => ("max |yᵢ − y_d| after 2Tₛ", y.to_string()),
         "settling_time" => ("settling time", "s".into()),
         "divergence_time" => ("divergence time", "s".into()),
         "max_abs_u" => ("max |u|", u.to_string()),
         "total_u_energy" => ("control energy Σ u² h", format!("({u})²·s")),
-        "controller.ts" => ("Tₛ", "s".into()),
-        "simulation.h" => ("sample period h", "s".into()),
-        "controller.t_prescribed" => ("t_prescribed", "s".into()),
-        "controller.c1" => ("c₁", "–".into()),
-        "controller.c2" => ("c₂", "–".into()),
-        "quantizer.rho" => ("quantizer ρ", "–".into()),
-        "quantizer.u_min" => ("quantizer u_min", u.to_string()),
-        "simulation.settle_band" => ("band b", y.to_string()),
+        "simulation.settle_band" => ("settling band b", y.to_string()),
+        "simulation.t_end" => ("run length", "s".into()),
         "clock.drift_ppm" => ("clock drift", "ppm".into()),
         "clock.jitter_us" => ("clock jitter", "µs".into()),
         "clock.offset_us" => ("clock offset", "µs".into()),
-        _ => return param_label(key, (y, u)),
+        "clock.sync" => ("clock synchronisation", "–".into()),
+        "network.loss" => ("frame loss probability", "–".into()),
+        "plant.x0" => ("initial state", y.to_string()),
+        "faults.rule" => return (fault_words(index), "s".into()),
+        _ => match Param::ALL.iter().find(|p| p.key() == base) {
+            Some(p) => {
+                let unit = p
+                    .spec()
+                    .unit
+                    .replace('`', "")
+                    .replace("[y]", y)
+                    .replace("[u]", u)
+                    .replace("[x_n]", "state xₙ")
+                    .replace(['[', ']'], "");
+                let step = index
+                    .trim_end_matches(']')
+                    .parse::<u32>()
+                    .map_or_else(|_| String::new(), |j| format!(" (step {j})"));
+                return (format!("{}{step}", p.label()), unit);
+            }
+            None => return (words(key), "–".into()),
+        },
     };
-    format!("{name} [{unit}]")
+    (name.to_string(), unit)
 }
 
-/// The axis text of a key of the controller's parameter table (`controller.zeta`,
-/// `controller.a_check[2]`): the key and its unit; any other key as it is.
-fn param_label(key: &str, (y, u): (&str, &str)) -> String {
-    let base = key.split_once('[').map_or(key, |(b, _)| b);
-    let Some(p) = controller_core::param::Param::ALL
-        .iter()
-        .find(|p| p.key() == base)
-    else {
-        return key.to_string();
-    };
-    let unit = p
-        .spec()
-        .unit
-        .replace('`', "")
-        .replace("[y]", y)
-        .replace("[u]", u)
-        .replace(['[', ']'], "");
-    format!("{key} [{unit}]")
+/// `faults.rule[1].start` as words: "fault rule 1 start".
+fn fault_words(index: &str) -> String {
+    let (k, field) = index.split_once(']').unwrap_or((index, ""));
+    words(&format!("fault rule {k}{field}"))
+}
+
+/// A key as words: dots, underscores and brackets become spaces.
+fn words(key: &str) -> String {
+    key.replace(['.', '_', '[', ']'], " ")
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 /// The output and input units of the campaign's plant (as on the run figures).
@@ -689,7 +791,8 @@ fn mesh<DB: DrawingBackend>(
 }
 
 /// Histogram of the metric (runs with a value) and the empirical CDF of the settling time
-/// over all finished runs (never settled or diverged count as not settled), with `2 T_s`.
+/// into the band over all valid runs, with `2 T_s`; the runs that never settle and the
+/// diverged runs are stacked above the CDF's end, each in its own colour and legend entry.
 fn monte_carlo<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     style: &FigureStyle,
@@ -726,7 +829,7 @@ fn monte_carlo<DB: DrawingBackend>(
     };
     let caption = format!(
         "{}: {} of {n} runs ({diverged} diverged, {invalid} invalid)",
-        t.metric,
+        t.name(&t.metric),
         vals.len()
     );
     let mut c =
@@ -753,7 +856,7 @@ fn monte_carlo<DB: DrawingBackend>(
         .cells
         .iter()
         .zip(&t.settling)
-        .filter(|(c, _)| **c != Cell::Invalid)
+        .filter(|(c, _)| !matches!(c, Cell::Invalid | Cell::Diverged))
         .filter_map(|(_, s)| *s)
         .collect();
     settled.sort_by(f64::total_cmp);
@@ -762,8 +865,10 @@ fn monte_carlo<DB: DrawingBackend>(
         .settling
         .iter()
         .zip(&t.ts)
-        .filter(|(s, ts)| s.is_some_and(|s| s <= 2.0 * **ts))
+        .zip(&t.cells)
+        .filter(|((s, ts), c)| **c != Cell::Diverged && s.is_some_and(|s| s <= 2.0 * **ts))
         .count();
+    let never = finished - diverged - settled.len();
     let share = |k: usize| k as f64 / finished.max(1) as f64;
     let tmax = settled
         .last()
@@ -773,9 +878,12 @@ fn monte_carlo<DB: DrawingBackend>(
         .max(1e-9)
         * 1.05;
     let caption = format!(
-        "settling time: {:.1} % settle, {:.1} % by 2Ts",
+        "settling into {}: {:.1} % settle ({:.1} % by 2Tₛ), {:.1} % never, {:.1} % diverge",
+        t.band_text(),
         100.0 * share(settled.len()),
-        100.0 * share(by_predefined)
+        100.0 * share(by_predefined),
+        100.0 * share(never),
+        100.0 * share(diverged)
     );
     let mut c =
         cartesian(&panels[1], style, &caption, frame, (0.0..tmax, 0.0..1.02)).map_err(err)?;
@@ -786,7 +894,7 @@ fn monte_carlo<DB: DrawingBackend>(
         style,
         &xf,
         &yf,
-        &t.label("settling_time"),
+        &format!("settling time into {} [s]", t.band_text()),
         "share of runs settled (empirical CDF)",
     )?;
     let mut step = vec![(0.0, 0.0)];
@@ -795,19 +903,47 @@ fn monte_carlo<DB: DrawingBackend>(
         step.push((s, share(k + 1)));
     }
     step.push((tmax, share(settled.len())));
+    // Everything drawn, for the legend's corner: the CDF's corners, the 2Tₛ line and the
+    // stacked shares at the right edge (sampled).
+    let mut drawn = step.clone();
+    drawn.extend((0..=20).map(|k| (predefined, 1.02 * f64::from(k) / 20.0)));
+    drawn.extend((0..=20).map(|k| {
+        (
+            tmax,
+            share(settled.len()) + (1.0 - share(settled.len())) * f64::from(k) / 20.0,
+        )
+    }));
     c.draw_series(LineSeries::new(step, blue.stroke_width(2)))
         .map_err(err)?
         .label("empirical CDF")
         .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], blue.stroke_width(2)));
+    // The runs without a settling time, stacked above the CDF's end at the right edge.
+    let x0 = tmax * 0.985;
+    let mut from = share(settled.len());
+    for (k, colour, what) in [
+        (never, RGBColor(255, 127, 14), "never settled"),
+        (diverged, RGBColor(200, 30, 30), "diverged"),
+    ] {
+        if k == 0 {
+            continue;
+        }
+        let to = from + share(k);
+        c.draw_series([Rectangle::new([(x0, from), (tmax, to)], colour.filled())])
+            .map_err(err)?
+            .label(format!("{what} ({:.1} %)", 100.0 * share(k)))
+            .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 18, y + 5)], colour.filled()));
+        from = to;
+    }
     let grey = BLACK.mix(0.55).stroke_width(2);
     c.draw_series(LineSeries::new(
         [(predefined, 0.0), (predefined, 1.02)],
         grey,
     ))
     .map_err(err)?
-    .label(format!("predefined time 2Ts = {}", short(predefined)))
+    .label(format!("predefined time 2Tₛ = {} s", short(predefined)))
     .legend(move |(x, y)| PathElement::new([(x, y), (x + 18, y)], grey));
-    legend(&mut c, style, SeriesLabelPosition::LowerRight, 13).map_err(err)
+    let corner = free_corner(drawn, 0.0..tmax, 0.0..1.02);
+    legend(&mut c, style, corner, 13).map_err(err)
 }
 
 #[cfg(test)]
@@ -815,18 +951,27 @@ mod tests {
     use super::label;
 
     #[test]
-    fn axis_labels_carry_units() {
+    fn axis_labels_are_words_with_units() {
         let units = ("rad", "N·m");
         assert_eq!(label("clock.drift_ppm", units), "clock drift [ppm]");
         assert_eq!(label("clock.jitter_us", units), "clock jitter [µs]");
-        assert_eq!(label("controller.ts", units), "Tₛ [s]");
-        assert_eq!(label("controller.zeta", units), "controller.zeta [–]");
-        assert_eq!(label("safety.du_max", units), "safety.du_max [N·m/s]");
-        assert_eq!(label("controller.gamma", units), "controller.gamma [x_n]");
+        assert_eq!(label("controller.ts", units), "predefined time Tₛ [s]");
+        assert_eq!(label("controller.zeta", units), "gain constant ζ [–]");
+        assert_eq!(label("controller.c1", units), "gain c₁ [1/s]");
+        assert_eq!(label("safety.du_max", units), "command rate limit [N·m/s]");
+        assert_eq!(
+            label("controller.gamma", units),
+            "smoothing width γ [state xₙ]"
+        );
         assert_eq!(
             label("controller.a_check[2]", units),
-            "controller.a_check[2] [–]"
+            "MTN design constant ǎ (step 2) [–]"
         );
-        assert_eq!(label("network.loss", units), "network.loss");
+        assert_eq!(label("network.loss", units), "frame loss probability [–]");
+        assert_eq!(
+            label("faults.rule[1].start", units),
+            "fault rule 1 start [s]"
+        );
+        assert_eq!(label("network.bit_rate", units), "network bit rate [–]");
     }
 }

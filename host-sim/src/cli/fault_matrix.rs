@@ -38,7 +38,13 @@ pub fn execute(a: FaultMatrixArgs) -> Result<()> {
     let json = serde_json::to_string_pretty(&results)
         .map_err(|e| Error::Io(format!("matrix.json: {e}")))?;
     report::write_atomic(&out.join("matrix.json"), format!("{json}\n").as_bytes())?;
-    matrix::draw(&out.join("matrix.png"), &results, two_ts, u_max, &s.name)?;
+    let title = format!("{}: fault matrix", setup.figure_title());
+    let text = matrix::FigureText {
+        title: &title,
+        two_ts,
+        units: setup.plant.units(),
+    };
+    matrix::draw(out, setup.figures(), &results, u_max, text)?;
     out!("{table}");
     outln!("wrote {}", out.display());
     Ok(())

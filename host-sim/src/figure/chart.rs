@@ -93,3 +93,70 @@ pub fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
         .border_style(BLACK)
         .draw()
 }
+
+/// The corner of a chart over `x` × `y` where a legend covers the fewest of `points` (in the
+/// chart's coordinates, log axes already as their logarithm): [`legend_corner`] with a box of
+/// about 45 % of the width and 30 % of the height. Ties go to the upper right.
+pub fn free_corner(
+    points: impl IntoIterator<Item = (f64, f64)>,
+    x: std::ops::Range<f64>,
+    y: std::ops::Range<f64>,
+) -> SeriesLabelPosition {
+    let pts = [points.into_iter().collect::<Vec<_>>()];
+    legend_corner(&pts, &[], (x.start, x.end), (y.start, y.end), (0.45, 0.3)).0
+}
+
+/// The corner of the plot where a legend box of `w` × `h` (fractions of the plot) covers the
+/// fewest data points (a point of a note counts 100), and how many it covers.
+pub fn legend_corner(
+    pts: &[Vec<(f64, f64)>],
+    notes: &[(f64, f64)],
+    (x0, x1): (f64, f64),
+    (y0, y1): (f64, f64),
+    (w, h): (f64, f64),
+) -> (SeriesLabelPosition, usize) {
+    let fx = |x: f64| (x - x0) / (x1 - x0);
+    let fy = |y: f64| (y.clamp(y0, y1) - y0) / (y1 - y0);
+    let corners = [
+        (SeriesLabelPosition::UpperRight, 1.0 - w, 1.0, 1.0 - h, 1.0),
+        (SeriesLabelPosition::LowerRight, 1.0 - w, 1.0, 0.0, h),
+        (SeriesLabelPosition::UpperLeft, 0.0, w, 1.0 - h, 1.0),
+        (SeriesLabelPosition::LowerLeft, 0.0, w, 0.0, h),
+    ];
+    let mut best = (SeriesLabelPosition::UpperRight, usize::MAX);
+    for (pos, ax, bx, ay, by) in corners {
+        let within =
+            |&&(x, y): &&(f64, f64)| (ax..=bx).contains(&fx(x)) && (ay..=by).contains(&fy(y));
+        let inside =
+            pts.iter().flatten().filter(within).count() + 100 * notes.iter().filter(within).count();
+        if inside < best.1 {
+            best = (pos, inside);
+        }
+    }
+    best
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_legend_goes_where_the_data_is_not() {
+        let rising = (0..20).map(|k| (f64::from(k), f64::from(k)));
+        assert!(matches!(
+            free_corner(rising, 0.0..19.0, 0.0..19.0),
+            SeriesLabelPosition::LowerRight
+        ));
+        let bottom_and_right = (0..20)
+            .map(|k| (f64::from(k), 0.5))
+            .chain((0..20).map(|k| (18.5, f64::from(k))));
+        assert!(matches!(
+            free_corner(bottom_and_right, 0.0..19.0, 0.0..19.0),
+            SeriesLabelPosition::UpperLeft
+        ));
+        assert!(matches!(
+            free_corner([], 0.0..1.0, 0.0..1.0),
+            SeriesLabelPosition::UpperRight
+        ));
+    }
+}

@@ -17,7 +17,7 @@ use plotters_backend::{
 };
 
 use super::{
-    chart::{axes, legend, Drawn},
+    chart::{axes, legend, legend_corner, Drawn},
     drawing_error, grid, save_png_and_svg,
     text::{bitmap_text, secs, short_name, significant, sup, tick_label},
     DrawResult, Figure, FigureStyle, Format,
@@ -534,36 +534,6 @@ fn clipped_peak(s: &Series, pts: &[(f64, f64)], c: f64) -> Option<(f64, f64)> {
 /// A note at `t` is written to the left of its peak in the right 45 % of the plot.
 fn note_to_the_left(t: f64, (x0, x1): (f64, f64)) -> bool {
     (t - x0) / (x1 - x0) > 0.55
-}
-
-/// The corner of the plot where a legend box of `w` × `h` (fractions of the plot) covers the
-/// fewest data points (a point of a note counts 100), and how many it covers.
-fn legend_corner(
-    pts: &[Vec<(f64, f64)>],
-    notes: &[(f64, f64)],
-    (x0, x1): (f64, f64),
-    (y0, y1): (f64, f64),
-    (w, h): (f64, f64),
-) -> (SeriesLabelPosition, usize) {
-    let fx = |x: f64| (x - x0) / (x1 - x0);
-    let fy = |y: f64| (y.clamp(y0, y1) - y0) / (y1 - y0);
-    let corners = [
-        (SeriesLabelPosition::UpperRight, 1.0 - w, 1.0, 1.0 - h, 1.0),
-        (SeriesLabelPosition::LowerRight, 1.0 - w, 1.0, 0.0, h),
-        (SeriesLabelPosition::UpperLeft, 0.0, w, 1.0 - h, 1.0),
-        (SeriesLabelPosition::LowerLeft, 0.0, w, 0.0, h),
-    ];
-    let mut best = (SeriesLabelPosition::UpperRight, usize::MAX);
-    for (pos, ax, bx, ay, by) in corners {
-        let within =
-            |&&(x, y): &&(f64, f64)| (ax..=bx).contains(&fx(x)) && (ay..=by).contains(&fy(y));
-        let inside =
-            pts.iter().flatten().filter(within).count() + 100 * notes.iter().filter(within).count();
-        if inside < best.1 {
-            best = (pos, inside);
-        }
-    }
-    best
 }
 
 /// `named`: the legend entries of the panels drawn before; a print legend strip leaves them out.

@@ -186,8 +186,8 @@ impl<const N: usize, const M: usize> Agents<N, M> for BusAgents<N, M> {
         self.agents().socketcan()
     }
 
-    fn draw(&self, dir: &Path, h: f64, title: &str) -> Result<()> {
-        self.agents().draw(dir, h, title)
+    fn draw(&self, dir: &Path, h: f64, title: &str, output: crate::figure::Output) -> Result<()> {
+        self.agents().draw(dir, h, title, output)
     }
 
     fn finish(&mut self) -> Result<()> {

@@ -994,7 +994,7 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
 
     /// `firmware.png` / `.svg`: instructions of every tick against time, per agent (the
     /// largest of each 10 consecutive ticks, so no peak is lost), and the median.
-    fn draw(&self, dir: &Path, h: f64, title: &str) -> Result<()> {
+    fn draw(&self, dir: &Path, h: f64, title: &str, output: crate::figure::Output) -> Result<()> {
         const STRIDE: u64 = 10;
         let series = self
             .costs
@@ -1080,7 +1080,7 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
             "firmware",
             &[panel],
             (1, 1),
-            FigureStyle::px(1000, 560),
+            FigureStyle::px(1000, 560).with(output),
         )
     }
 

@@ -812,7 +812,7 @@ impl<const N: usize, const M: usize> Agents<N, M> for SocketcanAgents<N, M> {
 
     /// `socketcan.png` / `.svg`: the host loop's lateness per sample, and each agent's late
     /// commands, cumulative.
-    fn draw(&self, dir: &Path, h: f64, title: &str) -> Result<()> {
+    fn draw(&self, dir: &Path, h: f64, title: &str, output: crate::figure::Output) -> Result<()> {
         const STRIDE: usize = 10;
         let lateness = self
             .lateness
@@ -862,7 +862,7 @@ impl<const N: usize, const M: usize> Agents<N, M> for SocketcanAgents<N, M> {
             "socketcan",
             &[top, bottom],
             (2, 1),
-            FigureStyle::px(1000, 760),
+            FigureStyle::px(1000, 760).with(output),
         )
     }
 

@@ -4,19 +4,19 @@
 use std::path::Path;
 
 use crate::{
-    clock::Clocks,
+    clock::{Clocks, SyncMode},
     error::Result,
     figure::{
         panel::{render, Panel, Series},
-        FigureStyle,
+        FigureStyle, Output,
     },
 };
 
 /// Followers drawn (the first ones).
 const DRAWN: usize = 6;
 
-/// Draws the figure of `clocks` into `dir` for scenario `name`.
-pub fn draw(dir: &Path, clocks: &Clocks, name: &str) -> Result<()> {
+/// Draws the figure of `clocks` into `dir` under the title `name`, in the formats of `output`.
+pub fn draw(dir: &Path, clocks: &Clocks, name: &str, output: Output) -> Result<()> {
     let series = clocks
         .series()
         .iter()
@@ -29,12 +29,21 @@ pub fn draw(dir: &Path, clocks: &Clocks, name: &str) -> Result<()> {
         .collect();
     let panel = Panel {
         title: format!(
-            "{name}: sampling instant minus k h per follower (sync = \"{}\")",
-            clocks.summary().sync.as_str()
+            "{name}: sampling instant minus k h per follower ({})",
+            match clocks.summary().sync {
+                SyncMode::None => "free-running clocks",
+                SyncMode::Leader => "clocks synchronised to the leader's",
+            }
         ),
         y_label: "sample instant − k h [ms]".into(),
         series,
         ..Panel::default()
     };
-    render(dir, "clocks", &[panel], (1, 1), FigureStyle::px(1200, 500))
+    render(
+        dir,
+        "clocks",
+        &[panel],
+        (1, 1),
+        FigureStyle::px(1200, 500).with(output),
+    )
 }

@@ -41,7 +41,7 @@ pub fn draw(dir: &Path, setup: &Setup) -> Result<()> {
         graph: g,
         title: format!(
             "{}: communication graph ({n} followers, {} links)",
-            setup.scenario.name,
+            setup.figure_title(),
             g.links()
         ),
     };
@@ -152,7 +152,7 @@ impl Figure for GraphFigure<'_> {
         }
         let note = TextStyle::from(style.font(12)).pos(Pos::new(HPos::Left, VPos::Bottom));
         root.draw(&Text::new(
-            "0: leader (dashed: pinned, r_i = 1);  k → i: follower i hears k",
+            "0: leader (dashed: pinned, rᵢ = 1);  k → i: follower i hears k",
             (8, (h - 8.0) as i32),
             note,
         ))

@@ -108,7 +108,7 @@ impl Recorder {
 
     /// Writes `tracking`, `errors`, `inputs`, `estimates` (`.png`, `.svg`) into `dir`.
     pub fn draw(&self, dir: &Path, setup: &Setup, settling_time: Option<f64>) -> Result<()> {
-        let name = &setup.scenario.name;
+        let name = &setup.figure_title();
         let two_ts = setup.predefined_time();
         let band = setup.scenario.simulation.settle_band;
         let (y_unit, u_unit) = setup.plant.units();

@@ -116,7 +116,7 @@ impl Spread {
 
     /// Writes `spread.png` and `spread.svg` into `dir`.
     pub fn draw(&self, dir: &Path, setup: &Setup) -> Result<()> {
-        let name = &setup.scenario.name;
+        let name = &setup.figure_title();
         let band = setup.scenario.simulation.settle_band;
         let (y_unit, u_unit) = setup.plant.units();
         let vline = (self.two_ts, format!("2Tₛ = {}", secs(self.two_ts)));

@@ -164,10 +164,19 @@ impl Sources {
     }
 }
 
-/// Copies every image from its source or, with `check`, lists those that differ.
-pub(super) fn images(src: &mut Sources, check: bool) -> Result<Vec<String>> {
+/// Copies every image from its source or, with `check`, lists those that differ; with
+/// `shown_in`, only the images that document text links (paths relative to `docs/`).
+pub(super) fn images(
+    src: &mut Sources,
+    check: bool,
+    shown_in: Option<&str>,
+) -> Result<Vec<String>> {
     let mut differ = Vec::new();
-    for (doc, source) in &IMAGES {
+    let shown = |doc: &str| {
+        shown_in
+            .is_none_or(|text| text.contains(&format!("]({})", doc.trim_start_matches("docs/"))))
+    };
+    for (doc, source) in IMAGES.iter().filter(|(doc, _)| shown(doc)) {
         let from = src.image_source(source)?;
         let new = fs::read(&from).map_err(|e| format!("{}: {e}", from.display()))?;
         let path = workspace_root().join(doc);
