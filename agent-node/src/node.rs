@@ -71,7 +71,11 @@ use embedded_can::{nb::Can, Error as _, ErrorKind};
 
 use crate::canopen::Fault;
 #[cfg(feature = "canopen")]
-use crate::canopen::{self, od::ParamStore, CoFrame, Device, Event, Identity};
+use crate::canopen::{
+    self,
+    od::{NodeIdentity, ParamStore},
+    CoFrame, Device, Event, Identity,
+};
 use crate::supervisor::{
     safe_command, NodeState, Observation, SafePolicy, StopProfile, Supervisor, SupervisorConfig,
     SupervisorError,
@@ -138,6 +142,17 @@ impl<const K: usize> NodeConfig<K> {
             ids: IdPlan::DEFAULT,
             heartbeat_period_us: 0,
             supervisor: SupervisorConfig::OFF,
+        }
+    }
+
+    /// What the CANopen parameter store keeps of this configuration.
+    #[cfg(feature = "canopen")]
+    pub fn identity(&self) -> NodeIdentity<'_> {
+        NodeIdentity {
+            agent: self.agent,
+            neighbours: &self.neighbours,
+            stale_timeout_us: self.stale_timeout_us,
+            supervisor: self.supervisor,
         }
     }
 }
@@ -1165,8 +1180,8 @@ where
         self_starting: bool,
         heartbeat_ms: u16,
     ) -> Result<(), NodeError> {
-        let store =
-            ParamStore::new(cfg, controller).map_err(|_| NodeError::AgentOutsidePlan(cfg.agent))?;
+        let store = ParamStore::new(cfg.identity(), controller)
+            .map_err(|_| NodeError::AgentOutsidePlan(cfg.agent))?;
         let mut device = Device::new(store, identity, self_starting);
         device.set_heartbeat_ms(heartbeat_ms);
         self.canopen = Some(CanOpen {

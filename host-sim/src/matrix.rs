@@ -224,7 +224,7 @@ fn with_fault(base: &Scenario, cell: &Cell, safety: bool, t_end: f64) -> Scenari
 /// `compare_off`, also off. Needs `[network] kind = "can"` (the network faults act on the bus).
 pub fn run_matrix(base: &Scenario, cells: &[Cell], compare_off: bool) -> Result<Vec<CellResult>> {
     if base.network.kind != NetworkKind::Can {
-        return Err(crate::Error::invalid(
+        return Err(crate::error::Error::invalid(
             "network.kind",
             "the fault matrix needs kind = \"can\" (its faults act on the bus)",
         ));

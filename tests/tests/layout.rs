@@ -104,9 +104,13 @@ fn crate_paths(code: &str) -> Vec<String> {
             rest = tail;
             continue;
         }
-        if tail.starts_with('{') {
+        let head_len = tail
+            .find(|c: char| !(c.is_alphanumeric() || c == '_' || c == ':'))
+            .unwrap_or(tail.len());
+        if tail[head_len..].starts_with('{') {
+            let (head, tree) = tail.split_at(head_len);
             let mut depth = 0;
-            let end = tail
+            let end = tree
                 .char_indices()
                 .find(|&(_, c)| {
                     match c {
@@ -116,9 +120,9 @@ fn crate_paths(code: &str) -> Vec<String> {
                     }
                     depth == 0
                 })
-                .map_or(tail.len(), |(i, _)| i + 1);
-            expand("", &tail[..end], &mut out);
-            rest = &tail[end..];
+                .map_or(tree.len(), |(i, _)| i + 1);
+            expand(head, &tree[..end], &mut out);
+            rest = &tree[end..];
         } else {
             let end = tail
                 .find(|c: char| !(c.is_alphanumeric() || c == '_' || c == ':'))
@@ -216,10 +220,17 @@ fn problems(krate: &str) -> Vec<String> {
 
 #[test]
 fn the_reader_sees_nested_trees_root_items_and_skips_macro_paths() {
-    let code = "use crate::{\n    error::{Error, Result},\n    Param,\n};\nfn f() { crate::graph::MAX; $crate::x::Y; }";
+    let code = "use crate::{\n    error::{Error, Result},\n    Param,\n};\nfn f() { crate::graph::MAX; $crate::x::Y; }\nuse crate::net::{self, od::Store};";
     assert_eq!(
         crate_paths(code),
-        ["error::Error", "error::Result", "Param", "graph::MAX"]
+        [
+            "error::Error",
+            "error::Result",
+            "Param",
+            "graph::MAX",
+            "net::self",
+            "net::od::Store"
+        ]
     );
     let files: BTreeMap<String, String> = ["lib.rs", "error.rs", "graph/mod.rs"]
         .into_iter()

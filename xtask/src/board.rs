@@ -10,7 +10,7 @@
 //! figures are also written to [`SIZE_JSON`] for `cargo xtask docs` (`board.KEY`; the bench
 //! build's as `board.bench_KEY`).
 
-use crate::{firmware_build, workspace_root, Options, Result};
+use crate::task::{firmware_build, workspace_root, Options, Result};
 use object::{elf::SHF_ALLOC, Object, ObjectSection, SectionFlags, SectionKind};
 
 /// The board firmware's directory under the workspace root.

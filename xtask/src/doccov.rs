@@ -8,7 +8,7 @@
 //! and unions; not modules, fields, variants, constants, statics or type aliases. Raise the
 //! floor when examples are added; lowering it needs a reason in the commit.
 
-use crate::{workspace_root, Result};
+use crate::task::{workspace_root, Result};
 use serde_json::Value;
 use std::process::Command;
 

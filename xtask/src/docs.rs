@@ -15,7 +15,7 @@
 //! Wall-clock figures (`wall.*`) depend on the machine: they carry the date and the machine,
 //! are skipped by `--check` and rewritten only with `--wall-clock`.
 
-use crate::{cargo, target, workspace_root, Options, Result};
+use crate::task::{cargo, workspace_root, Options, Result};
 use object::{Object, ObjectSection};
 use serde_json::Value;
 use std::{
@@ -688,14 +688,14 @@ impl Sources {
 
     fn bench(&mut self) -> Result<Value> {
         self.json_file("target/bench/step.json", |_, _| {
-            target::bench_target(&Options::default()).map(|_| ())
+            crate::bench::bench_target(&Options::default()).map(|_| ())
         })
     }
 
     /// `target/bench/softfloat.json`, written by `cargo xtask bench-target` with `step.json`.
     fn softfloat(&mut self) -> Result<Value> {
         self.json_file("target/bench/softfloat.json", |_, _| {
-            target::bench_target(&Options::default()).map(|_| ())
+            crate::bench::bench_target(&Options::default()).map(|_| ())
         })
     }
 
@@ -869,7 +869,7 @@ impl Sources {
         self.json_file("target/docs/node-fw.json", |_, file| {
             let dir = workspace_root().join("node-fw");
             let target_dir = workspace_root().join("target/docs/node-fw-remapped");
-            run(crate::firmware_build(&dir, &target_dir).arg("--quiet"))?;
+            run(crate::task::firmware_build(&dir, &target_dir).arg("--quiet"))?;
             let elf = target_dir.join("thumbv7em-none-eabihf/release/node-fw");
             let data = fs::read(&elf).map_err(|e| format!("{}: {e}", elf.display()))?;
             let obj = object::File::parse(&*data)

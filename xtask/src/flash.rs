@@ -15,7 +15,7 @@
 //!
 //! Not counted: the vector table, the runtime, the benchmark loops and the semihosting output.
 
-use crate::Result;
+use crate::task::Result;
 use object::{Object, ObjectSection, ObjectSymbol, SectionKind, SymbolKind};
 use std::collections::{BTreeMap, BTreeSet};
 

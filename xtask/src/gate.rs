@@ -30,7 +30,10 @@
 //! with its figure until the figure falls below the value it explained. The gate prints every
 //! reason of the budget.
 
-use crate::{bench_dir, target, target::VARIANTS, workspace_root, Options, Result};
+use crate::{
+    target::VARIANTS,
+    task::{bench_dir, workspace_root, Options, Result},
+};
 use serde_json::{json, Map, Value};
 use std::fs;
 
@@ -69,7 +72,7 @@ pub fn bench_gate(opts: &Options) -> Result<()> {
         })?;
         serde_json::from_str(&text).map_err(|e| format!("{}: {e}", step_path.display()))?
     } else {
-        target::bench_target(opts)?
+        crate::bench::bench_target(opts)?
     };
     let committed = fs::read_to_string(&budget_path)
         .ok()
@@ -371,7 +374,7 @@ mod tests {
     use super::*;
 
     /// Whether the absolute goals hold `v`: Example 1's step on a core with an FPU.
-    fn goal_applies(v: &target::Variant) -> bool {
+    fn goal_applies(v: &crate::target::Variant) -> bool {
         !v.n3 && v.core.fpu && !v.is_node()
     }
 

@@ -17,7 +17,7 @@
 
 use crate::{
     target::{self, Core, Variant},
-    Result,
+    task::Result,
 };
 use serde_json::{json, Map, Value};
 use std::{

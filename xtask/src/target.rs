@@ -1,7 +1,11 @@
 //! `cargo xtask bench-target`: build `bench-fw` per core and variant, run it on QEMU, collect
 //! the figures.
 
-use crate::{bench_dir, firmware_build_for, flash, trace, workspace_root, Options, Result};
+use crate::{
+    flash,
+    task::{bench_dir, firmware_build_for, workspace_root, Options, Result},
+    trace,
+};
 use serde_json::{json, Value};
 use std::{
     fs,
@@ -177,7 +181,9 @@ pub struct Figures {
 }
 
 /// Runs the whole benchmark; returns the `step.json` document.
-pub fn bench_target(opts: &Options) -> Result<Value> {
+/// The step and node-tick figures of every core into `step.json`; returns them, with the
+/// Example 1 trace the soft-float analysis replays.
+pub fn measure_steps(opts: &Options) -> Result<(Value, PathBuf)> {
     check_prerequisites()?;
     let dir = bench_dir();
     let trace = trace::obtain()?;
@@ -253,8 +259,7 @@ pub fn bench_target(opts: &Options) -> Result<Value> {
     fs::write(&path, text + "\n").map_err(|e| format!("{}: {e}", path.display()))?;
     print_table(&rows);
     println!("wrote {}", path.display());
-    crate::softfloat::run(&trace_n2, &dir)?;
-    Ok(doc)
+    Ok((doc, trace_n2))
 }
 
 /// Says what is missing and how to install it; installs nothing.

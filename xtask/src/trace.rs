@@ -9,7 +9,7 @@
 //! `n = 3` has no recorded run; its trace is the `n = 2` one with a synthetic but plausible third
 //! state `x_3`: the low-passed rate of `x_2` (what an acceleration state looks like).
 
-use crate::{bench_dir, cargo, workspace_root, Result};
+use crate::task::{bench_dir, cargo, workspace_root, Result};
 use std::{fs, path::Path, process::Command};
 
 /// Sample period [s] (Example 1).

@@ -16,7 +16,7 @@ use agent_node::{
     wire::{FrameKind, IdPlan, Source},
 };
 
-use crate::Result;
+use crate::task::Result;
 
 /// One frame of a candump log line: identifier, data length, CAN FD with or without BRS.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -20,7 +20,7 @@ use std::{
     time::{Duration, Instant},
 };
 
-use crate::{workspace_root, Result};
+use crate::task::{workspace_root, Result};
 
 /// Kernel modules of the initramfs, in load order.
 const MODULES: &[&str] = &[

@@ -274,6 +274,6 @@ pub fn write_eds<W: Write, const N: usize>(
 pub fn reference_device() -> Option<Device<2>> {
     let node = crate::node::NodeConfig::<0>::new(1, [], 1);
     let controller = controller_core::ControllerConfig::<2>::default();
-    let store = super::od::ParamStore::new(&node, &controller).ok()?;
+    let store = super::od::ParamStore::new(node.identity(), &controller).ok()?;
     Some(Device::new(store, super::Identity::default(), false))
 }

@@ -22,7 +22,6 @@ use controller_core::{
 };
 
 use super::{Abort, SdoData};
-use crate::node::NodeConfig;
 use crate::supervisor::{NeighbourLoss, SafePolicy, Supervisor, SupervisorConfig};
 
 /// Most steps `n` (state order) a per-step array can hold.
@@ -657,6 +656,19 @@ pub struct ParamStore<const N: usize> {
     pub capacity: usize,
 }
 
+/// The parts of a node's configuration the store keeps.
+#[derive(Debug, Clone, Copy)]
+pub struct NodeIdentity<'a> {
+    /// The agent `i` (and CANopen node-ID).
+    pub agent: u8,
+    /// Its neighbours, as many as the node's capacity `K`.
+    pub neighbours: &'a [u8],
+    /// The stale timeout [µs].
+    pub stale_timeout_us: u64,
+    /// The supervision settings.
+    pub supervisor: SupervisorConfig,
+}
+
 /// Why a store could not be built from a configuration.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum StoreError {
@@ -665,9 +677,11 @@ pub enum StoreError {
 }
 
 impl<const N: usize> ParamStore<N> {
-    /// The store of a node built from these configurations.
-    pub fn new<const K: usize>(
-        node: &NodeConfig<K>,
+    /// The store of a node built from its configuration (`crate::NodeConfig`'s agent,
+    /// neighbours, stale timeout and supervision) and its controller's; `capacity` is the node's
+    /// neighbour capacity `K`.
+    pub fn new(
+        node: NodeIdentity<'_>,
         controller: &ControllerConfig<N>,
     ) -> Result<Self, StoreError> {
         let mut neighbours = [0u8; MAX_NEIGHBOURS];
@@ -698,7 +712,7 @@ impl<const N: usize> ParamStore<N> {
                 stop_decel: decel,
                 ramp_rate: rate,
             },
-            capacity: K,
+            capacity: node.neighbours.len(),
         })
     }
 

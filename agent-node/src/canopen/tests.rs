@@ -14,7 +14,7 @@ fn device() -> Device<2> {
         pinned: false,
         ..ControllerConfig::default()
     };
-    let store = ParamStore::new(&node, &ctrl).expect("representable");
+    let store = ParamStore::new(node.identity(), &ctrl).expect("representable");
     let mut d = Device::new(store, Identity::default(), false);
     d.boot(0);
     d

@@ -955,8 +955,9 @@ pub fn write_node_files<const N: usize>(
 fn write_eds(text: &str, path: &Path, agent: usize) -> Result<()> {
     let what = format!("EDS of agent {agent}");
     let file = NodeFile::parse(text).map_err(|e| Error::invalid(what.clone(), e))?;
-    let store = agent_node::canopen::od::ParamStore::new(&file.node_config, &file.controller)
-        .map_err(|_| Error::invalid(what.clone(), "node-ID outside 1..=127"))?;
+    let store =
+        agent_node::canopen::od::ParamStore::new(file.node_config.identity(), &file.controller)
+            .map_err(|_| Error::invalid(what.clone(), "node-ID outside 1..=127"))?;
     let device =
         agent_node::canopen::Device::new(store, agent_node::canopen::Identity::default(), false);
     let mut eds = String::new();

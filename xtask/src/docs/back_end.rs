@@ -6,7 +6,7 @@
 use std::{fs, process::Command};
 
 use super::{run, Sources};
-use crate::{cargo, workspace_root, Result};
+use crate::task::{cargo, workspace_root, Result};
 
 /// The back-ends with a closed-loop test: feature and test name.
 pub const BACK_ENDS: [(&str, &str); 2] = [("micromath", "micromath"), ("fast-math", "fast_math")];

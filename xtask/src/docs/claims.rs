@@ -12,7 +12,7 @@
 //! computed here.
 
 use super::{fixed, Sources};
-use crate::{workspace_root, Result};
+use crate::task::{workspace_root, Result};
 use std::{fmt::Write as _, fs};
 
 /// What a rule decides.

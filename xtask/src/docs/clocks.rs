@@ -6,7 +6,7 @@ use std::{collections::BTreeMap, fmt::Write as _};
 use serde_json::Value;
 
 use super::{cell, diverged, fixed, num, Row, Sources};
-use crate::Result;
+use crate::task::Result;
 
 /// The campaigns over sync mode × drift × jitter (`campaigns/NAME.toml`).
 pub const CAMPAIGNS: [&str; 2] = ["clock-drift", "clock-drift-example2"];

@@ -19,7 +19,7 @@
 //! pessimistic end.
 
 use super::{fixed, grouped, Sources};
-use crate::Result;
+use crate::task::Result;
 use serde_json::Value;
 use std::fmt::Write as _;
 

@@ -6,7 +6,7 @@
 use std::{fs, process::Command};
 
 use super::{run, Sources};
-use crate::{workspace_root, Result};
+use crate::task::{workspace_root, Result};
 
 /// Where an image comes from.
 enum Source {

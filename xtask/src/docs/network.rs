@@ -8,7 +8,7 @@ use std::{fmt::Write as _, fs, process::Command};
 use serde_json::Value;
 
 use super::{fixed, grouped, num, run, Sources};
-use crate::{cargo, workspace_root, Result};
+use crate::task::{cargo, workspace_root, Result};
 
 /// Where `hil-mock/tests` write one JSON per run (`HIL_MOCK_FIGURES_OUT`).
 const HIL_MOCK_DIR: &str = "target/docs/hil-mock";

@@ -8,7 +8,7 @@ use std::{collections::BTreeMap, fmt::Write as _, process::Command};
 use serde_json::Value;
 
 use super::{fixed, grouped, ms, num, opt, run, verdicts, Matrix, Sources, MATRICES, SCENARIOS};
-use crate::{cargo, workspace_root, Result};
+use crate::task::{cargo, workspace_root, Result};
 
 /// Where the soak test writes its windows (`SOAK_OUT`); outside `target/docs`, so a CI step
 /// that runs the soak with it set is reused.

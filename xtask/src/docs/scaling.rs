@@ -7,7 +7,7 @@ use std::{fs, path::Path, process::Command};
 use serde_json::Value;
 
 use super::{fixed, grouped, num, run, Sources};
-use crate::{workspace_root, Result};
+use crate::task::{workspace_root, Result};
 
 /// Lengths of the line in the table.
 const LINE: [usize; 6] = [1, 2, 3, 4, 6, 10];
