@@ -181,7 +181,7 @@ pub enum SensorFrames {
 pub struct PlantFrames {
     /// How the sensor frames are laid out.
     pub sensor: SensorFrames,
-    /// Every node sends its state frame this often [µs] (and on a change, not counted).
+    /// Every node sends its state frame this often \[µs\] (and on a change, not counted).
     pub state_period_us: u64,
 }
 
@@ -192,9 +192,9 @@ pub struct FrameSet {
     pub agents: u8,
     /// The bus's bit rates (and so the frames' format).
     pub rates: Bitrates,
-    /// Sample period `h` [µs]: every sender's value frame once per sample.
+    /// Sample period `h` \[µs\]: every sender's value frame once per sample.
     pub sample_period_us: u64,
-    /// Heartbeat period of every node [µs]; 0: no heartbeats.
+    /// Heartbeat period of every node \[µs\]; 0: no heartbeats.
     pub heartbeat_period_us: u64,
     /// The plant on the bus (sensor, command and state frames); `None`: only the nodes' own.
     pub plant: Option<PlantFrames>,
@@ -211,7 +211,7 @@ pub struct KindLoad {
     pub data_len: usize,
     /// Worst-case bits of that frame.
     pub bits: FrameBits,
-    /// Bus time per sample [ns].
+    /// Bus time per sample \[ns\].
     pub ns_per_sample: f64,
 }
 
@@ -221,12 +221,12 @@ pub struct Load {
     /// Value, heartbeat, sensor, command, state frames (kinds absent from the set have 0
     /// frames).
     pub kinds: [KindLoad; 5],
-    /// Sample period [ns].
+    /// Sample period \[ns\].
     pub period_ns: f64,
 }
 
 impl Load {
-    /// Bus time per sample [ns], all kinds.
+    /// Bus time per sample \[ns\], all kinds.
     pub fn busy_ns(&self) -> f64 {
         self.kinds.iter().map(|k| k.ns_per_sample).sum()
     }

@@ -746,7 +746,7 @@ impl<S: PerStep<f32>> Default for ConfigFile<S> {
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(default)]
 pub struct FileSimulation {
-    /// Sample period `h` [s].
+    /// Sample period `h` \[s\].
     pub h: f32,
 }
 

@@ -122,11 +122,11 @@ pub enum Draw {
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct ClockSpec {
-    /// Relative error of each follower's sample period [ppm] (positive: slow).
+    /// Relative error of each follower's sample period \[ppm\] (positive: slow).
     pub drift_ppm: PerFollower,
-    /// Upper bound of the uniform delay of each sample after its clock tick or release [µs].
+    /// Upper bound of the uniform delay of each sample after its clock tick or release \[µs\].
     pub jitter_us: PerFollower,
-    /// True time of each follower's sample 0 [µs].
+    /// True time of each follower's sample 0 \[µs\].
     pub offset_us: PerFollower,
     /// Seed of the jitter (and of the drawn drifts and offsets).
     pub seed: u64,
@@ -155,7 +155,7 @@ impl ClockSpec {
             || !(self.drift_ppm.is_zero() && self.jitter_us.is_zero() && self.offset_us.is_zero())
     }
 
-    /// The clocks of `followers` at sample period `h` [s]; every bad value named by its key.
+    /// The clocks of `followers` at sample period `h` \[s\]; every bad value named by its key.
     pub fn plan(&self, followers: usize, h: f64) -> Result<ClockPlan> {
         let mut problems = Problems::default();
         let drift = problems.take(self.drift_ppm.resolve("drift_ppm", followers, |v| {
@@ -225,13 +225,13 @@ fn unit(rng: &mut ChaCha8Rng) -> f64 {
 /// One follower's clock, resolved.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Clock {
-    /// True time between two clock ticks [s].
+    /// True time between two clock ticks \[s\].
     pub period: f64,
     /// `δ` (relative).
     pub drift: f64,
-    /// True time of tick 0 [s].
+    /// True time of tick 0 \[s\].
     pub offset: f64,
-    /// Bound of the uniform sampling delay [s].
+    /// Bound of the uniform sampling delay \[s\].
     pub jitter: f64,
 }
 
@@ -251,7 +251,7 @@ pub struct ClockPlan {
     pub seed: u64,
     /// Sampling release.
     pub sync: SyncMode,
-    /// Nominal sample period [s].
+    /// Nominal sample period \[s\].
     pub h: f64,
 }
 
@@ -301,12 +301,12 @@ impl Clocks {
         self.plan.sync
     }
 
-    /// Follower `i`'s clock reading at true time `t` [µs].
+    /// Follower `i`'s clock reading at true time `t` \[µs\].
     pub fn local_us(&self, i: usize, t: f64) -> u64 {
         self.plan.clocks[i].local_us(t)
     }
 
-    /// A fresh sampling delay of follower `i` [s].
+    /// A fresh sampling delay of follower `i` \[s\].
     pub fn jitter(&mut self, i: usize) -> f64 {
         let j = self.plan.clocks[i].jitter;
         if j == 0.0 {
@@ -339,12 +339,12 @@ impl Clocks {
         self.taken[i] += 1;
     }
 
-    /// Records the age [s] of a neighbour or leader value a follower used.
+    /// Records the age \[s\] of a neighbour or leader value a follower used.
     pub fn age(&mut self, age: f64) {
         self.ages.add(age / self.plan.h);
     }
 
-    /// Per follower, `(t, s − k h)` [s] at some of its samples (the clock figure).
+    /// Per follower, `(t, s − k h)` \[s\] at some of its samples (the clock figure).
     pub fn series(&self) -> &[Vec<(f64, f64)>] {
         &self.series
     }
@@ -378,15 +378,15 @@ pub struct Spread {
 pub struct ClockSummary {
     /// `"none"` or `"leader"`.
     pub sync: SyncMode,
-    /// Age of the neighbour and leader values the controllers used, at their use [samples].
+    /// Age of the neighbour and leader values the controllers used, at their use \[samples\].
     pub sample_age: Spread,
-    /// `|s_{i,k} − k h|` over every follower sample [samples].
+    /// `|s_{i,k} − k h|` over every follower sample \[samples\].
     pub sampling_error: Spread,
     /// Samples the followers took, summed.
     pub samples_taken: u64,
 }
 
-/// Bin width of the distributions [samples].
+/// Bin width of the distributions \[samples\].
 pub const RESOLUTION: f64 = 1e-3;
 /// Bins kept; larger values only count (their quantile reads as the maximum).
 const BINS: usize = 1 << 20;

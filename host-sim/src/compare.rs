@@ -25,13 +25,13 @@ use crate::{
 pub struct Judgement {
     /// Which deadline the scheme promises: `2Ts` (predefined time) or `t_prescribed`.
     pub deadline_rule: &'static str,
-    /// That deadline [s].
+    /// That deadline \[s\].
     pub own_deadline: f64,
     /// `max_{i, t_k ≥ own_deadline} |y_i − y_d|`; null without such samples.
     pub max_error_after_own_deadline: Option<f64>,
     /// `max_{i, t_k ≥ common_instant} |y_i − y_d|`; null without such samples.
     pub max_error_after_common_instant: Option<f64>,
-    /// The dwell of the scheme's `settling_time` [s].
+    /// The dwell of the scheme's `settling_time` \[s\].
     pub settle_dwell: f64,
 }
 
@@ -50,7 +50,7 @@ pub struct Comparison {
     pub equal_effort: bool,
     /// One-line verdict on effort.
     pub note: String,
-    /// The later of the two deadlines [s]: both schemes are judged after it.
+    /// The later of the two deadlines \[s\]: both schemes are judged after it.
     pub common_instant: f64,
     /// The first scenario after its own deadline and after the common instant.
     pub judged_a: Judgement,

@@ -94,9 +94,9 @@ impl FaultsSpec {
 pub struct SensorFault {
     /// 1-based agent.
     pub agent: i64,
-    /// Start [s].
+    /// Start \[s\].
     pub from: f64,
-    /// End [s], exclusive.
+    /// End \[s\], exclusive.
     pub until: f64,
 }
 
@@ -198,13 +198,13 @@ pub struct FaultRule {
     /// Stuck: sine angular frequency [rad/s].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub omega: Option<f64>,
-    /// First window start [s].
+    /// First window start \[s\].
     #[serde(default)]
     pub start: f64,
-    /// Repeat period [s]; absent: one window.
+    /// Repeat period \[s\]; absent: one window.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub period: Option<f64>,
-    /// Window length [s]; absent: until the end.
+    /// Window length \[s\]; absent: until the end.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub length: Option<f64>,
 }
@@ -551,7 +551,7 @@ impl FaultSchedule {
 
     /// [`FaultSchedule::effect`] of actuator `l` of agent `i` at each of `times`, into `out`
     /// (one per time; the same values). A rule whose window edges miss the span of `times`
-    /// is tested once for all of them ([`Compiled::steady`]) instead of at every instant.
+    /// is tested once for all of them (`Compiled::steady`) instead of at every instant.
     pub fn effects_at(&self, i: usize, l: usize, times: &[f64], out: &mut [ActuatorEffect]) {
         out.fill(ActuatorEffect::HEALTHY);
         let Some(rules) = self.rules.get(i * self.m + l) else {

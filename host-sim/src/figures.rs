@@ -28,11 +28,11 @@ pub struct NetworkSummary {
     pub deadline_misses: u64,
     /// Times a node went bus-off.
     pub bus_off_events: u64,
-    /// Largest age of the neighbour (and leader) data a controller used [s].
+    /// Largest age of the neighbour (and leader) data a controller used \[s\].
     pub max_age_s: f64,
-    /// Mean age of the neighbour (and leader) data a controller used [s].
+    /// Mean age of the neighbour (and leader) data a controller used \[s\].
     pub mean_age_s: f64,
-    /// Longest submission-to-delivery time [s].
+    /// Longest submission-to-delivery time \[s\].
     pub max_latency_s: f64,
     /// Frames rejected by the nodes' decoders (unknown id, wrong length, ...), summed.
     pub malformed: u64,
@@ -151,7 +151,7 @@ pub struct AgentCommands {
 /// `summary.json` `socketcan.emcy[]` (`network.canopen`): one emergency message of a node.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct EmcyRecord {
-    /// Run time it was received at [s] (negative: before the first sample).
+    /// Run time it was received at \[s\] (negative: before the first sample).
     pub t_s: f64,
     /// The node (= agent).
     pub agent: u8,
@@ -172,15 +172,15 @@ pub struct SocketcanSummary {
     pub nodes: &'static str,
     /// Samples run.
     pub samples: u64,
-    /// Mean of (wake-up − deadline) over the samples [s].
+    /// Mean of (wake-up − deadline) over the samples \[s\].
     pub loop_lateness_mean_s: f64,
-    /// 99th percentile (nearest rank) [s].
+    /// 99th percentile (nearest rank) \[s\].
     pub loop_lateness_p99_s: f64,
-    /// Largest [s].
+    /// Largest \[s\].
     pub loop_lateness_max_s: f64,
     /// Samples whose wake-up was more than `h/2` late.
     pub loop_overruns: u64,
-    /// Wall time from the first sample's deadline to the last's wake-up [s].
+    /// Wall time from the first sample's deadline to the last's wake-up \[s\].
     pub wall_time_s: f64,
     /// Frames the host sent (leader and sensor frames).
     pub frames_sent: u64,

@@ -18,7 +18,7 @@ pub struct Leader {
     pub amplitude: f64,
     /// Angular frequency [rad/s].
     pub omega: f64,
-    /// Phase [rad].
+    /// Phase \[rad\].
     pub phase: f64,
     /// Offset.
     pub offset: f64,

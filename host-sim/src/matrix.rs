@@ -44,9 +44,9 @@ pub struct Cell {
     pub fault: String,
     /// Where and how long, e.g. `agent 2, 0.5 s`.
     pub case: String,
-    /// Start of the fault [s] (0 for whole-run faults).
+    /// Start of the fault \[s\] (0 for whole-run faults).
     pub from: f64,
-    /// End of the fault [s] (0 for whole-run faults).
+    /// End of the fault \[s\] (0 for whole-run faults).
     pub until: f64,
     #[serde(skip)]
     apply: Fault,
@@ -368,13 +368,13 @@ pub fn markdown(results: &[CellResult], two_ts: f64, u_max: Option<f64>) -> Stri
 }
 
 /// The words of a fault-matrix or torque-limit figure: its title (the scheme as the paper
-/// names it, never a scenario's name), the predefined time `2 T_s` [s], and the plant's output
+/// names it, never a scenario's name), the predefined time `2 T_s` \[s\], and the plant's output
 /// and input units.
 #[derive(Debug, Clone, Copy)]
 pub struct FigureText<'a> {
     /// Title, e.g. `Example 2, predefined-time (proposed)`.
     pub title: &'a str,
-    /// `2 T_s` [s].
+    /// `2 T_s` \[s\].
     pub two_ts: f64,
     /// Output and input units, e.g. `("rad", "N·m")`.
     pub units: (&'a str, &'a str),

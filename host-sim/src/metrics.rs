@@ -18,7 +18,7 @@ use crate::{
     sim::{Divergence, Observer, SampleView},
 };
 
-/// The instant a scheme promises to be settled by [s], and its name: `2 T_s` for the
+/// The instant a scheme promises to be settled by \[s\], and its name: `2 T_s` for the
 /// predefined-time law (Theorem 1), `t_prescribed` (default `T_s`) for the LAW §10 baseline.
 pub fn deadline(setup: &Setup) -> (f64, &'static str) {
     let c = &setup.scenario.controller;
@@ -28,7 +28,7 @@ pub fn deadline(setup: &Setup) -> (f64, &'static str) {
     }
 }
 
-/// The dwell of `settling_time` [s]: `[metrics] settle_dwell`, else the scheme's deadline.
+/// The dwell of `settling_time` \[s\]: `[metrics] settle_dwell`, else the scheme's deadline.
 pub fn settle_dwell(setup: &Setup) -> f64 {
     setup
         .scenario
@@ -44,9 +44,9 @@ pub struct WindowValue {
     pub name: String,
     /// `max_error`, `iae` or `energy`.
     pub kind: WindowKind,
-    /// Start [s].
+    /// Start \[s\].
     pub from: f64,
-    /// End [s] (the horizon when the scenario leaves it open).
+    /// End \[s\] (the horizon when the scenario leaves it open).
     pub to: f64,
     /// The figure; null when no sample lies in the window (or the run diverged before it).
     pub value: Option<f64>,
@@ -92,9 +92,9 @@ pub struct Summary {
     pub scheme: String,
     /// Plant model.
     pub model: String,
-    /// Sample period [s].
+    /// Sample period \[s\].
     pub h: f64,
-    /// Horizon [s].
+    /// Horizon \[s\].
     pub t_end: f64,
     /// Samples `K` simulated (fewer if the run diverged).
     pub samples: u64,

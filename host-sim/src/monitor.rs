@@ -35,7 +35,7 @@ pub struct MonitorOptions {
     pub dbc: Option<std::path::PathBuf>,
     /// Print one table after `duration` (default 1 s) and stop.
     pub once: bool,
-    /// Stop after this long [s]; absent: until Ctrl-C (or 1 s with `once`).
+    /// Stop after this long \[s\]; absent: until Ctrl-C (or 1 s with `once`).
     pub duration: Option<f64>,
     /// Seconds between two tables of the live view.
     pub refresh: f64,

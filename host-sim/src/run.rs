@@ -542,7 +542,7 @@ where
 /// One trial of the stable-`h` search.
 #[derive(Debug, Clone, Serialize)]
 pub struct Trial {
-    /// Sample period [s].
+    /// Sample period \[s\].
     pub h: f64,
     /// Stable: no divergence and error after `2 T_s` within the band.
     pub stable: bool,

@@ -91,9 +91,9 @@ impl Default for Scenario {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Simulation {
-    /// Controller sample period `h` [s] (LAW §6).
+    /// Controller sample period `h` \[s\] (LAW §6).
     pub h: f64,
-    /// Horizon [s].
+    /// Horizon \[s\].
     pub t_end: f64,
     /// RK4 plant substeps per sample.
     pub substeps: u32,
@@ -167,7 +167,7 @@ impl Setup {
     }
 
     /// The scheme as the paper names it, "predefined-time (proposed)" or "prescribed-time
-    /// [39]": the words figures and tables use for a run instead of the scenario's name.
+    /// \[39\]": the words figures and tables use for a run instead of the scenario's name.
     pub fn scheme_name(&self) -> &'static str {
         match self.scenario.controller.scheme {
             SchemeName::PredefinedTime => "predefined-time (proposed)",

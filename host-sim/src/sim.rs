@@ -39,7 +39,7 @@ pub struct World {
     pub faults: FaultSchedule,
     /// Initial states, one per agent.
     pub x0: Vec<Vec<f64>>,
-    /// Sample period `h` [s].
+    /// Sample period `h` \[s\].
     pub h: f64,
     /// RK4 steps per sample.
     pub substeps: u32,
@@ -57,7 +57,7 @@ pub const K: usize = crate::graph::MAX_NEIGHBOURS;
 /// Where and when a state first became non-finite or left the divergence bound (LAW §11).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct Divergence {
-    /// `t_k` [s].
+    /// `t_k` \[s\].
     pub time: f64,
     /// 1-based agent.
     pub agent: usize,
@@ -100,7 +100,7 @@ pub trait Agents<const N: usize, const M: usize> {
     /// The gains in force (agent 1's; all agents share the design values).
     fn gains(&self) -> Gains;
     /// Clocked runs: agent `i` (0-based) samples plant state `x` at true time `t` with its
-    /// clock reading `now_us`, steps and sends; pushes the ages [s] of the neighbour and
+    /// clock reading `now_us`, steps and sends; pushes the ages \[s\] of the neighbour and
     /// leader values its controller used onto `ages`.
     fn sample_at(
         &mut self,
@@ -116,7 +116,7 @@ pub trait Agents<const N: usize, const M: usize> {
     fn leader_sends(&mut self, _k: u64, _t: f64, _yd: f64) -> Result<()> {
         Err(unclocked())
     }
-    /// Clocked runs: the network runs up to `until` [s], each node's clock from `clocks`;
+    /// Clocked runs: the network runs up to `until` \[s\], each node's clock from `clocks`;
     /// with `sync`, it stops at the first delivery of a leader frame and pushes the releases
     /// it gives onto `releases` (the caller plans them and calls again).
     fn run_until(

@@ -48,7 +48,7 @@ pub struct NodeSection {
     pub neighbours: Vec<i64>,
     /// SocketCAN interface name.
     pub interface: String,
-    /// A neighbour value older than this is `Stale` [s]; absent: `2.5 h`.
+    /// A neighbour value older than this is `Stale` \[s\]; absent: `2.5 h`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stale_timeout: Option<f64>,
     /// No sensor frame for this long ends the node [s of wall time].
@@ -96,7 +96,7 @@ impl NodeSection {
         self.packed_sensors.unwrap_or(false)
     }
 
-    /// `start_timeout` [s], default 60.
+    /// `start_timeout` \[s\], default 60.
     pub fn start_timeout(&self) -> f64 {
         self.start_timeout.unwrap_or(60.0)
     }
@@ -110,7 +110,7 @@ pub struct CanOpenSection {
     /// `0x1011` "load" deletes it. Absent: nothing persists.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub store: Option<String>,
-    /// Producer heartbeat time `0x1017` [ms] until the stored set or a master changes it.
+    /// Producer heartbeat time `0x1017` \[ms\] until the stored set or a master changes it.
     #[serde(default = "default_heartbeat_ms")]
     pub heartbeat_ms: u16,
     /// Operational at boot without an NMT start.
@@ -134,7 +134,7 @@ pub struct Supervision {
     pub heartbeat_id_base: Option<u16>,
     /// Agents of the identifier plan.
     pub agents: u8,
-    /// Heartbeat period [µs]; 0: none.
+    /// Heartbeat period \[µs\]; 0: none.
     pub heartbeat_period_us: u64,
     /// `"hold-position"`, `"stop"` (with `stop_decel`), `"hold"`, `"ramp"` (with `ramp_rate`),
     /// `"off"`; absent: no supervision.
@@ -150,19 +150,19 @@ pub struct Supervision {
     /// `"hold"`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sensor_policy: Option<String>,
-    /// Leader silence that enters the safe state [µs].
+    /// Leader silence that enters the safe state \[µs\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub leader_timeout_us: Option<u64>,
-    /// Neighbour silence that counts as a loss [µs].
+    /// Neighbour silence that counts as a loss \[µs\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub neighbour_timeout_us: Option<u64>,
     /// `true`: any one neighbour silent is a loss; `false`: all of them.
     #[serde(default)]
     pub any_neighbour: bool,
-    /// Sensor silence that enters the safe state [µs].
+    /// Sensor silence that enters the safe state \[µs\].
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub sensor_timeout_us: Option<u64>,
-    /// Time everything must be healthy again before leaving the safe state [µs].
+    /// Time everything must be healthy again before leaving the safe state \[µs\].
     #[serde(default)]
     pub recover_dwell_us: u64,
     /// Speed of re-entry without `[safety]` [units of y / s]; absent: 1.

@@ -4,7 +4,7 @@
 //! every scenario goes through host-sim's own loading, checks and run code.
 //!
 //! A run or sweep goes on in a thread of its own while the calling thread waits for it and,
-//! every [`POLL`], lets Python handle its signals (Ctrl-C, Jupyter's "interrupt kernel"): an
+//! every `POLL`, lets Python handle its signals (Ctrl-C, Jupyter's "interrupt kernel"): an
 //! exception from a signal handler stops the work through host-sim's [`Watch`] and is raised
 //! once the work has stopped and removed its temporary files.
 

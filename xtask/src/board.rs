@@ -43,7 +43,7 @@ pub const FLASH_LIMIT: u64 = 64 * 1024;
 /// RAM of that part.
 pub const RAM_LIMIT: u64 = 16 * 1024;
 
-/// Berkeley `size` figures of one ELF [bytes].
+/// Berkeley `size` figures of one ELF \[bytes\].
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Sizes {
     pub text: u64,

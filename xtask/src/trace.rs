@@ -12,9 +12,9 @@
 use crate::task::{bench_dir, cargo, workspace_root, Result};
 use std::{fs, path::Path, process::Command};
 
-/// Sample period [s] (Example 1).
+/// Sample period \[s\] (Example 1).
 pub const H: f64 = 1e-3;
-/// Length of the replayed run [s]: covers the fault windows [2, 4) and [6, 8).
+/// Length of the replayed run \[s\]: covers the fault windows [2, 4) and [6, 8).
 pub const T_END: f64 = 10.0;
 
 /// One step's inputs of agent 4: own state, neighbours 1 and 3, leader.

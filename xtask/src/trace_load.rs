@@ -81,7 +81,7 @@ fn stamp(line: &str) -> Option<f64> {
         .ok()
 }
 
-/// Bus time per kind [ns], frames per kind, and samples (leader frames) of `text`, counting the
+/// Bus time per kind \[ns\], frames per kind, and samples (leader frames) of `text`, counting the
 /// frames from the first leader frame up to the next one after the last (the run's samples, not
 /// the nodes' start-up or their last periods after the host's last sample).
 pub fn measure(text: &str, rates: Bitrates) -> (Vec<(&'static str, u64, f64)>, u64) {

@@ -482,7 +482,7 @@ const fn build() -> [Object; OBJECT_COUNT] {
     t
 }
 
-/// The object dictionary, sorted by index: [`COMM`] entries, then one object per
+/// The object dictionary, sorted by index: `COMM` entries, then one object per
 /// [`Param::ALL`] entry, then one per [`Setting::ALL`] entry.
 pub static OBJECTS: [Object; OBJECT_COUNT] = build();
 
@@ -663,7 +663,7 @@ pub struct NodeIdentity<'a> {
     pub agent: u8,
     /// Its neighbours, as many as the node's capacity `K`.
     pub neighbours: &'a [u8],
-    /// The stale timeout [µs].
+    /// The stale timeout \[µs\].
     pub stale_timeout_us: u64,
     /// The supervision settings.
     pub supervisor: SupervisorConfig,

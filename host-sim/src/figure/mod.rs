@@ -73,11 +73,11 @@ impl Output {
 /// bitmaps at `dpi`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Print {
-    /// Page width [mm].
+    /// Page width \[mm\].
     pub width_mm: f64,
-    /// Height of one chart [mm]; `None`: the writer's aspect ratio.
+    /// Height of one chart \[mm\]; `None`: the writer's aspect ratio.
     pub chart_mm: Option<f64>,
-    /// Tick-label size [pt]; titles and legends keep their proportions to it.
+    /// Tick-label size \[pt\]; titles and legends keep their proportions to it.
     pub font_pt: f64,
     /// PNG resolution [dots per inch].
     pub dpi: f64,
@@ -101,7 +101,7 @@ impl Print {
         (MIN_CANVAS / (self.width_mm * PT_PER_MM / self.scale())).max(1.0)
     }
 
-    /// The canvas `(width, height)` [px] of a figure of `rows` charts stacked whose writer
+    /// The canvas `(width, height)` \[px\] of a figure of `rows` charts stacked whose writer
     /// asked for `nominal` pixels: as wide as the page, each chart `chart_mm` high (or the
     /// writer's aspect ratio).
     pub fn canvas(&self, nominal: (u32, u32), rows: usize) -> (u32, u32) {
@@ -114,7 +114,7 @@ impl Print {
         (w.round().max(1.0) as u32, h.round().max(1.0) as u32)
     }
 
-    /// The page size `(width, height)` [mm] of a `canvas` [px].
+    /// The page size `(width, height)` \[mm\] of a `canvas` \[px\].
     pub fn page_mm(&self, canvas: (u32, u32)) -> (f64, f64) {
         let mm = self.scale() / PT_PER_MM / self.zoom();
         (f64::from(canvas.0) * mm, f64::from(canvas.1) * mm)

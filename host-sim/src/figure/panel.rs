@@ -131,9 +131,9 @@ impl Series {
 /// A shaded time interval (an actuator fault window).
 #[derive(Debug, Clone)]
 pub struct Shade {
-    /// Start [s].
+    /// Start \[s\].
     pub from: f64,
-    /// End [s].
+    /// End \[s\].
     pub to: f64,
     /// Fill.
     pub color: RGBAColor,

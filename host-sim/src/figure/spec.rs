@@ -23,28 +23,28 @@ pub struct FiguresSpec {
     /// `"png"`, `"svg"`, `"pdf"` or a list (default `["png", "svg"]`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub format: Option<Formats>,
-    /// Page width [mm] (default 85, a journal column, when any print key is given).
+    /// Page width \[mm\] (default 85, a journal column, when any print key is given).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub width_mm: Option<f64>,
-    /// Height of one chart [mm]; figures of several charts stack them (default: the
+    /// Height of one chart \[mm\]; figures of several charts stack them (default: the
     /// figure's own aspect ratio).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub height_mm: Option<f64>,
-    /// Tick-label size [pt] (default 8); titles and legends keep their proportion to it.
+    /// Tick-label size \[pt\] (default 8); titles and legends keep their proportion to it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub font_pt: Option<f64>,
-    /// PNG resolution of a print size [dpi] (default 600).
+    /// PNG resolution of a print size \[dpi\] (default 600).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub dpi: Option<f64>,
-    /// Time-series figures start here [s].
+    /// Time-series figures start here \[s\].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub t_from: Option<f64>,
-    /// Time-series figures end here [s].
+    /// Time-series figures end here \[s\].
     #[serde(skip_serializing_if = "Option::is_none")]
     pub t_to: Option<f64>,
 }
 
-/// Default page width: one journal column [mm].
+/// Default page width: one journal column \[mm\].
 pub const COLUMN_MM: f64 = 85.0;
 
 fn within(key: &str, v: Option<f64>, lo: f64, hi: f64) -> Result<Option<f64>> {

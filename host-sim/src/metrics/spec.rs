@@ -11,8 +11,8 @@ use crate::error::{Error, Result};
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct MetricsSpec {
-    /// How long the error must stay inside the band for `settling_time` [s]; default: the
-    /// scheme's own deadline ([`deadline`]).
+    /// How long the error must stay inside the band for `settling_time` \[s\]; default: the
+    /// scheme's own deadline (`metrics::deadline`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub settle_dwell: Option<f64>,
     /// `[[metrics.window]]`, reported in `summary.json` `windows` in this order.
@@ -26,10 +26,10 @@ pub struct MetricsSpec {
 pub struct WindowSpec {
     /// Unique name: the `summary.json` entry and the `window.<name>` column of campaigns.
     pub name: String,
-    /// Start [s] (default 0).
+    /// Start \[s\] (default 0).
     #[serde(default)]
     pub from: f64,
-    /// End [s] (default: the end of the run).
+    /// End \[s\] (default: the end of the run).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub to: Option<f64>,
     /// What is measured.
@@ -40,7 +40,7 @@ pub struct WindowSpec {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum WindowKind {
-    /// `max_{i,k} |y_i − y_d|` [y].
+    /// `max_{i,k} |y_i − y_d|` \[y\].
     MaxError,
     /// `Σ_i Σ_k |y_i − y_d| h` [y s].
     Iae,

@@ -84,18 +84,18 @@ pub struct SafeStateSpec {
         skip_serializing_if = "is_default_sensor_policy"
     )]
     pub sensor_policy: PolicyName,
-    /// Leader silent longer than this is a loss [s]; absent: not supervised.
+    /// Leader silent longer than this is a loss \[s\]; absent: not supervised.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub leader_timeout: Option<f64>,
-    /// Neighbour silence longer than this is a loss [s]; absent: not supervised.
+    /// Neighbour silence longer than this is a loss \[s\]; absent: not supervised.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub neighbour_timeout: Option<f64>,
     /// `"all"` or `"any"` neighbour.
     pub neighbour_loss: LossName,
-    /// Sensor invalid longer than this is a loss [s]; absent: not supervised.
+    /// Sensor invalid longer than this is a loss \[s\]; absent: not supervised.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sensor_timeout: Option<f64>,
-    /// Every supervised source healthy this long before leaving the safe state [s].
+    /// Every supervised source healthy this long before leaving the safe state \[s\].
     pub recover_dwell: f64,
     /// Speed at which returning values re-enter without `[safety]` [units of y / s]; absent: 1.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -134,7 +134,7 @@ pub struct NodeSpec {
     pub id_base: i64,
     /// Agent `i`'s heartbeat identifier is `heartbeat_id_base + i`.
     pub heartbeat_id_base: i64,
-    /// Heartbeat period [s]; 0: no heartbeat.
+    /// Heartbeat period \[s\]; 0: no heartbeat.
     pub heartbeat_period: f64,
     /// `kind = "pil"`: sample periods after the deadline of its last step that ended in time
     /// (and half a period more) at which the node firmware's watchdog resets it; 0: no
@@ -333,7 +333,7 @@ fn heartbeat_period(spec: &NodeSpec) -> Result<u64> {
 /// Largest `node.watchdog_periods`.
 pub const MAX_WATCHDOG_PERIODS: i64 = 100_000;
 
-/// Longest watchdog timeout of the emulated board [s]: 2³² counts of its 25 MHz clock.
+/// Longest watchdog timeout of the emulated board \[s\]: 2³² counts of its 25 MHz clock.
 pub const MAX_WATCHDOG_SECONDS: f64 = 4_294_967_295.0 / 25e6;
 
 /// `node.watchdog_periods` of the validated `spec` (0: no watchdog), checked against the

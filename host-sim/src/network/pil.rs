@@ -18,7 +18,7 @@
 //! and on Ctrl-C / SIGTERM (a handler kills the registered emulators, then exits with 130);
 //! and, as no handler sees a SIGKILL, each runs under `setpriv --pdeathsig KILL` (util-linux),
 //! so the kernel kills it when host-sim dies, however that happens. Each emulator is pinned
-//! to one CPU (`taskset`), see [`Launch`].
+//! to one CPU (`taskset`), see `Launch`.
 
 use std::{
     io::{BufReader, Read, Write},

@@ -90,10 +90,10 @@ pub struct NetworkEvent {
     /// Babbling only: 11-bit identifier of the flood (default 0).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub id: Option<i64>,
-    /// Start [s] (inclusive).
+    /// Start \[s\] (inclusive).
     #[serde(default)]
     pub from: f64,
-    /// End [s] (exclusive); absent: until the end of the run.
+    /// End \[s\] (exclusive); absent: until the end of the run.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub until: Option<f64>,
     /// Slow only: sample periods each control step takes (> 0; below 1 it ends in time).
@@ -130,13 +130,13 @@ pub struct NetworkSpec {
     pub kind: NetworkKind,
     /// Bit rate [bit/s].
     pub bitrate: i64,
-    /// From end-of-frame to delivery at the receivers [s].
+    /// From end-of-frame to delivery at the receivers \[s\].
     pub latency: f64,
     /// Probability that a frame reaches no receiver.
     pub loss: f64,
     /// Probability that a transmission is corrupted (CRC error, error frame, retransmission).
     pub corruption: f64,
-    /// A neighbour value older than this is `Stale` [s]; absent: `2.5 h`.
+    /// A neighbour value older than this is `Stale` \[s\]; absent: `2.5 h`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub stale_timeout: Option<f64>,
     /// Seed of the loss and corruption random numbers.
@@ -160,10 +160,10 @@ pub struct NetworkSpec {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub nodes: Option<NodesMode>,
     /// `kind = "socketcan"`: a node silent this long is lost; a node without sensor frames
-    /// this long stops [s]; absent: `max(0.25, 20 h)`.
+    /// this long stops \[s\]; absent: `max(0.25, 20 h)`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub node_timeout: Option<f64>,
-    /// `kind = "socketcan"`: how long to wait for every node before the run starts [s];
+    /// `kind = "socketcan"`: how long to wait for every node before the run starts \[s\];
     /// absent: 30.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub start_timeout: Option<f64>,
@@ -321,8 +321,8 @@ impl NetworkSpec {
             || (self.kind == NetworkKind::Can && self.plant_frames.unwrap_or(false))
     }
 
-    /// The frames this section puts on its bus for `agents` followers, sample period `h` [s]
-    /// and node heartbeat period `heartbeat` [s] (0: none); `None` for the ideal kind.
+    /// The frames this section puts on its bus for `agents` followers, sample period `h` \[s\]
+    /// and node heartbeat period `heartbeat` \[s\] (0: none); `None` for the ideal kind.
     pub fn frame_set(&self, agents: usize, h: f64, heartbeat: f64) -> Option<FrameSet> {
         if self.kind == NetworkKind::Ideal {
             return None;
@@ -340,7 +340,7 @@ impl NetworkSpec {
         })
     }
 
-    /// `start_timeout` [s], default 30.
+    /// `start_timeout` \[s\], default 30.
     pub fn start_timeout(&self) -> f64 {
         self.start_timeout.unwrap_or(30.0)
     }
@@ -349,7 +349,7 @@ impl NetworkSpec {
 /// Largest bit rate accepted (10 Mbit/s, beyond classical CAN's 1 Mbit/s on purpose); also
 /// the largest CAN FD data bit rate.
 pub const MAX_BITRATE: i64 = 10_000_000;
-/// A bench node sends its state frame this often [s] (and on every change).
+/// A bench node sends its state frame this often \[s\] (and on every change).
 pub const STATE_PERIOD_S: f64 = 0.1;
 /// Largest agent number a CAN identifier can carry (`0x100 + i ≤ 0x1FF`).
 pub const MAX_CAN_AGENTS: usize = 255;

@@ -1,6 +1,6 @@
 //! `[plant] model = "custom"`: dynamics written as expressions in the scenario file.
 //!
-//! Each expression is parsed once by the grammar in [`parse`] (precedence, number syntax,
+//! Each expression is parsed once by the grammar in `parse` (precedence, number syntax,
 //! positions of syntax errors) and its postfix form compiled into a [`Program`] whose variables
 //! are slots of a fixed array and whose `[plant.params]` are constants; the RK4 stages then
 //! evaluate the programs with a small fixed stack, without name look-ups or allocation.
@@ -143,7 +143,7 @@ enum Op {
     Call(Func),
 }
 
-/// One compiled expression: postfix steps whose stack never exceeds [`MAX_DEPTH`].
+/// One compiled expression: postfix steps whose stack never exceeds `MAX_DEPTH`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Program {
     ops: Vec<Op>,
@@ -434,7 +434,7 @@ impl<const N: usize, const M: usize> Plant<N, M> for Custom {
 
 /// A function of time written as an expression in `t` (the leader's `y_d`): its value compiled
 /// as the plants' expressions are, and its derivatives `1..=order` as simplified trees
-/// ([`symbolic`]).
+/// (`symbolic`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct TimeFunction {
     value: Program,

@@ -25,7 +25,7 @@ use crate::{
     sim::{Observer, SampleView},
 };
 
-/// Largest `trajectory.csv` a run writes without `--force` [bytes] (2 GiB).
+/// Largest `trajectory.csv` a run writes without `--force` \[bytes\] (2 GiB).
 pub const SIZE_LIMIT: u64 = 2 << 30;
 
 /// Estimated bytes of one row: about 20 characters per `f64` value (`t`, `yd`, `y`, `x`, `qf`)
@@ -37,7 +37,7 @@ pub fn row_bytes(agents: usize, n: usize, m: usize) -> u64 {
     (20 * f64_columns + 11 * f32_columns) as u64
 }
 
-/// Estimated size of `trajectory.csv` for `setup` with every `decimate`-th sample [bytes].
+/// Estimated size of `trajectory.csv` for `setup` with every `decimate`-th sample \[bytes\].
 pub fn estimated_size(setup: &Setup, decimate: u64) -> u64 {
     estimated_size_of(setup, decimate, setup.agents())
 }
@@ -58,7 +58,7 @@ fn decimate_to_fit_of(setup: &Setup, limit: u64, columns: usize) -> u64 {
     setup.samples.div_ceil(rows).max(1)
 }
 
-/// Size a large group's `trajectory.csv` is kept within when `--decimate` is not given [bytes].
+/// Size a large group's `trajectory.csv` is kept within when `--decimate` is not given \[bytes\].
 pub const DEFAULT_LARGE_GROUP_SIZE: u64 = 100_000_000;
 
 /// `--decimate` when not given: 1, or for more than [`MAX_PLOTTED_AGENTS`] agents the smallest

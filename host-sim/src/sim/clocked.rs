@@ -25,7 +25,7 @@ use crate::{
     plant::{rk4, Lanes, Plant},
 };
 
-/// A leader frame of sample `k` that reached agent `agent` (0-based) at true time `at` [s]:
+/// A leader frame of sample `k` that reached agent `agent` (0-based) at true time `at` \[s\]:
 /// it releases the agent's sampling (`sync = "leader"`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Release {
@@ -33,7 +33,7 @@ pub struct Release {
     pub agent: usize,
     /// The leader's sample.
     pub k: u64,
-    /// Delivery time [s].
+    /// Delivery time \[s\].
     pub at: f64,
 }
 

@@ -47,7 +47,7 @@ const GOAL: [(&str, &[&str]); 3] = [
     ),
 ];
 
-/// Horizon of the goal's runs [s].
+/// Horizon of the goal's runs \[s\].
 const GOAL_T_END: f64 = 60.0;
 
 /// Whether `name` is a run of the goal.

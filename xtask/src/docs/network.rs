@@ -88,7 +88,7 @@ const SCENARIO_RUNS: [ScenarioRun; 5] = [
     ),
 ];
 
-/// Windows of `example1-lossy` (`network.lossy.KEY`): from, until [s].
+/// Windows of `example1-lossy` (`network.lossy.KEY`): from, until \[s\].
 const WINDOWS: [(&str, f64, f64); 4] = [
     ("before", 4.0, 5.0),
     ("silent", 5.0, 7.0),
@@ -117,13 +117,13 @@ pub const WATCHDOG_KEYS: [&str; 6] = [
     "slow-recovered-s",
 ];
 
-/// Start of the hang or slow window [s], its runs' horizon, and the recovery tolerance (those
+/// Start of the hang or slow window \[s\], its runs' horizon, and the recovery tolerance (those
 /// of `host-sim/tests/pil.rs`).
 const WATCHDOG_EVENT_AT: f64 = 0.5;
 const WATCHDOG_T_END: &str = "simulation.t_end=3";
 const WATCHDOG_RECOVERED: f64 = 0.005;
 
-/// Horizon of the lossy run compared with the emulated nodes [s].
+/// Horizon of the lossy run compared with the emulated nodes \[s\].
 const PIL_LOSSY_T_END: &str = "simulation.t_end=7.5";
 
 /// Whether `key` is an inline figure of `example1-lossy`.
@@ -653,9 +653,9 @@ fn trajectory_at(dir: &str) -> Result<Trajectory> {
 }
 
 /// One watchdog figure: agent 3's firmware counts, the time from the event's start to the
-/// node's first reset (the sample whose commands are the booting node's zeros) [ms], and to
+/// node's first reset (the sample whose commands are the booting node's zeros) \[ms\], and to
 /// the last sample at which some output `y_i` is more than [`WATCHDOG_RECOVERED`] from the run
-/// without the event [s].
+/// without the event \[s\].
 pub fn watchdog(src: &mut Sources, key: &str) -> Result<String> {
     let (run, figure) = key.split_once('-').ok_or("no run")?;
     let event = match run {
