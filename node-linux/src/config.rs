@@ -543,6 +543,7 @@ mod tests {
             (
                 |s| {
                     s.agent = 2;
+                    s.node_id = Some(2);
                     s.neighbours = vec![1, 3];
                     s.supervision = plan(2);
                 },
