@@ -69,13 +69,9 @@ use controller_core::{
 };
 use embedded_can::{nb::Can, Error as _, ErrorKind};
 
-use crate::canopen::Fault;
 #[cfg(feature = "canopen")]
-use crate::canopen::{
-    self,
-    od::{NodeIdentity, ParamStore},
-    CoFrame, Device, Event, Identity,
-};
+use crate::canopen::{self, od::ParamStore, CoFrame, Device, Event, Identity};
+use crate::canopen::{od::NodeIdentity, Fault};
 use crate::supervisor::{
     safe_command, NodeState, Observation, SafePolicy, StopProfile, Supervisor, SupervisorConfig,
     SupervisorError,
@@ -146,7 +142,6 @@ impl<const K: usize> NodeConfig<K> {
     }
 
     /// What the CANopen parameter store keeps of this configuration.
-    #[cfg(feature = "canopen")]
     pub fn identity(&self) -> NodeIdentity<'_> {
         NodeIdentity {
             agent: self.agent,

@@ -58,6 +58,10 @@ pub const LEADER_ID: u16 = IdPlan::DEFAULT.value_base();
 pub const AGENT_ID_BASE: u16 = LEADER_ID + 1;
 /// Highest agent number any plan can carry.
 pub const MAX_AGENT: u8 = 255;
+/// Neighbour capacity `K` of every node runtime (`node-fw`, `node-linux`, host-sim's nodes):
+/// the largest in-degree a scenario may give a follower, and the length of the object
+/// dictionary's neighbour list.
+pub const MAX_NEIGHBOURS: usize = 16;
 /// Data length of a heartbeat frame.
 pub const HEARTBEAT_LEN: usize = 8;
 /// Highest standard identifier.

@@ -63,8 +63,8 @@ impl GraphSpec {
     }
 }
 
-/// Largest in-degree supported: the controllers' neighbour capacity `K`.
-pub const MAX_NEIGHBOURS: usize = 16;
+/// Largest in-degree supported: the nodes' neighbour capacity `K`.
+pub use agent_node::wire::MAX_NEIGHBOURS;
 
 /// Most agents of a generated graph.
 pub const MAX_GENERATED: i64 = 1_000_000;

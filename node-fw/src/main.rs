@@ -48,8 +48,8 @@ use panic_semihosting as _;
 const N: usize = 2;
 /// Actuators.
 const M: usize = 2;
-/// Neighbour capacity, as host-sim's (`graph::MAX_NEIGHBOURS`).
-const K: usize = 16;
+/// Neighbour capacity, the one of every node runtime.
+const K: usize = agent_node::wire::MAX_NEIGHBOURS;
 /// Received bus frames held between two ticks at most.
 const RX_DEPTH: usize = 64;
 /// Bytes the UART receive queue holds: a sample's input is at most 17 timestamped frames

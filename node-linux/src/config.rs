@@ -32,8 +32,8 @@ use agent_node::{IdPlan, NeighbourLoss, NodeConfig, SafePolicy, SupervisorConfig
 use controller_core::{ConfigFile, ControllerConfig};
 use serde::{Deserialize, Serialize};
 
-/// Neighbours a Linux node can hear (the simulator's graph limit).
-pub const MAX_NEIGHBOURS: usize = 16;
+/// Neighbours a Linux node can hear.
+pub use agent_node::wire::MAX_NEIGHBOURS;
 /// State order and actuators of the built-in plants.
 pub const N: usize = 2;
 

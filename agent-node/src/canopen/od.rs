@@ -26,8 +26,7 @@ use crate::supervisor::{NeighbourLoss, SafePolicy, Supervisor, SupervisorConfig}
 
 /// Most steps `n` (state order) a per-step array can hold.
 pub const MAX_STEPS: u8 = 4;
-/// Most neighbours a node's settings can list.
-pub const MAX_NEIGHBOURS: usize = 16;
+pub use crate::wire::MAX_NEIGHBOURS;
 /// Entries of the heartbeat consumer (`0x1016`).
 pub const HEARTBEAT_CONSUMERS: u8 = 8;
 /// Entries of the pre-defined error field (`0x1003`).
