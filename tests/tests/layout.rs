@@ -1,7 +1,7 @@
 //! The module layout of every crate of the workspace: no source file sits on an import circle,
 //! and no module imports through its crate's root (`crate::Name` for a re-export of `lib.rs`),
 //! which would hide the module it really depends on and put the root in the middle of the graph.
-//! host-sim's layers are held by `host-sim/tests/layout.rs` on top of this.
+//! host-sim's layers are held here too, on top of that ([`LAYERS`]).
 //!
 //! The import graph is read from the sources: every `crate::…` path (in `use` trees and inline)
 //! outside comments and unit tests (a file's trailing `#[cfg(test)] mod`, files named
@@ -283,4 +283,153 @@ fn a_circle_and_an_import_through_the_root_are_both_found() {
 fn no_crate_has_an_import_circle_or_imports_through_its_root() {
     let all: Vec<String> = CRATES.iter().flat_map(|c| problems(c)).collect();
     assert!(all.is_empty(), "module layout:\n{}", all.join("\n"));
+}
+
+// host-sim's layers (docs/ARCHITECTURE.md, "host-sim modules"): the blocks own their scenario
+// sections and never import `scenario`, and no file imports one of a higher layer.
+
+/// The blocks below `scenario`: they own their spec types and must not import it.
+const BLOCKS: [&str; 8] = [
+    "faults.rs",
+    "clock.rs",
+    "metrics/spec.rs",
+    "graph.rs",
+    "network",
+    "plant",
+    "sim.rs",
+    "leader.rs",
+];
+
+/// The layers of host-sim's `src/`, lowest first: a file may import files of its own layer and of those
+/// below. A file belongs to the layer of the longest path prefix listed here (a directory
+/// `plant` covers `plant/…`); every file must have one, so a new module is placed on purpose.
+/// The same table is in docs/ARCHITECTURE.md, "host-sim modules".
+const LAYERS: &[(&str, &[&str])] = &[
+    (
+        "foundation: errors, random draws, output files and interrupts",
+        &["error.rs", "generate.rs", "report/mod.rs", "figure"],
+    ),
+    (
+        "blocks: one scenario section each, and what the loop and the summary share",
+        &[
+            "graph.rs",
+            "leader.rs",
+            "faults.rs",
+            "clock.rs",
+            "plant",
+            "figures.rs",
+            "network/spec.rs",
+            "network/node.rs",
+            "network/ideal.rs",
+            "network/trace.rs",
+            "metrics/spec.rs",
+        ],
+    ),
+    ("the loop", &["sim.rs", "sim"]),
+    ("assembly of a scenario", &["scenario.rs"]),
+    (
+        "agents over a bus, observers and outputs",
+        &[
+            "network/mod.rs",
+            "network/can.rs",
+            "network/pil.rs",
+            "network/socketcan.rs",
+            "metrics.rs",
+            "report",
+            "agent.rs",
+        ],
+    ),
+    (
+        "commands",
+        &["run.rs", "compare.rs", "matrix.rs", "monitor.rs"],
+    ),
+    ("many runs", &["campaign"]),
+    ("crate root and binary", &["lib.rs", "main.rs", "cli"]),
+];
+
+/// The layer of `file` (index into [`LAYERS`]).
+fn layer(file: &str) -> Option<usize> {
+    let covers = |prefix: &str| file == prefix || file.starts_with(&format!("{prefix}/"));
+    LAYERS
+        .iter()
+        .enumerate()
+        .flat_map(|(k, (_, prefixes))| prefixes.iter().map(move |p| (k, *p)))
+        .filter(|(_, p)| covers(p))
+        .max_by_key(|(_, p)| p.len())
+        .map(|(k, _)| k)
+}
+
+/// host-sim's sources and import graph.
+fn host_sim() -> (BTreeMap<String, String>, Graph) {
+    let files = sources(&root().join("host-sim/src"));
+    let g = graph(&files);
+    (files, g)
+}
+
+#[test]
+fn blocks_do_not_import_scenario() {
+    let (_, g) = host_sim();
+    let in_block = |f: &str, b: &str| f == b || f.starts_with(&format!("{b}/"));
+    for b in BLOCKS {
+        assert!(g.keys().any(|f| in_block(f, b)), "src/{b} is gone");
+    }
+    let offenders: Vec<&String> = g
+        .iter()
+        .filter(|(f, deps)| BLOCKS.iter().any(|b| in_block(f, b)) && deps.contains("scenario.rs"))
+        .map(|(f, _)| f)
+        .collect();
+    assert!(
+        offenders.is_empty(),
+        "these modules import `scenario` (they must own their spec types): {offenders:?}"
+    );
+}
+
+#[test]
+fn layers_cover_the_sources_and_name_their_files() {
+    assert_eq!(layer("report/mod.rs"), Some(0));
+    assert_eq!(layer("report/plots.rs"), Some(4));
+    assert_eq!(layer("plant/custom/parse.rs"), Some(1));
+    assert_eq!(layer("network/spec.rs"), Some(1));
+    assert_eq!(layer("network/pil.rs"), Some(4));
+    assert_eq!(layer("sim.rs"), Some(2));
+    let (files, _) = host_sim();
+    let homeless: Vec<&String> = files.keys().filter(|f| layer(f).is_none()).collect();
+    assert!(
+        homeless.is_empty(),
+        "files in no layer of LAYERS (place them, and in docs/ARCHITECTURE.md): {homeless:?}"
+    );
+    for (_, prefixes) in LAYERS {
+        for p in *prefixes {
+            assert!(
+                files
+                    .keys()
+                    .any(|f| f == p || f.starts_with(&format!("{p}/"))),
+                "LAYERS names src/{p}, which is gone"
+            );
+        }
+    }
+}
+
+#[test]
+fn no_file_imports_a_higher_layer() {
+    let (_, g) = host_sim();
+    let upward: Vec<String> = g
+        .iter()
+        .flat_map(|(f, deps)| deps.iter().map(move |d| (f, d)))
+        .filter_map(|(f, d)| {
+            let (lf, ld) = (layer(f)?, layer(d)?);
+            (ld > lf).then(|| {
+                format!(
+                    "{f} ({}) imports {d} ({})",
+                    LAYERS[lf].0.split(':').next().unwrap_or(""),
+                    LAYERS[ld].0.split(':').next().unwrap_or("")
+                )
+            })
+        })
+        .collect();
+    assert!(
+        upward.is_empty(),
+        "imports from a higher layer:\n{}",
+        upward.join("\n")
+    );
 }
