@@ -919,18 +919,26 @@ where
         if !self.supervised && !self.fault_pending && self.supervisor.state() != NodeState::Boot {
             return;
         }
-        let age = |slot: &Slot| now.saturating_sub(slot.value.map_or(first, |(_, t)| t));
+        // A source whose consumed heartbeat is lost counts as silent for ever, whatever its
+        // value frames (docs/NETWORK.md §12, *Heartbeat*).
+        let age = |slot: &Slot, hb_lost: bool| {
+            if hb_lost {
+                u64::MAX
+            } else {
+                now.saturating_sub(slot.value.map_or(first, |(_, t)| t))
+            }
+        };
         let mut newest: Option<u64> = None;
         let mut oldest: Option<u64> = None;
         for s in self.slots.iter().take(self.count) {
-            let a = age(s);
+            let a = age(s, self.heartbeat_lost(s.agent));
             newest = Some(newest.map_or(a, |n| n.min(a)));
             oldest = Some(oldest.map_or(a, |o| o.max(a)));
         }
         let obs = Observation {
             now_us: now,
             stale_timeout_us: self.timeout_us,
-            leader_age_us: age(&self.leader),
+            leader_age_us: age(&self.leader, self.leader_heartbeat_lost()),
             newest_neighbour_age_us: newest,
             oldest_neighbour_age_us: oldest,
             sensor_ok: x.iter().all(|v| v.is_finite()),
@@ -1135,6 +1143,7 @@ where
         };
         match out {
             TxOutcome::Queued | TxOutcome::Replaced => {
+                self.value_sent(&enc.data);
                 self.stats.tx_queued = self.stats.tx_queued.saturating_add(1);
                 if self.tx_failed {
                     info!("agent {}: transmitting again", self.agent);
@@ -1179,6 +1188,7 @@ where
             .map_err(|_| NodeError::AgentOutsidePlan(cfg.agent))?;
         let mut device = Device::new(store, identity, self_starting);
         device.set_heartbeat_ms(heartbeat_ms);
+        device.set_id_plan(self.ids);
         self.canopen = Some(CanOpen {
             device,
             dirty: false,
@@ -1231,6 +1241,32 @@ where
         }
         c.last_overrun_emcy_us = Some(now);
         self.emcy(Fault::Overrun, self.stats.overruns);
+    }
+
+    /// The value frame went out: the device's TPDO1 objects (`0x2200..`) hold it.
+    fn value_sent(&mut self, data: &[u8; wire::PAYLOAD_LEN]) {
+        if let Some(c) = &mut self.canopen {
+            c.device.value_sent(data);
+        }
+    }
+
+    /// The consumed heartbeat (`0x1016`) of `node` is lost.
+    fn heartbeat_lost(&self, node: u8) -> bool {
+        self.canopen
+            .as_ref()
+            .is_some_and(|c| c.device.heartbeat_lost(node))
+    }
+
+    /// A consumed heartbeat of a node that is none of the neighbours is lost: the leader's
+    /// producer (docs/NETWORK.md §12, *Heartbeat*).
+    fn leader_heartbeat_lost(&self) -> bool {
+        let Some(c) = &self.canopen else {
+            return false;
+        };
+        let neighbours = self.slots.get(..self.count).unwrap_or(&[]);
+        c.device
+            .lost_heartbeats()
+            .any(|n| !neighbours.iter().any(|s| s.agent == n))
     }
 
     /// Report a fault by EMCY when the node is a CANopen device.
@@ -1425,6 +1461,16 @@ where
     fn emcy_clear(&mut self, _f: Fault) {}
 
     fn overrun_emcy(&mut self) {}
+
+    fn value_sent(&mut self, _data: &[u8; wire::PAYLOAD_LEN]) {}
+
+    fn heartbeat_lost(&self, _node: u8) -> bool {
+        false
+    }
+
+    fn leader_heartbeat_lost(&self) -> bool {
+        false
+    }
 
     fn device_frame(&mut self, _frame: &C::Frame, _now: u64) -> bool {
         false
