@@ -591,6 +591,15 @@ where
         self.overrun_emcy();
     }
 
+    /// The board saw a fault of its own — the CAN controller recovered from bus-off
+    /// ([`Fault::BusOff`]), received frames were lost ([`Fault::RxOverflow`]), a watchdog
+    /// reset — : an EMCY with `count` (e.g. occurrences since start) when the node is a CANopen
+    /// device, sent at once; nothing otherwise.
+    pub fn report_fault(&mut self, f: Fault, count: u32) {
+        self.emcy(f, count);
+        self.flush_canopen();
+    }
+
     /// The board found a fault it cannot recover from: the node latches `Fault` at the next
     /// tick (outputs zero, heartbeat `fault`) until it is restarted.
     pub fn enter_fault(&mut self) {
