@@ -139,7 +139,9 @@ fn var<W: Write, const N: usize>(
             writeln!(w, "HighLimit=0x{hi:X}")?;
         }
     }
-    writeln!(w, "PDOMapping={}", u8::from(o.pdo))?;
+    // Sub-index 0 of an array (its length) is never mapped.
+    let mappable = o.pdo && (sub > 0 || o.kind == Kind::Var);
+    writeln!(w, "PDOMapping={}", u8::from(mappable))?;
     writeln!(w)
 }
 

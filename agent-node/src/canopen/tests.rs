@@ -427,6 +427,13 @@ fn eds_lists_every_object_with_name_and_access() {
     let a_check = format!("[{:04X}sub2]\n", param_index(Param::ACheck));
     assert!(s.contains(&a_check));
     assert!(!s.contains(&format!("[{:04X}sub3]\n", param_index(Param::ACheck))));
+    // The PDOs: 17 receive, 1 transmit, mapped bit by bit; TPDO1 on the value frame's id.
+    for line in ["Granularity=1\n", "NrOfRXPDO=17\n", "NrOfTXPDO=1\n"] {
+        assert!(s.contains(line), "{line}");
+    }
+    assert!(s.contains("[1800sub1]\nParameterName=COB-ID used by PDO\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue=$NODEID+0x40000101\n"));
+    assert!(s.contains("[1A00sub1]\nParameterName=Mapped object\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue=0x22000018\n"));
+    assert!(s.contains("[2200]\nParameterName=Value y (Q7.16, y = raw / 65536)\nObjectType=0x7\nDataType=0x0010\nAccessType=ro\n"));
 }
 
 #[test]
