@@ -145,6 +145,7 @@ impl<const K: usize> NodeConfig<K> {
     pub fn identity(&self) -> NodeIdentity<'_> {
         NodeIdentity {
             agent: self.agent,
+            ids: self.ids,
             neighbours: &self.neighbours,
             stale_timeout_us: self.stale_timeout_us,
             supervisor: self.supervisor,
@@ -1197,7 +1198,6 @@ where
             .map_err(|_| NodeError::AgentOutsidePlan(cfg.agent))?;
         let mut device = Device::new(store, identity, self_starting);
         device.set_heartbeat_ms(heartbeat_ms);
-        device.set_id_plan(self.ids);
         self.canopen = Some(CanOpen {
             device,
             dirty: false,

@@ -18,7 +18,7 @@ fn hex_id<const N: usize>(d: &Device<N>, item: Item, sub: u8) -> Option<u32> {
         (Item::EmcyCobId, _) => Some(0x80),
         (Item::SdoServer, 1) => Some(0x600),
         (Item::SdoServer, 2) => Some(0x580),
-        (Item::TpdoComm, 1) => Some(od::COB_ID_NO_RTR | u32::from(d.ids.value_base())),
+        (Item::TpdoComm, 1) => Some(od::COB_ID_NO_RTR | u32::from(d.id_plan().value_base())),
         _ => None,
     }
 }

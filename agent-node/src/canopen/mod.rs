@@ -7,7 +7,8 @@
 //! The device sees frames as `(identifier, data)` ([`Device::on_frame`]), is advanced by
 //! [`Device::tick`] with the clock, and hands back frames to send ([`Device::next_tx`]) and
 //! events for the application ([`Device::next_event`]): NMT changes, resets, SYNC, store and
-//! restore requests, heartbeats lost and back.
+//! restore requests, heartbeats lost and back. Its PDOs are the node's value frames, described
+//! read-only by `0x1400`–`0x1A00` and kept field by field in `0x2200`–`0x2213` ([`od`]).
 //!
 //! ## Identifiers (predefined connection set, node-ID `id` in `1..=127`)
 //!
@@ -16,7 +17,8 @@
 //! | NMT (master → all) | `0x000` | command specifier, node-ID (0: all) |
 //! | SYNC | `0x080` | none |
 //! | EMCY | `0x080 + id` | error code (u16 LE), error register, 5 bytes [`Fault::info`] |
-//! | TPDO`k` / RPDO`k` | `0x080 + 0x100 k + id` / `0x100 + 0x100 k + id` | [`crate::wire`] |
+//! | TPDO`k` / RPDO`k` (predefined) | `0x080 + 0x100 k + id` / `0x100 + 0x100 k + id` | – |
+//! | TPDO1 / RPDO1–17 of this device | the value frames' identifiers of its `IdPlan` ([`od`], *PDO mapping*) | [`crate::wire`] |
 //! | SDO server → client / client → server | `0x580 + id` / `0x600 + id` | 8 bytes |
 //! | heartbeat, boot-up | `0x700 + id` | NMT state: `0x00` boot-up, `0x04` stopped, `0x05` operational, `0x7F` pre-operational |
 
@@ -530,8 +532,6 @@ pub struct Device<const N: usize> {
     tx: Fifo<CoFrame, 16>,
     events: Fifo<Event, 16>,
     now_us: u64,
-    /// Where the value frames (the PDOs) sit.
-    ids: IdPlan,
     /// The node's last value frame sent (TPDO1).
     tpdo: Option<[u8; PAYLOAD_LEN]>,
     /// The last value frame of each RPDO received in operational.
@@ -561,16 +561,15 @@ impl<const N: usize> Device<N> {
             tx: Fifo::new(),
             events: Fifo::new(),
             now_us: 0,
-            ids: IdPlan::DEFAULT,
             tpdo: None,
             rpdo: [None; od::RPDOS as usize],
         }
     }
 
     /// The identifier plan of the value frames, which the PDO COB-IDs (`0x1400`, `0x1800`)
-    /// report ([`IdPlan::DEFAULT`] unless set).
-    pub fn set_id_plan(&mut self, ids: IdPlan) {
-        self.ids = ids;
+    /// report: the node configuration's.
+    pub fn id_plan(&self) -> &IdPlan {
+        &self.store.node.ids
     }
 
     /// The source RPDO `k + 1` carries, and whether the node listens to it: RPDO1 the leader
@@ -591,7 +590,7 @@ impl<const N: usize> Device<N> {
     /// the node does not listen to it.
     fn rpdo_cob_id(&self, k: u8) -> u32 {
         match self.rpdo_source(k) {
-            Some((s, heard)) => match self.ids.value_id(s) {
+            Some((s, heard)) => match self.id_plan().value_id(s) {
                 Some(id) if heard => u32::from(id),
                 Some(id) => COB_ID_INVALID | u32::from(id),
                 None => COB_ID_INVALID,
@@ -602,7 +601,7 @@ impl<const N: usize> Device<N> {
 
     /// The COB-ID entry of TPDO1: the identifier the node's value frames go out on (no RTR).
     fn tpdo_cob_id(&self) -> u32 {
-        match self.ids.value_id(Source::Agent(self.node_id)) {
+        match self.id_plan().value_id(Source::Agent(self.node_id)) {
             Some(id) => COB_ID_NO_RTR | u32::from(id),
             None => COB_ID_INVALID | COB_ID_NO_RTR,
         }
@@ -619,7 +618,7 @@ impl<const N: usize> Device<N> {
         else {
             return;
         };
-        let Some(FrameKind::Value(source)) = self.ids.classify(id) else {
+        let Some(FrameKind::Value(source)) = self.id_plan().classify(id) else {
             return;
         };
         let k = (0..od::RPDOS).find(|&k| {

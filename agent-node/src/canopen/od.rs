@@ -772,6 +772,8 @@ pub fn config_abort(e: &ConfigError, written: Param) -> Abort {
 pub struct NodeSettings {
     /// Node-ID in use (= agent number).
     pub node_id: u8,
+    /// Where the value frames (the PDOs) sit (read only: the PDO COB-IDs report it).
+    pub ids: crate::wire::IdPlan,
     /// Node-ID written and not yet applied (applied by reset node / reset communication).
     pub pending_node_id: u8,
     /// The neighbours heard (read only), `neighbour_count` of them.
@@ -895,6 +897,8 @@ pub struct ParamStore<const N: usize> {
 pub struct NodeIdentity<'a> {
     /// The agent `i` (and CANopen node-ID).
     pub agent: u8,
+    /// Where its value frames (the PDOs) sit.
+    pub ids: crate::wire::IdPlan,
     /// Its neighbours, as many as the node's capacity `K`.
     pub neighbours: &'a [u8],
     /// The stale timeout \[µs\].
@@ -939,6 +943,7 @@ impl<const N: usize> ParamStore<N> {
             sections: Sections::from(*controller),
             node: NodeSettings {
                 node_id: node.agent,
+                ids: node.ids,
                 pending_node_id: node.agent,
                 neighbours,
                 stale_timeout: (node.stale_timeout_us as f64 * 1e-6) as f32,
