@@ -413,6 +413,9 @@ struct CanOpen<const N: usize> {
     /// When the last overrun EMCY went out (they are sent at most once per
     /// [`OVERRUN_EMCY_INHIBIT_US`], carrying the running count).
     last_overrun_emcy_us: Option<u64>,
+    /// A device frame held for the next flush: the CAN controller had a frame of the same
+    /// identifier pending ([`Node::flush_canopen`]).
+    held: Option<CoFrame>,
 }
 
 /// Something the node's CANopen device asks of the application that runs the node.
@@ -1203,6 +1206,7 @@ where
             dirty: false,
             requests: 0,
             last_overrun_emcy_us: None,
+            held: None,
         });
         Ok(())
     }
@@ -1291,12 +1295,42 @@ where
         }
     }
 
-    /// Send what the device queued (heartbeat, boot-up, EMCY, SDO answers).
+    /// Send what the device queued (heartbeat, boot-up, EMCY, SDO answers). A CAN controller
+    /// whose mailbox replaces a pending frame of the same identifier (`transmit` returning it)
+    /// would lose the earlier of two EMCYs of one tick: the earlier goes back into its mailbox
+    /// and the later waits for the next flush, so both go out, in order.
     fn flush_canopen(&mut self) {
-        while let Some(f) = self.canopen.as_mut().and_then(|c| c.device.next_tx()) {
-            if let Some(frame) = f.to_frame::<C::Frame>() {
-                if self.transmit_counted(&frame) {
-                    self.stats.tx_queued = self.stats.tx_queued.saturating_add(1);
+        loop {
+            let Some(c) = &mut self.canopen else {
+                return;
+            };
+            let Some(f) = c.held.take().or_else(|| c.device.next_tx()) else {
+                return;
+            };
+            let Some(frame) = f.to_frame::<C::Frame>() else {
+                continue;
+            };
+            let replaced = match self.can.transmit(&frame) {
+                Ok(replaced) => replaced,
+                Err(nb::Error::WouldBlock) => {
+                    self.stats.tx_busy = self.stats.tx_busy.saturating_add(1);
+                    continue;
+                }
+                Err(nb::Error::Other(_)) => {
+                    self.stats.tx_errors = self.stats.tx_errors.saturating_add(1);
+                    continue;
+                }
+            };
+            self.stats.tx_queued = self.stats.tx_queued.saturating_add(1);
+            let Some(old) = replaced else {
+                continue;
+            };
+            if CoFrame::from_frame(&old).is_some_and(|o| o.id == f.id) {
+                if let Ok(Some(_)) = self.can.transmit(&old) {
+                    if let Some(c) = &mut self.canopen {
+                        c.held = Some(f);
+                    }
+                    return;
                 }
             }
         }

@@ -185,11 +185,17 @@ fn a_lost_consumed_heartbeat_is_its_source_lost_for_the_supervisor() {
 
     // The leader's producer falls silent, its values go on: heartbeat lost (0x8130, node 100),
     // then the safe state with the leader lost (0x8250, lost bit 0).
-    // Both EMCYs leave in one tick, and the mock's mailbox replaces a pending frame of the
-    // same identifier: the bus sees the second, the error field (0x1003) keeps both.
+    // Both EMCYs are raised in one tick; the mock's mailbox replaces a pending frame of the
+    // same identifier, so the second goes out at the next tick.
     let (state, emcy) = run(&mut n, 40, [true, false]);
     assert_eq!(state, NodeState::Safe);
-    assert_eq!(emcy, vec![vec![0x50, 0x82, 0x11, 1, 0b001, 1, 0, 0]]);
+    assert_eq!(
+        emcy,
+        vec![
+            vec![0x30, 0x81, 0x11, 9, 100, 0, 0, 0],
+            vec![0x50, 0x82, 0x11, 1, 0b001, 1, 0, 0],
+        ]
+    );
     assert_eq!(history(&n), [0x8250, 0x8130]);
     assert!(n.supervisor().lost().leader() && !n.supervisor().lost().neighbours());
 
@@ -200,7 +206,13 @@ fn a_lost_consumed_heartbeat_is_its_source_lost_for_the_supervisor() {
     // The neighbour's heartbeat stops, its values go on: the neighbours are lost (bit 1).
     let (state, emcy) = run(&mut n, 40, [false, true]);
     assert_eq!(state, NodeState::Safe);
-    assert_eq!(emcy, vec![vec![0x50, 0x82, 0x11, 1, 0b010, 2, 0, 0]]);
+    assert_eq!(
+        emcy,
+        vec![
+            vec![0x30, 0x81, 0x11, 9, 1, 0, 0, 0],
+            vec![0x50, 0x82, 0x11, 1, 0b010, 2, 0, 0],
+        ]
+    );
     assert_eq!(history(&n), [0x8250, 0x8130]);
     assert!(!n.supervisor().lost().leader() && n.supervisor().lost().neighbours());
 }
