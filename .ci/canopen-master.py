@@ -6,8 +6,9 @@ over vcan0, knowing the node only by docs/agent-node.eds. Run inside the test VM
 
 Checks: boot-up, heartbeat states, an SDO read and write-back of every generated entry the EDS
 lists (0x2000..), a refused out-of-range write (abort 0x06090030, value unchanged), a write
-refused outside pre-operational (0x08000022), NMT start/stop/pre-operational, an EMCY on a
-forced fault (the leader silent: safe state, 0x8250), store -> restart -> the stored value,
+refused outside pre-operational (0x08000022), the PDO mapping read over SDO (TPDO1 = the node's
+value frame, RPDO1 the leader's, RPDO2 its neighbour's) and a value frame decoded by it,
+NMT start/stop/pre-operational, an EMCY on a forced fault (the leader silent: safe state, 0x8250), store -> restart -> the stored value,
 restore -> defaults. Prints a transcript (also written to OUT/transcript.txt); exit status 1 on
 the first failed check.
 """
@@ -154,6 +155,18 @@ pinned = false
                 n_ro += 1
     say(f"{n_rw} writable and {n_ro} read-only entries round-tripped")
 
+    # PDOs: communication and mapping parameters read over SDO (python-canopen's own reader).
+    node.tpdo.read()
+    node.rpdo.read()
+    tpdo = node.tpdo[1]
+    check(tpdo.cob_id == 0x101 + NODE_ID and tpdo.enabled and tpdo.trans_type == 254,
+          f"TPDO1: COB-ID {tpdo.cob_id:#05x} (the value frame), transmission type {tpdo.trans_type}")
+    lengths = [v.length for v in tpdo.map]
+    check(lengths == [24, 6, 1, 1], f"TPDO1 mapping: y, sequence, saturated, no value ({lengths} bits)")
+    check(node.rpdo[1].cob_id == 0x101 and node.rpdo[1].enabled, "RPDO1: the leader's 0x101")
+    check(node.rpdo[2].cob_id == 0x102 and node.rpdo[2].enabled, "RPDO2: neighbour 1's 0x102")
+    check(not node.rpdo[3].enabled, "RPDO3: not in use")
+
     zeta = node.object_dictionary["controller.zeta"].index
     node.sdo[zeta].raw = 0.2
     check(abs(real(zeta) - 0.2) < 1e-7, "controller.zeta := 0.2")
@@ -179,7 +192,7 @@ pinned = false
     node.emcy.reset()
     node.nmt.state = "OPERATIONAL"
     sensor = can.Message(arbitration_id=0x200 + NODE_ID, is_extended_id=False,
-                         data=struct.pack("<ff", 0.0, 0.0))
+                         data=struct.pack("<ff", 0.25, 0.0))
     end = time.monotonic() + 4.0
     while time.monotonic() < end and not any(e.code == 0x8250 for e in node.emcy.log):
         bus.send(sensor)
@@ -193,6 +206,11 @@ pinned = false
     check(0x8250 in field, "pre-defined error field 0x1003 (newest first): "
           + ", ".join(f"{c:#06x}" for c in field))
     say("EMCY log: " + ", ".join(f"{e.code:#06x}" for e in node.emcy.log))
+    # The node's value frame, decoded by the mapping alone: y = x_1 = 0.25 (Q7.16).
+    check(tpdo.wait_for_reception(2) is not None, "TPDO1 received")
+    y, seq, saturated, absent = (v.raw for v in tpdo.map)
+    check(y / 65536 == 0.25 and not saturated and not absent,
+          f"TPDO1 decoded: y = {y / 65536}, sequence {seq}")
     node.nmt.state = "PRE-OPERATIONAL"
     time.sleep(0.3)
 

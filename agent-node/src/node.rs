@@ -145,6 +145,7 @@ impl<const K: usize> NodeConfig<K> {
     pub fn identity(&self) -> NodeIdentity<'_> {
         NodeIdentity {
             agent: self.agent,
+            ids: self.ids,
             neighbours: &self.neighbours,
             stale_timeout_us: self.stale_timeout_us,
             supervisor: self.supervisor,
@@ -412,6 +413,9 @@ struct CanOpen<const N: usize> {
     /// When the last overrun EMCY went out (they are sent at most once per
     /// [`OVERRUN_EMCY_INHIBIT_US`], carrying the running count).
     last_overrun_emcy_us: Option<u64>,
+    /// A device frame held for the next flush: the CAN controller had a frame of the same
+    /// identifier pending ([`Node::flush_canopen`]).
+    held: Option<CoFrame>,
 }
 
 /// Something the node's CANopen device asks of the application that runs the node.
@@ -589,6 +593,15 @@ where
         self.stats.overruns = self.stats.overruns.saturating_add(1);
         self.reported_overruns = self.reported_overruns.saturating_add(1);
         self.overrun_emcy();
+    }
+
+    /// The board saw a fault of its own — the CAN controller recovered from bus-off
+    /// ([`Fault::BusOff`]), received frames were lost ([`Fault::RxOverflow`]), a watchdog
+    /// reset — : an EMCY with `count` (e.g. occurrences since start) when the node is a CANopen
+    /// device, sent at once; nothing otherwise.
+    pub fn report_fault(&mut self, f: Fault, count: u32) {
+        self.emcy(f, count);
+        self.flush_canopen();
     }
 
     /// The board found a fault it cannot recover from: the node latches `Fault` at the next
@@ -919,18 +932,26 @@ where
         if !self.supervised && !self.fault_pending && self.supervisor.state() != NodeState::Boot {
             return;
         }
-        let age = |slot: &Slot| now.saturating_sub(slot.value.map_or(first, |(_, t)| t));
+        // A source whose consumed heartbeat is lost counts as silent for ever, whatever its
+        // value frames (docs/NETWORK.md §12, *Heartbeat*).
+        let age = |slot: &Slot, hb_lost: bool| {
+            if hb_lost {
+                u64::MAX
+            } else {
+                now.saturating_sub(slot.value.map_or(first, |(_, t)| t))
+            }
+        };
         let mut newest: Option<u64> = None;
         let mut oldest: Option<u64> = None;
         for s in self.slots.iter().take(self.count) {
-            let a = age(s);
+            let a = age(s, self.heartbeat_lost(s.agent));
             newest = Some(newest.map_or(a, |n| n.min(a)));
             oldest = Some(oldest.map_or(a, |o| o.max(a)));
         }
         let obs = Observation {
             now_us: now,
             stale_timeout_us: self.timeout_us,
-            leader_age_us: age(&self.leader),
+            leader_age_us: age(&self.leader, self.leader_heartbeat_lost()),
             newest_neighbour_age_us: newest,
             oldest_neighbour_age_us: oldest,
             sensor_ok: x.iter().all(|v| v.is_finite()),
@@ -1135,6 +1156,7 @@ where
         };
         match out {
             TxOutcome::Queued | TxOutcome::Replaced => {
+                self.value_sent(&enc.data);
                 self.stats.tx_queued = self.stats.tx_queued.saturating_add(1);
                 if self.tx_failed {
                     info!("agent {}: transmitting again", self.agent);
@@ -1184,6 +1206,7 @@ where
             dirty: false,
             requests: 0,
             last_overrun_emcy_us: None,
+            held: None,
         });
         Ok(())
     }
@@ -1233,6 +1256,32 @@ where
         self.emcy(Fault::Overrun, self.stats.overruns);
     }
 
+    /// The value frame went out: the device's TPDO1 objects (`0x2200..`) hold it.
+    fn value_sent(&mut self, data: &[u8; wire::PAYLOAD_LEN]) {
+        if let Some(c) = &mut self.canopen {
+            c.device.value_sent(data);
+        }
+    }
+
+    /// The consumed heartbeat (`0x1016`) of `node` is lost.
+    fn heartbeat_lost(&self, node: u8) -> bool {
+        self.canopen
+            .as_ref()
+            .is_some_and(|c| c.device.heartbeat_lost(node))
+    }
+
+    /// A consumed heartbeat of a node that is none of the neighbours is lost: the leader's
+    /// producer (docs/NETWORK.md §12, *Heartbeat*).
+    fn leader_heartbeat_lost(&self) -> bool {
+        let Some(c) = &self.canopen else {
+            return false;
+        };
+        let neighbours = self.slots.get(..self.count).unwrap_or(&[]);
+        c.device
+            .lost_heartbeats()
+            .any(|n| !neighbours.iter().any(|s| s.agent == n))
+    }
+
     /// Report a fault by EMCY when the node is a CANopen device.
     fn emcy(&mut self, f: Fault, count: u32) {
         if let Some(c) = &mut self.canopen {
@@ -1246,12 +1295,42 @@ where
         }
     }
 
-    /// Send what the device queued (heartbeat, boot-up, EMCY, SDO answers).
+    /// Send what the device queued (heartbeat, boot-up, EMCY, SDO answers). A CAN controller
+    /// whose mailbox replaces a pending frame of the same identifier (`transmit` returning it)
+    /// would lose the earlier of two EMCYs of one tick: the earlier goes back into its mailbox
+    /// and the later waits for the next flush, so both go out, in order.
     fn flush_canopen(&mut self) {
-        while let Some(f) = self.canopen.as_mut().and_then(|c| c.device.next_tx()) {
-            if let Some(frame) = f.to_frame::<C::Frame>() {
-                if self.transmit_counted(&frame) {
-                    self.stats.tx_queued = self.stats.tx_queued.saturating_add(1);
+        loop {
+            let Some(c) = &mut self.canopen else {
+                return;
+            };
+            let Some(f) = c.held.take().or_else(|| c.device.next_tx()) else {
+                return;
+            };
+            let Some(frame) = f.to_frame::<C::Frame>() else {
+                continue;
+            };
+            let replaced = match self.can.transmit(&frame) {
+                Ok(replaced) => replaced,
+                Err(nb::Error::WouldBlock) => {
+                    self.stats.tx_busy = self.stats.tx_busy.saturating_add(1);
+                    continue;
+                }
+                Err(nb::Error::Other(_)) => {
+                    self.stats.tx_errors = self.stats.tx_errors.saturating_add(1);
+                    continue;
+                }
+            };
+            self.stats.tx_queued = self.stats.tx_queued.saturating_add(1);
+            let Some(old) = replaced else {
+                continue;
+            };
+            if CoFrame::from_frame(&old).is_some_and(|o| o.id == f.id) {
+                if let Ok(Some(_)) = self.can.transmit(&old) {
+                    if let Some(c) = &mut self.canopen {
+                        c.held = Some(f);
+                    }
+                    return;
                 }
             }
         }
@@ -1425,6 +1504,16 @@ where
     fn emcy_clear(&mut self, _f: Fault) {}
 
     fn overrun_emcy(&mut self) {}
+
+    fn value_sent(&mut self, _data: &[u8; wire::PAYLOAD_LEN]) {}
+
+    fn heartbeat_lost(&self, _node: u8) -> bool {
+        false
+    }
+
+    fn leader_heartbeat_lost(&self) -> bool {
+        false
+    }
 
     fn device_frame(&mut self, _frame: &C::Frame, _now: u64) -> bool {
         false

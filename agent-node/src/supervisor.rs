@@ -44,6 +44,11 @@
 //! | neighbours, [`NeighbourLoss::Any`] | *any* neighbour silent for longer than the timeout | every neighbour fresh |
 //! | sensor (`sensor_timeout`) | read errors or non-finite states for longer than the timeout | a finite read |
 //!
+//! A node that is a CANopen device and consumes heartbeats (`0x1016`) counts a source whose
+//! consumed heartbeat is lost as silent, whatever its values (the node passes it with an
+//! infinite age): a neighbour's node-ID for that neighbour, any other for the leader
+//! (`docs/NETWORK.md` §12, *Consumed heartbeats feed the supervisor*).
+//!
 //! A source without a timeout is not supervised. `All` is the default because one silent
 //! neighbour is already handled by the freshness policy (its value is held); a node that hears
 //! none of its neighbours has nothing left to agree with.

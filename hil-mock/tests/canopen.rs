@@ -1,11 +1,12 @@
 //! The node as a CiA 301 device on mocked hardware: boot-up, outputs only while NMT
 //! operational, SDO writes in pre-operational that the next start applies to the controller,
-//! a refused write, EMCY on a safe-state entry.
+//! a refused write, EMCY on a safe-state entry, a lost consumed heartbeat as a lost source.
 
 mod common;
 
 use agent_node::canopen::{od::PARAM_BASE, Identity};
-use agent_node::{CanFrame, NodeConfig, SupervisorConfig, TxOutcome};
+use agent_node::wire::encode_payload;
+use agent_node::{CanFrame, NodeConfig, NodeState, SupervisorConfig, TxOutcome};
 use common::controller_config;
 use controller_core::Param;
 use embedded_can::{Frame, StandardId};
@@ -134,4 +135,93 @@ fn a_safe_state_entry_sends_an_emcy_and_its_end_an_error_reset() {
         vec![(0x082, vec![0x50, 0x82, 0x11, 1, 0b001, 1, 0, 0])]
     );
     assert_eq!(n.canopen().map(|d| d.error_register()), Some(0x11));
+}
+
+/// A consumed heartbeat (`0x1016`) that is lost counts as its source lost for the supervisor,
+/// whatever the source's value frames do: node 1 (the neighbour) stands for the neighbour,
+/// node 100 (none of the neighbours) for the leader's producer. Back when it returns.
+#[test]
+fn a_lost_consumed_heartbeat_is_its_source_lost_for_the_supervisor() {
+    let sup = SupervisorConfig {
+        leader_timeout_us: Some(10 * MS),
+        neighbour_timeout_us: Some(10 * MS),
+        ..SupervisorConfig::OFF
+    };
+    let mut n = node(sup);
+    tick_at(&mut n, 0);
+    let d = n.canopen_mut().expect("device");
+    d.set_consumer(1, 1, 20).expect("consumer of the neighbour");
+    d.set_consumer(2, 100, 20)
+        .expect("consumer of the leader's producer");
+    send(&mut n, 0x000, &[0x01, 0]);
+    // Values from both sources every ms throughout; heartbeats every 5 ms while `beats` says.
+    let mut t = 0;
+    let mut run = |n: &mut MockNode<2, 2, 4>, ms: u64, beats: [bool; 2]| {
+        let mut emcy = Vec::new();
+        for _ in 0..ms {
+            t += 1;
+            let seq = (t % 64) as u8;
+            send(n, 0x101, &encode_payload(0.1, seq).data);
+            send(n, 0x102, &encode_payload(0.1, seq).data);
+            if t % 5 == 0 {
+                for (node, on) in [(1u16, beats[0]), (100, beats[1])] {
+                    if on {
+                        send(n, 0x700 + node, &[0x05]);
+                    }
+                }
+            }
+            let (_, frames) = tick_at(n, t * MS);
+            emcy.extend(
+                frames
+                    .into_iter()
+                    .filter(|(id, _)| *id == 0x082)
+                    .map(|(_, d)| d),
+            );
+        }
+        (n.state(), emcy)
+    };
+    let (state, emcy) = run(&mut n, 30, [true, true]);
+    assert_eq!((state, emcy), (NodeState::Operational, vec![]));
+
+    // The leader's producer falls silent, its values go on: heartbeat lost (0x8130, node 100),
+    // then the safe state with the leader lost (0x8250, lost bit 0).
+    // Both EMCYs are raised in one tick; the mock's mailbox replaces a pending frame of the
+    // same identifier, so the second goes out at the next tick.
+    let (state, emcy) = run(&mut n, 40, [true, false]);
+    assert_eq!(state, NodeState::Safe);
+    assert_eq!(
+        emcy,
+        vec![
+            vec![0x30, 0x81, 0x11, 9, 100, 0, 0, 0],
+            vec![0x50, 0x82, 0x11, 1, 0b001, 1, 0, 0],
+        ]
+    );
+    assert_eq!(history(&n), [0x8250, 0x8130]);
+    assert!(n.supervisor().lost().leader() && !n.supervisor().lost().neighbours());
+
+    // It comes back: operational again, the error reset once nothing is active.
+    let (state, emcy) = run(&mut n, 10, [true, true]);
+    assert_eq!((state, emcy), (NodeState::Operational, vec![vec![0; 8]]));
+
+    // The neighbour's heartbeat stops, its values go on: the neighbours are lost (bit 1).
+    let (state, emcy) = run(&mut n, 40, [false, true]);
+    assert_eq!(state, NodeState::Safe);
+    assert_eq!(
+        emcy,
+        vec![
+            vec![0x30, 0x81, 0x11, 9, 1, 0, 0, 0],
+            vec![0x50, 0x82, 0x11, 1, 0b010, 2, 0, 0],
+        ]
+    );
+    assert_eq!(history(&n), [0x8250, 0x8130]);
+    assert!(!n.supervisor().lost().leader() && n.supervisor().lost().neighbours());
+}
+
+/// The two newest entries of the pre-defined error field `0x1003`.
+fn history(n: &MockNode<2, 2, 4>) -> [u32; 2] {
+    let d = n.canopen().expect("device");
+    [1, 2].map(|sub| {
+        let v = d.read(0x1003, sub).expect("entry");
+        u32::from_le_bytes(v.as_slice().try_into().expect("4 bytes"))
+    })
 }

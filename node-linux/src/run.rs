@@ -34,7 +34,8 @@ use agent_node::{
 };
 use embedded_can::Frame as _;
 use socketcan::{
-    CanAnyFrame, CanFdFrame, CanFdSocket, CanFilter, CanSocket, Socket, SocketOptions,
+    errors::{ControllerProblems, CAN_ERR_BUSOFF, CAN_ERR_CRTL, CAN_ERR_RESTARTED},
+    CanAnyFrame, CanError, CanFdFrame, CanFdSocket, CanFilter, CanSocket, Socket, SocketOptions,
 };
 
 use crate::config::{CanOpenSection, NodeFile, MAX_NEIGHBOURS, N};
@@ -107,11 +108,82 @@ pub fn on_wire(frame: &impl embedded_can::Frame, fd: bool) -> Option<CanAnyFrame
     }
 }
 
+/// The error classes the bus socket receives as error frames: bus-off, the controller's
+/// restart after it, and the controller's problems (its receive overflow among them).
+pub const ERROR_CLASSES: u32 = CAN_ERR_BUSOFF | CAN_ERR_RESTARTED | CAN_ERR_CRTL;
+
+/// Receive-overflow EMCYs go out at most this often (each carries the running count).
+pub const RX_OVERFLOW_EMCY_INHIBIT: Duration = Duration::from_secs(1);
+
+/// The EMCYs an error frame of the bus socket raises (docs/NETWORK.md §12): the controller's
+/// restart after bus-off (`CAN_ERR_RESTARTED`) is [`Fault::BusOff`] `0x8140` ("recovered from
+/// bus-off": while bus-off nothing can be sent), a receive overflow of the controller
+/// (`CAN_ERR_CRTL` with `CAN_ERR_CRTL_RX_OVERFLOW`) is [`Fault::RxOverflow`] `0x8110`; bus-off
+/// itself, warnings and the rest raise none.
+pub fn faults_of(e: &CanError) -> Vec<Fault> {
+    let mut faults = Vec::new();
+    if e.is_restarted() {
+        faults.push(Fault::BusOff);
+    }
+    if e.controller()
+        .is_some_and(|p| p.contains(ControllerProblems::RX_OVERFLOW))
+    {
+        faults.push(Fault::RxOverflow);
+    }
+    faults
+}
+
 /// The node's bus socket: classical frames, or every frame sent as CAN FD with bit-rate
-/// switching (`fd`); received frames of either kind go to the `Node` as they are.
+/// switching (`fd`); received frames of either kind go to the `Node` as they are, error frames
+/// as receive errors, and the faults they raise wait in [`BusSocket::faults`].
 pub struct BusSocket {
     socket: CanFdSocket,
     fd: bool,
+    faults: CanFaults,
+}
+
+/// Faults raised by the bus socket's error frames, not yet reported, and their counts.
+#[derive(Debug, Default)]
+pub struct CanFaults {
+    raised: Vec<Fault>,
+    /// Bus-off recoveries and receive overflows since start (the EMCYs' counts).
+    bus_offs: u32,
+    rx_overflows: u32,
+    last_overflow_emcy: Option<Instant>,
+}
+
+impl CanFaults {
+    /// An error frame came: keep the faults it raises ([`faults_of`]).
+    pub fn raise(&mut self, e: &CanError) {
+        self.raised.extend(faults_of(e));
+    }
+
+    /// The faults raised since the last call with their counts since start; receive
+    /// overflows at most once per [`RX_OVERFLOW_EMCY_INHIBIT`] (the next one carries the
+    /// overflows in between in its count).
+    pub fn take(&mut self, now: Instant) -> Vec<(Fault, u32)> {
+        let mut out = Vec::new();
+        for f in std::mem::take(&mut self.raised) {
+            match f {
+                Fault::RxOverflow => {
+                    self.rx_overflows = self.rx_overflows.saturating_add(1);
+                    let due = self.last_overflow_emcy.is_none_or(|t| {
+                        now.saturating_duration_since(t) >= RX_OVERFLOW_EMCY_INHIBIT
+                    });
+                    if due {
+                        self.last_overflow_emcy = Some(now);
+                        out.push((f, self.rx_overflows));
+                    }
+                }
+                Fault::BusOff => {
+                    self.bus_offs = self.bus_offs.saturating_add(1);
+                    out.push((f, self.bus_offs));
+                }
+                _ => out.push((f, 0)),
+            }
+        }
+        out
+    }
 }
 
 impl embedded_can::nb::Can for BusSocket {
@@ -119,7 +191,14 @@ impl embedded_can::nb::Can for BusSocket {
     type Error = socketcan::Error;
 
     fn receive(&mut self) -> nb::Result<CanAnyFrame, socketcan::Error> {
-        self.socket.receive()
+        let r = self.socket.receive();
+        if let Err(nb::Error::Other(socketcan::Error::Can(e))) = &r {
+            if e.is_bus_off() {
+                log::warn!("CAN controller bus-off");
+            }
+            self.faults.raise(e);
+        }
+        r
     }
 
     fn transmit(
@@ -287,6 +366,7 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
         plant_block(plant_bus::STATE_BASE),
     ])?;
     bus.set_join_filters(true)?;
+    bus.set_error_filter(ERROR_CLASSES)?;
     bus.set_nonblocking(true)?;
     let plant = open_fd(iface)?;
     let packed_first = if cfg.node.packed_sensors() {
@@ -312,7 +392,11 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
     let mut node: LinuxNode = Node::new(
         &cfg.node_config,
         &cfg.controller,
-        BusSocket { socket: bus, fd },
+        BusSocket {
+            socket: bus,
+            fd,
+            faults: CanFaults::default(),
+        },
         MonoClock(Instant::now(), cfg.node.time_scale),
         BusSensor(io.clone()),
         BusActuator(io.clone()),
@@ -360,6 +444,7 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
         }
         // NMT, SDO and heartbeats go on while the node waits for its host.
         node.service();
+        report_can_faults(&mut node);
         serve_requests(&mut node, cfg);
         std::thread::sleep(Duration::from_micros(200).min(h / 4));
     };
@@ -391,6 +476,7 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
             state.late_ticks = state.late_ticks.saturating_add(1);
         }
         let t = node.tick();
+        report_can_faults(&mut node);
         serve_requests(&mut node, cfg);
         ticks += 1;
         let l = t.output.status.links;
@@ -489,6 +575,16 @@ fn load_store(node: &mut LinuxNode, co: &CanOpenSection) {
     }
 }
 
+/// The faults the bus socket's error frames raised, by EMCY (with a CANopen device; logged
+/// either way).
+fn report_can_faults(node: &mut LinuxNode) {
+    let agent = node.agent();
+    for (f, count) in node.can_mut().faults.take(Instant::now()) {
+        log::warn!("agent {agent}: {f:?} (count {count})");
+        node.report_fault(f, count);
+    }
+}
+
 /// Store, restore and reset-node requests of the CANopen device, against the store file.
 fn serve_requests(node: &mut LinuxNode, cfg: &NodeFile) {
     let Some(co) = &cfg.node.canopen else {
@@ -520,5 +616,66 @@ fn serve_requests(node: &mut LinuxNode, cfg: &NodeFile) {
             },
             CanOpenRequest::ResetNode => load_store(node, co),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use socketcan::CanErrorFrame;
+
+    /// The error a kernel error frame of `class` with `data` decodes to.
+    fn error(class: u32, data: &[u8]) -> CanError {
+        CanErrorFrame::new_error(class, data)
+            .expect("error frame")
+            .into_error()
+    }
+
+    #[test]
+    fn error_frames_raise_bus_off_at_the_restart_and_receive_overflow() {
+        let rx_overflow = ControllerProblems::RX_OVERFLOW.bits();
+        let tx_warning = ControllerProblems::TX_WARNING.bits();
+        assert_eq!(faults_of(&error(CAN_ERR_RESTARTED, &[])), [Fault::BusOff]);
+        assert_eq!(
+            faults_of(&error(CAN_ERR_CRTL, &[0, rx_overflow])),
+            [Fault::RxOverflow]
+        );
+        assert_eq!(
+            faults_of(&error(
+                CAN_ERR_RESTARTED | CAN_ERR_CRTL,
+                &[0, rx_overflow | tx_warning]
+            )),
+            [Fault::BusOff, Fault::RxOverflow]
+        );
+        // Bus-off itself (nothing can be sent then), a warning, a transmit overflow: none.
+        assert_eq!(faults_of(&error(CAN_ERR_BUSOFF, &[])), []);
+        assert_eq!(faults_of(&error(CAN_ERR_CRTL, &[0, tx_warning])), []);
+        let tx_overflow = ControllerProblems::TX_OVERFLOW.bits();
+        assert_eq!(faults_of(&error(CAN_ERR_CRTL, &[0, tx_overflow])), []);
+        // Every class the mapping reads is one the socket asks for.
+        for class in [CAN_ERR_RESTARTED, CAN_ERR_CRTL] {
+            assert_eq!(ERROR_CLASSES & class, class);
+        }
+    }
+
+    #[test]
+    fn receive_overflow_emcys_are_inhibited_and_carry_the_count() {
+        let overflow = error(CAN_ERR_CRTL, &[0, ControllerProblems::RX_OVERFLOW.bits()]);
+        let restart = error(CAN_ERR_RESTARTED, &[]);
+        let mut f = CanFaults::default();
+        let t0 = Instant::now();
+        f.raise(&overflow);
+        f.raise(&restart);
+        assert_eq!(f.take(t0), [(Fault::RxOverflow, 1), (Fault::BusOff, 1)]);
+        f.raise(&overflow);
+        f.raise(&overflow);
+        assert_eq!(f.take(t0 + Duration::from_millis(500)), []);
+        f.raise(&overflow);
+        f.raise(&restart);
+        assert_eq!(
+            f.take(t0 + RX_OVERFLOW_EMCY_INHIBIT),
+            [(Fault::RxOverflow, 4), (Fault::BusOff, 2)]
+        );
+        assert_eq!(f.take(t0 + 2 * RX_OVERFLOW_EMCY_INHIBIT), []);
     }
 }

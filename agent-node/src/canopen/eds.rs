@@ -9,14 +9,16 @@ use core::fmt::{self, Write};
 
 use controller_core::param::Range;
 
-use super::od::{DataType, Item, Kind, Object, Value, OBJECTS};
+use super::od::{self, DataType, Item, Kind, Object, Value, OBJECTS};
 use super::{Device, DEVICE_NAME};
 
-fn hex_id(item: Item, sub: u8) -> Option<u16> {
+/// The base `b` of an entry written `$NODEID+b` (a COB-ID that follows the node-ID).
+fn hex_id<const N: usize>(d: &Device<N>, item: Item, sub: u8) -> Option<u32> {
     match (item, sub) {
         (Item::EmcyCobId, _) => Some(0x80),
         (Item::SdoServer, 1) => Some(0x600),
         (Item::SdoServer, 2) => Some(0x580),
+        (Item::TpdoComm, 1) => Some(od::COB_ID_NO_RTR | u32::from(d.id_plan().value_base())),
         _ => None,
     }
 }
@@ -124,7 +126,7 @@ fn var<W: Write, const N: usize>(
     writeln!(w, "ObjectType=0x7")?;
     writeln!(w, "DataType=0x{:04X}", t.code())?;
     writeln!(w, "AccessType={access}")?;
-    if let Some(base) = hex_id(o.item, sub) {
+    if let Some(base) = hex_id(d, o.item, sub) {
         writeln!(w, "DefaultValue=$NODEID+0x{base:X}")?;
     } else if let Ok(bytes) = d.read(o.index, sub) {
         w.write_str("DefaultValue=")?;
@@ -137,7 +139,9 @@ fn var<W: Write, const N: usize>(
             writeln!(w, "HighLimit=0x{hi:X}")?;
         }
     }
-    writeln!(w, "PDOMapping={}", u8::from(o.pdo))?;
+    // Sub-index 0 of an array (its length) is never mapped.
+    let mappable = o.pdo && (sub > 0 || o.kind == Kind::Var);
+    writeln!(w, "PDOMapping={}", u8::from(mappable))?;
     writeln!(w)
 }
 
@@ -194,7 +198,7 @@ fn object<W: Write, const N: usize>(w: &mut W, d: &Device<N>, o: &Object) -> fmt
                     format_args!("{:04X}sub{sub:X}", o.index),
                     super::od::sub_name(o, sub),
                     sub,
-                    o.data_type,
+                    od::sub_data_type(o, sub),
                     access,
                 )?;
             }
@@ -246,11 +250,12 @@ pub fn write_eds<W: Write, const N: usize>(
     }
     writeln!(w, "SimpleBootUpMaster=0")?;
     writeln!(w, "SimpleBootUpSlave=1")?;
-    writeln!(w, "Granularity=0")?;
+    // PDOs map fields bit by bit (the value frame's 6-bit counter and 1-bit flags).
+    writeln!(w, "Granularity=1")?;
     writeln!(w, "DynamicChannelsSupported=0")?;
     writeln!(w, "GroupMessaging=0")?;
-    writeln!(w, "NrOfRXPDO=0")?;
-    writeln!(w, "NrOfTXPDO=0")?;
+    writeln!(w, "NrOfRXPDO={}", od::RPDOS)?;
+    writeln!(w, "NrOfTXPDO=1")?;
     writeln!(w, "LSS_Supported=0")?;
     writeln!(w)?;
     writeln!(w, "[DummyUsage]")?;

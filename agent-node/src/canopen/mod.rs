@@ -7,7 +7,8 @@
 //! The device sees frames as `(identifier, data)` ([`Device::on_frame`]), is advanced by
 //! [`Device::tick`] with the clock, and hands back frames to send ([`Device::next_tx`]) and
 //! events for the application ([`Device::next_event`]): NMT changes, resets, SYNC, store and
-//! restore requests, heartbeats lost and back.
+//! restore requests, heartbeats lost and back. Its PDOs are the node's value frames, described
+//! read-only by `0x1400`–`0x1A00` and kept field by field in `0x2200`–`0x2213` ([`od`]).
 //!
 //! ## Identifiers (predefined connection set, node-ID `id` in `1..=127`)
 //!
@@ -16,14 +17,20 @@
 //! | NMT (master → all) | `0x000` | command specifier, node-ID (0: all) |
 //! | SYNC | `0x080` | none |
 //! | EMCY | `0x080 + id` | error code (u16 LE), error register, 5 bytes [`Fault::info`] |
-//! | TPDO`k` / RPDO`k` | `0x080 + 0x100 k + id` / `0x100 + 0x100 k + id` | [`crate::wire`] |
+//! | TPDO`k` / RPDO`k` (predefined) | `0x080 + 0x100 k + id` / `0x100 + 0x100 k + id` | – |
+//! | TPDO1 / RPDO1–17 of this device | the value frames' identifiers of its `IdPlan` ([`od`], *PDO mapping*) | [`crate::wire`] |
 //! | SDO server → client / client → server | `0x580 + id` / `0x600 + id` | 8 bytes |
 //! | heartbeat, boot-up | `0x700 + id` | NMT state: `0x00` boot-up, `0x04` stopped, `0x05` operational, `0x7F` pre-operational |
 
 pub mod eds;
 pub mod od;
 
-use od::{find, Access, DataType, Item, Kind, Object, ParamStore, Value, OBJECTS};
+use od::{
+    find, Access, DataType, Field, Item, Kind, Object, ParamStore, Value, COB_ID_INVALID,
+    COB_ID_NO_RTR, OBJECTS,
+};
+
+use crate::wire::{FrameKind, IdPlan, Source, PAYLOAD_LEN};
 
 /// NMT command identifier.
 pub const NMT_ID: u16 = 0x000;
@@ -525,6 +532,10 @@ pub struct Device<const N: usize> {
     tx: Fifo<CoFrame, 16>,
     events: Fifo<Event, 16>,
     now_us: u64,
+    /// The node's last value frame sent (TPDO1).
+    tpdo: Option<[u8; PAYLOAD_LEN]>,
+    /// The last value frame of each RPDO received in operational.
+    rpdo: [Option<[u8; PAYLOAD_LEN]>; od::RPDOS as usize],
 }
 
 impl<const N: usize> Device<N> {
@@ -550,6 +561,83 @@ impl<const N: usize> Device<N> {
             tx: Fifo::new(),
             events: Fifo::new(),
             now_us: 0,
+            tpdo: None,
+            rpdo: [None; od::RPDOS as usize],
+        }
+    }
+
+    /// The identifier plan of the value frames, which the PDO COB-IDs (`0x1400`, `0x1800`)
+    /// report: the node configuration's.
+    pub fn id_plan(&self) -> &IdPlan {
+        &self.store.node.ids
+    }
+
+    /// The source RPDO `k + 1` carries, and whether the node listens to it: RPDO1 the leader
+    /// (heard when the agent is pinned or supervises the leader), RPDO `k + 1` neighbour slot
+    /// `k` (heard for `k <= neighbour_count`).
+    pub fn rpdo_source(&self, k: u8) -> Option<(Source, bool)> {
+        let agent = &self.store.sections.agent;
+        if k == 0 {
+            let heard = agent.pinned || self.store.node.supervisor.leader_timeout_us.is_some();
+            return Some((Source::Leader, heard));
+        }
+        let slot = usize::from(k - 1);
+        let n = *self.store.node.neighbours.get(slot)?;
+        Some((Source::Agent(n), slot < agent.neighbour_count))
+    }
+
+    /// The COB-ID entry of RPDO `k + 1`: the plan's identifier of its source, bit 31 set when
+    /// the node does not listen to it.
+    fn rpdo_cob_id(&self, k: u8) -> u32 {
+        match self.rpdo_source(k) {
+            Some((s, heard)) => match self.id_plan().value_id(s) {
+                Some(id) if heard => u32::from(id),
+                Some(id) => COB_ID_INVALID | u32::from(id),
+                None => COB_ID_INVALID,
+            },
+            None => COB_ID_INVALID,
+        }
+    }
+
+    /// The COB-ID entry of TPDO1: the identifier the node's value frames go out on (no RTR).
+    fn tpdo_cob_id(&self) -> u32 {
+        match self.id_plan().value_id(Source::Agent(self.node_id)) {
+            Some(id) => COB_ID_NO_RTR | u32::from(id),
+            None => COB_ID_INVALID | COB_ID_NO_RTR,
+        }
+    }
+
+    /// The node sent its value frame (TPDO1) with these bytes: `0x2200..` read them.
+    pub fn value_sent(&mut self, data: &[u8; PAYLOAD_LEN]) {
+        self.tpdo = Some(*data);
+    }
+
+    /// A value frame on an RPDO the node listens to, in operational: kept for `0x2210..`.
+    fn receive_pdo(&mut self, id: u16, data: &[u8]) {
+        let (NmtState::Operational, Ok(bytes)) = (self.nmt, <[u8; PAYLOAD_LEN]>::try_from(data))
+        else {
+            return;
+        };
+        let Some(FrameKind::Value(source)) = self.id_plan().classify(id) else {
+            return;
+        };
+        let k = (0..od::RPDOS).find(|&k| {
+            self.rpdo_source(k)
+                .is_some_and(|(s, heard)| heard && s == source)
+        });
+        if let Some(slot) = k.and_then(|k| self.rpdo.get_mut(usize::from(k))) {
+            *slot = Some(bytes);
+        }
+    }
+
+    /// A field of a value frame as its object reads: before any frame, a frame flagged
+    /// `NO_VALUE` (nothing received, as the wire format defines it).
+    fn field_value(frame: Option<[u8; PAYLOAD_LEN]>, f: Field) -> Value {
+        let frame = frame.unwrap_or(crate::wire::encode_payload(f32::NAN, 0).data);
+        let raw = f.extract(&frame);
+        match f.data_type() {
+            DataType::Boolean => Value::Bool(raw != 0),
+            _ => Value::Unsigned(raw),
         }
     }
 
@@ -596,6 +684,8 @@ impl<const N: usize> Device<N> {
         self.store.node.node_id = self.node_id;
         self.nmt = NmtState::Initialising;
         self.transfer = Transfer::Idle;
+        self.tpdo = None;
+        self.rpdo = [None; od::RPDOS as usize];
         self.send(heartbeat_id(self.node_id), &[NmtState::Initialising.code()]);
         self.next_heartbeat_us = None;
         let state = if self.self_starting {
@@ -661,6 +751,8 @@ impl<const N: usize> Device<N> {
             self.consume_heartbeat(node, data.first().copied(), now_us);
             return true;
         }
+        // A value frame stays the application's (`false`); the device keeps a copy.
+        self.receive_pdo(id, data);
         false
     }
 
@@ -705,6 +797,21 @@ impl<const N: usize> Device<N> {
                 self.clear(Fault::HeartbeatLost(n));
             }
         }
+    }
+
+    /// The consumed heartbeat (`0x1016`) of `node` timed out and has not come back.
+    pub fn heartbeat_lost(&self, node: u8) -> bool {
+        self.consumers
+            .iter()
+            .any(|c| c.lost && c.time_us() > 0 && c.node() == node)
+    }
+
+    /// The node-IDs whose consumed heartbeat is lost.
+    pub fn lost_heartbeats(&self) -> impl Iterator<Item = u8> + '_ {
+        self.consumers
+            .iter()
+            .filter(|c| c.lost && c.time_us() > 0)
+            .map(Consumer::node)
     }
 
     /// The last NMT state heard from a consumed node.
@@ -1053,8 +1160,25 @@ impl<const N: usize> Device<N> {
             })),
             Item::Param(p) => self.store.read_param(p, sub).ok_or(Abort::NoSubIndex),
             Item::Setting(s) => Ok(self.store.read_setting(s)),
+            Item::RpdoComm(k) if sub == 1 => u(self.rpdo_cob_id(k)),
+            Item::TpdoComm if sub == 1 => u(self.tpdo_cob_id()),
+            Item::RpdoComm(_) | Item::TpdoComm => u(u32::from(od::PDO_TRANSMISSION_TYPE)),
+            Item::RpdoMap(k) => Field::ALL
+                .get(usize::from(sub).wrapping_sub(1))
+                .map(|f| Value::Unsigned(f.mapping(od::RX_VALUE_BASE + f.position(), k + 1)))
+                .ok_or(Abort::NoSubIndex),
+            Item::TpdoMap => Field::ALL
+                .get(usize::from(sub).wrapping_sub(1))
+                .map(|f| Value::Unsigned(f.mapping(od::TX_VALUE_BASE + f.position(), 0)))
+                .ok_or(Abort::NoSubIndex),
+            Item::TxValue(f) => Ok(Self::field_value(self.tpdo, f)),
+            Item::RxValue(f) => self
+                .rpdo
+                .get(usize::from(sub).wrapping_sub(1))
+                .map(|r| Self::field_value(*r, f))
+                .ok_or(Abort::NoSubIndex),
         }?;
-        Ok(v.encode(o.data_type))
+        Ok(v.encode(od::sub_data_type(o, sub)))
     }
 
     fn check_write(&self, index: u16, sub: u8) -> Result<&'static Object, Abort> {

@@ -5,8 +5,26 @@
 //! | index | object |
 //! |---|---|
 //! | `0x1000`–`0x1200` | communication profile (CiA 301 §7.5): device type, error register, pre-defined error field, COB-IDs, names, store/restore, heartbeat, identity, SDO server |
+//! | `0x1400 + k`, `0x1600 + k` | RPDO `k + 1` communication and mapping parameters ([`RPDOS`]: the leader's value frame, then one per neighbour slot) |
+//! | `0x1800`, `0x1A00` | TPDO1 communication and mapping parameters: the node's own value frame |
 //! | `0x2000 + k` | `controller_core::param::Param::ALL[k]`, named by its scenario key |
 //! | `0x2100 + k` | [`Setting::ALL`]`[k]`: the node's own settings |
+//! | `0x2200`–`0x2203` | the node's own value frame, field by field ([`Field`]; TPDO1 maps them) |
+//! | `0x2210`–`0x2213` | the value frames heard, field by field, sub-index `k + 1` = RPDO `k + 1` |
+//!
+//! ## PDO mapping
+//!
+//! The value frames of `crate::wire` are the PDOs, with the identifiers of the node's
+//! `IdPlan` (not the predefined connection set's `0x180 + id`): the COB-IDs and the mapping are
+//! read-only, as the node cannot move them. Every value frame (4 bytes) maps the same four
+//! fields, bit by bit (granularity 1), least significant bit first:
+//!
+//! | bits | field | object (own / heard `k`) | type, mapped length |
+//! |---|---|---|---|
+//! | 0–23 | `y`, Q7.16 (`y = raw / 65536`) | `0x2200` / `0x2210` sub `k` | `INTEGER24`, 24 |
+//! | 24–29 | sequence counter (mod 64) | `0x2201` / `0x2211` sub `k` | `UNSIGNED8`, 6 |
+//! | 30 | saturated | `0x2202` / `0x2212` sub `k` | `BOOLEAN`, 1 |
+//! | 31 | no value (NaN or ±∞ sent) | `0x2203` / `0x2213` sub `k` | `BOOLEAN`, 1 |
 //!
 //! The manufacturer entries are generated from `controller_core::param` by a `const fn`: a new
 //! [`Param`] gets its object without an edit here. A per-step parameter is an `ARRAY`
@@ -35,6 +53,104 @@ pub const ERROR_HISTORY: u8 = 8;
 pub const PARAM_BASE: u16 = 0x2000;
 /// First index of the node's settings.
 pub const SETTING_BASE: u16 = 0x2100;
+/// RPDOs: the leader's value frame (RPDO1), then one per neighbour slot.
+pub const RPDOS: u8 = 1 + MAX_NEIGHBOURS as u8;
+/// First RPDO communication parameter.
+pub const RPDO_COMM_BASE: u16 = 0x1400;
+/// First RPDO mapping parameter.
+pub const RPDO_MAP_BASE: u16 = 0x1600;
+/// TPDO1 communication parameter.
+pub const TPDO_COMM: u16 = 0x1800;
+/// TPDO1 mapping parameter.
+pub const TPDO_MAP: u16 = 0x1A00;
+/// First object of the node's own value frame (one per [`Field`]).
+pub const TX_VALUE_BASE: u16 = 0x2200;
+/// First object of the value frames heard (one `ARRAY` per [`Field`], one sub-index per RPDO).
+pub const RX_VALUE_BASE: u16 = 0x2210;
+/// Transmission type of every PDO: 254, event-driven (manufacturer-specific): a value frame
+/// goes out once per sample of the node's own clock and is used at the receiver's next sample.
+pub const PDO_TRANSMISSION_TYPE: u8 = 0xFE;
+/// COB-ID bit 31: the PDO is not valid (not in use).
+pub const COB_ID_INVALID: u32 = 1 << 31;
+/// COB-ID bit 30: no RTR allowed on this PDO.
+pub const COB_ID_NO_RTR: u32 = 1 << 30;
+
+/// One field of a value frame (`crate::wire`), as the PDOs map it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Field {
+    /// `y` in Q7.16, 24 bits two's complement.
+    Y,
+    /// Sequence counter, modulo 64: 6 bits.
+    Sequence,
+    /// `SATURATED`: 1 bit.
+    Saturated,
+    /// `NO_VALUE`: 1 bit.
+    NoValue,
+}
+
+impl Field {
+    /// The fields in frame order (least significant bit first).
+    pub const ALL: [Self; 4] = [Self::Y, Self::Sequence, Self::Saturated, Self::NoValue];
+
+    /// Bits the field takes in the frame (the mapped length).
+    pub const fn bits(self) -> u8 {
+        match self {
+            Self::Y => 8 * (crate::wire::PAYLOAD_LEN as u8 - 1),
+            Self::Sequence => crate::wire::SEQ_MODULUS.trailing_zeros() as u8,
+            Self::Saturated | Self::NoValue => 1,
+        }
+    }
+
+    /// First bit of the field in the frame.
+    pub const fn offset(self) -> u8 {
+        let mut off = 0;
+        let mut k = 0;
+        while k < Self::ALL.len() {
+            if Self::ALL[k] as u8 == self as u8 {
+                break;
+            }
+            off += Self::ALL[k].bits();
+            k += 1;
+        }
+        off
+    }
+
+    /// Position in [`Self::ALL`].
+    pub const fn position(self) -> u16 {
+        self as u16
+    }
+
+    /// The object's data type.
+    pub const fn data_type(self) -> DataType {
+        match self {
+            Self::Y => DataType::Integer24,
+            Self::Sequence => DataType::Unsigned8,
+            Self::Saturated | Self::NoValue => DataType::Boolean,
+        }
+    }
+
+    /// `ParameterName` of its objects.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::Y => "Value y (Q7.16, y = raw / 65536)",
+            Self::Sequence => "Value sequence counter (mod 64)",
+            Self::Saturated => "Value saturated",
+            Self::NoValue => "Value absent (NaN or infinite sent)",
+        }
+    }
+
+    /// The field of a 4-byte value frame (the raw bits, `y` as its 24-bit pattern).
+    pub fn extract(self, frame: &[u8; crate::wire::PAYLOAD_LEN]) -> u32 {
+        let all = u32::from_le_bytes(*frame);
+        (all >> self.offset()) & ((1u32 << self.bits()) - 1)
+    }
+
+    /// The CiA 301 mapping entry of this field in object `index`, sub-index `sub`:
+    /// `index << 16 | sub << 8 | bits`.
+    pub const fn mapping(self, index: u16, sub: u8) -> u32 {
+        (index as u32) << 16 | (sub as u32) << 8 | self.bits() as u32
+    }
+}
 
 /// CiA 301 data types (the EDS `DataType` codes).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -47,6 +163,8 @@ pub enum DataType {
     Unsigned16,
     /// `UNSIGNED32` (0x0007).
     Unsigned32,
+    /// `INTEGER24` (0x0010), two's complement (a value frame's `y`).
+    Integer24,
     /// `REAL32` (0x0008), IEEE 754 single precision.
     Real32,
     /// `VISIBLE_STRING` (0x0009).
@@ -61,6 +179,7 @@ impl DataType {
             Self::Unsigned8 => 0x0005,
             Self::Unsigned16 => 0x0006,
             Self::Unsigned32 => 0x0007,
+            Self::Integer24 => 0x0010,
             Self::Real32 => 0x0008,
             Self::VisibleString => 0x0009,
         }
@@ -71,6 +190,7 @@ impl DataType {
         match self {
             Self::Boolean | Self::Unsigned8 => Some(1),
             Self::Unsigned16 => Some(2),
+            Self::Integer24 => Some(3),
             Self::Unsigned32 | Self::Real32 => Some(4),
             Self::VisibleString => None,
         }
@@ -253,6 +373,18 @@ pub enum Item {
     Identity,
     /// `0x1200` SDO server parameter.
     SdoServer,
+    /// `0x1400 + k`: RPDO `k + 1` communication parameter.
+    RpdoComm(u8),
+    /// `0x1600 + k`: RPDO `k + 1` mapping parameter.
+    RpdoMap(u8),
+    /// `0x1800`: TPDO1 communication parameter.
+    TpdoComm,
+    /// `0x1A00`: TPDO1 mapping parameter.
+    TpdoMap,
+    /// `0x2200 + f`: a field of the node's own value frame.
+    TxValue(Field),
+    /// `0x2210 + f`: a field of the value frames heard (sub-index `k + 1`: RPDO `k + 1`).
+    RxValue(Field),
     /// A controller parameter.
     Param(Param),
     /// A node setting.
@@ -456,8 +588,83 @@ const fn setting_object(k: usize, s: Setting) -> Object {
     }
 }
 
+/// A read-only record of the PDO communication or mapping parameters.
+const fn pdo_record(index: u16, name: &'static str, len: u8, item: Item) -> Object {
+    comm(
+        index,
+        name,
+        Kind::Record { len },
+        DataType::Unsigned32,
+        Access::ReadOnly,
+        item,
+    )
+}
+
+/// The PDO parameters, in index order: RPDO communication, RPDO mapping, TPDO1.
+const PDO_COUNT: usize = 2 * RPDOS as usize + 2;
+
+const fn pdo_objects() -> [Object; PDO_COUNT] {
+    let fields = Field::ALL.len() as u8;
+    let mut t = [pdo_record(TPDO_COMM, "", 0, Item::TpdoComm); PDO_COUNT];
+    let mut k = 0;
+    while k < RPDOS as usize {
+        t[k] = pdo_record(
+            RPDO_COMM_BASE + k as u16,
+            "RPDO communication parameter",
+            2,
+            Item::RpdoComm(k as u8),
+        );
+        t[RPDOS as usize + k] = pdo_record(
+            RPDO_MAP_BASE + k as u16,
+            "RPDO mapping parameter",
+            fields,
+            Item::RpdoMap(k as u8),
+        );
+        k += 1;
+    }
+    t[PDO_COUNT - 2] = pdo_record(TPDO_COMM, "TPDO communication parameter", 2, Item::TpdoComm);
+    t[PDO_COUNT - 1] = pdo_record(TPDO_MAP, "TPDO mapping parameter", fields, Item::TpdoMap);
+    t
+}
+
+/// The process-data objects of the value frames: own fields, then the heard ones.
+const VALUE_COUNT: usize = 2 * Field::ALL.len();
+
+const fn value_objects() -> [Object; VALUE_COUNT] {
+    let n = Field::ALL.len();
+    let mut t = [COMM[0]; VALUE_COUNT];
+    let mut k = 0;
+    while k < n {
+        let f = Field::ALL[k];
+        t[k] = Object {
+            index: TX_VALUE_BASE + k as u16,
+            name: f.name(),
+            kind: Kind::Var,
+            data_type: f.data_type(),
+            access: Access::ReadOnly,
+            item: Item::TxValue(f),
+            pdo: true,
+        };
+        t[n + k] = Object {
+            index: RX_VALUE_BASE + k as u16,
+            name: f.name(),
+            kind: Kind::Array { len: RPDOS },
+            data_type: f.data_type(),
+            access: Access::ReadOnly,
+            item: Item::RxValue(f),
+            pdo: true,
+        };
+        k += 1;
+    }
+    t
+}
+
+const PDO_OBJECTS: [Object; PDO_COUNT] = pdo_objects();
+const VALUE_OBJECTS: [Object; VALUE_COUNT] = value_objects();
+
 /// Objects in the dictionary.
-pub const OBJECT_COUNT: usize = COMM.len() + Param::ALL.len() + Setting::ALL.len();
+pub const OBJECT_COUNT: usize =
+    COMM.len() + PDO_COUNT + Param::ALL.len() + Setting::ALL.len() + VALUE_COUNT;
 
 const fn build() -> [Object; OBJECT_COUNT] {
     let mut t = [COMM[0]; OBJECT_COUNT];
@@ -467,6 +674,12 @@ const fn build() -> [Object; OBJECT_COUNT] {
         k += 1;
     }
     let mut j = 0;
+    while j < PDO_COUNT {
+        t[k] = PDO_OBJECTS[j];
+        k += 1;
+        j += 1;
+    }
+    j = 0;
     while j < Param::ALL.len() {
         t[k] = param_object(j, Param::ALL[j]);
         k += 1;
@@ -478,11 +691,18 @@ const fn build() -> [Object; OBJECT_COUNT] {
         k += 1;
         j += 1;
     }
+    j = 0;
+    while j < VALUE_COUNT {
+        t[k] = VALUE_OBJECTS[j];
+        k += 1;
+        j += 1;
+    }
     t
 }
 
-/// The object dictionary, sorted by index: `COMM` entries, then one object per
-/// [`Param::ALL`] entry, then one per [`Setting::ALL`] entry.
+/// The object dictionary, sorted by index: `COMM` entries, the PDO parameters, then one
+/// object per [`Param::ALL`] entry, one per [`Setting::ALL`] entry, and the value frames'
+/// process data.
 pub static OBJECTS: [Object; OBJECT_COUNT] = build();
 
 /// The object at `index`.
@@ -508,7 +728,22 @@ pub fn sub_name(o: &Object, sub: u8) -> &'static str {
         (Item::HeartbeatConsumer, _) => "Consumer heartbeat time",
         (Item::ErrorField, _) => "Standard error field",
         (Item::Param(Param::Neighbours), _) => "Neighbour",
+        (Item::RpdoComm(_) | Item::TpdoComm, 1) => "COB-ID used by PDO",
+        (Item::RpdoComm(_) | Item::TpdoComm, _) => "Transmission type",
+        (Item::RpdoMap(_) | Item::TpdoMap, _) => "Mapped object",
+        (Item::RxValue(_), 1) => "Leader (RPDO1)",
+        (Item::RxValue(_), _) => "Neighbour slot (RPDO 2..)",
         _ => "Step",
+    }
+}
+
+/// Type of sub-index `sub` (`> 0`) of `o`: a PDO's transmission type is `UNSIGNED8`, every
+/// other entry the object's [`Object::data_type`].
+pub fn sub_data_type(o: &Object, sub: u8) -> DataType {
+    match (o.item, sub) {
+        (_, 0) if o.kind != Kind::Var => DataType::Unsigned8,
+        (Item::RpdoComm(_) | Item::TpdoComm, 2) => DataType::Unsigned8,
+        _ => o.data_type,
     }
 }
 
@@ -537,6 +772,8 @@ pub fn config_abort(e: &ConfigError, written: Param) -> Abort {
 pub struct NodeSettings {
     /// Node-ID in use (= agent number).
     pub node_id: u8,
+    /// Where the value frames (the PDOs) sit (read only: the PDO COB-IDs report it).
+    pub ids: crate::wire::IdPlan,
     /// Node-ID written and not yet applied (applied by reset node / reset communication).
     pub pending_node_id: u8,
     /// The neighbours heard (read only), `neighbour_count` of them.
@@ -660,6 +897,8 @@ pub struct ParamStore<const N: usize> {
 pub struct NodeIdentity<'a> {
     /// The agent `i` (and CANopen node-ID).
     pub agent: u8,
+    /// Where its value frames (the PDOs) sit.
+    pub ids: crate::wire::IdPlan,
     /// Its neighbours, as many as the node's capacity `K`.
     pub neighbours: &'a [u8],
     /// The stale timeout \[µs\].
@@ -704,6 +943,7 @@ impl<const N: usize> ParamStore<N> {
             sections: Sections::from(*controller),
             node: NodeSettings {
                 node_id: node.agent,
+                ids: node.ids,
                 pending_node_id: node.agent,
                 neighbours,
                 stale_timeout: (node.stale_timeout_us as f64 * 1e-6) as f32,

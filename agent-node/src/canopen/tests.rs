@@ -3,6 +3,7 @@
 use super::od::{ParamStore, OBJECTS, PARAM_BASE, SETTING_BASE};
 use super::*;
 use crate::node::NodeConfig;
+use crate::wire::{IdPlan, Source};
 use controller_core::{ControllerConfig, Param};
 
 const ID: u8 = 3;
@@ -426,6 +427,13 @@ fn eds_lists_every_object_with_name_and_access() {
     let a_check = format!("[{:04X}sub2]\n", param_index(Param::ACheck));
     assert!(s.contains(&a_check));
     assert!(!s.contains(&format!("[{:04X}sub3]\n", param_index(Param::ACheck))));
+    // The PDOs: 17 receive, 1 transmit, mapped bit by bit; TPDO1 on the value frame's id.
+    for line in ["Granularity=1\n", "NrOfRXPDO=17\n", "NrOfTXPDO=1\n"] {
+        assert!(s.contains(line), "{line}");
+    }
+    assert!(s.contains("[1800sub1]\nParameterName=COB-ID used by PDO\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue=$NODEID+0x40000101\n"));
+    assert!(s.contains("[1A00sub1]\nParameterName=Mapped object\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue=0x22000018\n"));
+    assert!(s.contains("[2200]\nParameterName=Value y (Q7.16, y = raw / 65536)\nObjectType=0x7\nDataType=0x0010\nAccessType=ro\n"));
 }
 
 #[test]
@@ -478,4 +486,113 @@ fn a_monitor_decodes_nmt_emcy_sdo_and_heartbeat() {
     // A value frame and the project's own heartbeat are not CANopen messages.
     assert_eq!(decode(0x103, &[0; 4]), None);
     assert_eq!(decode(0x782, &[0; 8]), None);
+}
+
+fn u32_at(r: [u8; 8]) -> u32 {
+    u32::from_le_bytes([r[4], r[5], r[6], r[7]])
+}
+
+/// The mapping of a PDO as a master reads it over SDO: `(index, sub-index, bits)` entries.
+fn mapping_over_sdo(d: &mut Device<2>, index: u16) -> Vec<(u16, u8, u8)> {
+    let n = upload(d, index, 0)[4];
+    (1..=n)
+        .map(|s| {
+            let v = u32_at(upload(d, index, s));
+            ((v >> 16) as u16, (v >> 8) as u8, v as u8)
+        })
+        .collect()
+}
+
+/// `bits` bits of `frame` from bit `offset` (least significant first), as CiA 301 packs a PDO.
+fn bits_of(frame: &[u8], offset: u32, bits: u32) -> u32 {
+    let mut all = [0u8; 8];
+    all[..frame.len()].copy_from_slice(frame);
+    ((u64::from_le_bytes(all) >> offset) & ((1u64 << bits) - 1)) as u32
+}
+
+/// A value frame decoded by nothing but the mapping read over SDO agrees with the wire codec,
+/// and the mapped objects read over SDO hold what the frame carried.
+#[test]
+fn value_frames_decode_by_the_pdo_mapping_read_over_sdo() {
+    let mut d = device();
+    let _ = frames(&mut d);
+    let plan = IdPlan::DEFAULT;
+    let id_of = |s| u32::from(plan.value_id(s).expect("in plan"));
+    // TPDO1: the identifier the node sends on, valid, no RTR; event-driven.
+    assert_eq!(
+        u32_at(upload(&mut d, 0x1800, 1)),
+        (1 << 30) | id_of(Source::Agent(ID))
+    );
+    assert_eq!(upload(&mut d, 0x1800, 2)[4], 0xFE);
+    // RPDO1 the leader (not heard: unpinned, unsupervised), RPDO2/3 neighbours 1 and 2,
+    // RPDO4.. unused.
+    assert_eq!(
+        u32_at(upload(&mut d, 0x1400, 1)),
+        (1 << 31) | id_of(Source::Leader)
+    );
+    assert_eq!(u32_at(upload(&mut d, 0x1401, 1)), id_of(Source::Agent(1)));
+    assert_eq!(u32_at(upload(&mut d, 0x1402, 1)), id_of(Source::Agent(2)));
+    assert_eq!(u32_at(upload(&mut d, 0x1403, 1)) >> 31, 1);
+    assert_eq!(upload(&mut d, 0x1411, 1)[0], 0x80, "17 RPDOs, no more");
+
+    let tx_map = mapping_over_sdo(&mut d, 0x1A00);
+    let rx_map = mapping_over_sdo(&mut d, 0x1602);
+    assert_eq!(tx_map.iter().map(|m| u32::from(m.2)).sum::<u32>(), 32);
+    d.on_frame(NMT_ID, &[0x01, 0], 20);
+    let _ = (frames(&mut d), events(&mut d));
+    let cases = [
+        (0.0f32, 0u8),
+        (1.234_567, 17),
+        (-0.6, 63),
+        (-127.9, 64),
+        (300.0, 5),
+        (f32::NAN, 9),
+    ];
+    for (y, seq) in cases {
+        let (frame, enc): (crate::link::CanFrame, _) =
+            crate::wire::encode_in(&plan, Source::Agent(2), y, seq).expect("frame");
+        let data = embedded_can::Frame::data(&frame);
+        let want = crate::wire::decode_payload(Source::Agent(2), data).expect("valid");
+        // The frame's fields by the mapping alone.
+        let mut offset = 0;
+        let mut got = (None, None, None, None);
+        for &(index, _, bits) in &rx_map {
+            let raw = bits_of(data, offset, u32::from(bits));
+            offset += u32::from(bits);
+            match index {
+                0x2210 => got.0 = Some(((raw << 8) as i32 >> 8) as f32 / 65536.0),
+                0x2211 => got.1 = Some(raw as u8),
+                0x2212 => got.2 = Some(raw == 1),
+                0x2213 => got.3 = Some(raw == 1),
+                _ => panic!("unexpected mapped object {index:#x}"),
+            }
+        }
+        assert_eq!(got.1, Some(want.seq), "{y} {seq}");
+        assert_eq!(got.2, Some(want.saturated), "{y} {seq}");
+        assert_eq!(got.3, Some(want.y.is_none()), "{y} {seq}");
+        assert_eq!(got.0, Some(want.y.unwrap_or(0.0)), "{y} {seq}");
+        // The device keeps the frame heard on RPDO3 and the node's own sent one for TPDO1:
+        // the mapped objects read over SDO hold the same bits.
+        assert!(!d.on_frame(id_of(Source::Agent(2)) as u16, data, 30));
+        d.value_sent(&enc.data);
+        for map in [&rx_map, &tx_map] {
+            let mut offset = 0;
+            for &(index, sub, bits) in map.iter() {
+                let r = upload(&mut d, index, sub);
+                let len = 4 - usize::from((r[0] >> 2) & 3);
+                let mut b = [0u8; 4];
+                b[..len].copy_from_slice(&r[4..4 + len]);
+                assert_eq!(
+                    u32::from_le_bytes(b),
+                    bits_of(data, offset, u32::from(bits)),
+                    "{index:#x} sub {sub} of {y} {seq}"
+                );
+                offset += u32::from(bits);
+            }
+        }
+    }
+    // A frame of a source the node does not hear leaves the heard ones as they were.
+    let before = upload(&mut d, 0x2211, 3);
+    d.on_frame(id_of(Source::Agent(7)) as u16, &[0, 0, 0, 33], 40);
+    assert_eq!(upload(&mut d, 0x2211, 3), before);
 }
