@@ -243,6 +243,8 @@ fn growth(tr: &Trajectory) -> Result<(String, f64)> {
 /// Lemma 2 on one run: the measured `V = ½ Σ_i Σ_j e_{i,j}²`, the envelope `W`, sample times,
 /// the `Γ` used and the bound `ζ Γ T_s / π`, the deadline `2 T_s`.
 struct Envelope {
+    zeta: f64,
+    ts: f64,
     t: Vec<f64>,
     v: Vec<f64>,
     w: Vec<f64>,
@@ -271,6 +273,38 @@ impl Envelope {
         )
     }
 
+    /// The smallest `Γ` for which `V ≤ W` at every sample up to the deadline (bisection in
+    /// `log Γ` between the `Γ` in force and a million times it): the `Γ` that (4) needs along
+    /// the measured run.
+    fn gamma_needed(&self, zeta: f64, ts: f64) -> f64 {
+        let n = self.until_deadline();
+        let (t, v) = (
+            self.t.get(..n).unwrap_or(&[]),
+            self.v.get(..n).unwrap_or(&[]),
+        );
+        let v0 = v.first().copied().unwrap_or(0.0);
+        let fits = |g: f64| {
+            let w = comparison_solution(t, v0, zeta, ts, g);
+            v.iter().zip(&w).all(|(v, w)| v <= w)
+        };
+        let (mut lo, mut hi) = (self.gamma.max(1e-12), self.gamma.max(1e-12) * 1e6);
+        if fits(lo) {
+            return lo;
+        }
+        if !fits(hi) {
+            return f64::INFINITY;
+        }
+        for _ in 0..20 {
+            let mid = (lo * hi).sqrt();
+            if fits(mid) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        hi
+    }
+
     /// `(time, V / W)` of the first sample above the envelope before the deadline, and the
     /// largest `V / W` there.
     fn excess(&self) -> (Option<f64>, f64) {
@@ -293,7 +327,7 @@ impl Envelope {
 }
 
 /// The solution of `Ẇ = −(π/(ζ T_s)) (W^{1+ζ/2} + W^{1−ζ/2}) + Γ` (Lemma 2's (4) with
-/// equality, the paper's (57)) at the times `t` from `W(t₀) = w0`: classical RK4 with 50 steps
+/// equality, the paper's (57)) at the times `t` from `W(t₀) = w0`: classical RK4 with 20 steps
 /// per sample interval, clamped at zero.
 fn comparison_solution(t: &[f64], w0: f64, zeta: f64, ts: f64, gamma: f64) -> Vec<f64> {
     let k = std::f64::consts::PI / (zeta * ts);
@@ -305,7 +339,7 @@ fn comparison_solution(t: &[f64], w0: f64, zeta: f64, ts: f64, gamma: f64) -> Ve
     let mut w = w0;
     let mut prev = t.first().copied().unwrap_or(0.0);
     for tk in t {
-        let steps = 50;
+        let steps = 20;
         let dt = (tk - prev) / f64::from(steps);
         for _ in 0..steps {
             let k1 = f(w);
@@ -343,6 +377,8 @@ fn envelope(stem: &str, run: &Run, tr: &Trajectory) -> Result<Envelope> {
     let gamma = std::f64::consts::PI * after / (zeta * ts);
     let w = comparison_solution(&t, v.first().copied().unwrap_or(0.0), zeta, ts, gamma);
     Ok(Envelope {
+        zeta,
+        ts,
         bound: zeta * gamma * ts / std::f64::consts::PI,
         t,
         v,
@@ -679,8 +715,10 @@ pub fn untested_table(src: &mut Sources) -> Result<String> {
         let env = envelope(stem, run, tr)?;
         let (first, worst) = env.excess();
         verdict = super::worst(verdict, env.verdict());
+        let needed = env.gamma_needed(env.zeta, env.ts);
+        let needed_bound = env.zeta * needed * env.ts / std::f64::consts::PI;
         parts.push(format!(
-            "{}: V(0) = {}, Γ = {}, bound ζΓTₛ/π = {}, {}, largest V/W before 2Tₛ {}",
+            "{}: V(0) = {}, Γ = {}, bound ζΓTₛ/π = {}, {}, largest V/W before 2Tₛ {}; the Γ (4) needs for V ≤ W up to 2Tₛ: {}, whose bound {} is {}× the measured one",
             example(stem),
             sig(env.v.first().copied().unwrap_or(0.0)),
             sig(env.gamma),
@@ -689,7 +727,10 @@ pub fn untested_table(src: &mut Sources) -> Result<String> {
                 "first above W at t = {} s",
                 fixed(t, 3)
             )),
-            fixed(worst, 2)
+            fixed(worst, 2),
+            sig(needed),
+            sig(needed_bound),
+            fixed(needed_bound / env.bound, 1)
         ));
         panels.push(env);
     }
@@ -761,15 +802,16 @@ pub fn initial_conditions_table(src: &mut Sources) -> Result<String> {
     let mut t = format!(
         "Written {} by `cargo xtask docs --only claims.initial-conditions --rerun`.\n\n| reading | diverging at h = 1 ms (of {}) | diverging after halving h (same states) | converged at h | verdict | peaks at the converged h |\n|---|---|---|---|---|---|\n",
         super::super::today(),
-        all.len()
+        grouped(all.len() as f64, 0)
     );
     for reading in READINGS.iter() {
         if !reading.full {
             let _ = writeln!(
                 t,
-                "| {} | not run: it needs h = 1 µs, a minute per run, about 17 h for the {} draws | – | – | – | – |",
+                "| {} | not run: it needs h = 1 µs, a minute per run, about {} h for the {} draws | – | – | – | – |",
                 reading.name,
-                all.len()
+                fixed(all.len() as f64 / 60.0, 0),
+                grouped(all.len() as f64, 0)
             );
             continue;
         }
@@ -942,7 +984,7 @@ fn write_envelope_figure(panels: &[Envelope]) -> Result<std::path::PathBuf> {
 fn envelope_svg(panels: &[Envelope], titles: &[&str]) -> String {
     let (pw, ph, ml, mt, mb) = (440.0, 300.0, 60.0, 30.0, 45.0);
     let width = pw * panels.len() as f64 + 20.0;
-    let height = ph + 40.0;
+    let height = ph;
     let mut s = format!(
         "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{width}\" height=\"{height}\" font-family=\"DejaVu Sans, sans-serif\" font-size=\"12\">\n<rect width=\"100%\" height=\"100%\" fill=\"white\"/>\n"
     );
@@ -1013,8 +1055,8 @@ fn envelope_svg(panels: &[Envelope], titles: &[&str]) -> String {
             s,
             "<line x1=\"{xd}\" y1=\"{mt}\" x2=\"{xd}\" y2=\"{}\" stroke=\"gray\" stroke-dasharray=\"4 3\"/><text x=\"{}\" y=\"{}\" fill=\"gray\">2Tₛ</text>",
             mt + hgt,
-            xd - 28.0,
-            mt + 14.0
+            xd + 4.0,
+            mt + hgt - 6.0
         );
         let _ = writeln!(
             s,
@@ -1039,7 +1081,13 @@ fn envelope_svg(panels: &[Envelope], titles: &[&str]) -> String {
             );
         }
         // Legend.
-        let (lx, ly) = (x0 + w - 190.0, mt + hgt - 52.0);
+        let (lx, ly) = (x0 + w - 190.0, mt + 14.0);
+        let _ = writeln!(
+            s,
+            "<rect x=\"{}\" y=\"{}\" width=\"186\" height=\"50\" fill=\"white\" stroke=\"#ccc\"/>",
+            lx - 4.0,
+            ly - 10.0
+        );
         for (j, (label, colour, dash)) in [
             ("measured V = ½Σe²", "steelblue", ""),
             ("envelope W of (4)", "crimson", ""),
@@ -1149,6 +1197,8 @@ mod tests {
     #[test]
     fn svg_has_both_panels_and_curves() {
         let env = Envelope {
+            zeta: 0.5,
+            ts: 1.0,
             t: vec![0.0, 1.0, 2.0, 4.0],
             v: vec![1.0, 0.1, 0.01, 0.01],
             w: vec![1.0, 0.2, 0.02, 0.02],
