@@ -185,8 +185,7 @@ pub fn docs(opts: &Options) -> Result<()> {
     let keep = |name: &str| {
         name == REPRODUCTION_TIME
             || (name.starts_with("wall.") && (opts.check || !opts.wall_clock))
-            || (name == "claims.readings"
-                && (opts.check || opts.only.as_deref() != Some("claims.readings")))
+            || (FULL_HARNESS.contains(&name) && (opts.check || opts.only.as_deref() != Some(name)))
             || only_figure.is_some_and(|only| only != name)
     };
     process(&workspace_root(), only_file, opts.check, keep, |name| {
@@ -211,6 +210,10 @@ pub fn docs(opts: &Options) -> Result<()> {
     }
     Ok(())
 }
+
+/// Blocks that take minutes: skipped by `--check` and rewritten only when named by `--only`
+/// (each states the date and the command that wrote it).
+const FULL_HARNESS: [&str; 2] = ["claims.readings", "claims.initial-conditions"];
 
 /// The document `cargo xtask reproduction` re-makes, and the block that states its run time.
 const REPRODUCTION: &str = "docs/REPRODUCTION.md";
@@ -309,7 +312,7 @@ fn short(s: &str) -> String {
 }
 
 /// The figure names (patterns) and what they render.
-pub const CATALOGUE: [(&str, &str); 58] = [
+pub const CATALOGUE: [(&str, &str); 61] = [
     ("bench-table", "target bench table, Cortex-M4F step variants (target/bench/step.json)"),
     ("cores.table", "step per math back-end and node tick on every Cortex-M class (step.json)"),
     ("cores.mcu", "named CAN parts: worst step and node tick at the part's clock, share of 1 kHz, verdict"),
@@ -368,6 +371,9 @@ pub const CATALOGUE: [(&str, &str); 58] = [
     ("claims.ablations", "Example 1's bound after 2Ts with one cause of error removed at a time, and its fit over Ts"),
     ("claims.convergence", "the claims' figures with h halved until they change by less than 1 %"),
     ("claims.further", "checks the paper does not claim: effort of Fig. 8, the baseline tuned to the same settling time"),
+    ("claims.untested", "claims no figure of the paper tests: initial conditions (CI's subset), boundedness, Lemma 2's envelope, Lemma 5's differentiator"),
+    ("claims.initial-conditions", "every diverging Monte Carlo draw re-run with h halved, per reading; minutes, skipped by --check"),
+    ("claims.paper-figures", "peak |u| and residual read off the paper's printed figures beside the measured ones"),
 ];
 
 /// A figure a block can name.
@@ -415,6 +421,9 @@ enum Figure<'a> {
     ClaimsConvergence,
     ClaimsFurther,
     ClaimsAblations,
+    ClaimsUntested,
+    ClaimsInitialConditions,
+    ClaimsPaperFigures,
 }
 
 /// Figures of a `summary.json` that `run.SCENARIO.KEY` renders.
@@ -509,6 +518,9 @@ fn parse(name: &str) -> Option<Figure<'_>> {
         ["claims", "convergence"] => Figure::ClaimsConvergence,
         ["claims", "further"] => Figure::ClaimsFurther,
         ["claims", "ablations"] => Figure::ClaimsAblations,
+        ["claims", "untested"] => Figure::ClaimsUntested,
+        ["claims", "initial-conditions"] => Figure::ClaimsInitialConditions,
+        ["claims", "paper-figures"] => Figure::ClaimsPaperFigures,
         _ => return None,
     })
 }
@@ -565,6 +577,9 @@ fn render(name: &str, src: &mut Sources) -> Result<Option<String>> {
         Figure::ClaimsConvergence => claims::convergence_table(src)?,
         Figure::ClaimsFurther => claims::further_table(src)?,
         Figure::ClaimsAblations => claims::ablations_table(src)?,
+        Figure::ClaimsUntested => claims::untested_table(src)?,
+        Figure::ClaimsInitialConditions => claims::initial_conditions_table(src)?,
+        Figure::ClaimsPaperFigures => claims::paper_figures_table(src)?,
     };
     Ok(Some(text))
 }

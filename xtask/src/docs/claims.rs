@@ -15,6 +15,11 @@ use super::{fixed, Sources};
 use crate::task::{workspace_root, Result};
 use std::{fmt::Write as _, fs};
 
+mod untested;
+pub use untested::{
+    envelope_figure, initial_conditions_table, paper_figures_table, untested_table,
+};
+
 /// What a rule decides.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Verdict {

@@ -16,6 +16,8 @@ enum Source {
     Matrix(&'static str),
     /// The torque-limit sweep's figure (`target/torque-limit/`).
     Torque,
+    /// Lemma 2's envelope against the measured `½ Σ e²` (`target/docs/claims/`).
+    Lemma2,
     /// A figure of `host-sim ARGS --out target/docs/images/TAG/`.
     Run {
         tag: &'static str,
@@ -25,7 +27,8 @@ enum Source {
 }
 
 /// Every image of the documents and its source.
-const IMAGES: [(&str, Source); 16] = [
+const IMAGES: [(&str, Source); 17] = [
+    ("docs/figures/lemma2-envelope.svg", Source::Lemma2),
     (
         "host-sim/doc/example1-errors.png",
         Source::Run {
@@ -145,6 +148,7 @@ impl Sources {
                 self.matrix(case)?;
                 Ok(workspace_root().join(format!("target/fault-matrix/{case}/matrix.png")))
             }
+            Source::Lemma2 => super::claims::envelope_figure(self),
             Source::Torque => {
                 self.torque()?;
                 Ok(workspace_root().join("target/torque-limit/torque-limit.png"))
