@@ -270,6 +270,105 @@ pub fn boot_config(page: &[u8], in_plan: impl Fn(u8) -> bool, default_agent: u8)
     }
 }
 
+/// Most bytes of a stored object dictionary the firmware keeps for a store (468 for the
+/// shipped dictionary, `board::tests`).
+pub const STORE_CAPACITY: usize = 768;
+const _: () = assert!(
+    STORE_CAPACITY <= MAX_STORED,
+    "a kept dictionary fits the page"
+);
+
+/// A stored object dictionary on its way to the flash.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Stored {
+    bytes: [u8; STORE_CAPACITY],
+    len: usize,
+}
+
+impl Stored {
+    /// Its bytes.
+    pub fn as_slice(&self) -> &[u8] {
+        self.bytes.get(..self.len).unwrap_or(&[])
+    }
+}
+
+/// What the idle task does next with the flash ([`Jobs::take`]). The stored dictionary
+/// travels by value: the idle task programs it from its own stack while the control task may
+/// already queue the next one.
+#[derive(Debug, Clone, PartialEq, Eq)]
+#[allow(clippy::large_enum_variant)]
+pub enum Job {
+    /// `0x1010` "save": [`store`] this.
+    Store(Stored),
+    /// `0x1011` "load": erase the page (the defaults at the next boot).
+    Erase,
+    /// NMT reset node (or a node-ID adopted without one): restart the board, after the
+    /// flash work requested before it.
+    Reset,
+}
+
+/// The control task's requests for the idle task, which waits for the flash while the
+/// control task keeps running: the latest of store and restore wins; a reset waits until
+/// both are done.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Jobs {
+    stored: Stored,
+    flash: Option<bool>,
+    reset: bool,
+}
+
+impl Default for Jobs {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Jobs {
+    /// Nothing requested.
+    pub const fn new() -> Self {
+        Self {
+            stored: Stored {
+                bytes: [0; STORE_CAPACITY],
+                len: 0,
+            },
+            flash: None,
+            reset: false,
+        }
+    }
+
+    /// A store of what `save` writes (`Device::save`); `false` (nothing requested) when it
+    /// does not fit.
+    pub fn store_with(&mut self, save: impl FnOnce(&mut [u8]) -> Option<usize>) -> bool {
+        match save(&mut self.stored.bytes) {
+            Some(len) if len <= STORE_CAPACITY => {
+                self.stored.len = len;
+                self.flash = Some(true);
+                true
+            }
+            _ => false,
+        }
+    }
+
+    /// Erase the page.
+    pub fn erase(&mut self) {
+        self.flash = Some(false);
+    }
+
+    /// Restart the board once the flash work is done.
+    pub fn reset(&mut self) {
+        self.reset = true;
+    }
+
+    /// The next job, if any.
+    pub fn take(&mut self) -> Option<Job> {
+        match self.flash.take() {
+            Some(true) => Some(Job::Store(self.stored.clone())),
+            Some(false) => Some(Job::Erase),
+            None => core::mem::take(&mut self.reset).then_some(Job::Reset),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -304,7 +403,7 @@ mod tests {
                 return Err("programming error");
             }
             let dst = self.page.get_mut(offset..offset + 8).ok_or("outside")?;
-            if offset % 8 != 0 || dst.iter().any(|&b| b != 0xFF) {
+            if !offset.is_multiple_of(8) || dst.iter().any(|&b| b != 0xFF) {
                 return Err("not an erased, aligned double word");
             }
             dst.copy_from_slice(&word);
@@ -323,6 +422,34 @@ mod tests {
 
     fn in_plan(id: u8) -> bool {
         (1..=4).contains(&id)
+    }
+
+    #[test]
+    fn the_latest_flash_request_wins_and_a_reset_waits_for_it() {
+        let mut j = Jobs::new();
+        assert_eq!(j.take(), None);
+        j.reset();
+        assert!(j.store_with(|b| {
+            b[..3].copy_from_slice(b"abc");
+            Some(3)
+        }));
+        match j.take() {
+            Some(Job::Store(s)) => assert_eq!(s.as_slice(), b"abc"),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(j.take(), Some(Job::Reset));
+        assert_eq!(j.take(), None);
+        // Store then restore: the page is erased; restore then store: stored.
+        assert!(j.store_with(|_| Some(0)));
+        j.erase();
+        assert_eq!(j.take(), Some(Job::Erase));
+        j.erase();
+        assert!(j.store_with(|_| Some(1)));
+        assert!(matches!(j.take(), Some(Job::Store(_))));
+        // A dictionary that does not fit requests nothing.
+        assert!(!j.store_with(|_| None));
+        assert!(!j.store_with(|_| Some(STORE_CAPACITY + 1)));
+        assert_eq!(j.take(), None);
     }
 
     #[test]
