@@ -153,19 +153,26 @@ mod tests {
     fn board(policy: SafePolicy) -> (TestNode, BoardLogic, Rc<Cell<u64>>) {
         let mut cfg = NODE;
         cfg.supervisor.policy = policy;
-        let controller = config::controller();
+        build(&cfg, &config::controller())
+    }
+
+    /// A node of `cfg` and `controller` on the test's bus and clock, and its board logic.
+    fn build(
+        cfg: &agent_node::NodeConfig<{ config::K }>,
+        controller: &controller_core::ControllerConfig<2>,
+    ) -> (TestNode, BoardLogic, Rc<Cell<u64>>) {
         let now = Rc::new(Cell::new(0));
         let node = Node::new(
-            &cfg,
-            &controller,
+            cfg,
+            controller,
             TestCan::default(),
             TestClock(now.clone()),
             BusSensor::new(SAMPLE_PERIOD_US, cfg.stale_timeout_us),
             BusActuator::default(),
         )
-        .expect("the shipped configuration is valid");
+        .unwrap_or_else(|e| panic!("agent {}: {e:?}", cfg.agent));
         let logic = BoardLogic::new(
-            uses_leader(&cfg, controller.pinned),
+            uses_leader(cfg, controller.pinned),
             SAMPLE_PERIOD_US,
             cfg.stale_timeout_us,
         );
@@ -298,16 +305,7 @@ mod tests {
     fn canopen_board(agent: u8) -> (TestNode, BoardLogic, Rc<Cell<u64>>) {
         let cfg = config::node(agent).expect("in the plan");
         let controller = config::controller_of(agent).expect("in the plan");
-        let now = Rc::new(Cell::new(0));
-        let mut node = Node::new(
-            &cfg,
-            &controller,
-            TestCan::default(),
-            TestClock(now.clone()),
-            BusSensor::new(SAMPLE_PERIOD_US, cfg.stale_timeout_us),
-            BusActuator::default(),
-        )
-        .unwrap_or_else(|e| panic!("agent {agent}: {e:?}"));
+        let (mut node, logic, now) = build(&cfg, &controller);
         node.enable_canopen(
             &cfg,
             &controller,
@@ -316,11 +314,6 @@ mod tests {
             config::CANOPEN_HEARTBEAT_MS,
         )
         .unwrap_or_else(|e| panic!("agent {agent}: {e:?}"));
-        let logic = BoardLogic::new(
-            uses_leader(&cfg, controller.pinned),
-            SAMPLE_PERIOD_US,
-            cfg.stale_timeout_us,
-        );
         (node, logic, now)
     }
 

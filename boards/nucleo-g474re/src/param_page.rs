@@ -424,6 +424,15 @@ mod tests {
         (1..=4).contains(&id)
     }
 
+    /// The boot on the compiled defaults as agent 4, for `r`.
+    fn defaults(r: Rejection) -> BootConfig<'static> {
+        BootConfig {
+            agent: 4,
+            stored: None,
+            rejected: Some(r),
+        }
+    }
+
     #[test]
     fn the_latest_flash_request_wins_and_a_reset_waits_for_it() {
         let mut j = Jobs::new();
@@ -490,11 +499,7 @@ mod tests {
         let f = MemFlash::erased();
         assert_eq!(
             boot_config(f.page(), in_plan, 4),
-            BootConfig {
-                agent: 4,
-                stored: None,
-                rejected: Some(Rejection::Erased)
-            }
+            defaults(Rejection::Erased)
         );
         assert_eq!(Rejection::Erased.code(), 1);
     }
@@ -569,11 +574,7 @@ mod tests {
             store(&mut f, &dictionary(id)).unwrap();
             assert_eq!(
                 boot_config(f.page(), in_plan, 4),
-                BootConfig {
-                    agent: 4,
-                    stored: None,
-                    rejected: Some(Rejection::NodeIdOutsidePlan)
-                },
+                defaults(Rejection::NodeIdOutsidePlan),
                 "node-ID {id}"
             );
         }
