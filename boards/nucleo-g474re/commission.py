@@ -11,7 +11,9 @@ With the board alone on the bus (an unconfigured board answers as node-ID 4, the
 with the EDS's value (a refused write is retried once after the others, as the node's own
 load does, then reported), then node.node_id = i, 0x1010 "save" (the board writes its flash
 page), NMT reset node; the board restarts as node-ID i and its boot-up and heartbeat
-(PRE-OPERATIONAL) are checked. Exit status 1 on the first failure.
+(PRE-OPERATIONAL) are checked, and its graph entries (graph.neighbours, graph.pinned: read
+only, from the plan compiled into the image) against the scenario's. Exit status 1 on the
+first failure.
 """
 
 import argparse
@@ -40,6 +42,19 @@ def writes(od):
     return out
 
 
+def graph(od):
+    """(index, sub-index, name, variable) of the read-only graph entries: the image's plan."""
+    out = []
+    for obj in od.values():
+        if obj.index < 0x2000 or not obj.name.startswith("graph."):
+            continue
+        if isinstance(obj, canopen.objectdictionary.ODVariable):
+            out.append((obj.index, 0, obj.name, obj))
+        else:
+            out += [(obj.index, v.subindex, f"{obj.name}[{v.subindex}]", v) for v in obj.values()]
+    return out
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("eds", help="DIR/agent-<i>.eds from host-sim nodes")
@@ -56,6 +71,8 @@ def main():
         for index, sub, name, v in plan:
             print(f"{index:#06x}/{sub} {name} = {v.default}")
         print(f"{od[NODE_ID_KEY].index:#06x}/0 {NODE_ID_KEY} = {a.agent}; store; reset node")
+        for index, sub, name, v in graph(od):
+            print(f"expected after the reset: {index:#06x}/{sub} {name} = {v.default}")
         return 0
 
     network = canopen.Network()
@@ -91,9 +108,18 @@ def main():
     node.nmt.wait_for_bootup(10)
     state = node.nmt.wait_for_heartbeat(5)
     got = node.sdo[NODE_ID_KEY].raw
+    differ = []
+    for index, sub, name, v in graph(od):
+        value = v.decode_raw(node.sdo.upload(index, sub))
+        if value != v.default:
+            differ.append(f"{name} = {value}, the scenario {v.default}")
     network.disconnect()
     if state != "PRE-OPERATIONAL" or got != a.agent:
         print(f"after the reset: node {a.agent} {state}, node.node_id = {got}", file=sys.stderr)
+        return 1
+    if differ:
+        print("the image's plan is not the scenario's graph (rebuild with it in src/config.rs): "
+              + "; ".join(differ), file=sys.stderr)
         return 1
     print(f"node-ID {a.agent}: stored, restarted, PRE-OPERATIONAL")
     return 0
