@@ -398,11 +398,11 @@ mod tests {
         d.write(param_page::node_id_index(), 0, &[2])
             .expect("node-ID");
         d.write(p, 0, &3.0f32.to_le_bytes()).expect("ts");
-        let mut saved = [0u8; param_page::MAX_STORED];
+        let mut saved = [0u8; param_page::STORE_CAPACITY];
         let n = node
             .canopen()
             .and_then(|d| d.save(&mut saved))
-            .expect("fits the page");
+            .expect("fits the firmware's buffer");
         println!("stored object dictionary: {n} bytes");
         let mut page = vec![0xFF; param_page::PAGE_BYTES];
         for (k, w) in param_page::double_words(&saved[..n])

@@ -270,8 +270,8 @@ pub fn boot_config(page: &[u8], in_plan: impl Fn(u8) -> bool, default_agent: u8)
     }
 }
 
-/// Most bytes of a stored object dictionary the firmware keeps for a store (468 for the
-/// shipped dictionary, `board::tests`).
+/// Most bytes of a stored object dictionary the firmware keeps for a store (`board::tests`
+/// saves the board's dictionary into this much and prints its length).
 pub const STORE_CAPACITY: usize = 768;
 const _: () = assert!(
     STORE_CAPACITY <= MAX_STORED,
