@@ -101,11 +101,19 @@ def main():
     board.sdo[NODE_ID_KEY].raw = a.agent
     board.store()
     time.sleep(0.5)  # the board erases and programs its page (some 25 ms) in its idle task
+    # Listen for the boot-up of the new node-ID before the reset: it follows at once.
+    bootups = []
+    network.subscribe(0x700 + a.agent, lambda cob, data, ts: bootups.append(bytes(data)))
     board.nmt.state = "RESET"
+    end = time.monotonic() + 10
+    while b"\x00" not in bootups and time.monotonic() < end:
+        time.sleep(0.05)
+    if b"\x00" not in bootups:
+        print(f"no boot-up of node {a.agent} within 10 s of the reset", file=sys.stderr)
+        return 1
     network.nodes.pop(a.node_id, None)
     node = canopen.RemoteNode(a.agent, od)
     network.add_node(node)
-    node.nmt.wait_for_bootup(10)
     state = node.nmt.wait_for_heartbeat(5)
     got = node.sdo[NODE_ID_KEY].raw
     differ = []
