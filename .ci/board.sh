@@ -2,7 +2,8 @@
 # CI stage "board": the NUCLEO-G474RE node firmware (boards/nucleo-g474re) is formatted,
 # clippy-clean as shipped and with its bench feature, its board-independent logic (output gate,
 # bus-off recovery, FDCAN and IWDG register values, PWM/encoder arithmetic, reset cause and boot
-# count, plant-bus sensor and actuator) passes its host tests, and both builds fit a
+# count, plant-bus sensor and actuator, the stored configuration's page and boot decision) passes
+# its host tests, and both builds fit a
 # 64 KiB-flash / 16 KiB-RAM part (`cargo xtask board-size` builds them in release from the lock
 # file and reads the ELFs itself: no binutils needed). The firmware is compiled here, not run:
 # no emulator models the STM32 clock tree or FDCAN.

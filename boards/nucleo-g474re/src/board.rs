@@ -45,10 +45,12 @@ impl BoardLogic {
         self.bus_off.update(bus_off)
     }
 
-    /// After the tick: the node's state, its safe-state policy, whether a valid leader value
-    /// arrived during the sample and whether the sensor value is fresh; the outputs to apply.
+    /// After the tick: whether the CANopen device is NMT operational (the run command), the
+    /// node's state, its safe-state policy, whether a valid leader value arrived during the
+    /// sample and whether the sensor value is fresh; the outputs to apply.
     pub fn after_tick(
         &mut self,
+        nmt_operational: bool,
         state: NodeState,
         policy: SafePolicy,
         leader_heard: bool,
@@ -56,7 +58,7 @@ impl BoardLogic {
     ) -> GateOutput {
         self.leader.tick(leader_heard);
         let inputs = GateInputs {
-            run_commanded: self.run.update(state),
+            run_commanded: self.run.update(nmt_operational, state),
             state,
             policy,
             sensor_fresh,
@@ -151,19 +153,26 @@ mod tests {
     fn board(policy: SafePolicy) -> (TestNode, BoardLogic, Rc<Cell<u64>>) {
         let mut cfg = NODE;
         cfg.supervisor.policy = policy;
-        let controller = config::controller();
+        build(&cfg, &config::controller())
+    }
+
+    /// A node of `cfg` and `controller` on the test's bus and clock, and its board logic.
+    fn build(
+        cfg: &agent_node::NodeConfig<{ config::K }>,
+        controller: &controller_core::ControllerConfig<2>,
+    ) -> (TestNode, BoardLogic, Rc<Cell<u64>>) {
         let now = Rc::new(Cell::new(0));
         let node = Node::new(
-            &cfg,
-            &controller,
+            cfg,
+            controller,
             TestCan::default(),
             TestClock(now.clone()),
             BusSensor::new(SAMPLE_PERIOD_US, cfg.stale_timeout_us),
             BusActuator::default(),
         )
-        .expect("the shipped configuration is valid");
+        .unwrap_or_else(|e| panic!("agent {}: {e:?}", cfg.agent));
         let logic = BoardLogic::new(
-            uses_leader(&cfg, controller.pinned),
+            uses_leader(cfg, controller.pinned),
             SAMPLE_PERIOD_US,
             cfg.stale_timeout_us,
         );
@@ -218,7 +227,8 @@ mod tests {
             .offer((s.sensor && !s.bus_off).then_some([y, 0.0]));
         let tick = node.tick();
         let fresh = node.sensor_mut().is_fresh();
-        let out = logic.after_tick(tick.state, policy, leader_heard, fresh);
+        let operational = node.canopen().is_none_or(|d| d.outputs_enabled());
+        let out = logic.after_tick(operational, tick.state, policy, leader_heard, fresh);
         (out, tick.state)
     }
 
@@ -289,6 +299,129 @@ mod tests {
             );
         }
         assert_eq!(logic.gate().state(), GateState::Disabled);
+    }
+
+    /// The firmware's node: a CiA 301 device, not self-starting (`src/main.rs`).
+    fn canopen_board(agent: u8) -> (TestNode, BoardLogic, Rc<Cell<u64>>) {
+        let cfg = config::node(agent).expect("in the plan");
+        let controller = config::controller_of(agent).expect("in the plan");
+        let (mut node, logic, now) = build(&cfg, &controller);
+        node.enable_canopen(
+            &cfg,
+            &controller,
+            agent_node::canopen::Identity::default(),
+            false,
+            config::CANOPEN_HEARTBEAT_MS,
+        )
+        .unwrap_or_else(|e| panic!("agent {agent}: {e:?}"));
+        (node, logic, now)
+    }
+
+    fn nmt(node: &mut TestNode, command: agent_node::canopen::NmtCommand) {
+        use embedded_can::{Frame, StandardId};
+        let id = StandardId::new(agent_node::canopen::NMT_ID).expect("11 bits");
+        let f = CanFrame::new(id, &[command.code(), 0]).expect("2 bytes");
+        node.can_mut().rx.push_back(f);
+    }
+
+    #[test]
+    fn every_agent_of_the_plan_builds_and_the_default_is_the_shipped_node() {
+        for agent in 1..=config::PLAN.len() as u8 {
+            let (node, _, _) = canopen_board(agent);
+            assert_eq!(node.agent(), agent);
+            assert_eq!(node.is_pinned(), agent == 1);
+        }
+        assert_eq!(config::node(config::DEFAULT_AGENT), Some(NODE));
+        assert_eq!(
+            config::controller_of(config::DEFAULT_AGENT),
+            Some(config::controller())
+        );
+        assert!(config::node(0).is_none() && config::node(5).is_none());
+    }
+
+    #[test]
+    fn nmt_start_is_the_run_command_and_nmt_stop_drops_the_driver_at_once() {
+        use agent_node::canopen::NmtCommand;
+        let policy = NODE.supervisor.policy;
+        let (mut node, mut logic, now) = canopen_board(config::DEFAULT_AGENT);
+        // Every source present, but pre-operational: never enabled.
+        for k in 0..50 {
+            let (out, _) = release(&mut node, &mut logic, &now, k, ALL, policy);
+            assert!(!out.enable && !out.drive, "k = {k}: pre-operational");
+        }
+        nmt(&mut node, NmtCommand::Start);
+        let mut first_enabled = None;
+        for k in 50..60 {
+            let (out, _) = release(&mut node, &mut logic, &now, k, ALL, policy);
+            if out.enable {
+                first_enabled.get_or_insert(k);
+            }
+        }
+        let en = first_enabled.expect("enabled after the NMT start");
+        println!("NMT start at sample 50, driver enabled at sample {en}");
+        assert!(en <= 52, "operational and one arming sample: {en}");
+        nmt(&mut node, NmtCommand::Stop);
+        let (out, _) = release(&mut node, &mut logic, &now, 60, ALL, policy);
+        assert!(
+            !out.enable && !out.drive,
+            "NMT stop drops the driver in its sample"
+        );
+        assert_eq!(logic.gate().state(), GateState::Disabled);
+        nmt(&mut node, NmtCommand::EnterPreOperational);
+        for k in 61..70 {
+            assert!(
+                !release(&mut node, &mut logic, &now, k, ALL, policy)
+                    .0
+                    .enable
+            );
+        }
+    }
+
+    /// Commissioning as the README's bench section does it, on the host: a board with nothing
+    /// stored boots as the default agent, takes its node-ID and a gain over SDO, stores, and
+    /// after the reset boots as that agent with the gain.
+    #[test]
+    fn a_stored_node_id_and_gain_survive_the_reset_and_make_the_image_that_agent() {
+        use crate::param_page::{self, Rejection};
+        let erased = vec![0xFF; param_page::PAGE_BYTES];
+        let boot = param_page::boot_config(&erased, config::in_plan, config::DEFAULT_AGENT);
+        assert_eq!(boot.agent, config::DEFAULT_AGENT);
+        assert_eq!(boot.rejected, Some(Rejection::Erased));
+        let (mut node, _, _) = canopen_board(boot.agent);
+        node.service(); // boot-up: pre-operational
+        let p = agent_node::canopen::od::PARAM_BASE
+            + controller_core::Param::ALL
+                .iter()
+                .position(|p| *p == controller_core::Param::Ts)
+                .expect("ts") as u16;
+        let d = node.canopen_mut().expect("device");
+        d.write(param_page::node_id_index(), 0, &[2])
+            .expect("node-ID");
+        d.write(p, 0, &3.0f32.to_le_bytes()).expect("ts");
+        let mut saved = [0u8; param_page::STORE_CAPACITY];
+        let n = node
+            .canopen()
+            .and_then(|d| d.save(&mut saved))
+            .expect("fits the firmware's buffer");
+        println!("stored object dictionary: {n} bytes");
+        let mut page = vec![0xFF; param_page::PAGE_BYTES];
+        for (k, w) in param_page::double_words(&saved[..n])
+            .expect("fits")
+            .enumerate()
+        {
+            page[8 * k..8 * k + 8].copy_from_slice(&w);
+        }
+        let boot = param_page::boot_config(&page, config::in_plan, config::DEFAULT_AGENT);
+        assert_eq!((boot.agent, boot.rejected), (2, None));
+        let (mut node, _, _) = canopen_board(boot.agent);
+        let d = node.canopen_mut().expect("device");
+        d.load(boot.stored.expect("stored"))
+            .expect("the device takes it");
+        assert_eq!(d.read(p, 0).expect("ts").as_slice(), 3.0f32.to_le_bytes());
+        node.service();
+        assert_eq!(node.canopen().map(|d| d.node_id()), Some(2));
+        assert_eq!(node.agent(), 2);
+        assert_eq!(node.neighbour_agent(0), Some(1));
     }
 
     #[test]

@@ -3,7 +3,12 @@
 //! global filter (`FDCAN_RXGFC`), RM0440 §44. The firmware hands the same values to the
 //! `fdcan` crate, which writes them; the host tests check the words against the manual.
 
-use agent_node::{plant_bus, wire::Source, NodeConfig};
+use agent_node::{
+    canopen::{sdo_rx_id, NMT_ID},
+    plant_bus,
+    wire::Source,
+    NodeConfig,
+};
 
 /// FDCAN kernel clock: the 24 MHz HSE (`RCC_CCIPR.FDCANSEL` = HSE, the reset value).
 pub const KERNEL_HZ: u32 = 24_000_000;
@@ -67,8 +72,8 @@ impl BitTiming {
     }
 }
 
-/// The standard filter slots the set-up fills: the leader, this agent, one per neighbour, and
-/// on the bench the agent's sensor frame.
+/// The standard filter slots the set-up fills: the CANopen device's NMT and SDO requests, the
+/// leader, this agent, one per neighbour, and on the bench the agent's sensor frame.
 pub const SLOTS: usize = 8;
 
 /// One acceptance filter: the frames with these 11-bit identifiers go to FIFO 0.
@@ -112,7 +117,8 @@ pub fn uses_leader<const K: usize>(node: &NodeConfig<K>, pinned: bool) -> bool {
     pinned || node.supervisor.leader_timeout_us.is_some()
 }
 
-/// The filters in slot order: the leader's (when [`uses_leader`]), this agent's own
+/// The filters in slot order: the CANopen device's (NMT `0x000` and its SDO requests
+/// `0x600 + id`, CiA 301), the leader's (when [`uses_leader`]), this agent's own
 /// identifiers (another node sending them is a misconfigured peer the node counts), each of
 /// the first `neighbour_count` neighbours', and with `bench` the agent's plant-bus sensor
 /// frame; the remaining slots disabled (`None`: an all-zero element, `SFEC` = 000).
@@ -133,13 +139,16 @@ pub fn acceptance<const K: usize>(
         .id(node.agent)
         .filter(|_| bench)
         .map(|id| Accept::Single(id.as_raw()));
+    let canopen = Accept::Dual(NMT_ID, sdo_rx_id(node.agent));
     let mut out = [None; SLOTS];
-    let filters = leader
-        .into_iter()
-        .chain(own)
-        .chain(neighbours)
-        .filter_map(|s| filter_of(node, s))
-        .chain(sensor);
+    let filters = core::iter::once(canopen).chain(
+        leader
+            .into_iter()
+            .chain(own)
+            .chain(neighbours)
+            .filter_map(|s| filter_of(node, s))
+            .chain(sensor),
+    );
     for (slot, f) in out.iter_mut().zip(filters) {
         *slot = Some(f);
     }
@@ -181,17 +190,17 @@ mod tests {
     }
 
     #[test]
-    fn the_shipped_node_accepts_the_leader_itself_and_its_two_neighbours() {
+    fn the_shipped_node_accepts_nmt_its_sdo_the_leader_itself_and_its_two_neighbours() {
         let c = config::controller();
         let f = acceptance(&NODE, c.neighbour_count, c.pinned, false);
         assert_eq!(
             f,
             [
+                Some(Accept::Dual(0x000, 0x604)),
                 Some(Accept::Single(0x101)),
                 Some(Accept::Dual(0x105, 0x784)),
                 Some(Accept::Dual(0x102, 0x781)),
                 Some(Accept::Dual(0x104, 0x783)),
-                None,
                 None,
                 None,
                 None,
@@ -207,25 +216,30 @@ mod tests {
     fn the_bench_adds_the_agents_sensor_frame_and_a_silent_leader_is_not_listened_to() {
         let c = config::controller();
         let f = acceptance(&NODE, c.neighbour_count, c.pinned, true);
-        assert_eq!(f[4], Some(Accept::Single(0x204)));
+        assert_eq!(f[5], Some(Accept::Single(0x204)));
         let mut unsupervised = NODE;
         unsupervised.supervisor.leader_timeout_us = None;
         assert!(!uses_leader(&unsupervised, false));
         assert!(uses_leader(&unsupervised, true), "pinned");
         let f = acceptance(&unsupervised, c.neighbour_count, false, true);
-        assert_eq!(f[0], Some(Accept::Dual(0x105, 0x784)));
-        assert_eq!(f[3], Some(Accept::Single(0x204)));
+        assert_eq!(f[1], Some(Accept::Dual(0x105, 0x784)));
+        assert_eq!(f[4], Some(Accept::Single(0x204)));
     }
 
-    /// The largest node the slots hold: leader, itself, `K` = 4 neighbours and the sensor
-    /// frame fill 7 of the 8 slots.
+    /// The largest node the slots hold: NMT and SDO, leader, itself, `K` = 4 neighbours and
+    /// the sensor frame fill the 8 slots.
     #[test]
     fn a_full_neighbour_list_still_fits_the_slots() {
         let mut n = NODE;
         n.neighbours = [1, 2, 3, 5];
         let f = acceptance(&n, 4, true, true);
-        assert_eq!(f.iter().flatten().count(), 7);
-        assert_eq!(f[6], Some(Accept::Single(0x204)));
-        const { assert!(2 + config::K < SLOTS, "leader, own, K neighbours, sensor") };
+        assert_eq!(f.iter().flatten().count(), 8);
+        assert_eq!(f[7], Some(Accept::Single(0x204)));
+        const {
+            assert!(
+                4 + config::K <= SLOTS,
+                "NMT and SDO, leader, own, K neighbours, sensor"
+            )
+        };
     }
 }

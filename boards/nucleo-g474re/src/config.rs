@@ -1,13 +1,18 @@
-//! The node's compiled-in configuration: agent, neighbours, the controller's settings and the
-//! scales of the example wiring. Edit this file and rebuild to change them.
+//! The node's compiled-in defaults: the agent plan (which agent hears which, who is pinned),
+//! the default node-ID, the controller's settings and the scales of the example wiring. One
+//! image serves every agent of the plan: the node-ID, and with it the agent's neighbours, comes
+//! from the stored configuration ([`crate::param_page`]), set over the bus (CANopen SDO
+//! `0x2100` `node.node_id`, `0x1010` store, NMT reset node); the parameters likewise. A board
+//! with nothing stored boots as [`DEFAULT_AGENT`] in NMT pre-operational.
 //!
 //! Nothing here is trusted: [`agent_node::Node::new`] validates the node and controller
 //! settings at boot (`controller_core::Controller::new` against the parameter table),
 //! [`wiring_error`] the scales; a rejected value is logged by name and the board enters its
 //! fault state (outputs off, no bus traffic, LD2 lit, watchdog never started).
 //!
-//! The values are agent 4 of the paper's Example 1 (`scenarios/example1-deploy.toml`: hears
-//! agents 1 and 3, not pinned, `[safety]` on), sampled at `h = 1 ms`.
+//! The values are the paper's Example 1 (`scenarios/example1-deploy.toml`: agent 1 pinned,
+//! agents 2 and 3 hear agent 1, agent 4 hears agents 1 and 3, `[safety]` on), sampled at
+//! `h = 1 ms`.
 
 use agent_node::{
     supervisor::{NeighbourLoss, SafePolicy, SupervisorConfig},
@@ -26,7 +31,85 @@ pub const K: usize = 4;
 /// Sample period `h` [µs]; the control timer's period and the controller's `h`.
 pub const SAMPLE_PERIOD_US: u32 = 1_000;
 
-/// This agent, its neighbours, the stale timeout (2.5 `h`, as host-sim's `[network]`
+/// One agent of the compiled plan: the agents it hears (in the controller's order) and
+/// whether it is pinned (hears the leader), as `[graph]` of the scenario file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct AgentPlan {
+    /// The agents it hears.
+    pub neighbours: &'static [u8],
+    /// It hears the leader (`b_i = 1`).
+    pub pinned: bool,
+}
+
+/// The plan of Example 1 (`[graph]` of `scenarios/example1-deploy.toml`): entry `i - 1` is
+/// agent `i`.
+pub const PLAN: [AgentPlan; 4] = [
+    AgentPlan {
+        neighbours: &[],
+        pinned: true,
+    },
+    AgentPlan {
+        neighbours: &[1],
+        pinned: false,
+    },
+    AgentPlan {
+        neighbours: &[1],
+        pinned: false,
+    },
+    AgentPlan {
+        neighbours: &[1, 3],
+        pinned: false,
+    },
+];
+
+/// The node-ID of a board with nothing stored: the highest agent of the plan. It boots NMT
+/// pre-operational (outputs off) and waits to be configured; commission one such board on the
+/// bus at a time (they all answer SDO `0x600 + 4`).
+pub const DEFAULT_AGENT: u8 = PLAN.len() as u8;
+
+/// Producer heartbeat time of the CANopen device (`0x1017`, ms), as the node's own heartbeat.
+pub const CANOPEN_HEARTBEAT_MS: u16 = 100;
+
+/// Agent `agent`'s entry of the plan.
+pub fn plan(agent: u8) -> Option<&'static AgentPlan> {
+    PLAN.get(usize::from(agent).checked_sub(1)?)
+}
+
+/// Agent `agent` is in the plan.
+pub fn in_plan(agent: u8) -> bool {
+    plan(agent).is_some()
+}
+
+/// The node configuration of agent `agent` of the plan: [`NODE`] with its number and
+/// neighbours.
+pub fn node(agent: u8) -> Option<NodeConfig<K>> {
+    let p = plan(agent)?;
+    let mut neighbours = [0u8; K];
+    if p.neighbours.len() > K {
+        return None;
+    }
+    for (d, s) in neighbours.iter_mut().zip(p.neighbours) {
+        *d = *s;
+    }
+    Some(NodeConfig {
+        agent,
+        neighbours,
+        ..NODE
+    })
+}
+
+/// The controller settings of agent `agent` of the plan: [`controller`] with its neighbour
+/// count and pinning.
+pub fn controller_of(agent: u8) -> Option<ControllerConfig<N>> {
+    let p = plan(agent)?;
+    Some(ControllerConfig {
+        neighbour_count: p.neighbours.len(),
+        pinned: p.pinned,
+        ..controller()
+    })
+}
+
+/// The default node ([`DEFAULT_AGENT`]), its neighbours, the stale timeout (2.5 `h`, as host-sim's `[network]`
 /// default), the default identifier plan (leader `0x101`, agent `i` at `0x101 + i`, its
 /// heartbeat at `0x780 + i`), a heartbeat every 100 ms, and the safe state: when both
 /// neighbours or the leader fall silent for 50 ms the joint holds position in closed loop on
@@ -34,7 +117,7 @@ pub const SAMPLE_PERIOD_US: u32 = 1_000;
 /// off; 200 ms of every source healthy again and the returning values re-enter at `[safety]`'s
 /// recovery rate.
 pub const NODE: NodeConfig<K> = NodeConfig {
-    agent: 4,
+    agent: DEFAULT_AGENT,
     neighbours: [1, 3, 0, 0],
     stale_timeout_us: 2_500,
     ids: IdPlan::DEFAULT,
@@ -61,7 +144,8 @@ pub const PWM_HZ: u32 = 20_000;
 /// Independent watchdog timeout [µs]: five missed samples reset the board.
 pub const WATCHDOG_US: u32 = 5 * SAMPLE_PERIOD_US;
 
-/// The controller's settings (Example 1, `[safety]` of `example1-deploy.toml`).
+/// The controller's settings of the default agent (Example 1, `[safety]` of
+/// `example1-deploy.toml`; [`controller_of`] for another agent).
 pub fn controller() -> ControllerConfig<N> {
     ControllerConfig {
         h: SAMPLE_PERIOD_US as f32 * 1e-6,

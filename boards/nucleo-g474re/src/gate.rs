@@ -42,7 +42,7 @@ pub enum GateState {
 /// What the gate decides on, read once per sample after `Node::tick`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GateInputs {
-    /// The node was commanded to run ([`RunCommand`]; a CANopen NMT start later).
+    /// The node was commanded to run ([`RunCommand`]: NMT operational).
     pub run_commanded: bool,
     /// The node's supervisor state after the tick.
     pub state: NodeState,
@@ -164,26 +164,40 @@ impl OutputGate {
     }
 }
 
-/// "Commanded to run": for now, the node's supervisor has reached `Operational` since reset
-/// (every supervised source heard); a `Fault` withdraws it until reset. A CANopen NMT
-/// start/stop will be a second source of this input.
+/// "Commanded to run": the node's CANopen device is NMT operational (CiA 301 §7.3.2: the
+/// master's NMT start; stop, enter pre-operational and the resets withdraw it) and, since that
+/// start, its supervisor has reached `Operational` (every supervised source heard); a `Fault`
+/// withdraws it until the next NMT start. NMT is the one run command: nothing else arms the
+/// gate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct RunCommand {
     commanded: bool,
+    faulted: bool,
 }
 
 impl RunCommand {
     /// Not commanded (after reset).
     pub const fn new() -> Self {
-        Self { commanded: false }
+        Self {
+            commanded: false,
+            faulted: false,
+        }
     }
 
-    /// Update from the node's state after a tick; whether the node is commanded to run.
-    pub fn update(&mut self, state: NodeState) -> bool {
+    /// Update from the device's NMT state (`nmt_operational`) and the node's state after a
+    /// tick; whether the node is commanded to run.
+    pub fn update(&mut self, nmt_operational: bool, state: NodeState) -> bool {
+        if !nmt_operational {
+            *self = Self::new();
+            return false;
+        }
         match state {
-            NodeState::Operational => self.commanded = true,
-            NodeState::Fault => self.commanded = false,
-            NodeState::Boot | NodeState::Safe => {}
+            NodeState::Operational if !self.faulted => self.commanded = true,
+            NodeState::Fault => {
+                self.commanded = false;
+                self.faulted = true;
+            }
+            _ => {}
         }
         self.commanded
     }
@@ -427,12 +441,35 @@ mod tests {
     #[test]
     fn the_run_command_follows_the_supervisor_and_a_fault_withdraws_it() {
         let mut r = RunCommand::new();
-        assert!(!r.update(NodeState::Boot));
-        assert!(!r.update(NodeState::Safe), "safe before ever operational");
-        assert!(r.update(NodeState::Operational));
-        assert!(r.update(NodeState::Safe));
-        assert!(!r.update(NodeState::Fault));
-        assert!(!r.update(NodeState::Safe));
+        assert!(!r.update(true, NodeState::Boot));
+        assert!(
+            !r.update(true, NodeState::Safe),
+            "safe before ever operational"
+        );
+        assert!(r.update(true, NodeState::Operational));
+        assert!(r.update(true, NodeState::Safe));
+        assert!(!r.update(true, NodeState::Fault));
+        assert!(!r.update(true, NodeState::Safe));
+        assert!(
+            !r.update(true, NodeState::Operational),
+            "a fault holds until the next NMT start"
+        );
+    }
+
+    #[test]
+    fn only_nmt_operational_commands_the_run() {
+        let mut r = RunCommand::new();
+        for s in STATES {
+            assert!(!r.update(false, s), "pre-operational or stopped: {s:?}");
+        }
+        assert!(r.update(true, NodeState::Operational));
+        // NMT stop (or pre-operational, or a reset) withdraws it at once ...
+        assert!(!r.update(false, NodeState::Operational));
+        // ... and a new start needs the supervisor's Operational again; it also clears a fault.
+        assert!(!r.update(true, NodeState::Safe));
+        assert!(!r.update(true, NodeState::Fault));
+        assert!(!r.update(false, NodeState::Fault));
+        assert!(r.update(true, NodeState::Operational));
     }
 
     #[test]

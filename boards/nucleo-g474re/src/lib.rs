@@ -12,7 +12,9 @@
 //! * [`reset`]: the reset cause (`RCC_CSR`) and the boot count (backup register) for the
 //!   heartbeat;
 //! * [`bench`]: sensor and actuator over `agent_node::plant_bus` frames (feature `bench`);
-//! * [`config`]: the compiled-in configuration.
+//! * [`param_page`]: the stored configuration's flash page (CANopen store/restore) and the
+//!   boot decision (node-ID, stored parameters or the defaults);
+//! * [`config`]: the compiled-in defaults and the agent plan.
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -24,6 +26,7 @@ pub mod can_setup;
 pub mod config;
 pub mod gate;
 pub mod iwdg;
+pub mod param_page;
 pub mod reset;
 pub mod scale;
 

@@ -7,15 +7,20 @@
 //! The motor driver's enable (PA8) is low from the first instruction of `init` until the
 //! output gate ([`nucleo_g474re::gate`]) arms it, is pulled low in every state that must not
 //! drive and first thing in the panic handler. Pins, wiring, the gate's table and what to
-//! expect on the bus: `docs/FIRMWARE.md`, "On a board". The configuration is compiled in from
-//! [`config`]; a rejected one leaves the board in its fault state: driver disabled, FDCAN
-//! never leaves its configuration mode (no frame sent or acknowledged), LD2 lit, the error
-//! logged by name, the watchdog never started.
+//! expect on the bus: `docs/FIRMWARE.md`, "On a board". The node is a CiA 301 device: NMT
+//! operational is its run command; its node-ID and parameters come from the stored
+//! configuration's flash page ([`flash`], [`nucleo_g474re::param_page`]; CANopen `0x1010`
+//! store, `0x1011` restore), else from the defaults of [`config`] as agent
+//! [`config::DEFAULT_AGENT`] with EMCY `0x6300`. A configuration `Node::new` rejects leaves the
+//! board in its fault state: driver disabled, FDCAN never leaves its configuration mode (no
+//! frame sent or acknowledged), LD2 lit, the error logged by name, the watchdog never started.
 #![no_std]
 #![no_main]
 #![deny(unsafe_code)]
 
 mod can;
+#[allow(unsafe_code)]
+mod flash;
 #[allow(unsafe_code)]
 mod io;
 
@@ -95,6 +100,8 @@ impl Cycles {
 /// frames' schedule.
 struct Board {
     logic: nucleo_g474re::board::BoardLogic,
+    /// The agent the board booted as; another one adopted over the bus restarts the board.
+    agent: u8,
     #[cfg(feature = "bench")]
     state_frames: nucleo_g474re::bench::StateFrames,
 }
@@ -110,12 +117,17 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
 
 #[rtic::app(device = stm32g4xx_hal::stm32, peripherals = true)]
 mod app {
+    use agent_node::{
+        canopen::{Fault, Identity},
+        node::CanOpenRequest,
+    };
     use cortex_m::peripheral::DWT;
     use nucleo_g474re::{
         board::BoardLogic,
         bus_off::Action,
         can_setup,
         iwdg::{IwdgSetting, LSI_HZ},
+        param_page::{self, Job, Jobs, ParamFlash, Rejection},
         reset::{heartbeat_word, ResetFlags},
     };
     #[cfg(not(feature = "bench"))]
@@ -131,16 +143,19 @@ mod app {
         timer::{CountDownTimer, Event, Timer},
     };
 
-    use super::{can, config, io, Board, BoardNode, Cycles, LOG_EVERY};
+    use super::{can, config, flash, io, Board, BoardNode, Cycles, LOG_EVERY};
 
     #[shared]
     struct Shared {
         #[lock_free]
         node: Option<BoardNode>,
+        /// Store, restore and reset for the idle task.
+        jobs: Jobs,
     }
 
     #[local]
     struct Local {
+        page: flash::ParamPage,
         timer: Option<CountDownTimer<TIM6>>,
         watchdog: Option<io::Iwdg>,
         board: Board,
@@ -175,11 +190,11 @@ mod app {
         let mut rcc = rcc.freeze(Config::pll().pll_cfg(pll).boost(true), pwr);
         let flags = ResetFlags::from_csr(rcc.csr().read().bits());
         rcc.csr().modify(|_, w| w.rmvf().set_bit());
-        let boot = io::boot_count(&dp.TAMP, &mut rcc);
+        let boot_count = io::boot_count(&dp.TAMP, &mut rcc);
         defmt::info!(
             "sysclk {} Hz; boot {}, reset by {} (RCC_CSR flags {=u8:#x})",
             rcc.clocks.sys_clk.raw(),
-            boot,
+            boot_count,
             flags.cause(),
             flags.bits()
         );
@@ -222,13 +237,26 @@ mod app {
             &mut rcc,
         );
 
-        let controller = config::controller();
+        // The stored configuration decides which agent of the plan this board is.
+        let page = flash::ParamPage::new(dp.FLASH);
+        let boot = param_page::boot_config(page.page(), config::in_plan, config::DEFAULT_AGENT);
+        let node_cfg = config::node(boot.agent).unwrap_or(config::NODE);
+        let controller = config::controller_of(boot.agent).unwrap_or_else(config::controller);
+        match boot.rejected {
+            None => defmt::info!("stored configuration: agent {}", boot.agent),
+            Some(r) => defmt::warn!(
+                "stored configuration not used ({}): defaults, agent {}",
+                r,
+                boot.agent
+            ),
+        }
         let board = Board {
             logic: BoardLogic::new(
-                can_setup::uses_leader(&config::NODE, controller.pinned),
+                can_setup::uses_leader(&node_cfg, controller.pinned),
                 config::SAMPLE_PERIOD_US,
-                config::NODE.stale_timeout_us,
+                node_cfg.stale_timeout_us,
             ),
+            agent: node_cfg.agent,
             #[cfg(feature = "bench")]
             state_frames: nucleo_g474re::bench::StateFrames::new(),
         };
@@ -248,12 +276,17 @@ mod app {
             (None, Some(_)) => {
                 let bus = can::configure(
                     fdcan,
-                    &config::NODE,
+                    &node_cfg,
                     controller.neighbour_count,
                     controller.pinned,
                 );
+                let identity = Identity {
+                    product: 1,
+                    revision: 1,
+                    ..Identity::default()
+                };
                 agent_node::Node::new(
-                    &config::NODE,
+                    &node_cfg,
                     &controller,
                     bus,
                     io::CycleClock::new(),
@@ -261,14 +294,29 @@ mod app {
                     actuators,
                 )
                 .ok()
+                .and_then(|mut node| {
+                    node.enable_canopen(
+                        &node_cfg,
+                        &controller,
+                        identity,
+                        false,
+                        config::CANOPEN_HEARTBEAT_MS,
+                    )
+                    .ok()?;
+                    Some(node)
+                })
             }
         };
         let (Some(mut node), Some(setting)) = (node, watchdog_setting) else {
             let _ = embedded_hal::digital::OutputPin::set_high(&mut led);
             defmt::error!("fault state: outputs off, no bus traffic");
             return (
-                Shared { node: None },
+                Shared {
+                    node: None,
+                    jobs: Jobs::new(),
+                },
                 Local {
+                    page,
                     timer: None,
                     watchdog: None,
                     board,
@@ -277,26 +325,43 @@ mod app {
             );
         };
 
-        node.set_boot_count(heartbeat_word(boot, flags));
+        let mut rejected = boot.rejected;
+        if let (Some(stored), Some(d)) = (boot.stored, node.canopen_mut()) {
+            if let Err(a) = d.load(stored) {
+                defmt::error!(
+                    "stored configuration refused (SDO abort {=u32:#x}): defaults",
+                    a.code()
+                );
+                rejected = Some(Rejection::Refused);
+            }
+        }
+        node.set_boot_count(heartbeat_word(boot_count, flags));
         node.can_mut().join_bus();
+        // Boot-up message, pre-operational; then the EMCY of a configuration not used.
+        node.service();
+        if let (Some(r), Some(d)) = (rejected, node.canopen_mut()) {
+            d.report(Fault::ConfigRejected, r.code());
+        }
         let watchdog = io::Iwdg::start(dp.IWDG, setting);
         let mut timer =
             Timer::new(dp.TIM6, &rcc.clocks).start_count_down(config::SAMPLE_PERIOD_US.micros());
         timer.listen(Event::TimeOut);
-        let agent = agent_node::wire::Source::Agent(config::NODE.agent);
+        let agent = agent_node::wire::Source::Agent(node_cfg.agent);
         defmt::info!(
-            "agent {} (value id {=u16:#x}, heartbeat id {=u16:#x}) runs every {} us; driver enabled once operational with fresh sensor and leader",
-            config::NODE.agent,
-            config::NODE.ids.value_id(agent).unwrap_or(0),
-            config::NODE
-                .ids
-                .heartbeat_id(config::NODE.agent)
-                .unwrap_or(0),
+            "agent {} (CANopen node-ID {}, value id {=u16:#x}, heartbeat id {=u16:#x}) runs every {} us; pre-operational; driver enabled after an NMT start with fresh sensor and leader",
+            node_cfg.agent,
+            node_cfg.agent,
+            node_cfg.ids.value_id(agent).unwrap_or(0),
+            node_cfg.ids.heartbeat_id(node_cfg.agent).unwrap_or(0),
             config::SAMPLE_PERIOD_US
         );
         (
-            Shared { node: Some(node) },
+            Shared {
+                node: Some(node),
+                jobs: Jobs::new(),
+            },
             Local {
+                page,
                 timer: Some(timer),
                 watchdog: Some(watchdog),
                 board,
@@ -305,10 +370,30 @@ mod app {
         )
     }
 
-    #[idle]
-    fn idle(_: idle::Context) -> ! {
+    /// The flash work of the CANopen store (`0x1010`) and restore (`0x1011`), then a reset
+    /// node's restart: here, at the lowest priority, so that the control task keeps its period
+    /// (and feeds the watchdog) during a page erase of some 20 ms (bank 2 is erased while the
+    /// code runs from bank 1).
+    #[idle(shared = [jobs], local = [page])]
+    fn idle(mut cx: idle::Context) -> ! {
         loop {
-            cortex_m::asm::wfi();
+            match cx.shared.jobs.lock(Jobs::take) {
+                Some(Job::Store(s)) => match param_page::store(cx.local.page, s.as_slice()) {
+                    Ok(()) => defmt::info!("configuration stored ({} bytes)", s.as_slice().len()),
+                    Err(e) => defmt::error!("configuration not stored: {}", e),
+                },
+                Some(Job::Erase) => match cx.local.page.erase() {
+                    Ok(()) => {
+                        defmt::info!("stored configuration erased: defaults at the next boot")
+                    }
+                    Err(e) => defmt::error!("stored configuration not erased: {}", e),
+                },
+                Some(Job::Reset) => {
+                    defmt::info!("reset node: restarting");
+                    cortex_m::peripheral::SCB::sys_reset();
+                }
+                None => cortex_m::asm::wfi(),
+            }
         }
     }
 
@@ -316,8 +401,8 @@ mod app {
     /// output gate, the outputs; the watchdog is fed only here and only when the step ended
     /// before the next release, so a control task that stops being released, or is late five
     /// periods in a row, resets the board.
-    #[task(binds = TIM6_DACUNDER, shared = [node], local = [timer, watchdog, board, cycles])]
-    fn control(cx: control::Context) {
+    #[task(binds = TIM6_DACUNDER, shared = [node, jobs], local = [timer, watchdog, board, cycles])]
+    fn control(mut cx: control::Context) {
         let (Some(node), Some(timer), Some(watchdog)) =
             (cx.shared.node, cx.local.timer, cx.local.watchdog)
         else {
@@ -347,7 +432,9 @@ mod app {
         #[cfg(feature = "bench")]
         let sensor_fresh = node.sensor_mut().is_fresh();
         let leader_heard = node.can_mut().take_leader_heard();
+        let operational = node.canopen().is_some_and(|d| d.outputs_enabled());
         let out = board.logic.after_tick(
+            operational,
             tick.state,
             node.supervisor().policy_in_force(),
             leader_heard,
@@ -358,7 +445,7 @@ mod app {
         #[cfg(feature = "bench")]
         {
             use agent_node::plant_bus::{self, Kind};
-            let agent = config::NODE.agent;
+            let agent = board.agent;
             let q = node.actuator().command(out.drive);
             let _ = node
                 .can_mut()
@@ -382,6 +469,27 @@ mod app {
         }
         if board.logic.step_ended(late) {
             watchdog.feed();
+        }
+        // The CANopen device's requests: the flash and the restart go to the idle task.
+        while let Some(r) = node.take_canopen_request() {
+            match r {
+                CanOpenRequest::Store => {
+                    let queued = cx
+                        .shared
+                        .jobs
+                        .lock(|j| j.store_with(|buf| node.canopen().and_then(|d| d.save(buf))));
+                    if !queued {
+                        defmt::error!("0x1010 store: the dictionary does not fit");
+                    }
+                }
+                CanOpenRequest::Restore => cx.shared.jobs.lock(Jobs::erase),
+                CanOpenRequest::ResetNode => cx.shared.jobs.lock(Jobs::reset),
+            }
+        }
+        if node.agent() != board.agent {
+            // A reset communication adopted another node-ID: its neighbours are another
+            // agent's, so the board restarts as the stored configuration says.
+            cx.shared.jobs.lock(Jobs::reset);
         }
         if cycles.count >= LOG_EVERY {
             let st = node.stats();
