@@ -1203,6 +1203,13 @@ where
         })
     }
 
+    /// Report a fault of the runtime by EMCY ([`Fault::code`]; `count` goes in its
+    /// [`Fault::info`]), such as a watchdog reset found at boot; nothing without a device.
+    /// Unlike a change through [`Self::canopen_mut`], the configuration is left as it is.
+    pub fn report_fault(&mut self, f: Fault, count: u32) {
+        self.emcy(f, count);
+    }
+
     /// The next request of the CANopen device for the application.
     pub fn take_canopen_request(&mut self) -> Option<CanOpenRequest> {
         let c = self.canopen.as_mut()?;
