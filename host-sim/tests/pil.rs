@@ -402,7 +402,8 @@ fn python_can_slcan_talks_to_the_node() {
 
 /// `docs/wire.dbc` decodes every frame kind of a real PIL run with cantools: the link trace
 /// (start-up configuration, ticks, clock frames, reports, statistics, bus frames delivered to
-/// and sent by each node) and the bus trace. Two samples 100 ms apart with 70 ms bus latency:
+/// and sent by each node; the CANopen frames of the NMT master and the node are counted, not
+/// decoded) and the bus trace. Two samples 100 ms apart with 70 ms bus latency:
 /// frames are delivered more than 2^16 µs after a tick, so the host sends `Clock` frames (the
 /// sample period is far too long for Example 1, whose loop diverges right after; the frames
 /// are what this test reads). `Rejected` is
@@ -444,6 +445,7 @@ fn wire_dbc_decodes_every_frame_kind_of_a_pil_run() {
         "Agent2",
         "Agent3",
         "Agent4",
+        "CANopen",
         "bus Leader",
         "bus Agent4",
     ];
