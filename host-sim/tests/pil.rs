@@ -480,6 +480,17 @@ fn link_trace_needs_serial_links() {
     assert_invalid(&out, "--link-trace");
 }
 
+/// `network.canopen` belongs to the kinds whose nodes are CANopen devices: refused for
+/// `can`, naming the key and the kinds.
+#[test]
+fn canopen_is_for_the_socketcan_and_pil_kinds_only() {
+    let dir = tmp("canopen-on-can");
+    let out = run_with("example1-can.toml", &dir, "0.01", &["network.canopen=true"]);
+    assert_invalid(&out, "network.canopen");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("\"socketcan\" or \"pil\""), "{err}");
+}
+
 /// `y1` … `y4` of every row of a run's `trajectory.csv`, with `t`.
 fn outputs(dir: &std::path::Path) -> Vec<(f64, [f64; 4])> {
     let csv = std::fs::read_to_string(dir.join("trajectory.csv")).expect("trajectory.csv");

@@ -24,7 +24,7 @@ use agent_node::{
     node::NodeConfig,
     wire::{self, IdPlan, Source, MAX_NEIGHBOURS},
 };
-use common::{assert_invalid, assert_ok, bin, scenario_path, tmp};
+use common::{assert_ok, bin, scenario_path, tmp};
 use controller_core::{ControllerConfig, Param};
 use embedded_can::Frame as _;
 
@@ -548,24 +548,4 @@ fn the_pil_master_reports_nmt_states_and_emcy() {
             "{a}"
         );
     }
-}
-
-#[test]
-fn canopen_is_for_the_socketcan_and_pil_kinds_only() {
-    let dir = tmp("canopen-on-can");
-    let out = bin()
-        .args(["run", "--quiet", "--no-plots", "--out"])
-        .arg(&dir)
-        .arg(scenario_path("example1-can.toml"))
-        .args([
-            "--set",
-            "simulation.t_end=0.01",
-            "--set",
-            "network.canopen=true",
-        ])
-        .output()
-        .expect("run host-sim");
-    assert_invalid(&out, "network.canopen");
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("\"socketcan\" or \"pil\""), "{err}");
 }
