@@ -597,8 +597,9 @@ where
 
     /// The board saw a fault of its own — the CAN controller recovered from bus-off
     /// ([`Fault::BusOff`]), received frames were lost ([`Fault::RxOverflow`]), a watchdog
-    /// reset — : an EMCY with `count` (e.g. occurrences since start) when the node is a CANopen
-    /// device, sent at once; nothing otherwise.
+    /// reset found at boot — : an EMCY with `count` (e.g. occurrences since start) when the node
+    /// is a CANopen device, sent at once; nothing otherwise. Unlike a change through
+    /// `Node::canopen_mut`, the configuration is left as it is.
     pub fn report_fault(&mut self, f: Fault, count: u32) {
         self.emcy(f, count);
         self.flush_canopen();

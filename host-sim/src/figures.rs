@@ -122,6 +122,12 @@ pub struct FirmwareSummary {
     pub resets: u32,
     /// Times the node entered its safe state (from the state in its reports).
     pub safe_state_entries: u32,
+    /// `network.canopen`: the node's last NMT state from its heartbeat.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub nmt_state: Option<&'static str>,
+    /// `network.canopen`: every EMCY the node sent, in order.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub emcy: Option<Vec<EmcyRecord>>,
 }
 
 /// `summary.json` `socketcan`: one agent's commands.

@@ -1,5 +1,7 @@
 """Decode every line of a PIL run's traces with docs/wire.dbc: the serial-link trace
-(`--link-trace`, one interface `node<i>` per agent) and the bus trace (`--trace`). Checks that
+(`--link-trace`, one interface `node<i>` per agent) and the bus trace (`--trace`). The link's
+CANopen frames (NMT, boot-up, heartbeats, EMCY, SDO), which the DBC does not describe, are
+counted as the kind `CANopen`. Checks that
 each line decodes to the message its id names, that the values are those the run exchanged
 (agent numbers, word counts, finite states and reports), and that every message kind named on
 the command line was decoded at least once.
@@ -11,6 +13,14 @@ from collections import Counter
 
 import can
 import cantools
+
+
+def canopen(msg):
+    """A frame of the node's CANopen device or its master (NMT, EMCY, SDO, heartbeat: the
+    predefined connection set, docs/NETWORK.md §12), which wire.dbc does not describe."""
+    i = msg.arbitration_id
+    return not msg.is_extended_id and (
+        i == 0 or 0x81 <= i <= 0xFF or 0x581 <= i <= 0x67F or 0x701 <= i <= 0x77F)
 
 
 def decode(db, msg):
@@ -32,6 +42,9 @@ def main():
         node = int(str(msg.channel).removeprefix("node"))
         if not 1 <= node <= agents:
             sys.exit(f"{msg}: unknown interface {msg.channel}")
+        if canopen(msg):
+            seen["CANopen"] += 1
+            continue
         name, v = decode(db, msg)
         seen[name] += 1
         if name == "Config":

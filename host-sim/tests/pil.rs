@@ -402,7 +402,8 @@ fn python_can_slcan_talks_to_the_node() {
 
 /// `docs/wire.dbc` decodes every frame kind of a real PIL run with cantools: the link trace
 /// (start-up configuration, ticks, clock frames, reports, statistics, bus frames delivered to
-/// and sent by each node) and the bus trace. Two samples 100 ms apart with 70 ms bus latency:
+/// and sent by each node; the CANopen frames of the NMT master and the node are counted, not
+/// decoded) and the bus trace. Two samples 100 ms apart with 70 ms bus latency:
 /// frames are delivered more than 2^16 µs after a tick, so the host sends `Clock` frames (the
 /// sample period is far too long for Example 1, whose loop diverges right after; the frames
 /// are what this test reads). `Rejected` is
@@ -444,6 +445,7 @@ fn wire_dbc_decodes_every_frame_kind_of_a_pil_run() {
         "Agent2",
         "Agent3",
         "Agent4",
+        "CANopen",
         "bus Leader",
         "bus Agent4",
     ];
@@ -476,6 +478,17 @@ fn link_trace_needs_serial_links() {
         .output()
         .expect("run host-sim");
     assert_invalid(&out, "--link-trace");
+}
+
+/// `network.canopen` belongs to the kinds whose nodes are CANopen devices: refused for
+/// `can`, naming the key and the kinds.
+#[test]
+fn canopen_is_for_the_socketcan_and_pil_kinds_only() {
+    let dir = tmp("canopen-on-can");
+    let out = run_with("example1-can.toml", &dir, "0.01", &["network.canopen=true"]);
+    assert_invalid(&out, "network.canopen");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("\"socketcan\" or \"pil\""), "{err}");
 }
 
 /// `y1` … `y4` of every row of a run's `trajectory.csv`, with `t`.

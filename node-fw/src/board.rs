@@ -234,7 +234,28 @@ impl Watchdog {
 /// into a machine reset; the watchdog's own reset at the second expiry is the backstop).
 #[cortex_m_rt::exception]
 unsafe fn NonMaskableInt() {
+    // SAFETY: a plain word of RAM that nothing else writes; the core resets right after.
+    unsafe { core::ptr::write_volatile(core::ptr::addr_of_mut!(RESET_CAUSE), WATCHDOG_RESET) };
     cortex_m::peripheral::SCB::sys_reset();
+}
+
+/// [`RESET_CAUSE`] after the watchdog's reset.
+const WATCHDOG_RESET: u32 = 0x5744_5253;
+
+/// Why the core last reset: outside `.data` and `.bss` (`.uninit`, which the start-up code
+/// leaves alone and QEMU's machine reset does not reload), so it survives the reset.
+#[link_section = ".uninit.RESET_CAUSE"]
+static mut RESET_CAUSE: u32 = 0;
+
+/// `true` once after a reset by the watchdog (the NMI marked it); any other start — power-on,
+/// whatever the RAM then holds — reads `false`. Clears the mark.
+pub fn take_watchdog_reset() -> bool {
+    // SAFETY: a word of RAM only this function and the NMI handler touch; called in `init`,
+    // before interrupts run.
+    let cause = unsafe { core::ptr::read_volatile(core::ptr::addr_of!(RESET_CAUSE)) };
+    // SAFETY: as above.
+    unsafe { core::ptr::write_volatile(core::ptr::addr_of_mut!(RESET_CAUSE), 0) };
+    cause == WATCHDOG_RESET
 }
 
 /// SysTick as the instruction counter of one tick: it runs only between [`Counter::start`] and

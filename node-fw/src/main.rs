@@ -30,6 +30,7 @@ mod board;
 mod pac;
 
 use agent_node::{
+    canopen::{Fault, Identity},
     link::{
         self, io, CanFrame, ConfigReject, Report, Slcan, MAX_CONFIG_WORDS, RECORD_MAX_LINE,
         SLCAN_MAX_LINE,
@@ -60,10 +61,21 @@ static RX_DROPPED: AtomicU32 = AtomicU32::new(0);
 /// Releases that found the control task still running, since the start of its current step.
 static LATE_RELEASES: AtomicU32 = AtomicU32::new(0);
 
-/// Transmit mailboxes: the value frame and the heartbeat of one tick.
-const TX_MAILBOXES: usize = 2;
+/// Transmit mailboxes: the value frame and the heartbeat of one tick, and the CANopen
+/// device's frames of a sample (boot-up and the first NMT heartbeat, SDO answer, EMCY), with
+/// room to spare; sent in the order queued.
+const TX_MAILBOXES: usize = 8;
+/// `0x1017` producer heartbeat time of the CANopen device [ms] (of the network time).
+const HEARTBEAT_MS: u16 = 100;
+/// `0x1018` identity: product 2 (node-linux is 1), revision 1.
+const IDENTITY: Identity = Identity {
+    vendor: 0,
+    product: 2,
+    revision: 1,
+    serial: 0,
+};
 
-/// The CAN controller: a receive FIFO filled from the SLCAN link, two transmit mailboxes that
+/// The CAN controller: a receive FIFO filled from the SLCAN link, transmit mailboxes that
 /// the main loop empties onto the link after the tick.
 #[derive(Default)]
 struct UartCan {
@@ -75,10 +87,9 @@ impl embedded_can::nb::Can for UartCan {
     type Frame = CanFrame;
     type Error = core::convert::Infallible;
 
+    /// Queues `frame` after the others (none is replaced: the boot-up message and the first
+    /// heartbeat share an identifier); busy when every mailbox is full.
     fn transmit(&mut self, frame: &CanFrame) -> nb::Result<Option<CanFrame>, Self::Error> {
-        if let Some(old) = self.tx.iter_mut().find(|f| f.raw_id() == frame.raw_id()) {
-            return Ok(Some(core::mem::replace(old, *frame)));
-        }
         self.tx.push(*frame).map_err(|_| nb::Error::WouldBlock)?;
         Ok(None)
     }
@@ -147,6 +158,8 @@ pub struct Control {
     dt_us: u32,
     /// The host asked the control task to stop at the next tick.
     hang: bool,
+    /// This boot follows a watchdog reset: the device reports it by EMCY `0x6100`.
+    watchdog_reset: bool,
 }
 
 impl Control {
@@ -275,12 +288,28 @@ impl Control {
                             PlantSensor::default(),
                             HeldCommand::default(),
                         ) {
-                            Ok(node) => {
-                                send_io(send, io::READY, &[node_cfg.agent]);
-                                self.node = Some(node);
-                                // `Node::new` accepted `h` (finite, > 0).
-                                return (ctrl_cfg.h * 1e6) as u32;
-                            }
+                            // In place: the node, with its device, is several KiB.
+                            Ok(node) => match self.node.insert(node).enable_canopen(
+                                &node_cfg,
+                                &ctrl_cfg,
+                                IDENTITY,
+                                false,
+                                HEARTBEAT_MS,
+                            ) {
+                                Ok(()) => {
+                                    send_io(send, io::READY, &[node_cfg.agent]);
+                                    if let Some(node) = self.node.as_mut() {
+                                        let reset = core::mem::take(&mut self.watchdog_reset);
+                                        boot_device(send, node, reset);
+                                    }
+                                    // `Node::new` accepted `h` (finite, > 0).
+                                    return (ctrl_cfg.h * 1e6) as u32;
+                                }
+                                Err(_) => {
+                                    self.node = None;
+                                    ConfigReject::Node
+                                }
+                            },
                             Err(_) => ConfigReject::Node,
                         },
                         Err(e) => e,
@@ -368,6 +397,21 @@ impl Control {
             }
         }
     }
+}
+
+/// The CANopen device's boot (network time 0, before the first tick): the boot-up message
+/// and the first heartbeat, pre-operational until the host's NMT start, and after a watchdog
+/// reset (`watchdog_reset`) its EMCY `0x6100`; sent at once, after `READY`.
+fn boot_device(send: &mut impl FnMut(&[u8]), node: &mut BoardNode, watchdog_reset: bool) {
+    node.service();
+    if watchdog_reset {
+        node.report_fault(Fault::WatchdogReset, 1);
+        node.service();
+    }
+    for f in &node.can_mut().tx {
+        send_frame(send, f);
+    }
+    node.can_mut().tx.clear();
 }
 
 fn send_frame(send: &mut impl FnMut(&[u8]), frame: &CanFrame) {
@@ -500,6 +544,7 @@ mod app {
                     sync_us: 0,
                     dt_us: 0,
                     hang: false,
+                    watchdog_reset: board::take_watchdog_reset(),
                 },
             },
         )

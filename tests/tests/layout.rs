@@ -322,6 +322,7 @@ const LAYERS: &[(&str, &[&str])] = &[
             "network/node.rs",
             "network/ideal.rs",
             "network/trace.rs",
+            "network/canopen.rs",
             "metrics/spec.rs",
         ],
     ),

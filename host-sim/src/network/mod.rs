@@ -16,6 +16,7 @@
 //! them; a new kind is one more module and one more variant. The model and its figures: `docs/NETWORK.md`.
 
 pub mod can;
+pub mod canopen;
 pub mod ideal;
 pub mod node;
 pub mod pil;

@@ -32,6 +32,7 @@ use std::{
 };
 
 use agent_node::{
+    canopen::{CoFrame, NmtCommand},
     link::{self, io, CanFrame, Report, Slcan, Tick, RECORD_MAX_LINE, SLCAN_MAX_LINE},
     wire::{self, IdPlan, Source},
     NodeState,
@@ -50,9 +51,10 @@ use crate::{
         panel::{color, render, Panel, Series, Shade},
         FigureStyle,
     },
-    figures::{FirmwareSummary, NetworkSummary},
+    figures::{EmcyRecord, FirmwareSummary, NetworkSummary},
     graph::Graph,
     network::{
+        canopen::Master,
         node::{self, NodeSpec},
         spec::{bus_config, node_config, ns, EventName, NetworkKind, NetworkSpec},
         trace::{candump_fd_line, candump_line, TraceWriter, Traces, INTERFACE},
@@ -354,7 +356,20 @@ impl Emulator {
         self.sync_us = 0;
         self.tick_dt_us = None;
         self.send_config()?;
-        self.expect_ready()
+        self.expect_ready()?;
+        self.queue_start();
+        Ok(())
+    }
+
+    /// The NMT start of this node (its node-ID is its agent number), ahead of its next tick:
+    /// the node, pre-operational since its boot (its boot-up message follows `READY`), is
+    /// operational from that tick on, so its first tick already computes and sends, as a
+    /// node without a CANopen device does (docs/NETWORK.md §9).
+    fn queue_start(&mut self) {
+        let node = u8::try_from(self.agent).unwrap_or(0);
+        if let Some(f) = Master::command(NmtCommand::Start, node).to_frame::<CanFrame>() {
+            self.queue(&f, self.sync_us);
+        }
     }
 
     /// Keeps `frame`, seen on the link at `t_us`, for the link trace.
@@ -611,6 +626,10 @@ pub struct PilAgents<const N: usize, const M: usize> {
     /// Per agent, its overruns and the times of its hangs and resets (kept when the
     /// emulators end).
     events: Vec<NodeEvents>,
+    /// host-sim as the nodes' NMT master: their CANopen frames on the links.
+    canopen: Master,
+    /// `network.canopen = true`: the NMT states and EMCY go to `summary.json`.
+    report_canopen: bool,
 }
 
 /// What happened to one node's control task during the run.
@@ -717,6 +736,7 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
             let f = emu.next_frame("the boot frame")?;
             emu.check_boot(&f)?;
             emu.expect_ready()?;
+            emu.queue_start();
         }
         let mut hang_at = vec![Vec::new(); agents];
         for e in spec.event.iter().filter(|e| e.kind == EventName::Hang) {
@@ -788,6 +808,8 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
             slow_at,
             held: vec![super::unreported_output(); agents],
             events,
+            canopen: Master::new(agents, spec.canopen == Some(true)),
+            report_canopen: spec.canopen == Some(true),
         };
         agents.write_link_log();
         Ok(agents)
@@ -824,6 +846,18 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
                     resets: u32::try_from(self.events[i].resets.len()).unwrap_or(u32::MAX),
                     safe_state_entries: u32::try_from(self.events[i].safe.len())
                         .unwrap_or(u32::MAX),
+                    nmt_state: self
+                        .report_canopen
+                        .then(|| self.canopen.nmt_state(i + 1))
+                        .flatten(),
+                    emcy: self.report_canopen.then(|| {
+                        self.canopen
+                            .emcy()
+                            .iter()
+                            .filter(|e| usize::from(e.agent) == i + 1)
+                            .cloned()
+                            .collect::<Vec<EmcyRecord>>()
+                    }),
                 }
             })
             .collect()
@@ -860,6 +894,11 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
                 Answer::Frame(f) => f,
             };
             match f.io_id() {
+                // The node's CANopen frames (EMCY, heartbeat, SDO answers) are for its master
+                // at the other end of the link; the bus model carries the control traffic only,
+                // the frames of the host-compiled nodes of `kind = "can"`.
+                None if CoFrame::from_frame(&f)
+                    .is_some_and(|c| self.canopen.take(c.id, c.data(), t_ns as f64 * 1e-9)) => {}
                 None => {
                     let frame = MockFrame::new(f.id(), f.data())
                         .ok_or_else(|| emu.failure("sent a frame the bus cannot carry"))?;

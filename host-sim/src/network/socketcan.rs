@@ -27,7 +27,7 @@ use std::{
     time::{Duration, Instant, SystemTime},
 };
 
-use agent_node::canopen::{self, Message, NmtState};
+use agent_node::canopen::{self, NmtCommand};
 use agent_node::{
     bus_load::SensorFrames,
     plant_bus::{self, Kind, Mode, PlantFrame, PACKED_SENSOR_AGENTS},
@@ -47,9 +47,10 @@ use crate::{
         panel::{render, Panel, Series},
         FigureStyle,
     },
-    figures::{AgentCommands, EmcyRecord, SocketcanSummary},
+    figures::{AgentCommands, SocketcanSummary},
     graph::Graph,
     network::{
+        canopen::Master,
         spec::{node_config, LostCommand, NetworkSpec, NodesMode},
         trace::{candump_fd_frame_line, candump_line, TraceWriter},
     },
@@ -140,8 +141,6 @@ struct Agent {
     late_series: Vec<u32>,
     /// Command frames since the start of the current duplicate window.
     window_received: u64,
-    /// `network.canopen`: the last NMT state of its heartbeat.
-    nmt: Option<NmtState>,
 }
 
 /// Sample periods of wall time (`h time_scale`) over which the command frames of each follower
@@ -249,8 +248,8 @@ pub struct SocketcanAgents<const N: usize, const M: usize> {
     last_t: f64,
     /// The first sample's deadline (`t0` moves with every overrun).
     started: Option<Instant>,
-    /// `network.canopen`: host-sim is the nodes' NMT master; the EMCY they sent.
-    canopen: Option<Vec<EmcyRecord>>,
+    /// `network.canopen`: host-sim is the nodes' NMT master.
+    canopen: Option<Master>,
 }
 
 /// Opens `interface` for host-sim (classical and CAN FD frames), with the error naming
@@ -404,7 +403,6 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                     state: None,
                     late_series: Vec::new(),
                     window_received: 0,
-                    nmt: None,
                 })
                 .collect(),
             lateness: Vec::new(),
@@ -416,7 +414,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
             last_wake: None,
             last_t: 0.0,
             started: None,
-            canopen: (spec.canopen == Some(true)).then(Vec::new),
+            canopen: (spec.canopen == Some(true)).then(|| Master::new(graph.len(), true)),
         })
     }
 
@@ -456,8 +454,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
         }
         if self.canopen.is_some() {
             // NMT start to all nodes: their outputs go on from here (docs/NETWORK.md §12).
-            let start = [canopen::NmtCommand::Start.code(), 0];
-            self.send(canopen::CoFrame::new(canopen::NMT_ID, &start).to_frame());
+            self.send(Master::command(NmtCommand::Start, 0).to_frame());
         }
         // Start on a whole period from now, so the nodes' first sample lands mid-period.
         self.t0 = Some((Instant::now() + self.h, SystemTime::now() + self.h));
@@ -551,34 +548,8 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
 
     /// An EMCY or heartbeat of a node, with `network.canopen`.
     fn take_canopen<F: embedded_can::Frame>(&mut self, f: &F, t: f64) {
-        let (Some(log), Some(f)) = (self.canopen.as_mut(), canopen::CoFrame::from_frame(f)) else {
-            return;
-        };
-        let agent = |node: u8| usize::from(node).checked_sub(1);
-        match canopen::decode(f.id, f.data()) {
-            Some(Message::Emcy {
-                node,
-                code,
-                register,
-                info,
-            }) => {
-                eprintln!(
-                    "host-sim: t = {t:.3} s: EMCY of node {node}: {code:#06x}, register {register:#04x}"
-                );
-                log.push(EmcyRecord {
-                    t_s: t,
-                    agent: node,
-                    code,
-                    register,
-                    cause: info[0],
-                });
-            }
-            Some(Message::Heartbeat { node, state }) => {
-                if let Some(a) = agent(node).and_then(|i| self.agents.get_mut(i)) {
-                    a.nmt = state;
-                }
-            }
-            _ => {}
+        if let (Some(m), Some(f)) = (self.canopen.as_mut(), canopen::CoFrame::from_frame(f)) {
+            m.take(f.id, f.data(), t);
         }
     }
 
@@ -663,10 +634,10 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                         a.state.map(|s| s.mode.as_str())
                     },
                     node_late_ticks: a.state.map(|s| s.late_ticks),
-                    nmt_state: a.nmt.map(NmtState::name),
+                    nmt_state: self.canopen.as_ref().and_then(|m| m.nmt_state(i + 1)),
                 })
                 .collect(),
-            emcy: self.canopen.clone(),
+            emcy: self.canopen.as_ref().map(|m| m.emcy().to_vec()),
         }
     }
 }

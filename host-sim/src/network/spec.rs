@@ -193,7 +193,8 @@ pub struct NetworkSpec {
     pub plant_frames: Option<bool>,
     /// `kind = "socketcan"`: the nodes are CANopen devices (docs/NETWORK.md §12) and host-sim
     /// their NMT master — it starts them with NMT, logs their EMCY and NMT states; absent:
-    /// `false`.
+    /// `false`. `kind = "pil"`, whose nodes are always CANopen devices started by host-sim:
+    /// `summary.json` `firmware[]` gains each node's NMT state and EMCY.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub canopen: Option<bool>,
 }
@@ -634,13 +635,20 @@ fn check_socketcan(spec: &NetworkSpec, h: f64) -> Result<()> {
         ("network.node_dir", spec.node_dir.is_some()),
         ("network.node_program", spec.node_program.is_some()),
         ("network.lost_command", spec.lost_command.is_some()),
-        ("network.canopen", spec.canopen.is_some()),
+        (
+            "network.canopen",
+            spec.canopen.is_some() && spec.kind != NetworkKind::Pil,
+        ),
     ];
     if spec.kind != NetworkKind::Socketcan {
         if let Some((key, _)) = given.iter().find(|(_, g)| *g) {
             return Err(Error::invalid(
                 *key,
-                "only for network.kind = \"socketcan\"",
+                if *key == "network.canopen" {
+                    "only for network.kind = \"socketcan\" or \"pil\""
+                } else {
+                    "only for network.kind = \"socketcan\""
+                },
             ));
         }
         return Ok(());
