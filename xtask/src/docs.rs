@@ -185,8 +185,7 @@ pub fn docs(opts: &Options) -> Result<()> {
     let keep = |name: &str| {
         name == REPRODUCTION_TIME
             || (name.starts_with("wall.") && (opts.check || !opts.wall_clock))
-            || (name == "claims.readings"
-                && (opts.check || opts.only.as_deref() != Some("claims.readings")))
+            || (FULL_RUNS.contains(&name) && (opts.check || opts.only.as_deref() != Some(name)))
             || only_figure.is_some_and(|only| only != name)
     };
     process(&workspace_root(), only_file, opts.check, keep, |name| {
@@ -211,6 +210,10 @@ pub fn docs(opts: &Options) -> Result<()> {
     }
     Ok(())
 }
+
+/// Blocks that cost minutes: written only by `--only NAME` (with the date and the command),
+/// kept by every other invocation and by `--check`.
+const FULL_RUNS: [&str; 2] = ["claims.readings", claims::paired::FULL.block];
 
 /// The document `cargo xtask reproduction` re-makes, and the block that states its run time.
 const REPRODUCTION: &str = "docs/REPRODUCTION.md";
@@ -309,7 +312,7 @@ fn short(s: &str) -> String {
 }
 
 /// The figure names (patterns) and what they render.
-pub const CATALOGUE: [(&str, &str); 58] = [
+pub const CATALOGUE: [(&str, &str); 60] = [
     ("bench-table", "target bench table, Cortex-M4F step variants (target/bench/step.json)"),
     ("cores.table", "step per math back-end and node tick on every Cortex-M class (step.json)"),
     ("cores.mcu", "named CAN parts: worst step and node tick at the part's clock, share of 1 kHz, verdict"),
@@ -368,6 +371,8 @@ pub const CATALOGUE: [(&str, &str); 58] = [
     ("claims.ablations", "Example 1's bound after 2Ts with one cause of error removed at a time, and its fit over Ts"),
     ("claims.convergence", "the claims' figures with h halved until they change by less than 1 %"),
     ("claims.further", "checks the paper does not claim: effort of Fig. 8, the baseline tuned to the same settling time"),
+    ("claims.paired", "paired Monte Carlo of Example 2 (1,000 draws, both schemes, bootstrap intervals); minutes, skipped by --check"),
+    ("claims.paired-ci", "the paired Monte Carlo's first 20 draws, checked by --check"),
 ];
 
 /// A figure a block can name.
@@ -415,6 +420,7 @@ enum Figure<'a> {
     ClaimsConvergence,
     ClaimsFurther,
     ClaimsAblations,
+    ClaimsPaired(claims::paired::Study),
 }
 
 /// Figures of a `summary.json` that `run.SCENARIO.KEY` renders.
@@ -509,6 +515,8 @@ fn parse(name: &str) -> Option<Figure<'_>> {
         ["claims", "convergence"] => Figure::ClaimsConvergence,
         ["claims", "further"] => Figure::ClaimsFurther,
         ["claims", "ablations"] => Figure::ClaimsAblations,
+        ["claims", "paired"] => Figure::ClaimsPaired(claims::paired::FULL),
+        ["claims", "paired-ci"] => Figure::ClaimsPaired(claims::paired::CI),
         _ => return None,
     })
 }
@@ -565,6 +573,7 @@ fn render(name: &str, src: &mut Sources) -> Result<Option<String>> {
         Figure::ClaimsConvergence => claims::convergence_table(src)?,
         Figure::ClaimsFurther => claims::further_table(src)?,
         Figure::ClaimsAblations => claims::ablations_table(src)?,
+        Figure::ClaimsPaired(study) => claims::paired::table(src, study)?,
     };
     Ok(Some(text))
 }

@@ -16,6 +16,8 @@ enum Source {
     Matrix(&'static str),
     /// The torque-limit sweep's figure (`target/torque-limit/`).
     Torque,
+    /// The settling-time vs energy front of `host-sim/tests/front.rs` (`target/front/`).
+    Front,
     /// A figure of `host-sim ARGS --out target/docs/images/TAG/`.
     Run {
         tag: &'static str,
@@ -25,7 +27,7 @@ enum Source {
 }
 
 /// Every image of the documents and its source.
-const IMAGES: [(&str, Source); 16] = [
+const IMAGES: [(&str, Source); 17] = [
     (
         "host-sim/doc/example1-errors.png",
         Source::Run {
@@ -93,6 +95,7 @@ const IMAGES: [(&str, Source); 16] = [
         Source::Matrix("example2-fast"),
     ),
     ("docs/figures/torque-limit.png", Source::Torque),
+    ("docs/figures/example2-front.png", Source::Front),
     (
         "docs/campaigns/example2-baseline-retune.png",
         Source::Campaign("example2-baseline-retune", "map.png"),
@@ -149,6 +152,14 @@ impl Sources {
                 self.torque()?;
                 Ok(workspace_root().join("target/torque-limit/torque-limit.png"))
             }
+            Source::Front => self.file("target/front/front.png", |_, path| {
+                run(Command::new(crate::task::cargo())
+                    .current_dir(workspace_root())
+                    .env("FRONT_OUT", path.parent().unwrap_or(path))
+                    .args(["test", "-p", "host-sim", "--release", "--test", "front"])
+                    .args(["--", "--ignored"]))
+                .map(|_| ())
+            }),
             Source::Run { tag, args, file } => {
                 self.file(&format!("target/docs/images/{tag}/{file}"), |s, path| {
                     let bin = s.host_sim()?;
