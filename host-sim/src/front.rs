@@ -184,9 +184,10 @@ impl Figure for Front<'_> {
                 )
                 .map_err(drawing_error)?
                 .label(format!(
-                    "{}: {what} ({} runs, drawn at the right edge)",
+                    "{}: {what} ({} {}, drawn at the right edge)",
                     s.name,
-                    pts.len()
+                    pts.len(),
+                    if pts.len() == 1 { "run" } else { "runs" }
                 ))
                 .legend(move |(x, y)| Cross::new((x + 9, y), size - 1, col.stroke_width(2)));
             }

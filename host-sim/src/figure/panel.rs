@@ -624,7 +624,7 @@ fn draw_panel<DB: DrawingBackend>(
         (longest as f64 * 6.6 + 48.0) / (f64::from(aw) - 100.0).max(1.0),
         (entries as f64 * 17.0 + 14.0) / (f64::from(ah) - 80.0).max(1.0),
     );
-    // Each clipped peak gets a note in a strip above the plot, never over the data.
+    // Each clipped peak gets a note in a strip above the plot, never over the data (on screen).
     let peaks = match clip {
         Some(c) => p
             .series
@@ -659,7 +659,8 @@ fn draw_panel<DB: DrawingBackend>(
     } else {
         area
     };
-    let (note_area, area) = if peaks > 0 {
+    // For print, where the chart's height is fixed, the notes stay inside the plot.
+    let (note_area, area) = if peaks > 0 && !page.is_print() {
         let (top, rest) = area.split_vertically(z(16) * peaks as u32 + z(4));
         (Some(top), rest)
     } else {
@@ -817,7 +818,8 @@ fn draw_panel<DB: DrawingBackend>(
             if let Some((t, v)) = clipped_peak(s, pts, c) {
                 let edge = v.clamp(-c, c);
                 let arrow = if v > 0.0 { "▲" } else { "▼" };
-                // Notes stack in the strip above the plot, one row each, level with their peak.
+                // On screen, notes stack in the strip above the plot, one row each, level with
+                // their peak; for print, into the plot from its top or bottom edge.
                 let rank = notes_drawn;
                 notes_drawn += 1;
                 let zi = |px: i32| (f64::from(px) * zoom).round() as i32;
@@ -843,9 +845,9 @@ fn draw_panel<DB: DrawingBackend>(
                     let (span, _) = chart.plotting_area().get_pixel_range();
                     let room = |l: bool| {
                         if l {
-                            px - span.start - zi(8)
+                            px - span.start - zi(24)
                         } else {
-                            span.end - px - zi(8)
+                            span.end - px - zi(24)
                         }
                     };
                     if width(&notes[0]) > room(left) && room(!left) > room(left) {
@@ -857,20 +859,49 @@ fn draw_panel<DB: DrawingBackend>(
                         .unwrap_or(&notes[2])
                         .clone();
                 }
-                // The peak keeps a marker in the line's colour at the plot's edge.
-                chart.draw_series([EmptyElement::at((t, edge))
-                    + TriangleMarker::new((0, 0), zi(6) as u32, s.color.filled())])?;
+                // Black text (the marker has the line's colour): readable in grayscale and for
+                // the lighter lines.
+                let font = page.font(12).color(&BLACK);
                 if let Some(strip) = &note_area {
+                    // The peak keeps a marker in the line's colour at the plot's edge.
+                    chart.draw_series([EmptyElement::at((t, edge))
+                        + TriangleMarker::new((0, 0), zi(6) as u32, s.color.filled())])?;
                     let x = px - strip.get_base_pixel().0;
                     let (x, h) = if left {
                         (x + zi(4), HPos::Right)
                     } else {
                         (x - zi(4), HPos::Left)
                     };
-                    // Black text (the marker has the line's colour): readable in grayscale.
-                    let text = page.font(12).color(&BLACK).pos(Pos::new(h, VPos::Top));
+                    let text = font.pos(Pos::new(h, VPos::Top));
                     strip.draw(&Text::new(note, (x, zi(2 + 16 * rank)), text))?;
+                    continue;
                 }
+                let dy = if v > 0.0 {
+                    zi(4 + 16 * rank)
+                } else {
+                    zi(-18 - 16 * rank)
+                };
+                let (dx, h) = if left {
+                    (zi(-24), HPos::Right)
+                } else {
+                    (zi(24), HPos::Left)
+                };
+                let text = font.pos(Pos::new(h, VPos::Top));
+                // A light backing keeps the note readable across grid and marker lines.
+                let per_char = if page.is_print() { 7.0 } else { 6.4 };
+                let w = (note.chars().count() as f64 * per_char * zoom) as i32 + zi(4);
+                let (a, b) = if left {
+                    (dx - w, dx + zi(2))
+                } else {
+                    (dx - zi(2), dx + w)
+                };
+                chart.draw_series([EmptyElement::at((t, edge))
+                    + Rectangle::new(
+                        [(a, dy - zi(1)), (b, dy + zi(14))],
+                        WHITE.mix(0.8).filled(),
+                    )
+                    + TriangleMarker::new((0, 0), zi(6) as u32, s.color.filled())
+                    + Text::new(note, (dx, dy), text)])?;
             }
         }
     }
