@@ -23,6 +23,7 @@ pub mod error;
 pub mod faults;
 pub mod figure;
 pub mod figures;
+pub mod front;
 pub mod generate;
 pub mod graph;
 pub mod leader;

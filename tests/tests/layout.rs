@@ -342,7 +342,13 @@ const LAYERS: &[(&str, &[&str])] = &[
     ),
     (
         "commands",
-        &["run.rs", "compare.rs", "matrix.rs", "monitor.rs"],
+        &[
+            "run.rs",
+            "compare.rs",
+            "matrix.rs",
+            "monitor.rs",
+            "front.rs",
+        ],
     ),
     ("many runs", &["campaign"]),
     ("crate root and binary", &["lib.rs", "main.rs", "cli"]),

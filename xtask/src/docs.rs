@@ -185,7 +185,7 @@ pub fn docs(opts: &Options) -> Result<()> {
     let keep = |name: &str| {
         name == REPRODUCTION_TIME
             || (name.starts_with("wall.") && (opts.check || !opts.wall_clock))
-            || (FULL_HARNESS.contains(&name) && (opts.check || opts.only.as_deref() != Some(name)))
+            || (FULL_RUNS.contains(&name) && (opts.check || opts.only.as_deref() != Some(name)))
             || only_figure.is_some_and(|only| only != name)
     };
     process(&workspace_root(), only_file, opts.check, keep, |name| {
@@ -211,9 +211,13 @@ pub fn docs(opts: &Options) -> Result<()> {
     Ok(())
 }
 
-/// Blocks that take minutes: skipped by `--check` and rewritten only when named by `--only`
-/// (each states the date and the command that wrote it).
-const FULL_HARNESS: [&str; 2] = ["claims.readings", "claims.initial-conditions"];
+/// Blocks that cost minutes: written only by `--only NAME` (with the date and the command),
+/// kept by every other invocation and by `--check`.
+const FULL_RUNS: [&str; 3] = [
+    "claims.readings",
+    "claims.initial-conditions",
+    claims::paired::FULL.block,
+];
 
 /// The document `cargo xtask reproduction` re-makes, and the block that states its run time.
 const REPRODUCTION: &str = "docs/REPRODUCTION.md";
@@ -312,7 +316,7 @@ fn short(s: &str) -> String {
 }
 
 /// The figure names (patterns) and what they render.
-pub const CATALOGUE: [(&str, &str); 61] = [
+pub const CATALOGUE: [(&str, &str); 63] = [
     ("bench-table", "target bench table, Cortex-M4F step variants (target/bench/step.json)"),
     ("cores.table", "step per math back-end and node tick on every Cortex-M class (step.json)"),
     ("cores.mcu", "named CAN parts: worst step and node tick at the part's clock, share of 1 kHz, verdict"),
@@ -374,6 +378,8 @@ pub const CATALOGUE: [(&str, &str); 61] = [
     ("claims.untested", "claims no figure of the paper tests: initial conditions (CI's subset), boundedness, Lemma 2's envelope, Lemma 5's differentiator"),
     ("claims.initial-conditions", "every diverging Monte Carlo draw re-run with h halved, per reading; minutes, skipped by --check"),
     ("claims.paper-figures", "peak |u| and residual read off the paper's printed figures beside the measured ones"),
+    ("claims.paired", "paired Monte Carlo of Example 2 (1,000 draws, both schemes, bootstrap intervals); minutes, skipped by --check"),
+    ("claims.paired-ci", "the paired Monte Carlo's first 20 draws, checked by --check"),
 ];
 
 /// A figure a block can name.
@@ -424,6 +430,7 @@ enum Figure<'a> {
     ClaimsUntested,
     ClaimsInitialConditions,
     ClaimsPaperFigures,
+    ClaimsPaired(claims::paired::Study),
 }
 
 /// Figures of a `summary.json` that `run.SCENARIO.KEY` renders.
@@ -521,6 +528,8 @@ fn parse(name: &str) -> Option<Figure<'_>> {
         ["claims", "untested"] => Figure::ClaimsUntested,
         ["claims", "initial-conditions"] => Figure::ClaimsInitialConditions,
         ["claims", "paper-figures"] => Figure::ClaimsPaperFigures,
+        ["claims", "paired"] => Figure::ClaimsPaired(claims::paired::FULL),
+        ["claims", "paired-ci"] => Figure::ClaimsPaired(claims::paired::CI),
         _ => return None,
     })
 }
@@ -580,6 +589,7 @@ fn render(name: &str, src: &mut Sources) -> Result<Option<String>> {
         Figure::ClaimsUntested => claims::untested_table(src)?,
         Figure::ClaimsInitialConditions => claims::initial_conditions_table(src)?,
         Figure::ClaimsPaperFigures => claims::paper_figures_table(src)?,
+        Figure::ClaimsPaired(study) => claims::paired::table(src, study)?,
     };
     Ok(Some(text))
 }

@@ -624,24 +624,18 @@ fn draw_panel<DB: DrawingBackend>(
         (longest as f64 * 6.6 + 48.0) / (f64::from(aw) - 100.0).max(1.0),
         (entries as f64 * 17.0 + 14.0) / (f64::from(ah) - 80.0).max(1.0),
     );
-    // The notes on clipped peaks occupy a strip beside the peak; the legend must not hide them.
-    let mut notes = Vec::new();
-    if let Some(c) = clip {
-        for (s, sp) in p.series.iter().zip(&pts).filter(|(s, _)| s.note) {
-            if let Some((t, v)) = clipped_peak(s, sp, c) {
-                let edge = v.clamp(-c, c);
-                let dir = if note_to_the_left(t, (x0, x1)) {
-                    -1.0
-                } else {
-                    1.0
-                };
-                notes.extend(
-                    (0..40).map(|k| (t + dir * (x1 - x0) * 0.5 * f64::from(k) / 40.0, edge)),
-                );
-            }
-        }
-    }
-    let (mut corner, covered) = legend_corner(&pts, &notes, (x0, x1), (y0, y1), legend_box);
+    // Each clipped peak gets a note in a strip above the plot, never over the data (on screen).
+    let peaks = match clip {
+        Some(c) => p
+            .series
+            .iter()
+            .zip(&pts)
+            .filter(|(s, _)| s.note)
+            .filter(|(s, sp)| clipped_peak(s, sp, c).is_some())
+            .count(),
+        None => 0,
+    };
+    let (mut corner, covered) = legend_corner(&pts, &[], (x0, x1), (y0, y1), legend_box);
     // For print the legend is a strip above the plot, never over the data.
     let strip = page.is_print() && p.legend == Legend::Corner;
     if !strip && p.legend == Legend::Corner && covered > 0 && legend_box.1 < 0.35 && clip.is_none()
@@ -664,6 +658,13 @@ fn draw_panel<DB: DrawingBackend>(
         rest
     } else {
         area
+    };
+    // For print, where the chart's height is fixed, the notes stay inside the plot.
+    let (note_area, area) = if peaks > 0 && !page.is_print() {
+        let (top, rest) = area.split_vertically(z(16) * peaks as u32 + z(4));
+        (Some(top), rest)
+    } else {
+        (None, area)
     };
     let y_labels = if page.is_print() { 64 } else { 78 };
     let mut chart = ChartBuilder::on(&area)
@@ -817,15 +818,11 @@ fn draw_panel<DB: DrawingBackend>(
             if let Some((t, v)) = clipped_peak(s, pts, c) {
                 let edge = v.clamp(-c, c);
                 let arrow = if v > 0.0 { "▲" } else { "▼" };
-                // Notes stack into the plot: downwards from the top edge, upwards from the bottom.
+                // On screen, notes stack in the strip above the plot, one row each, level with
+                // their peak; for print, into the plot from its top or bottom edge.
                 let rank = notes_drawn;
                 notes_drawn += 1;
                 let zi = |px: i32| (f64::from(px) * zoom).round() as i32;
-                let dy = if v > 0.0 {
-                    zi(4 + 16 * rank)
-                } else {
-                    zi(-18 - 16 * rank)
-                };
                 let name = if n_series > 1 {
                     format!("{}: ", short_name(&s.label))
                 } else {
@@ -842,9 +839,9 @@ fn draw_panel<DB: DrawingBackend>(
                 // shorter note when it would leave the plot.
                 let mut left = note_to_the_left(t, (x0, x1));
                 let mut note = notes[0].clone();
+                let (px, _) = chart.backend_coord(&(t, edge));
                 if page.is_print() {
                     let width = |n: &str| strip_text_width(page, n.chars().count()) as i32;
-                    let (px, _) = chart.backend_coord(&(t, edge));
                     let (span, _) = chart.plotting_area().get_pixel_range();
                     let room = |l: bool| {
                         if l {
@@ -862,14 +859,34 @@ fn draw_panel<DB: DrawingBackend>(
                         .unwrap_or(&notes[2])
                         .clone();
                 }
+                // Black text (the marker has the line's colour): readable in grayscale and for
+                // the lighter lines.
+                let font = page.font(12).color(&BLACK);
+                if let Some(strip) = &note_area {
+                    // The peak keeps a marker in the line's colour at the plot's edge.
+                    chart.draw_series([EmptyElement::at((t, edge))
+                        + TriangleMarker::new((0, 0), zi(6) as u32, s.color.filled())])?;
+                    let x = px - strip.get_base_pixel().0;
+                    let (x, h) = if left {
+                        (x + zi(4), HPos::Right)
+                    } else {
+                        (x - zi(4), HPos::Left)
+                    };
+                    let text = font.pos(Pos::new(h, VPos::Top));
+                    strip.draw(&Text::new(note, (x, zi(2 + 16 * rank)), text))?;
+                    continue;
+                }
+                let dy = if v > 0.0 {
+                    zi(4 + 16 * rank)
+                } else {
+                    zi(-18 - 16 * rank)
+                };
                 let (dx, h) = if left {
                     (zi(-24), HPos::Right)
                 } else {
                     (zi(24), HPos::Left)
                 };
-                // Black text (the marker has the line's colour): readable in grayscale and for
-                // the lighter lines.
-                let text = page.font(12).color(&BLACK).pos(Pos::new(h, VPos::Top));
+                let text = font.pos(Pos::new(h, VPos::Top));
                 // A light backing keeps the note readable across grid and marker lines.
                 let per_char = if page.is_print() { 7.0 } else { 6.4 };
                 let w = (note.chars().count() as f64 * per_char * zoom) as i32 + zi(4);

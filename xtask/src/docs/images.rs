@@ -18,6 +18,8 @@ enum Source {
     Torque,
     /// Lemma 2's envelope against the measured `½ Σ e²` (`target/docs/claims/`).
     Lemma2,
+    /// The settling-time vs energy front of `host-sim/tests/front.rs` (`target/front/`).
+    Front,
     /// A figure of `host-sim ARGS --out target/docs/images/TAG/`.
     Run {
         tag: &'static str,
@@ -27,7 +29,7 @@ enum Source {
 }
 
 /// Every image of the documents and its source.
-const IMAGES: [(&str, Source); 17] = [
+const IMAGES: [(&str, Source); 18] = [
     ("docs/figures/lemma2-envelope.svg", Source::Lemma2),
     (
         "host-sim/doc/example1-errors.png",
@@ -96,6 +98,7 @@ const IMAGES: [(&str, Source); 17] = [
         Source::Matrix("example2-fast"),
     ),
     ("docs/figures/torque-limit.png", Source::Torque),
+    ("docs/figures/example2-front.png", Source::Front),
     (
         "docs/campaigns/example2-baseline-retune.png",
         Source::Campaign("example2-baseline-retune", "map.png"),
@@ -153,6 +156,14 @@ impl Sources {
                 self.torque()?;
                 Ok(workspace_root().join("target/torque-limit/torque-limit.png"))
             }
+            Source::Front => self.file("target/front/front.png", |_, path| {
+                run(Command::new(crate::task::cargo())
+                    .current_dir(workspace_root())
+                    .env("FRONT_OUT", path.parent().unwrap_or(path))
+                    .args(["test", "-p", "host-sim", "--release", "--test", "front"])
+                    .args(["--", "--ignored"]))
+                .map(|_| ())
+            }),
             Source::Run { tag, args, file } => {
                 self.file(&format!("target/docs/images/{tag}/{file}"), |s, path| {
                     let bin = s.host_sim()?;
