@@ -28,7 +28,10 @@
 #![no_std]
 #![no_main]
 // The `node` variant times `Node::tick`; the step benchmark's functions stay unused there.
-#![cfg_attr(any(feature = "node", feature = "ops"), allow(dead_code, unused_imports))]
+#![cfg_attr(
+    any(feature = "node", feature = "ops"),
+    allow(dead_code, unused_imports)
+)]
 
 use controller_core::{Controller, ControllerConfig, Link, StepOutput};
 use core::hint::black_box;
