@@ -45,13 +45,6 @@ const NEIGHBOURS: [u8; K] = [1, 3];
 const PERIOD_US: u64 = 1_000;
 /// Heartbeat producer time (`0x1017`), ms: the board's (`CANOPEN_HEARTBEAT_MS`).
 const HEARTBEAT_MS: u16 = 100;
-/// The device's identity (`0x1018`): the board's.
-const IDENTITY: Identity = Identity {
-    vendor: 0,
-    product: 1,
-    revision: 1,
-    serial: 0,
-};
 
 /// The CAN controller: a receive queue of the record's frames; transmit always accepts.
 #[derive(Default)]
@@ -139,7 +132,13 @@ fn new_entry(cfg: &ControllerConfig<N>) -> Result<BenchNode, agent_node::NodeErr
         TraceSensor::default(),
         HeldCommand::default(),
     )?;
-    node.enable_canopen(&node_cfg, cfg, IDENTITY, false, HEARTBEAT_MS)?;
+    // The device's identity (`0x1018`): the board's.
+    let identity = Identity {
+        product: 1,
+        revision: 1,
+        ..Identity::default()
+    };
+    node.enable_canopen(&node_cfg, cfg, identity, false, HEARTBEAT_MS)?;
     Ok(node)
 }
 
