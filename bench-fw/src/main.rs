@@ -28,7 +28,10 @@
 #![no_std]
 #![no_main]
 // The `node` variant times `Node::tick`; the step benchmark's functions stay unused there.
-#![cfg_attr(any(feature = "node", feature = "ops"), allow(dead_code, unused_imports))]
+#![cfg_attr(
+    any(feature = "node", feature = "ops"),
+    allow(dead_code, unused_imports)
+)]
 
 use controller_core::{Controller, ControllerConfig, Link, StepOutput};
 use core::hint::black_box;
@@ -60,7 +63,7 @@ mod ops;
 mod trace;
 
 use measure::{elapsed, exit, fail, paint_below, painted_depth};
-use trace::{record, FIELDS, K, M, N, TRACE};
+use trace::{record, K, M, N, STORED, TRACE};
 
 /// Example 1's configuration for agent 4 (2 neighbours, not pinned), or the baseline.
 fn config() -> ControllerConfig<N> {
@@ -176,7 +179,7 @@ fn main() -> ! {
 /// The step (or node) benchmark over the records of the trace.
 #[cfg(not(feature = "ops"))]
 fn run_trace(calib_ticks: u32) {
-    let steps = TRACE.len() / (FIELDS * 4);
+    let steps = TRACE.len() / (STORED * 4);
     if steps == 0 {
         fail("no trace (build through `cargo xtask bench-target`, which sets BENCH_TRACE)")
     }

@@ -1,23 +1,37 @@
-//! The `node` variant: one `agent_node::Node::tick` per record of the trace — sense, drain the
-//! received frames, freshness, supervision, `Controller::step`, actuate, broadcast — instead of
-//! the step alone, so the table of cores can say what a node's whole sample costs.
+//! The `node` variant: one `agent_node::Node::tick` per record of the trace — the CiA 301
+//! device's work (received NMT/SDO/heartbeat frames, heartbeat producer, SDO timeout, EMCY),
+//! sense, drain the received frames, freshness, supervision, `Controller::step`, actuate,
+//! broadcast — instead of the step alone, so the table of cores can say what a node's whole
+//! sample costs on a board.
 //!
 //! The node is agent 4 of Example 1 (hears agents 1 and 3, not pinned; stale timeout 2.5 ms,
-//! as in `docs/NETWORK.md`; no heartbeat, no supervision). Before each tick the two neighbours'
-//! value frames of the record are put in the CAN controller's receive queue; the node's own
-//! frame is accepted by the transmit call. The node logs nothing in this build (agent-node
-//! without `defmt` or `log`).
+//! as in `docs/NETWORK.md`; no supervision) and a CANopen device enabled as the NUCLEO-G474RE
+//! board enables it (`Node::enable_canopen`: identity product 1 revision 1, heartbeat producer
+//! 100 ms, not self-starting). As on the board, the device is started by an NMT master: before
+//! the measured ticks the node boots (boot-up message, pre-operational) and an NMT "start
+//! remote node" frame comes in through the CAN controller; every measured tick then runs
+//! operational, and one tick in 100 (one period is 1 ms) also sends the heartbeat, so the
+//! maximum includes such a tick and the median does not.
 //!
-//! A tick changes the node (sequence counters, freshness, the controller), and a node is not
-//! `Copy`, so each tick is timed once: resolution one SysTick tick (40 instructions at 25 MHz),
-//! less the cost of an empty timing. The output lines are those of the step benchmark with
-//! `reps=1`.
+//! Before each tick the two neighbours' value frames of the record are put in the CAN
+//! controller's receive queue; the node's own frames (value, heartbeat) are accepted by the
+//! transmit call. The node logs nothing in this build (agent-node without `defmt` or `log`).
+//!
+//! A tick changes the node (sequence counters, freshness, the controller, the device), and a
+//! node is not `Copy`, so each tick is timed once: resolution one SysTick tick (40
+//! instructions at 25 MHz), less the cost of an empty timing. The output lines are those of
+//! the step benchmark with `reps=1`.
 
 use crate::{
     measure::{elapsed, fail, paint_below, painted_depth},
     trace::{record, M, N},
 };
-use agent_node::{wire, wire::Source, Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
+use agent_node::{
+    canopen::{CoFrame, Identity, NmtCommand, NmtState, NMT_ID},
+    wire,
+    wire::Source,
+    Actuator, CanFrame, Clock, Node, NodeConfig, Sensor,
+};
 use controller_core::{ControllerConfig, Link};
 use core::hint::black_box;
 use cortex_m::peripheral::SYST;
@@ -29,6 +43,8 @@ const K: usize = 2;
 const NEIGHBOURS: [u8; K] = [1, 3];
 /// Sample period, µs (Example 1's `h`).
 const PERIOD_US: u64 = 1_000;
+/// Heartbeat producer time (`0x1017`), ms: the board's (`CANOPEN_HEARTBEAT_MS`).
+const HEARTBEAT_MS: u16 = 100;
 
 /// The CAN controller: a receive queue of the record's frames; transmit always accepts.
 #[derive(Default)]
@@ -104,16 +120,42 @@ fn tick_entry(node: &mut BenchNode) -> agent_node::Tick<N, M> {
 
 /// The node's construction (controller configuration included), a function of its own so the
 /// xtask can size the code a firmware links for it.
+/// The CANopen device is enabled here, as the board does right after constructing its node.
 #[inline(never)]
 fn new_entry(cfg: &ControllerConfig<N>) -> Result<BenchNode, agent_node::NodeError> {
-    BenchNode::new(
-        &NodeConfig::new(4, NEIGHBOURS, 2_500),
+    let node_cfg = NodeConfig::new(4, NEIGHBOURS, 2_500);
+    let mut node = BenchNode::new(
+        &node_cfg,
         cfg,
         BenchCan::default(),
         BenchClock::default(),
         TraceSensor::default(),
         HeldCommand::default(),
-    )
+    )?;
+    // The device's identity (`0x1018`): the board's.
+    let identity = Identity {
+        product: 1,
+        revision: 1,
+        ..Identity::default()
+    };
+    node.enable_canopen(&node_cfg, cfg, identity, false, HEARTBEAT_MS)?;
+    Ok(node)
+}
+
+/// Boot the device (boot-up message, pre-operational) and start it with an NMT "start remote
+/// node" frame received through the CAN controller, as an NMT master starts a board; not
+/// timed. Fails the run if the device is not operational after it.
+fn start(node: &mut BenchNode) {
+    node.service();
+    let id = node.canopen().map_or(0, |d| d.node_id());
+    let start = CoFrame::new(NMT_ID, &[NmtCommand::Start.code(), id]).to_frame::<CanFrame>();
+    if let Some(slot) = node.can_mut().rx.first_mut() {
+        *slot = start;
+    }
+    node.service();
+    if node.canopen().map(|d| d.nmt()) != Some(NmtState::Operational) {
+        fail("the CANopen device did not enter Operational on the NMT start")
+    }
 }
 
 /// One tick with the stack painted below the caller's; returns whether the controller held
@@ -142,6 +184,7 @@ pub fn run(cfg: &ControllerConfig<N>, steps: usize, calib_ticks: u32, calib_insn
     let Ok(mut node) = new_entry(black_box(cfg)) else {
         fail("the node rejected its configuration")
     };
+    start(&mut node);
     let (mut stack_peak, mut faults, mut total) = (0u32, 0u32, 0u64);
     let mut overhead = u32::MAX;
     for k in 0..steps {
