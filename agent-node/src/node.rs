@@ -73,8 +73,8 @@ use embedded_can::{nb::Can, Error as _, ErrorKind};
 use crate::canopen::{self, od::ParamStore, CoFrame, Device, Event, Identity};
 use crate::canopen::{od::NodeIdentity, Fault};
 use crate::supervisor::{
-    safe_command, NodeState, Observation, SafePolicy, StopProfile, Supervisor, SupervisorConfig,
-    SupervisorError,
+    micros_from_secs, safe_command, NodeState, Observation, SafePolicy, StopProfile, Supervisor,
+    SupervisorConfig, SupervisorError,
 };
 use crate::wire::{self, DecodeStats, Decoded, Heartbeat, IdPlan, SeqCheck, Source, WireError};
 
@@ -526,7 +526,7 @@ where
             slot.agent = a;
         }
         let cfg_pinned = controller.pinned;
-        let period_us = (f64::from(controller.h) * 1e6 + 0.5) as u64;
+        let period_us = micros_from_secs(controller.h);
         let controller = Controller::new(&with_reentry(controller, &cfg.supervisor))?;
         Ok(Self {
             can,
@@ -1417,7 +1417,11 @@ where
         }
     }
 
-    /// Controller, supervisor and stale timeout from the object dictionary.
+    /// Controller, supervisor and stale timeout from the object dictionary. Out of line and
+    /// cold: it runs once per NMT start after a change, and inlined its frame (the controller
+    /// under construction) would be entered by every tick.
+    #[cold]
+    #[inline(never)]
     fn rebuild(&mut self) -> Result<(), NodeError> {
         let Some(c) = &self.canopen else {
             return Ok(());
@@ -1426,7 +1430,7 @@ where
         let controller = store.controller()?;
         let sup = store.supervisor();
         let supervisor = Supervisor::new(&sup)?;
-        let stale = (f64::from(store.node.stale_timeout) * 1e6 + 0.5) as u64;
+        let stale = micros_from_secs(store.node.stale_timeout);
         if stale == 0 {
             return Err(NodeError::ZeroTimeout);
         }
@@ -1435,7 +1439,7 @@ where
         }
         self.controller = Controller::new(&with_reentry(&controller, &sup))?;
         self.pinned = controller.pinned;
-        self.period_us = (f64::from(controller.h) * 1e6 + 0.5) as u64;
+        self.period_us = micros_from_secs(controller.h);
         self.supervisor = supervisor;
         self.supervised = sup.supervises_any();
         self.timeout_us = stale;

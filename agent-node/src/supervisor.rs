@@ -810,3 +810,81 @@ mod tests {
         assert_eq!(NodeState::from_code(4), None);
     }
 }
+
+/// `s` seconds as whole µs, rounded half up: the same value as
+/// `(f64::from(s) * 1e6 + 0.5) as u64` (a 24-bit mantissa times 10⁶ is exact in 64-bit
+/// integers), without double-precision arithmetic, which a core with a single-precision FPU
+/// (or none) links as about 2 KiB of library code. Negative or NaN: 0; saturates at
+/// `u64::MAX`.
+///
+/// ```
+/// use agent_node::supervisor::micros_from_secs;
+/// assert_eq!(micros_from_secs(0.001), 1_000);
+/// assert_eq!(micros_from_secs(0.0002), 200);
+/// assert_eq!(micros_from_secs(2.5e-3), 2_500);
+/// assert_eq!(micros_from_secs(-1.0), 0);
+/// ```
+pub const fn micros_from_secs(s: f32) -> u64 {
+    let bits = s.to_bits();
+    let biased = ((bits >> 23) & 0xff) as i32;
+    if bits >> 31 != 0 || (biased == 0xff && bits & 0x7f_ffff != 0) {
+        return 0;
+    }
+    if biased == 0xff {
+        return u64::MAX;
+    }
+    let (mantissa, exp) = if biased == 0 {
+        ((bits & 0x7f_ffff) as u64, -149)
+    } else {
+        (((bits & 0x7f_ffff) | 0x80_0000) as u64, biased - 150)
+    };
+    // `s · 10⁶ = p · 2^exp` with `p < 2^44`.
+    let p = mantissa * 1_000_000;
+    if exp >= 64 || (exp >= 0 && p > u64::MAX >> exp) {
+        u64::MAX
+    } else if exp >= 0 {
+        p << exp
+    } else if exp <= -45 {
+        0
+    } else {
+        let shift = (-exp) as u32;
+        (p + (1 << (shift - 1))) >> shift
+    }
+}
+
+#[cfg(test)]
+mod micros_tests {
+    use super::micros_from_secs;
+
+    /// Every exponent and many mantissas against the double-precision formula it replaces.
+    #[test]
+    fn micros_from_secs_equals_the_double_precision_rounding() {
+        let mut x: u32 = 0x9E37_79B9;
+        for k in 0..400_000u32 {
+            // xorshift over the bit patterns, plus every exponent with edge mantissas.
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            let bits = if k < 2048 {
+                ((k / 8) << 23)
+                    | [
+                        0, 1, 0x40_0000, 0x7f_ffff, 0x3f_ffff, 0x55_5555, 7, 0x7f_fff0,
+                    ][(k % 8) as usize]
+            } else {
+                x
+            };
+            let s = f32::from_bits(bits);
+            let want = (f64::from(s) * 1e6 + 0.5) as u64;
+            assert_eq!(micros_from_secs(s), want, "s = {s:e} (bits {bits:#010x})");
+        }
+        for s in [
+            0.001f32, 0.0002, 0.0025, 0.05, 0.1, 1.0, 1e6, 0.5e-6, 0.49e-6,
+        ] {
+            assert_eq!(
+                micros_from_secs(s),
+                (f64::from(s) * 1e6 + 0.5) as u64,
+                "{s}"
+            );
+        }
+    }
+}

@@ -40,7 +40,9 @@ use controller_core::{
 };
 
 use super::{Abort, SdoData};
-use crate::supervisor::{NeighbourLoss, SafePolicy, Supervisor, SupervisorConfig};
+use crate::supervisor::{
+    micros_from_secs, NeighbourLoss, SafePolicy, Supervisor, SupervisorConfig,
+};
 
 /// Most steps `n` (state order) a per-step array can hold.
 pub const MAX_STEPS: u8 = 4;
@@ -810,7 +812,7 @@ fn policy_from(index: u8, decel: f32, rate: f32) -> Option<SafePolicy> {
 }
 
 fn secs(us: Option<u64>) -> f32 {
-    us.map_or(0.0, |us| (us as f64 * 1e-6) as f32)
+    us.map_or(0.0, |us| us as f32 / 1e6)
 }
 
 /// Seconds to µs for a timeout: 0 is none; finite, in `[0, 1e6]`.
@@ -824,7 +826,7 @@ fn micros(s: f32) -> Result<Option<u64>, Abort> {
     if s > 1e6 {
         return Err(Abort::ValueTooHigh);
     }
-    let us = (f64::from(s) * 1e6 + 0.5) as u64;
+    let us = micros_from_secs(s);
     Ok((us > 0).then_some(us))
 }
 
@@ -946,7 +948,7 @@ impl<const N: usize> ParamStore<N> {
                 ids: node.ids,
                 pending_node_id: node.agent,
                 neighbours,
-                stale_timeout: (node.stale_timeout_us as f64 * 1e-6) as f32,
+                stale_timeout: secs(Some(node.stale_timeout_us)),
                 supervisor: sup,
                 stop_decel: decel,
                 ramp_rate: rate,
