@@ -191,6 +191,8 @@ impl fmt::Display for GainReading {
 /// `controller.feedforward`: the velocity feed-forward of LAW §5a, a documented option that is
 /// not the paper's law (off by default).
 ///
+/// `#[non_exhaustive]`: velocities carried by the network would be a further source.
+///
 /// ```
 /// use controller_core::Feedforward;
 /// assert!(Feedforward::default().is_off()); // the paper's (17): no feed-forward
@@ -200,6 +202,7 @@ impl fmt::Display for GainReading {
 #[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[cfg_attr(feature = "serde", serde(rename_all = "kebab-case"))]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum Feedforward {
     /// The paper's law: the terms dropped between (26) and (27) stay dropped.
     #[default]
