@@ -436,7 +436,7 @@ impl Param {
                     D::Name("off"),
                     R::OneOf(FEEDFORWARDS),
                 ),
-                ", `n ≥ 2`",
+                ", not with `n = 1`",
             ),
         }
     }

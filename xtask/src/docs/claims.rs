@@ -1020,7 +1020,7 @@ pub fn ablations_table(src: &mut Sources) -> Result<String> {
                 ts.push((x, g));
             }
         }
-        let _ = write!(t, "\n{what}: {}\n", power_fit_text(&ts));
+        let _ = write!(t, "\n{what} {}\n", power_fit_text(&ts));
     }
     let _ = write!(
         t,
