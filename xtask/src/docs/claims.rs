@@ -1004,11 +1004,11 @@ pub fn ablations_table(src: &mut Sources) -> Result<String> {
         );
     }
     for (tag, extra, what) in [
-        ("", &[][..], "the law as printed"),
+        ("", &[][..], "The law as printed."),
         (
             "-ff",
             &FEEDFORWARD_FIT[..],
-            "with the feed-forward (ℓ₁ = 5, ℓ₂ = 10)",
+            "With the feed-forward (ℓ₁ = 5, ℓ₂ = 10).",
         ),
     ] {
         let mut ts: Vec<(f64, f64)> = Vec::new();
