@@ -469,11 +469,6 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         for (d, &a) in differentiators.iter_mut().zip(&sig.alpha).take(N - 1) {
             *d = p.differentiator.next(d, a);
         }
-        // ... and of w_i = y_i − e_{i,1}/A_i with the feed-forward on (LAW §5a).
-        let feedforward = match (&p.backstepping.feedforward, x.first()) {
-            (Some(ff), Some(&y)) => p.differentiator.next(&s.feedforward, ff.mean(y, e1)),
-            _ => s.feedforward,
-        };
 
         // All finite: `0·v` is ±0 for a finite `v` and NaN for ±∞ or NaN, so one comparison
         // of the sum replaces a test per value. The law's `u` before any limit: a limit must
@@ -484,16 +479,16 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         for d in &differentiators {
             probe += 0.0 * d.chi1 + 0.0 * d.chi2;
         }
-        if p.backstepping.feedforward.is_some() {
-            probe += 0.0 * feedforward.chi1 + 0.0 * feedforward.chi2;
-        }
         let finite = probe == 0.0;
         if !finite {
             return held(s, varpi, StepFault::NonFiniteResult, links);
         }
         s.estimates = estimates;
         s.differentiators = differentiators;
-        s.feedforward = feedforward;
+        // ... and of w_i = y_i − e_{i,1}/A_i with the feed-forward on (LAW §5a).
+        if p.backstepping.feedforward.is_some() {
+            advance_feedforward(p, s, x, e1);
+        }
 
         // 2, continued: q_l = Q_l(u_l).
         let u = [u_l; M];
@@ -553,6 +548,27 @@ fn safety<const N: usize>(params: &Params<N>) -> Option<&Safety> {
 #[inline(never)]
 fn quantize_apart(qz: &HysteresisQuantizer, st: &mut QuantizerState, u: f32) -> f32 {
     qz.quantize(st, u)
+}
+
+/// One step of the differentiator of `w_i = y_i − e_{i,1}/A_i` (LAW §5a), after the step is
+/// committed. Out of line, so that the paper's step (feed-forward off) carries none of it. `e_1`
+/// and `y_i` are finite here (a step with either non-finite was held), so only an `f32` overflow
+/// of `χ` itself can make the state non-finite; it then restarts from rest.
+#[inline(never)]
+fn advance_feedforward<const N: usize, const M: usize, const K: usize>(
+    p: &Params<N>,
+    s: &mut State<N, M, K>,
+    x: &[f32; N],
+    e1: f32,
+) {
+    if let (Some(ff), Some(&y)) = (&p.backstepping.feedforward, x.first()) {
+        let next = p.differentiator.next(&s.feedforward, ff.mean(y, e1));
+        s.feedforward = if next.is_finite() {
+            next
+        } else {
+            DifferentiatorState::default()
+        };
+    }
 }
 
 /// The fault result: previous command held, nothing committed.
