@@ -56,8 +56,8 @@
 
 use base64::{engine::general_purpose::STANDARD_NO_PAD, Engine as _};
 use controller_core::{
-    BaselineConfig, ControllerConfig, GainSelection, QuantizerConfig, QuantizerDirection,
-    SafetyConfig, SchemeConfig,
+    BaselineConfig, ControllerConfig, Feedforward, GainSelection, QuantizerConfig,
+    QuantizerDirection, SafetyConfig, SchemeConfig,
 };
 use embedded_can::{ExtendedId, Frame, Id, StandardId};
 
@@ -673,7 +673,9 @@ pub fn encode_config<const N: usize, const K: usize>(
         len: 0,
     };
     let count = u32::try_from(ctrl.neighbour_count).unwrap_or(u32::MAX);
-    w.push(u32::from(node.agent) | (count << 8) | (u32::from(ctrl.pinned) << 16));
+    // Bit 17: the velocity feed-forward of LAW §5a (0, the paper's law, in older words too).
+    let feedforward = u32::from(!ctrl.feedforward.is_off()) << 17;
+    w.push(u32::from(node.agent) | (count << 8) | (u32::from(ctrl.pinned) << 16) | feedforward);
     w.push(u32::try_from(ctrl.mtn_order).unwrap_or(u32::MAX));
     for chunk in node.neighbours.chunks(4) {
         let mut b = [0u8; 4];
@@ -963,6 +965,11 @@ pub fn decode_config<const N: usize, const K: usize>(
         quantizer,
         scheme,
         safety,
+        feedforward: if (head >> 17) & 1 == 1 {
+            Feedforward::Estimated
+        } else {
+            Feedforward::Off
+        },
     };
     Ok((node, ctrl))
 }

@@ -49,6 +49,58 @@ pub struct Backstepping<const N: usize> {
     pub(crate) inv_gamma: f32,
     /// `1 / (1 − δ)` of the quantizer (1 without one).
     pub(crate) command_gain: f32,
+    /// The velocity feed-forward of LAW §5a; `None` is the paper's law.
+    pub(crate) feedforward: Option<VelocityFeedforward>,
+}
+
+/// Constants of the velocity feed-forward (LAW §5a), a documented option that is not the
+/// paper's law: `α_1 ← α_1 + ẇ_i / φ_up_1`, where `w_i = (Σ_k a_{i,k} y_k + r_i y_d) / A_i =
+/// y_i − e_{i,1}/A_i` (10) is the weighted neighbour mean and `A_i ẇ_i` the velocity term
+/// `Σ_k a_{i,k} ẏ_k + r_i ẏ_d` dropped between (26) and (27).
+///
+/// ```
+/// use controller_core::{Controller, ControllerConfig, Feedforward, Link};
+/// let on = ControllerConfig::<2> { feedforward: Feedforward::Estimated, ..Default::default() };
+/// let (mut a, mut b) = (Controller::<2, 2, 0>::new(&on)?, Controller::<2, 2, 0>::new(&Default::default())?);
+/// // The first sample primes the differentiator (ẇ = 0): both laws agree.
+/// assert_eq!(a.step(&[0.1, 0.0], &[], Link::Fresh(0.0)), b.step(&[0.1, 0.0], &[], Link::Fresh(0.0)));
+/// // The leader moves up: the feed-forward raises α_1 by the estimated ẇ > 0.
+/// let (fa, fb) = (a.step(&[0.1, 0.0], &[], Link::Fresh(0.01)), b.step(&[0.1, 0.0], &[], Link::Fresh(0.01)));
+/// let (fa, fb) = (a.step(&[0.1, 0.0], &[], Link::Fresh(0.02)), b.step(&[0.1, 0.0], &[], Link::Fresh(0.02)));
+/// assert!(fa.alpha[0] > fb.alpha[0]);
+/// # Ok::<(), controller_core::ConfigError>(())
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct VelocityFeedforward {
+    /// `1 / A_i`, to form `w_i = y_i − e_{i,1}/A_i`.
+    pub(crate) inv_a: f32,
+    /// `1 / φ_up_1`: with the unknown `φ_{i,1}` in `[φ_low_1, φ_up_1]` the term cancels the
+    /// fraction `φ_{i,1}/φ_up_1 ∈ (0, 1]` of `A_i ẇ_i`, never more.
+    pub(crate) inv_phi_up: f32,
+}
+
+impl VelocityFeedforward {
+    /// The weighted neighbour mean `w_i = y_i − e_{i,1}/A_i` of (10).
+    ///
+    /// ```
+    /// use controller_core::{Controller, ControllerConfig, Feedforward, Link};
+    /// // Agent 4 of the examples hears agents 1 and 3 (A_4 = 2): w_4 = (y_1 + y_3)/2.
+    /// let cfg = ControllerConfig::<2> {
+    ///     neighbour_count: 2, pinned: false, feedforward: Feedforward::Estimated,
+    ///     ..Default::default()
+    /// };
+    /// let mut c = Controller::<2, 2, 2>::new(&cfg)?;
+    /// let out = c.step(&[0.5, 0.0], &[Link::Fresh(0.2), Link::Fresh(0.4)], Link::Missing);
+    /// let ff = c.params().feedforward().unwrap();
+    /// assert!((ff.mean(0.5, out.e[0]) - 0.3).abs() < 1e-6);
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
+    #[inline]
+    #[must_use]
+    pub fn mean(&self, y: f32, e1: f32) -> f32 {
+        y - e1 * self.inv_a
+    }
 }
 
 /// The signals of one sample's recursion, per step `j` (index `j−1`); the controller's
@@ -87,7 +139,7 @@ pub struct Signals<const N: usize> {
 /// ```
 /// use controller_core::backstepping::Estimated;
 /// let alpha_dot = [0.0, 0.0];
-/// let est = Estimated { mu: 0.0, xi: 0.0, lambda: 1.0, varpi: 0.1, alpha_dot: &alpha_dot };
+/// let est = Estimated { mu: 0.0, xi: 0.0, lambda: 1.0, varpi: 0.1, alpha_dot: &alpha_dot, w_dot: 0.0 };
 /// assert_eq!(est.alpha_dot.len(), 2); // one χ_{j,2} per step, the last unused
 /// ```
 #[derive(Debug, Clone, Copy)]
@@ -102,6 +154,9 @@ pub struct Estimated<'a, const N: usize> {
     pub varpi: f32,
     /// Differentiator estimates `χ_{j,2} ≈ α̇_j` at index `j−1`.
     pub alpha_dot: &'a [f32; N],
+    /// Estimate of `ẇ_i`, the weighted neighbour mean's rate (read only with the feed-forward
+    /// of LAW §5a on).
+    pub w_dot: f32,
 }
 
 impl<const N: usize> Backstepping<N> {
@@ -160,6 +215,10 @@ impl<const N: usize> Backstepping<N> {
             } else {
                 // (15): α_j = −β_j s_ϖ(e_j β_j) / (L_j φ_low_j).
                 alpha_prev = -self.inv_l_phi_low[j] * beta * smooth(e * beta, est.varpi);
+                if let (0, Some(ff)) = (j, &self.feedforward) {
+                    // LAW §5a: α_1 + ẇ_i / φ_up_1.
+                    alpha_prev += ff.inv_phi_up * est.w_dot;
+                }
                 alphas[j] = alpha_prev;
             }
             es[j] = e;

@@ -13,6 +13,7 @@ use crate::{
     quantizer::{HysteresisQuantizer, QuantizerConfig},
     safety::{Safety, SafetyConfig},
     scheme::{Scheme, SchemeConfig},
+    sections::Feedforward,
     smoothing::VarpiSchedule,
 };
 
@@ -99,6 +100,8 @@ pub struct ControllerConfig<const N: usize> {
     /// Command limits, anti-windup and recovery ([`crate::safety`]); `None` (default) is the
     /// paper's law.
     pub safety: Option<SafetyConfig>,
+    /// Velocity feed-forward (LAW §5a); [`Feedforward::Off`] (default) is the paper's law.
+    pub feedforward: Feedforward,
 }
 
 impl<const N: usize> Default for ControllerConfig<N> {
@@ -131,6 +134,7 @@ impl<const N: usize> Default for ControllerConfig<N> {
             quantizer: Some(QuantizerConfig::default()),
             scheme: SchemeConfig::PredefinedTime,
             safety: None,
+            feedforward: Feedforward::Off,
         }
     }
 }
@@ -245,6 +249,7 @@ impl<const N: usize> ControllerConfig<N> {
                 }
                 None => return false,
             },
+            (Param::Feedforward, ..) => self.feedforward = Feedforward::Off,
             (Param::UMax | Param::DuMax | Param::RecoveryRate | Param::RecoveryJump, ..) => {
                 match &mut self.safety {
                     Some(s) => match e.param() {
@@ -378,6 +383,20 @@ impl<const N: usize> Params<N> {
         }
         Param::DiffL1.check(cfg.diff_l1)?;
         Param::DiffL2.check(cfg.diff_l2)?;
+        // LAW §5a: ẇ_i enters α_1, which a first-order plant (n = 1) does not have.
+        let feedforward = match cfg.feedforward {
+            Feedforward::Off => None,
+            Feedforward::Estimated if N < 2 => {
+                return Err(ConfigError::new(
+                    Param::Feedforward,
+                    Reason::Conflicts(Param::StateOrder),
+                ))
+            }
+            Feedforward::Estimated => Some(crate::backstepping::VelocityFeedforward {
+                inv_a: 1.0 / consensus.a(),
+                inv_phi_up: cfg.phi_up.first().map_or(1.0, |up| 1.0 / up),
+            }),
+        };
         Param::Varpi0.check(cfg.varpi0)?;
         Param::VarpiDecay.check(cfg.varpi_decay)?;
         if Param::VarpiMin.check(cfg.varpi_min)? > cfg.varpi0 {
@@ -424,6 +443,7 @@ impl<const N: usize> Params<N> {
                 inv_l_phi_low,
                 inv_gamma,
                 command_gain: 1.0 / (1.0 - delta),
+                feedforward,
             },
             scheme,
             laws: AdaptiveLaws::new(gains.c1, gains.c2, cfg.zeta, cfg.h, estimate_max),
@@ -497,6 +517,23 @@ impl<const N: usize> Params<N> {
     #[must_use]
     pub const fn a(&self) -> f32 {
         self.consensus.a()
+    }
+
+    /// The velocity feed-forward (LAW §5a), if on.
+    ///
+    /// ```
+    /// use controller_core::{ControllerConfig, Feedforward, Params};
+    /// assert!(Params::new(&ControllerConfig::<2>::default(), 0)?.feedforward().is_none());
+    /// let on = ControllerConfig::<2> { feedforward: Feedforward::Estimated, ..Default::default() };
+    /// assert!(Params::new(&on, 0)?.feedforward().is_some());
+    /// // n = 1 has no virtual control α_1 to carry it.
+    /// let n1 = ControllerConfig::<1> { feedforward: Feedforward::Estimated, ..Default::default() };
+    /// assert_eq!(Params::new(&n1, 0).unwrap_err().to_string(), "`feedforward` cannot be used with `plant.model`");
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
+    #[must_use]
+    pub const fn feedforward(&self) -> Option<&crate::backstepping::VelocityFeedforward> {
+        self.backstepping.feedforward.as_ref()
     }
 
     /// The safety settings, if on.

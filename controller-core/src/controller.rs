@@ -131,6 +131,9 @@ pub struct State<const N: usize, const M: usize, const K: usize> {
     pub estimates: Estimates,
     /// Differentiator of `α_j` at index `j−1` (the last is unused).
     pub differentiators: [DifferentiatorState; N],
+    /// Differentiator of the weighted neighbour mean `w_i` (LAW §5a; at rest with the
+    /// feed-forward off).
+    pub feedforward: DifferentiatorState,
     /// One hysteresis quantizer per actuator.
     pub quantizers: [QuantizerState; M],
     /// Last committed `u` (held on a fault).
@@ -199,6 +202,7 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
             varpi: params.varpi.initial,
             estimates: params.initial,
             differentiators: [DifferentiatorState::default(); N],
+            feedforward: DifferentiatorState::default(),
             quantizers: [q0; M],
             u: [0.0; M],
             q: [0.0; M],
@@ -251,6 +255,7 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         s.k = 0;
         s.varpi = self.params.varpi.initial;
         s.differentiators = [DifferentiatorState::default(); N];
+        s.feedforward = DifferentiatorState::default();
         s.u = *applied;
         s.q = *applied;
         self.reenter_links_from(y);
@@ -367,6 +372,7 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
                 let s = &mut self.state;
                 if s.recovery.after_hold {
                     s.differentiators = [DifferentiatorState::default(); N];
+                    s.feedforward = DifferentiatorState::default();
                     s.recovery.after_hold = false;
                 }
                 (reenter_link(safety, &mut s.recovery.leader, leader), true)
@@ -430,6 +436,7 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
                 lambda: est.lambda,
                 varpi,
                 alpha_dot: &alpha_dot,
+                w_dot: s.feedforward.chi2,
             },
         );
 
@@ -478,6 +485,10 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
         }
         s.estimates = estimates;
         s.differentiators = differentiators;
+        // ... and of w_i = y_i − e_{i,1}/A_i with the feed-forward on (LAW §5a).
+        if p.backstepping.feedforward.is_some() {
+            advance_feedforward(p, s, x, e1);
+        }
 
         // 2, continued: q_l = Q_l(u_l).
         let u = [u_l; M];
@@ -537,6 +548,27 @@ fn safety<const N: usize>(params: &Params<N>) -> Option<&Safety> {
 #[inline(never)]
 fn quantize_apart(qz: &HysteresisQuantizer, st: &mut QuantizerState, u: f32) -> f32 {
     qz.quantize(st, u)
+}
+
+/// One step of the differentiator of `w_i = y_i − e_{i,1}/A_i` (LAW §5a), after the step is
+/// committed. Out of line, so that the paper's step (feed-forward off) carries none of it. `e_1`
+/// and `y_i` are finite here (a step with either non-finite was held), so only an `f32` overflow
+/// of `χ` itself can make the state non-finite; it then restarts from rest.
+#[inline(never)]
+fn advance_feedforward<const N: usize, const M: usize, const K: usize>(
+    p: &Params<N>,
+    s: &mut State<N, M, K>,
+    x: &[f32; N],
+    e1: f32,
+) {
+    if let (Some(ff), Some(&y)) = (&p.backstepping.feedforward, x.first()) {
+        let next = p.differentiator.next(&s.feedforward, ff.mean(y, e1));
+        s.feedforward = if next.is_finite() {
+            next
+        } else {
+            DifferentiatorState::default()
+        };
+    }
 }
 
 /// The fault result: previous command held, nothing committed.
@@ -624,6 +656,50 @@ mod tests {
                 rel(fast.1, exact.1) <= DRIFT,
                 "T_s = {ts}: {fast:?} vs {exact:?}"
             );
+        }
+    }
+}
+
+#[cfg(test)]
+mod feedforward_off {
+    //! With the feed-forward off (the default) the step is the paper's law: nothing of LAW §5a
+    //! reaches an output, whatever the feed-forward differentiator holds.
+    use super::*;
+    use proptest::prelude::*;
+
+    fn bits<const N: usize, const M: usize>(o: &StepOutput<N, M>) -> Vec<u32> {
+        let mut v: Vec<u32> = Vec::new();
+        for a in [&o.u[..], &o.q[..], &o.e[..], &o.alpha[..], &o.beta[..]] {
+            v.extend(a.iter().map(|x| x.to_bits()));
+        }
+        let e = o.estimates;
+        v.extend([e.mu, e.xi, e.lambda, o.varpi].iter().map(|x| x.to_bits()));
+        v
+    }
+
+    proptest! {
+        #[test]
+        fn off_ignores_the_feedforward_state_bit_for_bit(
+            xs in prop::collection::vec((-3.0f32..3.0, -3.0f32..3.0, -2.0f32..2.0, -2.0f32..2.0, -2.0f32..2.0), 1..60),
+            garbage in (-1e3f32..1e3, -1e3f32..1e3),
+            pinned in any::<bool>(),
+        ) {
+            let cfg = ControllerConfig::<2> { neighbour_count: 2, pinned, ..Default::default() };
+            let mut plain = Controller::<2, 2, 2>::new(&cfg).unwrap();
+            let mut dirty = plain;
+            // A primed state far from rest: χ_1 = g_0 − …, χ_2 = ∓(|g_1| + 1).
+            let d = crate::LevantDifferentiator::new(1.0, garbage.1.abs() + 1.0, 1.0);
+            let junk = d.next(&d.next(&DifferentiatorState::default(), garbage.0), garbage.1);
+            prop_assert!(junk.chi2 != 0.0);
+            for (x1, x2, n1, n2, yd) in xs {
+                dirty.state.feedforward = junk;
+                let links = [Link::Fresh(n1), Link::Fresh(n2)];
+                let a = plain.step(&[x1, x2], &links, Link::Fresh(yd));
+                let b = dirty.step(&[x1, x2], &links, Link::Fresh(yd));
+                prop_assert_eq!(bits(&a), bits(&b));
+                prop_assert_eq!(plain.state.feedforward, DifferentiatorState::default());
+                prop_assert_eq!(dirty.state.feedforward, junk);
+            }
         }
     }
 }

@@ -121,7 +121,8 @@ pub use scheme::{BaselineConfig, SchemeConfig};
 #[cfg(feature = "serde")]
 pub use sections::ConfigFile;
 pub use sections::{
-    Agent, ControllerSection, GainReading, QuantizerSection, SafetySection, SchemeName, Sections,
+    Agent, ControllerSection, Feedforward, GainReading, QuantizerSection, SafetySection,
+    SchemeName, Sections,
 };
 
 /// The crate README's examples, compiled and run as doctests.

@@ -112,6 +112,8 @@ pub enum Param {
     Pinned,
     /// `plant.model`: the plant fixes the state order `n`.
     StateOrder,
+    /// `controller.feedforward`: the velocity feed-forward of LAW §5a (off: the paper's law).
+    Feedforward,
 }
 
 /// A parameter's default as a scenario file states it.
@@ -244,11 +246,14 @@ pub const SCHEMES: &[&str] = &["predefined-time", "prescribed-time"];
 pub const DIRECTIONS: &[&str] = &["signed", "magnitude"];
 /// Names of `controller.gain_reading`.
 pub const GAIN_READINGS: &[&str] = &["reconstructed", "printed"];
+/// Names of `controller.feedforward`.
+pub const FEEDFORWARDS: &[&str] = &["off", "estimated"];
 
 const BASELINE_ONLY: &str = "; `prescribed-time` only";
 
 impl Param {
-    /// Every parameter, in the order of docs/SCENARIO.md.
+    /// Every parameter, in the order of docs/SCENARIO.md, except the ones added later, which are
+    /// appended so that the object dictionary's index of every earlier one stays.
     ///
     /// ```
     /// use controller_core::param::Param;
@@ -258,7 +263,7 @@ impl Param {
     ///     assert_eq!(Param::ALL.iter().filter(|q| q.key() == p.key()).count(), 1);
     /// }
     /// ```
-    pub const ALL: [Self; 40] = [
+    pub const ALL: [Self; 41] = [
         Self::H,
         Self::Scheme,
         Self::Ts,
@@ -299,6 +304,7 @@ impl Param {
         Self::Neighbours,
         Self::Pinned,
         Self::StateOrder,
+        Self::Feedforward,
     ];
 
     /// The parameter table: scenario key, unit, default and range (docs/SCENARIO.md, LAW §8).
@@ -423,6 +429,15 @@ impl Param {
             Self::Neighbours => spec("graph.neighbours", "–", D::Elsewhere, R::Elsewhere),
             Self::Pinned => spec("graph.pinned", "–", D::Elsewhere, R::Elsewhere),
             Self::StateOrder => spec("plant.model", "–", D::Elsewhere, R::Elsewhere),
+            Self::Feedforward => with(
+                spec(
+                    "controller.feedforward",
+                    "–",
+                    D::Name("off"),
+                    R::OneOf(FEEDFORWARDS),
+                ),
+                ", not with `n = 1`",
+            ),
         }
     }
 
@@ -470,6 +485,7 @@ impl Param {
             Self::Neighbours => "neighbours",
             Self::Pinned => "pinned to the leader",
             Self::StateOrder => "plant model",
+            Self::Feedforward => "velocity feed-forward",
         }
     }
 
@@ -714,7 +730,8 @@ mod tests {
                 | Param::RecoveryJump
                 | Param::Neighbours
                 | Param::Pinned
-                | Param::StateOrder => {}
+                | Param::StateOrder
+                | Param::Feedforward => {}
             }
         }
     }

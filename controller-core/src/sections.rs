@@ -188,6 +188,52 @@ impl fmt::Display for GainReading {
     }
 }
 
+/// `controller.feedforward`: the velocity feed-forward of LAW §5a, a documented option that is
+/// not the paper's law (off by default).
+///
+/// `#[non_exhaustive]`: velocities carried by the network would be a further source.
+///
+/// ```
+/// use controller_core::Feedforward;
+/// assert!(Feedforward::default().is_off()); // the paper's (17): no feed-forward
+/// assert_eq!(Feedforward::Estimated.to_string(), "estimated");
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "kebab-case"))]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum Feedforward {
+    /// The paper's law: the terms dropped between (26) and (27) stay dropped.
+    #[default]
+    Off,
+    /// `α_1 += ẇ_i / φ_up_1`, with `ẇ_i` the derivative of the weighted neighbour mean
+    /// `w_i = y_i − e_{i,1}/A_i` estimated by one more Levant differentiator (LAW §5a).
+    Estimated,
+}
+
+impl Feedforward {
+    /// The default, the paper's law (left out when a section is written).
+    ///
+    /// ```
+    /// use controller_core::Feedforward;
+    /// assert!(Feedforward::Off.is_off() && !Feedforward::Estimated.is_off());
+    /// ```
+    #[must_use]
+    pub fn is_off(&self) -> bool {
+        *self == Self::Off
+    }
+}
+
+impl fmt::Display for Feedforward {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::Off => crate::param::FEEDFORWARDS[0],
+            Self::Estimated => crate::param::FEEDFORWARDS[1],
+        })
+    }
+}
+
 /// `[controller]`: the design values of LAW §3–§5, shared by all agents.
 ///
 /// ```
@@ -268,6 +314,9 @@ pub struct ControllerSection<F, S> {
         serde(skip_serializing_if = "GainReading::is_reconstructed")
     )]
     pub gain_reading: GainReading,
+    /// Velocity feed-forward (LAW §5a; off: the paper's law).
+    #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Feedforward::is_off"))]
+    pub feedforward: Feedforward,
     /// Baseline `κ`.
     #[cfg_attr(feature = "serde", serde(skip_serializing_if = "Option::is_none"))]
     pub kappa: Option<F>,
@@ -308,6 +357,7 @@ impl<F: Number, S: PerStep<F>> Default for ControllerSection<F, S> {
             c1: None,
             c2: None,
             gain_reading: GainReading::default(),
+            feedforward: Feedforward::default(),
             kappa: None,
             mu_max: None,
             t_prescribed: None,
@@ -670,6 +720,7 @@ impl<const N: usize> ControllerConfig<N> {
             quantizer: q.config(),
             scheme,
             safety: s.config(),
+            feedforward: c.feedforward,
         };
         (cfg, errors)
     }
@@ -866,6 +917,7 @@ impl<const N: usize> From<ControllerConfig<N>> for Sections<N> {
                 c1,
                 c2,
                 gain_reading: GainReading::Reconstructed,
+                feedforward: c.feedforward,
                 kappa: baseline.map(|b| b.kappa),
                 mu_max: baseline.map(|b| b.mu_max),
                 t_prescribed: baseline.and_then(|b| b.t_prescribed),

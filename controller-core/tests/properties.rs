@@ -4,7 +4,7 @@
 //! docs/RELIABILITY.md, "Replaying a failure".
 
 use controller_core::{
-    smoothing::smooth, BaselineConfig, Controller, ControllerConfig, GainSelection,
+    smoothing::smooth, BaselineConfig, Controller, ControllerConfig, Feedforward, GainSelection,
     HysteresisQuantizer, Link, QuantizerConfig, QuantizerDirection, SchemeConfig,
 };
 use proptest::{
@@ -240,6 +240,20 @@ proptest! {
         for s in &samples {
             let out = c.step(&s.x, &s.neighbours, s.leader);
             check_output(&out)?;
+        }
+    }
+
+    /// The same with the velocity feed-forward of LAW §5a on (its differentiator of `w_i`
+    /// joins the finiteness check and the held-step rule).
+    #[test]
+    fn step_with_feedforward_is_total_on_finite_inputs(cfg in config(),
+                                                       samples in prop::collection::vec(sample(), 1..40)) {
+        let cfg = ControllerConfig { feedforward: Feedforward::Estimated, ..cfg };
+        let mut c = Controller::<2, 2, 4>::new(&cfg).unwrap();
+        for s in &samples {
+            let out = c.step(&s.x, &s.neighbours, s.leader);
+            check_output(&out)?;
+            prop_assert!(c.state().feedforward.is_finite());
         }
     }
 

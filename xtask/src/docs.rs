@@ -372,7 +372,7 @@ pub const CATALOGUE: [(&str, &str); 63] = [
     ("claims", "the paper's claims: rule, figures and verdict under each reading (D1 printed gains, D7 permanent faults)"),
     ("claims.readings", "every claim's verdict under each reading (D1 printed gains at h = 1 us, D7 permanent faults); minutes, skipped by --check"),
     ("claims.bands", "settling time of both schemes of Example 2 at bands 0.5x to 2x the final residual"),
-    ("claims.ablations", "Example 1's bound after 2Ts with one cause of error removed at a time, and its fit over Ts"),
+    ("claims.ablations", "Example 1's bound after 2Ts with one cause of error removed at a time or the velocity feed-forward added, its fit over Ts, and Example 2 with the feed-forward"),
     ("claims.convergence", "the claims' figures with h halved until they change by less than 1 %"),
     ("claims.further", "checks the paper does not claim: effort of Fig. 8, the baseline tuned to the same settling time"),
     ("claims.untested", "claims no figure of the paper tests: initial conditions (CI's subset), boundedness, Lemma 2's envelope, Lemma 5's differentiator"),

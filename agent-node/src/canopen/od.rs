@@ -34,9 +34,9 @@
 //! absent and is cleared by writing NaN.
 
 use controller_core::{
-    param::{DefaultValue, Range, DIRECTIONS, GAIN_READINGS, SCHEMES},
-    ConfigError, ControllerConfig, GainReading, Param, Params, QuantizerDirection, Reason,
-    SchemeName, Sections,
+    param::{DefaultValue, Range, DIRECTIONS, FEEDFORWARDS, GAIN_READINGS, SCHEMES},
+    ConfigError, ControllerConfig, Feedforward, GainReading, Param, Params, QuantizerDirection,
+    Reason, SchemeName, Sections,
 };
 
 use super::{Abort, SdoData};
@@ -1009,6 +1009,9 @@ impl<const N: usize> ParamStore<N> {
             Param::GainReading => {
                 Value::Unsigned(u32::from(c.gain_reading == GainReading::Printed))
             }
+            Param::Feedforward => {
+                Value::Unsigned(u32::from(c.feedforward == Feedforward::Estimated))
+            }
             Param::Kappa => opt(c.kappa),
             Param::MuMax => opt(c.mu_max),
             Param::TPrescribed => opt(c.t_prescribed),
@@ -1196,6 +1199,13 @@ fn set_param<const N: usize>(
                 GainReading::Printed
             } else {
                 GainReading::Reconstructed
+            };
+        }
+        Param::Feedforward => {
+            c.feedforward = if names(FEEDFORWARDS)? {
+                Feedforward::Estimated
+            } else {
+                Feedforward::Off
             };
         }
         Param::Kappa => c.kappa = opt,

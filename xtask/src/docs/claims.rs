@@ -902,7 +902,7 @@ pub fn bands_table(src: &mut Sources) -> Result<String> {
 }
 
 /// Ablations of Example 1 (T_s = 2): label and `--set` overrides.
-const ABLATIONS: [(&str, &[&str]); 11] = [
+const ABLATIONS: [(&str, &[&str]); 15] = [
     ("as shipped", &[]),
     ("faults off", &["faults.enabled=false"]),
     ("quantizer off", &["quantizer.enabled=false"]),
@@ -936,10 +936,56 @@ const ABLATIONS: [(&str, &[&str]); 11] = [
     ),
     ("leader at half speed (ω = 1 rad/s)", &["leader.omega=1.0"]),
     ("leader at rest (y_d = 0)", &["leader.omega=0.0"]),
+    (
+        "leader/neighbour velocity feed-forward (estimated), ℓ₁ = ℓ₂ = 1",
+        &[FEEDFORWARD],
+    ),
+    (
+        "leader/neighbour velocity feed-forward (estimated), ℓ₁ = 5, ℓ₂ = 10",
+        &FEEDFORWARD_FIT,
+    ),
+    (
+        "every follower pinned, feed-forward (estimated), ℓ₁ = ℓ₂ = 1",
+        &["graph.pinned=[1, 2, 3, 4]", FEEDFORWARD],
+    ),
+    (
+        "every follower pinned, feed-forward (estimated), ℓ₁ = 5, ℓ₂ = 10",
+        &[
+            "graph.pinned=[1, 2, 3, 4]",
+            FEEDFORWARD,
+            RAISED_GAINS[0],
+            RAISED_GAINS[1],
+        ],
+    ),
 ];
 
+/// Example 2 with and without the feed-forward: label and `--set` overrides.
+const EXAMPLE2_FEEDFORWARD: [(&str, &[&str]); 4] = [
+    ("as shipped", &[]),
+    ("differentiator ℓ₁ = 5, ℓ₂ = 10", &RAISED_GAINS),
+    ("feed-forward (estimated), ℓ₁ = ℓ₂ = 1", &[FEEDFORWARD]),
+    (
+        "feed-forward (estimated), ℓ₁ = 5, ℓ₂ = 10",
+        &FEEDFORWARD_FIT,
+    ),
+];
+
+/// The settling band of the shipped scenarios' `metrics.settle_band`.
+const SETTLE_BAND: f64 = 0.05;
+
+/// The velocity feed-forward of LAW §5a (an option, not the paper's law).
+const FEEDFORWARD: &str = "controller.feedforward=\"estimated\"";
+
+/// The feed-forward row whose dependence on `T_s` is fitted next to the law's.
+const FEEDFORWARD_FIT: [&str; 3] = [FEEDFORWARD, RAISED_GAINS[0], RAISED_GAINS[1]];
+
+/// Differentiator gains that meet Levant's condition `ℓ_2 > |ẅ_i|` for the examples' leaders
+/// (`|ÿ_d| ≤ 2.4`), where the paper's `ℓ_1 = ℓ_2 = 1` do not (LAW §9).
+const RAISED_GAINS: [&str; 2] = ["controller.diff_l1=5", "controller.diff_l2=10"];
+
 /// `fig:claims.ablations`: Example 1's bound after `2 T_s` with one cause of error removed at
-/// a time, per agent (agent 1 hears the leader), and the residual's dependence on `T_s`.
+/// a time or the velocity feed-forward of LAW §5a added, per agent (agent 1 hears the leader);
+/// the residual's dependence on `T_s` without and with the feed-forward; Example 2 with it.
 pub fn ablations_table(src: &mut Sources) -> Result<String> {
     let mut t = String::from(
         "| Example 1 (Tₛ = 2) | γ̌ (max error after 2Tₛ) | change | agent 1 | agents 2, 3, 4 |\n|---|---|---|---|---|\n",
@@ -963,22 +1009,40 @@ pub fn ablations_table(src: &mut Sources) -> Result<String> {
             agents.join(", ")
         );
     }
-    let ts: Vec<(f64, f64)> = {
-        let mut v = Vec::new();
+    for (tag, extra, what) in [
+        ("", &[][..], "The law as printed."),
+        (
+            "-ff",
+            &FEEDFORWARD_FIT[..],
+            "With the feed-forward (ℓ₁ = 5, ℓ₂ = 10).",
+        ),
+    ] {
+        let mut ts: Vec<(f64, f64)> = Vec::new();
         for x in TS_GRID {
-            let r = run(
-                src,
-                "example1",
-                &format!("-ts{x}"),
-                &[format!("controller.ts={x}")],
-            )?;
+            let mut sets = vec![format!("controller.ts={x}")];
+            sets.extend(extra.iter().map(|s| (*s).to_owned()));
+            let r = run(src, "example1", &format!("-ts{x}{tag}"), &sets)?;
             if let Some(g) = r.gamma() {
-                v.push((x, g));
+                ts.push((x, g));
             }
         }
-        v
-    };
-    let _ = write!(t, "\n{}\n", power_fit_text(&ts));
+        let _ = write!(t, "\n{what} {}\n", power_fit_text(&ts));
+    }
+    let _ = write!(
+        t,
+        "\n| Example 2 (Tₛ = 0.5) | γ̌ (max error after 2Tₛ) | settling time (b = {SETTLE_BAND}) | peak \\|u\\| |\n|---|---|---|---|\n",
+    );
+    for (k, (label, sets)) in EXAMPLE2_FEEDFORWARD.iter().enumerate() {
+        let sets: Vec<String> = sets.iter().map(|s| (*s).to_owned()).collect();
+        let r = run(src, "example2", &format!("-feedforward{k}"), &sets)?;
+        let _ = writeln!(
+            t,
+            "| {label} | {} | {} | {} |",
+            g3(r.gamma()),
+            secs(r.settling(SETTLE_BAND, r.deadline)),
+            fixed(r.peak_u, 0)
+        );
+    }
     Ok(t)
 }
 
