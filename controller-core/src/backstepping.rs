@@ -236,3 +236,49 @@ impl<const N: usize> Backstepping<N> {
         }
     }
 }
+
+/// `controller.feedforward`: the velocity feed-forward of LAW §5a, a documented option that is
+/// not the paper's law (off by default).
+///
+/// `#[non_exhaustive]`: velocities carried by the network would be a further source.
+///
+/// ```
+/// use controller_core::Feedforward;
+/// assert!(Feedforward::default().is_off()); // the paper's (17): no feed-forward
+/// assert_eq!(Feedforward::Estimated.to_string(), "estimated");
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
+#[cfg_attr(feature = "serde", serde(rename_all = "kebab-case"))]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum Feedforward {
+    /// The paper's law: the terms dropped between (26) and (27) stay dropped.
+    #[default]
+    Off,
+    /// `α_1 += ẇ_i / φ_up_1`, with `ẇ_i` the derivative of the weighted neighbour mean
+    /// `w_i = y_i − e_{i,1}/A_i` estimated by one more Levant differentiator (LAW §5a).
+    Estimated,
+}
+
+impl Feedforward {
+    /// The default, the paper's law (left out when a section is written).
+    ///
+    /// ```
+    /// use controller_core::Feedforward;
+    /// assert!(Feedforward::Off.is_off() && !Feedforward::Estimated.is_off());
+    /// ```
+    #[must_use]
+    pub fn is_off(&self) -> bool {
+        *self == Self::Off
+    }
+}
+
+impl core::fmt::Display for Feedforward {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::Off => crate::param::FEEDFORWARDS[0],
+            Self::Estimated => crate::param::FEEDFORWARDS[1],
+        })
+    }
+}

@@ -3,7 +3,7 @@
 
 use crate::{
     adaptive::{AdaptiveLaws, Estimates},
-    backstepping::Backstepping,
+    backstepping::{Backstepping, Feedforward},
     consensus::Consensus,
     differentiator::LevantDifferentiator,
     error::{ConfigError, ConfigErrors},
@@ -13,7 +13,6 @@ use crate::{
     quantizer::{HysteresisQuantizer, QuantizerConfig},
     safety::{Safety, SafetyConfig},
     scheme::{Scheme, SchemeConfig},
-    sections::Feedforward,
     smoothing::VarpiSchedule,
 };
 

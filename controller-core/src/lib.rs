@@ -107,6 +107,7 @@ pub mod sections;
 pub mod smoothing;
 
 pub use adaptive::Estimates;
+pub use backstepping::Feedforward;
 pub use config::{ControllerConfig, Params};
 pub use consensus::{Link, LinkReport};
 pub use controller::{Controller, State, StepFault, StepOutput, StepStatus};
@@ -121,8 +122,7 @@ pub use scheme::{BaselineConfig, SchemeConfig};
 #[cfg(feature = "serde")]
 pub use sections::ConfigFile;
 pub use sections::{
-    Agent, ControllerSection, Feedforward, GainReading, QuantizerSection, SafetySection,
-    SchemeName, Sections,
+    Agent, ControllerSection, GainReading, QuantizerSection, SafetySection, SchemeName, Sections,
 };
 
 /// The crate README's examples, compiled and run as doctests.

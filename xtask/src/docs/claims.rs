@@ -443,8 +443,10 @@ struct Reading {
 }
 
 /// The readings: the project's (reconstructed gains, alternating faults), the printed gain
-/// factor (D1), faults permanent from 2 s (D7).
-const READINGS: [Reading; 3] = [
+/// factor (D1), faults permanent from 2 s (D7), and the leader heard by every follower (the
+/// paper gives the Laplacian of Example 1 but not `B`; its Fig. 1 is read as the leader
+/// pinning agent 1 only).
+const READINGS: [Reading; 4] = [
     Reading {
         name: "reconstructed gains, alternating faults",
         tag: "",
@@ -468,6 +470,13 @@ const READINGS: [Reading; 3] = [
             "faults.rule[2].period=1e9",
             "faults.rule[2].length=1e9",
         ],
+        args: &[],
+        full: true,
+    },
+    Reading {
+        name: "leader heard by every follower (B = I)",
+        tag: "-pinned",
+        sets: &["graph.pinned=[1, 2, 3, 4]"],
         args: &[],
         full: true,
     },
