@@ -135,7 +135,7 @@ pub fn faults_of(e: &CanError) -> Vec<Fault> {
 
 /// The node's bus socket: classical frames, or every frame sent as CAN FD with bit-rate
 /// switching (`fd`); received frames of either kind go to the `Node` as they are, error frames
-/// as receive errors, and the faults they raise wait in [`BusSocket::faults`].
+/// as receive errors, and the faults they raise wait in the socket until the run loop takes them.
 pub struct BusSocket {
     socket: CanFdSocket,
     fd: bool,

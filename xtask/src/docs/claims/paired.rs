@@ -263,7 +263,7 @@ struct Paired {
     diverged: (usize, usize),
     /// Bounded pairs in which a scheme never settles: proposed, baseline.
     never: (usize, usize),
-    /// Settling time, proposed − baseline, over the pairs in which both settle [s].
+    /// Settling time, proposed − baseline, over the pairs in which both settle (s).
     settling: Option<Interval>,
     /// `ln(E_baseline / E_proposed)`.
     log_energy: Option<Interval>,
