@@ -15,8 +15,12 @@ import ptconsensus as pc
 from conftest import EXAMPLE1
 
 CHILD = r"""
-import json, sys, time
+import json, signal, sys, time
 import ptconsensus as pc
+
+# A shell without job control starts background jobs with SIGINT ignored, and Python then keeps
+# it ignored: give the child the handler an interactive session has.
+signal.signal(signal.SIGINT, signal.default_int_handler)
 
 kind, scenario, out = sys.argv[1:4]
 started = []
