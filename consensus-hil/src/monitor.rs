@@ -24,7 +24,7 @@ use agent_node::{
 use embedded_can::{Frame, Id};
 use socketcan::{CanAnyFrame, CanFdSocket, Socket, SocketOptions};
 
-use crate::error::{Error, Result};
+use consensus_plot::error::{Error, Result};
 
 /// What `monitor` shows and for how long.
 #[derive(Debug, Clone)]

@@ -12,7 +12,7 @@ pub enum Error {
     Io(String),
     /// Several independent problems of one scenario, each reported on its own line.
     Several(Vec<Error>),
-    /// Stopped at the caller's request ([`crate::run::Watch::stop`]) before the end.
+    /// Stopped at the caller's request (`host_sim::run::Watch::stop`) before the end.
     Interrupted,
     /// A bench on a real bus (`network.kind = "socketcan"`) failed: a node never came, was lost
     /// during the run, or two nodes share one identity.

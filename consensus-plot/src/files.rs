@@ -1,13 +1,6 @@
-//! Run outputs of docs/SCENARIO.md: `summary.json`, `trajectory.csv`, plots; every file is written
-//! under a temporary name and renamed into place.
-
-pub mod clocks;
-pub mod csv;
-pub mod graph;
-pub mod parquet;
-pub mod plots;
-pub mod spread;
-pub mod table;
+//! Output files of docs/SCENARIO.md (`summary.json`, `trajectory.csv`, figures): every file is
+//! written under a temporary name and renamed into place; the temporary files are removed on
+//! Ctrl-C or SIGTERM.
 
 use std::{
     path::{Path, PathBuf},

@@ -4,12 +4,8 @@
 
 use controller_core::{Controller, Link, StepOutput};
 
-use crate::{
-    error::{Error, Result},
-    plant::with_sizes,
-    scenario::Setup,
-    sim::K,
-};
+use crate::{plant::with_sizes, scenario::Setup, sim::K};
+use consensus_plot::error::{Error, Result};
 
 /// What one step returns (LAW §6), sized at run time.
 #[derive(Debug, Clone, PartialEq)]

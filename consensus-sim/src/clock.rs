@@ -15,7 +15,7 @@ use rand_chacha::{
 };
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Problems, Result};
+use consensus_plot::error::{Error, Problems, Result};
 
 /// A value for every follower, or one per follower.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -5,7 +5,7 @@ use std::fmt;
 
 use serde::{de, Deserialize, Deserializer, Serialize, Serializer};
 
-use crate::error::{Error, Result};
+use consensus_plot::error::{Error, Result};
 
 /// `[faults]`: actuator fault rules (LAW §7); the default is LAW §8's schedule.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -8,7 +8,7 @@ use rand_chacha::{
     ChaCha8Rng,
 };
 
-use crate::error::{Error, Result};
+use consensus_plot::error::{Error, Result};
 
 /// The graph families of `graph.generator`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -3,10 +3,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::{
-    error::{Error, Result},
-    generate::{self, Family, GraphRecipe},
-};
+use crate::generate::{self, Family, GraphRecipe};
+use consensus_plot::error::{Error, Result};
 
 /// `[graph]`: who hears whom (LAW §2), as neighbour lists or an adjacency matrix.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

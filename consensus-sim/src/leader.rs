@@ -5,10 +5,8 @@ use std::sync::OnceLock;
 
 use serde::{Deserialize, Serialize};
 
-use crate::{
-    error::{Error, Result},
-    plant::custom::{TimeFunction, MAX_ORDER},
-};
+use crate::plant::custom::{TimeFunction, MAX_ORDER};
+use consensus_plot::error::{Error, Result};
 
 /// `[leader]`: `y_d = amplitude sin(omega t + phase) + offset`, or the expression `y_d`.
 #[derive(Debug, Clone, Serialize, Deserialize)]

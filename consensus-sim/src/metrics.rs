@@ -12,11 +12,11 @@ pub use spec::{MetricsSpec, WindowKind, WindowSpec};
 
 use crate::{
     clock::ClockSummary,
-    error::Result,
     figures::{FirmwareSummary, NetworkSummary, SocketcanSummary, SOCKETCAN_UNITS},
     scenario::{SchemeName, Setup},
     sim::{Divergence, Observer, SampleView},
 };
+use consensus_plot::error::Result;
 
 /// The instant a scheme promises to be settled by \[s\], and its name: `2 T_s` for the
 /// predefined-time law (Theorem 1), `t_prescribed` (default `T_s`) for the LAW §10 baseline.
@@ -574,12 +574,12 @@ mod tests {
     }
 
     /// One agent, h = 1, Ts = 1 (2Ts = 2), band 0.5, settle dwell 1 s, the given errors.
-    fn feed(errors: &[f64]) -> crate::error::Result<Summary> {
+    fn feed(errors: &[f64]) -> consensus_plot::error::Result<Summary> {
         feed_with(errors, "[metrics]\nsettle_dwell = 1.0")
     }
 
     /// [`feed`] with `extra` TOML appended to the scenario instead of its dwell.
-    fn feed_with(errors: &[f64], extra: &str) -> crate::error::Result<Summary> {
+    fn feed_with(errors: &[f64], extra: &str) -> consensus_plot::error::Result<Summary> {
         let text = format!(
             "[simulation]\nh = 1.0\nt_end = 5.0\nsettle_band = 0.5\n\
              [graph]\nneighbours = [[]]\npinned = [1]\n[plant]\nx0 = [[0, 0]]\n\
@@ -637,7 +637,7 @@ mod tests {
     }
 
     #[test]
-    fn definitions_of_scenario_md() -> crate::error::Result<()> {
+    fn definitions_of_scenario_md() -> consensus_plot::error::Result<()> {
         let s = feed(&[1.0, 0.2, 0.8, 0.1, 0.1])?;
         assert_eq!(
             s.settling_time,

@@ -11,9 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::{
     clock::{ClockPlan, ClockSpec},
-    error::{Error, Problems, Result},
     faults::{FaultSchedule, FaultsSpec},
-    figure::{spec::FiguresSpec, Output},
     graph::{Graph, GraphSpec, MAX_NEIGHBOURS},
     leader::Leader,
     metrics::spec::MetricsSpec,
@@ -22,6 +20,10 @@ use crate::{
         spec::{self as network, NetworkSpec},
     },
     plant::{with_sizes, PlantModel, PlantSpec},
+};
+use consensus_plot::{
+    error::{Error, Problems, Result},
+    figure::{spec::FiguresSpec, Output},
 };
 
 /// A whole scenario as written in TOML; every key is optional (docs/SCENARIO.md).
@@ -665,7 +667,7 @@ pub fn validate(scenario: Scenario) -> Result<Setup> {
 }
 
 /// [`validate`] for a plant given in Rust of `n` states and `m` actuators (run it with
-/// [`crate::run::run_plant`]); of `[plant]` only `x0` is read.
+/// `host_sim::run::run_plant`); of `[plant]` only `x0` is read.
 pub fn validate_with_plant(scenario: Scenario, n: usize, m: usize) -> Result<Setup> {
     validate_plant(
         scenario,

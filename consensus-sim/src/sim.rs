@@ -7,7 +7,7 @@
 //!
 //! Who computes the commands is an [`Agents`]: host-sim's own controllers fed through a
 //! [`LinkModel`] ([`Linked`]), or firmware nodes over a simulated bus
-//! ([`crate::network::BusAgents`]).
+//! (`consensus_hil::network::BusAgents`).
 
 mod clocked;
 
@@ -21,7 +21,6 @@ pub use clocked::Release;
 
 use crate::{
     clock::Clocks,
-    error::{Error, Result},
     faults::{ActuatorEffect, FaultSchedule},
     figures::{FirmwareSummary, NetworkSummary, SocketcanSummary},
     graph::Graph,
@@ -29,6 +28,7 @@ use crate::{
     network::ideal::{Inbox, LinkModel},
     plant::{rk4, Example1, Lanes, Plant},
 };
+use consensus_plot::error::{Error, Result};
 
 /// What the loop needs from a validated scenario besides plant and agents.
 #[derive(Debug, Clone)]
@@ -147,7 +147,7 @@ pub trait Agents<const N: usize, const M: usize> {
         _dir: &std::path::Path,
         _h: f64,
         _title: &str,
-        _output: crate::figure::Output,
+        _output: consensus_plot::figure::Output,
     ) -> Result<()> {
         Ok(())
     }

@@ -8,15 +8,19 @@ use plotters::style::{Color, BLACK};
 use serde::Serialize;
 
 use crate::{
+    report::{self, fmt_time, plots::Recorder},
+    run::{run, RunOptions},
+};
+use consensus_plot::{
     error::{Error, Result},
     figure::{
         panel::{render, Panel, Series},
         text::{secs, sub},
         FigureStyle,
     },
+};
+use consensus_sim::{
     metrics::{self, Summary, WindowKind, WindowSpec},
-    report::{self, fmt_time, plots::Recorder},
-    run::{run, RunOptions},
     scenario::Setup,
 };
 

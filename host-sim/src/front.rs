@@ -8,7 +8,7 @@ use std::path::Path;
 use plotters::{coord::Shift, prelude::*};
 use serde::Serialize;
 
-use crate::{
+use consensus_plot::{
     error::Result,
     figure::{
         self,

@@ -1,40 +1,30 @@
 //! # host-sim
 //!
-//! The closed-loop simulator around `controller-core`: plants (`docs/LAW.md` §1, §8), graph (§2),
-//! actuator faults (§7), neighbour links, metrics (§11), CSV and plots, driven by the scenario
-//! files of `docs/SCENARIO.md`. One `Controller` per agent, stepped at the sample period with its
-//! outputs held between samples, exactly as firmware would run it; the plant is `f64`, the
-//! controller `f32`.
+//! The command-line crate of the simulator: the commands of `docs/SCENARIO.md` ([`run`],
+//! [`compare`], [`matrix`], [`front`]), campaigns ([`campaign`]: grids, Monte Carlo, shards) and
+//! the outputs of a run ([`report`]: `trajectory.csv`, Parquet, the figures). The simulation
+//! itself is `consensus-sim`, the kinds with hardware in the loop `consensus-hil`, errors, output
+//! files and the figure toolkit `consensus-plot` (docs/ARCHITECTURE.md, "Crates and dependency
+//! rules").
 //!
-//! Layers: [`scenario`] (TOML, `--set`, validation) → [`graph`], [`leader`], [`plant`],
-//! [`faults`], [`clock`], [`network`] (every kind: `ideal`, `can`, `pil`, `socketcan`, and the bus `trace`) → [`sim`]
-//! (the loop) → [`metrics`], [`report`] → [`run`], [`monitor`] (commands) → [`campaign`] (many runs: grids,
-//! Monte Carlo, shards). Every figure is drawn and written through [`figure`]. Each block owns
-//! the serde type and checks of its scenario section; [`scenario`] assembles them and no block
-//! imports it (docs/ARCHITECTURE.md, "host-sim modules").
+//! The modules of those crates are re-exported here under the names they had when they were
+//! all host-sim's (`host_sim::scenario`, `host_sim::network`, ...), so the integration tests,
+//! the examples and the benchmarks reach them as before. host-sim's own modules import them
+//! from their crates, never through these re-exports.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
-pub mod agent;
 pub mod campaign;
-pub mod clock;
 pub mod compare;
-pub mod error;
-pub mod faults;
-pub mod figure;
-pub mod figures;
 pub mod front;
-pub mod generate;
-pub mod graph;
-pub mod leader;
 pub mod matrix;
-pub mod metrics;
-pub mod monitor;
-pub mod network;
-pub mod plant;
 pub mod report;
 pub mod run;
-pub mod scenario;
-pub mod sim;
+
+pub use consensus_hil::{monitor, network};
+pub use consensus_plot::{error, figure};
+pub use consensus_sim::{
+    agent, clock, faults, figures, generate, graph, leader, metrics, plant, scenario, sim,
+};
 
 pub use error::{Error, Result};

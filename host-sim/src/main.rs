@@ -6,7 +6,8 @@ mod cli;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use host_sim::{error::Result, report};
+use consensus_plot::error::Result;
+use host_sim::report;
 
 const EXAMPLES: &str = "\
 Examples:

@@ -22,9 +22,10 @@ use plotters::{
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::{
+use crate::run::{run, RunOptions};
+use consensus_hil::network::spec::{EventName, NetworkEvent, NetworkKind};
+use consensus_plot::{
     error::Result,
-    faults::{Agents, FaultKind, FaultRule, SensorFault},
     figure::{
         self,
         chart::{axes, cartesian, free_corner, legend, Frame},
@@ -32,8 +33,9 @@ use crate::{
         text::short,
         DrawResult, Figure, FigureStyle, Format,
     },
-    network::spec::{EventName, NetworkEvent, NetworkKind},
-    run::{run, RunOptions},
+};
+use consensus_sim::{
+    faults::{Agents, FaultKind, FaultRule, SensorFault},
     scenario::{self, Scenario},
 };
 
@@ -224,7 +226,7 @@ fn with_fault(base: &Scenario, cell: &Cell, safety: bool, t_end: f64) -> Scenari
 /// `compare_off`, also off. Needs `[network] kind = "can"` (the network faults act on the bus).
 pub fn run_matrix(base: &Scenario, cells: &[Cell], compare_off: bool) -> Result<Vec<CellResult>> {
     if base.network.kind != NetworkKind::Can {
-        return Err(crate::error::Error::invalid(
+        return Err(consensus_plot::error::Error::invalid(
             "network.kind",
             "the fault matrix needs kind = \"can\" (its faults act on the bus)",
         ));

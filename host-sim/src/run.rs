@@ -13,27 +13,27 @@ use std::{
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use serde::Serialize;
 
-use crate::{
+use crate::report::{
+    self,
+    csv::{
+        check_size_of, default_decimate, estimated_size_of, human_bytes, parse_agents, Format,
+        Sink, TrajectoryObserver, SIZE_LIMIT,
+    },
+    plots::Recorder,
+    spread::Spread,
+    table::Table,
+};
+use consensus_hil::network::{
+    ideal::{IdealLink, LinkModel},
+    spec::NetworkKind,
+    trace::Traces,
+    BusAgents,
+};
+use consensus_plot::error::{Error, Result};
+use consensus_sim::{
     clock::Clocks,
-    error::{Error, Result},
     metrics::{Metrics, Summary},
-    network::{
-        ideal::{IdealLink, LinkModel},
-        spec::NetworkKind,
-        trace::Traces,
-        BusAgents,
-    },
     plant::{with_sizes, Custom, Plant, PlantModel},
-    report::{
-        self,
-        csv::{
-            check_size_of, default_decimate, estimated_size_of, human_bytes, parse_agents, Format,
-            Sink, TrajectoryObserver, SIZE_LIMIT,
-        },
-        plots::Recorder,
-        spread::Spread,
-        table::Table,
-    },
     scenario::{self, Scenario, Setup},
     sim::{Agents, Linked, Observer, SharedStageTerms, Sim, StageTerms, World},
 };
@@ -107,7 +107,7 @@ impl Watch {
 }
 
 impl<const N: usize, const M: usize> Observer<N, M> for &Watch {
-    fn sample(&mut self, s: &crate::sim::SampleView<'_, N, M>) -> Result<()> {
+    fn sample(&mut self, s: &consensus_sim::sim::SampleView<'_, N, M>) -> Result<()> {
         self.check()?;
         self.done.store(s.k + 1, Ordering::Relaxed);
         Ok(())
@@ -251,7 +251,7 @@ pub fn summary_json(summary: &Summary) -> Result<String> {
 struct WorstPerSample(Vec<[f64; 3]>);
 
 impl<const N: usize, const M: usize> Observer<N, M> for WorstPerSample {
-    fn sample(&mut self, s: &crate::sim::SampleView<'_, N, M>) -> Result<()> {
+    fn sample(&mut self, s: &consensus_sim::sim::SampleView<'_, N, M>) -> Result<()> {
         let err = s.x.iter().map(|x| (x[0] - s.yd).abs()).fold(0.0, f64::max);
         let u = s
             .out
@@ -329,9 +329,31 @@ fn library() -> Error {
     )
 }
 
-/// Runs `setup` (from [`crate::scenario::validate_with_plant`] with `N`, `M`) with a plant
+/// Runs `setup` (from [`consensus_sim::scenario::validate_with_plant`] with `N`, `M`) with a plant
 /// given in Rust, host-sim's controllers over the ideal link, the outputs of `opts`. The plant
 /// is shared by the threads that integrate a large group (`Sync`).
+///
+/// ```
+/// use host_sim::{plant::Plant, run::{run_plant, RunOptions}, scenario};
+///
+/// /// `ẋ_1 = x_2`, `ẋ_2 = −x_1 + a_1 + a_2`: an undamped oscillator with two motors.
+/// struct Oscillator;
+///
+/// impl Plant<2, 2> for Oscillator {
+///     type Time = ();
+///     fn at(&self, _t: f64) {}
+///     fn derivative(&self, _t: &(), x: &[f64; 2], a: &[f64; 2]) -> [f64; 2] {
+///         [x[1], -x[0] + a[0] + a[1]]
+///     }
+/// }
+///
+/// let mut s = scenario::Scenario::default();
+/// s.simulation.t_end = 0.5;
+/// let setup = scenario::validate_with_plant(s, 2, 2)?;
+/// let summary = run_plant(&setup, Oscillator, &RunOptions::default())?.summary;
+/// assert!(!summary.diverged);
+/// # Ok::<(), host_sim::Error>(())
+/// ```
 pub fn run_plant<P: Plant<N, M> + Sync, const N: usize, const M: usize>(
     setup: &Setup,
     plant: P,
@@ -633,7 +655,9 @@ mod tests {
     use std::sync::Arc;
 
     use super::{run, RunRequest, Watch};
-    use crate::{error::Error, scenario, Result};
+    use crate::Result;
+    use consensus_plot::error::Error;
+    use consensus_sim::scenario;
 
     fn example1(t_end: f64) -> Result<scenario::Setup> {
         scenario::parse(

@@ -14,16 +14,18 @@ use std::{
     time::Duration,
 };
 
-use host_sim::{
+use consensus_plot::error::Error;
+use consensus_sim::{
     agent::{AgentController, AgentStep},
+    scenario::{self, Setup},
+};
+use host_sim::{
     campaign::{self, Shard, SweepOptions},
-    error::Error,
     report::{
         csv::Format,
         table::{Cells, Column, Results, Table},
     },
     run::{run as run_setup, summary_json, RunRequest, Watch},
-    scenario::{self, Setup},
 };
 use numpy::PyArray1;
 use pyo3::{

@@ -1,7 +1,8 @@
 //! The module layout of every crate of the workspace: no source file sits on an import circle,
 //! and no module imports through its crate's root (`crate::Name` for a re-export of `lib.rs`),
 //! which would hide the module it really depends on and put the root in the middle of the graph.
-//! host-sim's layers are held here too, on top of that ([`LAYERS`]).
+//! The layers of the simulator's crates (consensus-plot, consensus-sim, consensus-hil, host-sim)
+//! are held here too, on top of that ([`LAYERS`], one table per crate).
 //!
 //! The import graph is read from the sources: every `crate::…` path (in `use` trees and inline)
 //! outside comments and unit tests (a file's trailing `#[cfg(test)] mod`, files named
@@ -14,11 +15,14 @@ use std::{
 };
 
 /// Every crate of the workspace with a `src/` of its own, and the firmware crates outside it.
-const CRATES: [&str; 10] = [
+const CRATES: [&str; 13] = [
     "controller-core",
     "agent-node",
     "hil-mock",
     "node-linux",
+    "consensus-plot",
+    "consensus-sim",
+    "consensus-hil",
     "host-sim",
     "python",
     "xtask",
@@ -285,10 +289,13 @@ fn no_crate_has_an_import_circle_or_imports_through_its_root() {
     assert!(all.is_empty(), "module layout:\n{}", all.join("\n"));
 }
 
-// host-sim's layers (docs/ARCHITECTURE.md, "host-sim modules"): the blocks own their scenario
-// sections and never import `scenario`, and no file imports one of a higher layer.
+// The simulator's layers (docs/ARCHITECTURE.md, "host-sim modules"): the blocks own their
+// scenario sections and never import `scenario`, and in every crate no file imports one of a
+// higher layer. Between the crates, Cargo holds the order: consensus-plot ← consensus-sim ←
+// consensus-hil ← host-sim, and a crate cannot name one that depends on it.
 
-/// The blocks below `scenario`: they own their spec types and must not import it.
+/// The blocks of consensus-sim below `scenario`: they own their spec types and must not import
+/// it.
 const BLOCKS: [&str; 8] = [
     "faults.rs",
     "clock.rs",
@@ -300,64 +307,88 @@ const BLOCKS: [&str; 8] = [
     "leader.rs",
 ];
 
-/// The layers of host-sim's `src/`, lowest first: a file may import files of its own layer and of those
-/// below. A file belongs to the layer of the longest path prefix listed here (a directory
-/// `plant` covers `plant/…`); every file must have one, so a new module is placed on purpose.
-/// The same table is in docs/ARCHITECTURE.md, "host-sim modules".
-const LAYERS: &[(&str, &[&str])] = &[
+/// A crate's layers, lowest first: its name and, per layer, what it holds and its path prefixes.
+type Layers = &'static [(&'static str, &'static [&'static str])];
+
+/// The layers of each of the simulator's crates' `src/`, lowest first: a file may import files
+/// of its own layer and of those below. A file belongs to the layer of the longest path prefix
+/// listed (a directory `plant` covers `plant/…`); every file must have one, so a new module is
+/// placed on purpose. The same tables are in docs/ARCHITECTURE.md, "host-sim modules".
+const LAYERS: &[(&str, Layers)] = &[
     (
-        "foundation: errors, random draws, output files and interrupts",
-        &["error.rs", "generate.rs", "report/mod.rs", "figure"],
-    ),
-    (
-        "blocks: one scenario section each, and what the loop and the summary share",
+        "consensus-plot",
         &[
-            "graph.rs",
-            "leader.rs",
-            "faults.rs",
-            "clock.rs",
-            "plant",
-            "figures.rs",
-            "network/spec.rs",
-            "network/node.rs",
-            "network/ideal.rs",
-            "network/trace.rs",
-            "network/canopen.rs",
-            "metrics/spec.rs",
-        ],
-    ),
-    ("the loop", &["sim.rs", "sim"]),
-    ("assembly of a scenario", &["scenario.rs"]),
-    (
-        "agents over a bus, observers and outputs",
-        &[
-            "network/mod.rs",
-            "network/can.rs",
-            "network/pil.rs",
-            "network/socketcan.rs",
-            "metrics.rs",
-            "report",
-            "agent.rs",
+            ("errors", &["error.rs"]),
+            ("output files and interrupts", &["files.rs"]),
+            ("the figure toolkit", &["figure"]),
+            ("crate root", &["lib.rs"]),
         ],
     ),
     (
-        "commands",
+        "consensus-sim",
         &[
-            "run.rs",
-            "compare.rs",
-            "matrix.rs",
-            "monitor.rs",
-            "front.rs",
+            ("foundation: random draws", &["generate.rs"]),
+            (
+                "blocks: one scenario section each, and what the loop and the summary share",
+                &[
+                    "graph.rs",
+                    "leader.rs",
+                    "faults.rs",
+                    "clock.rs",
+                    "plant",
+                    "figures.rs",
+                    "network/spec.rs",
+                    "network/node.rs",
+                    "network/ideal.rs",
+                    "network/trace.rs",
+                    "metrics/spec.rs",
+                ],
+            ),
+            ("the loop", &["sim.rs", "sim"]),
+            ("assembly of a scenario", &["scenario.rs"]),
+            (
+                "agents over the modelled bus, observers",
+                &["network/can.rs", "metrics.rs", "agent.rs"],
+            ),
+            ("crate root and module lists", &["lib.rs", "network/mod.rs"]),
         ],
     ),
-    ("many runs", &["campaign"]),
-    ("crate root and binary", &["lib.rs", "main.rs", "cli"]),
+    (
+        "consensus-hil",
+        &[
+            (
+                "blocks: the CANopen master, the live-bus decoder",
+                &["network/canopen.rs", "monitor.rs"],
+            ),
+            (
+                "kinds: hardware in the loop",
+                &["network/pil.rs", "network/socketcan.rs"],
+            ),
+            ("agents of every bus kind", &["network/mod.rs"]),
+            ("crate root", &["lib.rs"]),
+        ],
+    ),
+    (
+        "host-sim",
+        &[
+            (
+                "outputs: the trajectory, tables, figures of a run",
+                &["report"],
+            ),
+            (
+                "commands",
+                &["run.rs", "compare.rs", "matrix.rs", "front.rs"],
+            ),
+            ("many runs", &["campaign"]),
+            ("crate root and binary", &["lib.rs", "main.rs", "cli"]),
+        ],
+    ),
 ];
 
-/// The layer of `file` (index into [`LAYERS`]).
-fn layer(file: &str) -> Option<usize> {
+/// The layer of `file` in `layers` (an index into it).
+fn layer(layers: Layers, file: &str) -> Option<usize> {
     let covers = |prefix: &str| file == prefix || file.starts_with(&format!("{prefix}/"));
-    LAYERS
+    layers
         .iter()
         .enumerate()
         .flat_map(|(k, (_, prefixes))| prefixes.iter().map(move |p| (k, *p)))
@@ -366,16 +397,25 @@ fn layer(file: &str) -> Option<usize> {
         .map(|(k, _)| k)
 }
 
-/// host-sim's sources and import graph.
-fn host_sim() -> (BTreeMap<String, String>, Graph) {
-    let files = sources(&root().join("host-sim/src"));
+/// The layers of `krate`.
+fn layers_of(krate: &str) -> Layers {
+    LAYERS
+        .iter()
+        .find(|(c, _)| *c == krate)
+        .map(|(_, l)| *l)
+        .unwrap_or_else(|| panic!("{krate} has no layers"))
+}
+
+/// A crate's sources and import graph.
+fn crate_graph(krate: &str) -> (BTreeMap<String, String>, Graph) {
+    let files = sources(&root().join(krate).join("src"));
     let g = graph(&files);
     (files, g)
 }
 
 #[test]
 fn blocks_do_not_import_scenario() {
-    let (_, g) = host_sim();
+    let (_, g) = crate_graph("consensus-sim");
     let in_block = |f: &str, b: &str| f == b || f.starts_with(&format!("{b}/"));
     for b in BLOCKS {
         assert!(g.keys().any(|f| in_block(f, b)), "src/{b} is gone");
@@ -392,46 +432,65 @@ fn blocks_do_not_import_scenario() {
 }
 
 #[test]
+fn every_layered_crate_is_a_crate_of_the_workspace() {
+    for (krate, _) in LAYERS {
+        assert!(CRATES.contains(krate), "{krate} is not in CRATES");
+    }
+}
+
+#[test]
 fn layers_cover_the_sources_and_name_their_files() {
-    assert_eq!(layer("report/mod.rs"), Some(0));
-    assert_eq!(layer("report/plots.rs"), Some(4));
-    assert_eq!(layer("plant/custom/parse.rs"), Some(1));
-    assert_eq!(layer("network/spec.rs"), Some(1));
-    assert_eq!(layer("network/pil.rs"), Some(4));
-    assert_eq!(layer("sim.rs"), Some(2));
-    let (files, _) = host_sim();
-    let homeless: Vec<&String> = files.keys().filter(|f| layer(f).is_none()).collect();
-    assert!(
-        homeless.is_empty(),
-        "files in no layer of LAYERS (place them, and in docs/ARCHITECTURE.md): {homeless:?}"
-    );
-    for (_, prefixes) in LAYERS {
-        for p in *prefixes {
-            assert!(
-                files
-                    .keys()
-                    .any(|f| f == p || f.starts_with(&format!("{p}/"))),
-                "LAYERS names src/{p}, which is gone"
-            );
+    let sim = layers_of("consensus-sim");
+    assert_eq!(layer(sim, "plant/custom/parse.rs"), Some(1));
+    assert_eq!(layer(sim, "network/spec.rs"), Some(1));
+    assert_eq!(layer(sim, "network/can.rs"), Some(4));
+    assert_eq!(layer(sim, "sim.rs"), Some(2));
+    assert_eq!(layer(sim, "sim/clocked.rs"), Some(2));
+    assert_eq!(layer(layers_of("host-sim"), "report/mod.rs"), Some(0));
+    assert_eq!(layer(layers_of("consensus-hil"), "network/pil.rs"), Some(1));
+    for (krate, layers) in LAYERS {
+        let (files, _) = crate_graph(krate);
+        let homeless: Vec<&String> = files
+            .keys()
+            .filter(|f| layer(layers, f).is_none())
+            .collect();
+        assert!(
+            homeless.is_empty(),
+            "{krate}: files in no layer of LAYERS (place them, and in docs/ARCHITECTURE.md): \
+             {homeless:?}"
+        );
+        for (_, prefixes) in *layers {
+            for p in *prefixes {
+                assert!(
+                    files
+                        .keys()
+                        .any(|f| f == p || f.starts_with(&format!("{p}/"))),
+                    "LAYERS names {krate}/src/{p}, which is gone"
+                );
+            }
         }
     }
 }
 
 #[test]
 fn no_file_imports_a_higher_layer() {
-    let (_, g) = host_sim();
-    let upward: Vec<String> = g
+    let upward: Vec<String> = LAYERS
         .iter()
-        .flat_map(|(f, deps)| deps.iter().map(move |d| (f, d)))
-        .filter_map(|(f, d)| {
-            let (lf, ld) = (layer(f)?, layer(d)?);
-            (ld > lf).then(|| {
-                format!(
-                    "{f} ({}) imports {d} ({})",
-                    LAYERS[lf].0.split(':').next().unwrap_or(""),
-                    LAYERS[ld].0.split(':').next().unwrap_or("")
-                )
-            })
+        .flat_map(|(krate, layers)| {
+            let (_, g) = crate_graph(krate);
+            g.iter()
+                .flat_map(|(f, deps)| deps.iter().map(move |d| (f.clone(), d.clone())))
+                .filter_map(|(f, d)| {
+                    let (lf, ld) = (layer(layers, &f)?, layer(layers, &d)?);
+                    (ld > lf).then(|| {
+                        format!(
+                            "{krate}/src/{f} ({}) imports {d} ({})",
+                            layers[lf].0.split(':').next().unwrap_or(""),
+                            layers[ld].0.split(':').next().unwrap_or("")
+                        )
+                    })
+                })
+                .collect::<Vec<_>>()
         })
         .collect();
     assert!(

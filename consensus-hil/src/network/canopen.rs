@@ -5,7 +5,7 @@
 
 use agent_node::canopen::{self, CoFrame, Message, NmtCommand, NmtState};
 
-use crate::figures::EmcyRecord;
+use consensus_sim::figures::EmcyRecord;
 
 /// The master's view of nodes `1..=agents` (node-ID = agent).
 #[derive(Debug, Clone)]

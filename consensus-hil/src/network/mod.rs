@@ -15,38 +15,37 @@
 //! [`BusAgents`] picks the agents of a bus kind, so the run loop is built once for all of
 //! them; a new kind is one more module and one more variant. The model and its figures: `docs/NETWORK.md`.
 
-pub mod can;
 pub mod canopen;
-pub mod ideal;
-pub mod node;
 pub mod pil;
 pub mod socketcan;
-pub mod spec;
-pub mod trace;
+
+// The library's kinds and network blocks, under the paths they had before the split.
+pub use consensus_sim::network::{can, ideal, node, spec, trace};
 
 use std::path::Path;
 
 use controller_core::{ControllerConfig, Gains, StepOutput};
 
-pub use crate::figures::NetworkSummary;
-pub use crate::network::{
-    can::CanAgents,
-    ideal::{IdealLink, Inbox, Link, LinkModel},
-    node::NodeSpec,
-    pil::PilAgents,
-    socketcan::SocketcanAgents,
-    spec::{
-        bus_config, validate, EventName, NetworkEvent, NetworkKind, NetworkSpec, SensorFramesName,
-        MAX_BITRATE, MAX_CAN_AGENTS, STATE_PERIOD_S,
-    },
-    trace::Traces,
-};
-use crate::{
+pub use crate::network::{pil::PilAgents, socketcan::SocketcanAgents};
+use consensus_plot::error::{Error, Result};
+use consensus_sim::{
     clock::Clocks,
-    error::{Error, Result},
     figures::{FirmwareSummary, SocketcanSummary},
     graph::Graph,
     sim::{Agents, Release},
+};
+pub use consensus_sim::{
+    figures::NetworkSummary,
+    network::{
+        can::CanAgents,
+        ideal::{IdealLink, Inbox, Link, LinkModel},
+        node::NodeSpec,
+        spec::{
+            bus_config, validate, EventName, NetworkEvent, NetworkKind, NetworkSpec,
+            SensorFramesName, MAX_BITRATE, MAX_CAN_AGENTS, STATE_PERIOD_S,
+        },
+        trace::Traces,
+    },
 };
 
 /// The output of a node that reports only some of it (filled in by the caller): commands and
@@ -187,7 +186,13 @@ impl<const N: usize, const M: usize> Agents<N, M> for BusAgents<N, M> {
         self.agents().socketcan()
     }
 
-    fn draw(&self, dir: &Path, h: f64, title: &str, output: crate::figure::Output) -> Result<()> {
+    fn draw(
+        &self,
+        dir: &Path,
+        h: f64,
+        title: &str,
+        output: consensus_plot::figure::Output,
+    ) -> Result<()> {
         self.agents().draw(dir, h, title, output)
     }
 

@@ -45,16 +45,18 @@ use hil_mock::{
 };
 use plotters::style::{Color, RGBColor};
 
-use crate::{
+use crate::network::canopen::Master;
+use consensus_plot::{
     error::{Error, Result},
     figure::{
         panel::{color, render, Panel, Series, Shade},
         FigureStyle,
     },
+};
+use consensus_sim::{
     figures::{EmcyRecord, FirmwareSummary, NetworkSummary},
     graph::Graph,
     network::{
-        canopen::Master,
         node::{self, NodeSpec},
         spec::{bus_config, node_config, ns, EventName, NetworkKind, NetworkSpec},
         trace::{candump_fd_line, candump_line, TraceWriter, Traces, INTERFACE},
@@ -699,7 +701,7 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
         }
         // Without it Ctrl-C still ends the process group; only a lone SIGINT to host-sim would
         // leave emulators behind.
-        crate::report::also_on_interrupt(kill_all);
+        consensus_plot::files::also_on_interrupt(kill_all);
         let agents = graph.len();
         let mut emus = Vec::with_capacity(agents);
         let mut pinned = Vec::with_capacity(agents);
@@ -1033,7 +1035,13 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
 
     /// `firmware.png` / `.svg`: instructions of every tick against time, per agent (the
     /// largest of each 10 consecutive ticks, so no peak is lost), and the median.
-    fn draw(&self, dir: &Path, h: f64, title: &str, output: crate::figure::Output) -> Result<()> {
+    fn draw(
+        &self,
+        dir: &Path,
+        h: f64,
+        title: &str,
+        output: consensus_plot::figure::Output,
+    ) -> Result<()> {
         const STRIDE: u64 = 10;
         let series = self
             .costs

@@ -27,9 +27,9 @@ use std::{
     time::{Duration, Instant, SystemTime},
 };
 
-use agent_node::canopen::{self, NmtCommand};
 use agent_node::{
     bus_load::SensorFrames,
+    canopen::{self, NmtCommand},
     plant_bus::{self, Kind, Mode, PlantFrame, PACKED_SENSOR_AGENTS},
     wire::{self, Source},
 };
@@ -41,16 +41,18 @@ use node_linux::{
 };
 use socketcan::{CanAnyFrame, CanFdSocket, CanFilter, Socket, SocketOptions};
 
-use crate::{
+use crate::network::canopen::Master;
+use consensus_plot::{
     error::{Error, Result},
     figure::{
         panel::{render, Panel, Series},
         FigureStyle,
     },
+};
+use consensus_sim::{
     figures::{AgentCommands, SocketcanSummary},
     graph::Graph,
     network::{
-        canopen::Master,
         spec::{node_config, LostCommand, NetworkSpec, NodesMode},
         trace::{candump_fd_frame_line, candump_line, TraceWriter},
     },
@@ -269,7 +271,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
     /// (`nodes = "spawn"`), and records every frame on the interface to `trace` when given.
     pub fn new(
         spec: &NetworkSpec,
-        node_spec: &crate::network::node::NodeSpec,
+        node_spec: &consensus_sim::network::node::NodeSpec,
         h: f64,
         graph: &Graph,
         configs: &[ControllerConfig<N>],
@@ -314,7 +316,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                 if let Ok(mut slot) = TRACE.lock() {
                     *slot = Some(t.clone());
                 }
-                crate::report::also_on_interrupt(flush_trace_on_interrupt);
+                consensus_plot::files::also_on_interrupt(flush_trace_on_interrupt);
                 Some(t)
             }
             None => None,
@@ -328,7 +330,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                 false,
             ),
         };
-        crate::report::create_dir(&dir)?;
+        consensus_plot::files::create_dir(&dir)?;
         let mut nodes = Spawned {
             children: Vec::new(),
             pgid: None,
@@ -336,7 +338,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
         };
         let files = write_node_files(spec, node_spec, h, graph, configs, &dir)?;
         if mode == NodesMode::Spawn {
-            crate::report::also_on_interrupt(stop_groups_on_interrupt);
+            consensus_plot::files::also_on_interrupt(stop_groups_on_interrupt);
             let program = node_program(spec);
             for (i, f) in files.iter().enumerate() {
                 let mut cmd = Command::new(&program);
@@ -783,7 +785,13 @@ impl<const N: usize, const M: usize> Agents<N, M> for SocketcanAgents<N, M> {
 
     /// `socketcan.png` / `.svg`: the host loop's lateness per sample, and each agent's late
     /// commands, cumulative.
-    fn draw(&self, dir: &Path, h: f64, title: &str, output: crate::figure::Output) -> Result<()> {
+    fn draw(
+        &self,
+        dir: &Path,
+        h: f64,
+        title: &str,
+        output: consensus_plot::figure::Output,
+    ) -> Result<()> {
         const STRIDE: usize = 10;
         let lateness = self
             .lateness
@@ -861,7 +869,7 @@ impl<const N: usize, const M: usize> Agents<N, M> for SocketcanAgents<N, M> {
 /// the configurations.
 pub fn write_node_files<const N: usize>(
     spec: &NetworkSpec,
-    node_spec: &crate::network::node::NodeSpec,
+    node_spec: &consensus_sim::network::node::NodeSpec,
     h: f64,
     graph: &Graph,
     configs: &[ControllerConfig<N>],
@@ -915,7 +923,7 @@ pub fn write_node_files<const N: usize>(
         NodeFile::parse(&text)
             .map_err(|e| Error::invalid(format!("node configuration of agent {}", i + 1), e))?;
         let path = dir.join(format!("agent-{}.toml", i + 1));
-        crate::report::write_atomic(&path, text.as_bytes())?;
+        consensus_plot::files::write_atomic(&path, text.as_bytes())?;
         write_eds(&text, &dir.join(format!("agent-{}.eds", i + 1)), i + 1)?;
         files.push(path);
     }
@@ -938,5 +946,5 @@ fn write_eds(text: &str, path: &Path, agent: usize) -> Result<()> {
         .unwrap_or_default();
     agent_node::canopen::eds::write_eds(&mut eds, &device, &name)
         .map_err(|e| Error::Io(format!("{what}: {e}")))?;
-    crate::report::write_atomic(path, eds.as_bytes())
+    consensus_plot::files::write_atomic(path, eds.as_bytes())
 }

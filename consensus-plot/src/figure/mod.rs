@@ -22,7 +22,7 @@ use plotters::{
 
 use crate::{
     error::{Error, Result},
-    report::{temp_path, TempFile},
+    files::{temp_path, TempFile},
 };
 
 /// What drawing into a backend returns: the backend's error as text.

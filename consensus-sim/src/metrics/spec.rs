@@ -5,7 +5,7 @@ use std::collections::BTreeSet;
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
+use consensus_plot::error::{Error, Result};
 
 /// `[metrics]`: the settling dwell and user-defined window metrics (docs/SCENARIO.md).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]

@@ -12,7 +12,6 @@ use hil_mock::{
 
 use crate::{
     clock::Clocks,
-    error::{Error, Result},
     figures::{NetworkSummary, NodeSummary},
     graph::Graph,
     network::{
@@ -22,6 +21,7 @@ use crate::{
     },
     sim::{Agents, Release, K},
 };
+use consensus_plot::error::{Error, Result};
 
 /// Every agent an `agent-node` node on mocked hardware over the simulated CAN bus.
 pub struct CanAgents<const N: usize, const M: usize> {

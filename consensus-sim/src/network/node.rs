@@ -7,7 +7,7 @@ use agent_node::{
 };
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
+use consensus_plot::error::{Error, Result};
 
 /// `node.safe_state.policy` and `node.safe_state.sensor_policy`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]

@@ -8,10 +8,10 @@ use hil_mock::bus::{BusConfig, BusEvent, EventKind, Nanos};
 use serde::{Deserialize, Serialize};
 
 use crate::{
-    error::{Error, Result},
     graph::{Graph, MAX_NEIGHBOURS},
     network::node::{self, NodeSpec},
 };
+use consensus_plot::error::{Error, Result};
 
 /// `network.kind`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -23,10 +23,10 @@ pub enum NetworkKind {
     /// Firmware nodes over the simulated CAN bus.
     Can,
     /// The node firmware on one emulated Cortex-M4F per agent, over the simulated CAN bus
-    /// ([`crate::network::pil`]).
+    /// (`consensus_hil::network::pil`).
     Pil,
     /// Node processes on a Linux CAN interface, host-sim the plant and leader in real time
-    /// ([`crate::network::socketcan`]).
+    /// (`consensus_hil::network::socketcan`).
     Socketcan,
 }
 
@@ -389,7 +389,7 @@ pub fn node_config(
 }
 
 /// Seconds to nanoseconds (validated, finite and small enough, input).
-pub(crate) fn ns(s: f64) -> Nanos {
+pub fn ns(s: f64) -> Nanos {
     (s * 1e9).round() as Nanos
 }
 

@@ -19,7 +19,7 @@ use std::{
 use embedded_can::{Frame, Id};
 use hil_mock::{bus::Nanos, mock::MockFrame};
 
-use crate::error::{Error, Result};
+use consensus_plot::error::{Error, Result};
 
 /// Where a run writes its traces (`--trace`, `--link-trace`); `None`: not written.
 #[derive(Debug, Clone, Copy, Default)]
@@ -41,7 +41,7 @@ pub const INTERFACE: &str = "can0";
 /// let id = StandardId::new(0x101).unwrap();
 /// let f = MockFrame::new(id, &[0xDE, 0xAD, 0x0B, 0x01]).unwrap();
 /// assert_eq!(
-///     host_sim::network::trace::candump_line(1_000_123_456, "can0", &f),
+///     consensus_sim::network::trace::candump_line(1_000_123_456, "can0", &f),
 ///     "(1.000123) can0 101#DEAD0B01"
 /// );
 /// ```
@@ -67,7 +67,7 @@ pub fn candump_line<F: Frame>(t_ns: Nanos, interface: &str, frame: &F) -> String
 ///
 /// ```
 /// assert_eq!(
-///     host_sim::network::trace::candump_fd_line(2_000_000, "node1", 0x10080, &[0; 8]),
+///     consensus_sim::network::trace::candump_fd_line(2_000_000, "node1", 0x10080, &[0; 8]),
 ///     "(0.002000) node1 00010080##00000000000000000"
 /// );
 /// ```
@@ -88,7 +88,7 @@ pub fn candump_fd_line(t_ns: Nanos, interface: &str, id: u32, data: &[u8]) -> St
 /// use hil_mock::mock::MockFrame;
 /// let f = MockFrame::new(StandardId::new(0x201).unwrap(), &[1, 2]).unwrap();
 /// assert_eq!(
-///     host_sim::network::trace::candump_fd_frame_line(3_000, "vcan0", &f, true),
+///     consensus_sim::network::trace::candump_fd_frame_line(3_000, "vcan0", &f, true),
 ///     "(0.000003) vcan0 201##10102"
 /// );
 /// ```
@@ -125,7 +125,7 @@ impl TraceWriter {
     /// Creates (truncates) `path`, and its directory if needed.
     pub fn create(path: &Path) -> Result<Self> {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            crate::report::create_dir(dir)?;
+            consensus_plot::files::create_dir(dir)?;
         }
         let file = File::create(path).map_err(|e| Error::io(path, e))?;
         Ok(Self {

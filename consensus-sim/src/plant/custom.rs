@@ -12,7 +12,7 @@ use std::collections::BTreeMap;
 
 use self::parse::{Binary, Token};
 use super::{Lanes, Plant};
-use crate::error::{Error, Result};
+use consensus_plot::error::{Error, Result};
 
 /// Largest state order and actuator count of a custom plant.
 pub const MAX_ORDER: usize = 4;

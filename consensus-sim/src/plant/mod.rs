@@ -4,7 +4,7 @@
 //! Three ways to a plant: the built-in models (`plant.model = "example1"`, `"manipulator"`);
 //! `plant.model = "custom"` with the dynamics as expressions in the scenario ([`Custom`]); or
 //! your own type implementing [`Plant`], run through the library by
-//! [`crate::run::run_plant`] (`host-sim/examples/pendulum.rs`). To make a Rust plant a
+//! `host_sim::run::run_plant` (`host-sim/examples/pendulum.rs`). To make a Rust plant a
 //! scenario model, add a [`PlantModel`] variant.
 
 pub mod custom;
@@ -19,7 +19,7 @@ use std::{collections::BTreeMap, sync::Arc};
 
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
+use consensus_plot::error::{Error, Result};
 
 /// `[plant]`: the model, its parameters and initial states.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -190,7 +190,8 @@ impl PlantSpec {
 }
 
 /// Calls `$f::<N, M>(args…)` with the const sizes `N`, `M` equal to the runtime `($n, $m)`, both
-/// in `1..=MAX_ORDER`: the one table of sizes the crate instantiates (controller, loop, outputs).
+/// in `1..=MAX_ORDER`: the one table of sizes the crates instantiate (controller, loop, outputs).
+#[macro_export]
 macro_rules! with_sizes {
     ($n:expr, $m:expr, $f:ident($($arg:expr),* $(,)?)) => {
         match ($n, $m) {
@@ -210,14 +211,14 @@ macro_rules! with_sizes {
             (4, 2) => $f::<4, 2>($($arg),*),
             (4, 3) => $f::<4, 3>($($arg),*),
             (4, 4) => $f::<4, 4>($($arg),*),
-            (n, m) => Err($crate::error::Error::invalid(
+            (n, m) => Err($crate::Error::invalid(
                 "plant.model",
                 format!("n = {n}, m = {m} is not supported (supported: 1..={} each)", $crate::plant::MAX_ORDER),
             )),
         }
     };
 }
-pub(crate) use with_sizes;
+pub use with_sizes;
 
 /// One agent's dynamics `ẋ = f(t, x, a)` with `a` the actuator outputs `q^f(u_l)` (LAW §1):
 /// `N` states (`x[0]` is the output `y` the agents agree on), `M` actuators.
@@ -233,30 +234,9 @@ pub(crate) use with_sizes;
 /// agent and sample) and neither panics; a non-finite result is not an error here,
 /// the run reports it as divergence (`summary.json` `divergence`).
 ///
-/// A user's plant runs through [`crate::run::run_plant`] with a scenario checked by
-/// [`crate::scenario::validate_with_plant`] for its `N`, `M`:
-///
-/// ```
-/// use host_sim::{plant::Plant, run::{run_plant, RunOptions}, scenario};
-///
-/// /// `ẋ_1 = x_2`, `ẋ_2 = −x_1 + a_1 + a_2`: an undamped oscillator with two motors.
-/// struct Oscillator;
-///
-/// impl Plant<2, 2> for Oscillator {
-///     type Time = ();
-///     fn at(&self, _t: f64) {}
-///     fn derivative(&self, _t: &(), x: &[f64; 2], a: &[f64; 2]) -> [f64; 2] {
-///         [x[1], -x[0] + a[0] + a[1]]
-///     }
-/// }
-///
-/// let mut s = scenario::Scenario::default();
-/// s.simulation.t_end = 0.5;
-/// let setup = scenario::validate_with_plant(s, 2, 2)?;
-/// let summary = run_plant(&setup, Oscillator, &RunOptions::default())?.summary;
-/// assert!(!summary.diverged);
-/// # Ok::<(), host_sim::Error>(())
-/// ```
+/// A user's plant runs through `host_sim::run::run_plant` with a scenario checked by
+/// [`crate::scenario::validate_with_plant`] for its `N`, `M` (an example is in its
+/// documentation).
 pub trait Plant<const N: usize, const M: usize> {
     /// The terms of `f` that depend on `t` only.
     type Time: Copy;
@@ -338,7 +318,7 @@ pub enum PlantModel {
     /// Dynamics written in the scenario (shared by every run of a campaign).
     Custom(Arc<Custom>),
     /// A [`Plant`] given in Rust, of `n` states and `m` actuators: the scenario was checked by
-    /// [`crate::scenario::validate_with_plant`] and runs by [`crate::run::run_plant`].
+    /// [`crate::scenario::validate_with_plant`] and runs by `host_sim::run::run_plant`.
     Library {
         /// State order.
         n: usize,

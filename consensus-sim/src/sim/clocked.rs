@@ -20,10 +20,10 @@ use controller_core::{Estimates, StepOutput, StepStatus};
 use super::{Agents, Divergence, Observer, SampleView, Sim};
 use crate::{
     clock::{Clocks, SyncMode},
-    error::Result,
     faults::ActuatorEffect,
     plant::{rk4, Lanes, Plant},
 };
+use consensus_plot::error::Result;
 
 /// A leader frame of sample `k` that reached agent `agent` (0-based) at true time `at` \[s\]:
 /// it releases the agent's sampling (`sync = "leader"`).

@@ -21,12 +21,11 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::{
-    error::{Error, Result},
-    metrics::Summary,
     report::{self, csv::Format, parquet, table::Results, write_atomic},
     run::{run, RunOptions, Watch},
-    sim::SharedStageTerms,
 };
+use consensus_plot::error::{Error, Result};
+use consensus_sim::{metrics::Summary, sim::SharedStageTerms};
 use spec::{CampaignFile, Plan};
 
 /// `--shard k/N`: this process runs the runs with `run mod N == k − 1`.
@@ -459,7 +458,7 @@ pub fn merge_with(dirs: &[PathBuf], out: &Path, format: Format) -> Result<SweepR
     write_atomic(&out.join("campaign.json"), meta_text.as_bytes())?;
     results::write_results(out, &meta.columns, &rows)?;
     write_other(format, out, &meta.columns, &rows)?;
-    let base: crate::scenario::Scenario = serde_json::from_value(meta.scenario.clone())
+    let base: consensus_sim::scenario::Scenario = serde_json::from_value(meta.scenario.clone())
         .map_err(|e| Error::invalid("campaign.json scenario", e))?;
     let mut rep = SweepReport {
         runs: meta.runs,

@@ -2,7 +2,11 @@
 //! marked), a line over a 1-D grid, and for Monte Carlo a histogram of the metric beside the
 //! empirical CDF of the settling time with the predefined time `2 T_s` marked.
 
-use std::{collections::BTreeMap, ops::Range, path::Path, path::PathBuf};
+use std::{
+    collections::BTreeMap,
+    ops::Range,
+    path::{Path, PathBuf},
+};
 
 use plotters::{
     coord::{ranged1d::SegmentValue, types::RangedCoordf64, Shift},
@@ -10,8 +14,8 @@ use plotters::{
     style::colors::colormaps::ViridisRGB,
 };
 
-use crate::{
-    campaign::spec::{Axis, CampaignFile},
+use crate::campaign::spec::{Axis, CampaignFile};
+use consensus_plot::{
     error::{Error, Result},
     figure::{
         self,
@@ -20,8 +24,8 @@ use crate::{
         text::{short, tick_label},
         DrawResult, Figure, FigureStyle, Format,
     },
-    scenario::Scenario,
 };
+use consensus_sim::scenario::Scenario;
 use controller_core::param::Param;
 
 /// What a row says about the plotted metric.

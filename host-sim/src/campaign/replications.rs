@@ -10,9 +10,9 @@ use crate::{
         results::csv_line,
         spec::{json_number, WINDOW_PREFIX},
     },
-    error::Result,
     report::write_atomic,
 };
+use consensus_plot::error::Result;
 
 /// Columns of `results.csv` summarised (besides every `window.<name>`).
 pub const SUMMARISED: [&str; 4] = [

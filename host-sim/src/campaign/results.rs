@@ -12,10 +12,10 @@ use std::{
 
 use crate::{
     campaign::spec::{cell, json_number, Plan, RunPoint, WINDOW_PREFIX},
-    error::{Error, Result},
-    metrics::Summary,
     report::write_atomic,
 };
+use consensus_plot::error::{Error, Result};
+use consensus_sim::metrics::Summary;
 
 /// The metric columns of every row, after `run` and the axis keys.
 pub const METRIC_COLUMNS: [&str; 6] = [

@@ -8,7 +8,7 @@ use rand_chacha::{
 };
 use serde::{Deserialize, Serialize};
 
-use crate::error::{Error, Result};
+use consensus_plot::error::{Error, Result};
 
 /// Distribution of a `[[sample]]`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

@@ -5,11 +5,9 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::{
-    campaign::sample::Sample,
-    error::{Error, Result},
-    scenario::{self, KeyPath, Scenario, Setup},
-};
+use crate::campaign::sample::Sample;
+use consensus_plot::error::{Error, Result};
+use consensus_sim::scenario::{self, KeyPath, Scenario, Setup};
 
 /// The campaign file as written (`docs/CAMPAIGNS.md`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -4,9 +4,9 @@ use std::path::PathBuf;
 
 use agent_node::bus_load;
 use clap::Args;
-use host_sim::{
-    error::Result,
-    network::node::PolicyName,
+use consensus_hil::network::node::PolicyName;
+use consensus_plot::error::Result;
+use consensus_sim::{
     plant::WithoutFeedback,
     scenario::{self, Setup},
 };

@@ -3,7 +3,8 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use host_sim::{compare::compare, error::Result};
+use consensus_plot::error::Result;
+use host_sim::compare::compare;
 
 use crate::cli::{load, Overrides};
 

@@ -3,10 +3,8 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use host_sim::{
-    error::{Error, Result},
-    matrix, report,
-};
+use consensus_plot::error::{Error, Result};
+use host_sim::{matrix, report};
 
 use crate::cli::{load, Overrides};
 

@@ -3,10 +3,8 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use host_sim::{
-    error::Result,
-    report::{self, graph},
-};
+use consensus_plot::error::Result;
+use host_sim::report::{self, graph};
 
 use crate::cli::{load, Overrides};
 

@@ -3,7 +3,8 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use host_sim::{campaign, error::Result, report::csv::Format};
+use consensus_plot::error::Result;
+use host_sim::{campaign, report::csv::Format};
 
 use crate::cli::print_campaign;
 

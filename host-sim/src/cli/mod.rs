@@ -5,11 +5,9 @@
 use std::path::Path;
 
 use clap::Args;
-use host_sim::{
-    campaign::SweepReport,
-    error::Result,
-    scenario::{self, Setup},
-};
+use consensus_plot::error::Result;
+use consensus_sim::scenario::{self, Setup};
+use host_sim::campaign::SweepReport;
 
 /// `println!` that ignores a closed standard output (`host-sim check … | head -1`): the echo is
 /// informational, the files are the results, and a closed pipe must not panic the process.

@@ -3,10 +3,8 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use host_sim::{
-    error::Result,
-    monitor::{monitor, MonitorOptions},
-};
+use consensus_hil::monitor::{monitor, MonitorOptions};
+use consensus_plot::error::Result;
 
 /// Options of `monitor`.
 #[derive(Args, Debug)]

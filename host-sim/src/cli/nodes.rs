@@ -3,11 +3,9 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use host_sim::{
-    error::{Error, Result},
-    network::socketcan::write_node_files,
-    report,
-};
+use consensus_hil::network::socketcan::write_node_files;
+use consensus_plot::error::{Error, Result};
+use host_sim::report;
 
 use crate::cli::{load, Overrides};
 

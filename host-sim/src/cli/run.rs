@@ -3,8 +3,8 @@
 use std::path::PathBuf;
 
 use clap::Args;
+use consensus_plot::error::{Error, Result};
 use host_sim::{
-    error::{Error, Result},
     report::{csv::Format, fmt_time},
     run::{run, RunRequest},
 };
@@ -130,7 +130,7 @@ pub fn execute(a: RunArgs) -> Result<()> {
 
 /// `Err` (exit 3) naming every follower of a bench on a real bus that was lost at the end of
 /// the run (`socketcan.agents[].state = "lost"`).
-fn lost_nodes(s: &host_sim::metrics::Summary) -> Result<()> {
+fn lost_nodes(s: &consensus_sim::metrics::Summary) -> Result<()> {
     let Some(sc) = &s.socketcan else {
         return Ok(());
     };
@@ -149,7 +149,7 @@ fn lost_nodes(s: &host_sim::metrics::Summary) -> Result<()> {
     if lost.is_empty() {
         Ok(())
     } else {
-        Err(host_sim::error::Error::Bench(format!(
+        Err(consensus_plot::error::Error::Bench(format!(
             "{} (the plant applied network.lost_command to it; outputs written)",
             lost.join(", ")
         )))

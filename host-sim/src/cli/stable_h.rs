@@ -3,7 +3,8 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use host_sim::{error::Result, report::fmt_time, run::stable_h};
+use consensus_plot::error::Result;
+use host_sim::{report::fmt_time, run::stable_h};
 
 use crate::cli::{fmt_opt, load, Overrides};
 

@@ -3,9 +3,9 @@
 use std::{path::PathBuf, time::Instant};
 
 use clap::Args;
+use consensus_plot::error::Result;
 use host_sim::{
     campaign::{self, Shard, SweepOptions},
-    error::Result,
     report::csv::Format,
 };
 

@@ -3,14 +3,14 @@
 
 use std::path::Path;
 
-use crate::{
-    clock::{Clocks, SyncMode},
+use consensus_plot::{
     error::Result,
     figure::{
         panel::{render, Panel, Series},
         FigureStyle, Output,
     },
 };
+use consensus_sim::clock::{Clocks, SyncMode};
 
 /// Followers drawn (the first ones).
 const DRAWN: usize = 6;

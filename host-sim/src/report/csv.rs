@@ -12,15 +12,15 @@ use std::{
     thread::JoinHandle,
 };
 
-use crate::{
-    error::{Error, Result},
+use crate::report::{
+    parquet,
+    plots::MAX_PLOTTED_AGENTS,
+    table::{Block, Field, Layout, Table},
+    temp_path, TempFile,
+};
+use consensus_plot::error::{Error, Result};
+use consensus_sim::{
     faults::FaultSchedule,
-    report::{
-        parquet,
-        plots::MAX_PLOTTED_AGENTS,
-        table::{Block, Field, Layout, Table},
-        temp_path, TempFile,
-    },
     scenario::Setup,
     sim::{Observer, SampleView},
 };

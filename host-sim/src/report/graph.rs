@@ -7,13 +7,12 @@ use std::path::Path;
 use plotters::{coord::Shift, element::DashedPathElement, prelude::*};
 use plotters_backend::text_anchor::{HPos, Pos, VPos};
 
-use crate::{
+use crate::report::write_atomic;
+use consensus_plot::{
     error::{Error, Result},
     figure::{drawing_error, save_png_and_svg, DrawResult, Figure, FigureStyle, Format},
-    graph::Graph,
-    report::write_atomic,
-    scenario::Setup,
 };
+use consensus_sim::{graph::Graph, scenario::Setup};
 
 /// Most followers drawn (the circle stays readable).
 pub const MAX_DRAWN: usize = 64;

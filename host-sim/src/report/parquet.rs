@@ -17,13 +17,11 @@ use parquet::{
     schema::types::Type,
 };
 
-use crate::{
-    error::{Error, Result},
-    report::{
-        table::{Block, Cells, Field, Layout, Results},
-        write_atomic,
-    },
+use crate::report::{
+    table::{Block, Cells, Field, Layout, Results},
+    write_atomic,
 };
+use consensus_plot::error::{Error, Result};
 
 /// Values buffered before a row group is written (32 MB of `f64` at most).
 const ROW_GROUP_VALUES: usize = 1 << 22;

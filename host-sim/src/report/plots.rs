@@ -1,20 +1,22 @@
 //! The paper's figures (Figs. 2–12) of a run, as PNG and SVG: tracking, tracking errors with
 //! the `±b` band and the `2 Tₛ` line, `u`, `q` and `u − q` with the fault windows, adaptive
-//! estimates; drawn as [`crate::figure::panel`]s. Curves that may coincide (agents 2 and 3 of the
+//! estimates; drawn as [`consensus_plot::figure::panel`]s. Curves that may coincide (agents 2 and 3 of the
 //! paper's graph hear the same neighbour) differ in colour, dash pattern and marker.
 
 use std::path::Path;
 
 use plotters::style::{Color, BLACK};
 
-use crate::{
+use consensus_plot::{
     error::Result,
-    faults::FaultSchedule,
     figure::{
         panel::{color, render, Marker, Panel, Series, Shade},
         text::{secs, sub, trim_number},
         FigureStyle,
     },
+};
+use consensus_sim::{
+    faults::FaultSchedule,
     scenario::Setup,
     sim::{Observer, SampleView},
 };

@@ -7,13 +7,15 @@ use std::path::Path;
 use plotters::style::{Color, RGBAColor, BLACK};
 
 use super::plots::{MAX_PLOTTED_AGENTS, TARGET_POINTS};
-use crate::{
+use consensus_plot::{
     error::Result,
     figure::{
         panel::{color, render, Panel, Series},
         text::secs,
         FigureStyle,
     },
+};
+use consensus_sim::{
     scenario::Setup,
     sim::{Observer, SampleView},
 };

@@ -3,7 +3,7 @@
 
 use std::sync::mpsc::Receiver;
 
-use crate::error::{Error, Result};
+use consensus_plot::error::{Error, Result};
 
 /// One column's values.
 #[derive(Debug, Clone, PartialEq)]
