@@ -9,6 +9,26 @@ use serde::Serialize;
 
 use crate::network::spec::NetworkKind;
 
+/// What the agents of one network kind report after a run: one value per kind, which the
+/// command writes into `summary.json` (`network`, `firmware`, `socketcan`).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum KindReport {
+    /// `kind = "ideal"`: nothing beyond the loop's own figures.
+    #[default]
+    Ideal,
+    /// `kind = "can"`: the bus (`network`).
+    Can(NetworkSummary),
+    /// `kind = "pil"`: the bus (`network`) and every node's firmware (`firmware[]`).
+    Pil {
+        /// `network`.
+        network: NetworkSummary,
+        /// `firmware[]`, in agent order.
+        firmware: Vec<FirmwareSummary>,
+    },
+    /// `kind = "socketcan"`: the real-time figures of the bench (`socketcan`).
+    Socketcan(SocketcanSummary),
+}
+
 /// `summary.json` `network` (runs with `kind = "can"`).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct NetworkSummary {

@@ -12,7 +12,7 @@ pub use spec::{MetricsSpec, WindowKind, WindowSpec};
 
 use crate::{
     clock::ClockSummary,
-    figures::{FirmwareSummary, NetworkSummary, SocketcanSummary, SOCKETCAN_UNITS},
+    figures::{FirmwareSummary, KindReport, NetworkSummary, SocketcanSummary, SOCKETCAN_UNITS},
     scenario::{SchemeName, Setup},
     sim::{Divergence, Observer, SampleView},
 };
@@ -259,6 +259,20 @@ const FIRMWARE_UNITS: [(&str, &str); 11] = [
 ];
 
 impl Summary {
+    /// Sets what the agents of the run's network kind report (`network`, `firmware`,
+    /// `socketcan`, and their units).
+    pub fn set_report(&mut self, report: KindReport) {
+        match report {
+            KindReport::Ideal => {}
+            KindReport::Can(network) => self.set_network(Some(network)),
+            KindReport::Pil { network, firmware } => {
+                self.set_network(Some(network));
+                self.set_firmware(Some(firmware));
+            }
+            KindReport::Socketcan(s) => self.set_socketcan(Some(s)),
+        }
+    }
+
     /// Sets the network figures (and their units).
     pub fn set_network(&mut self, network: Option<NetworkSummary>) {
         if let Some(n) = &network {

@@ -22,7 +22,7 @@ pub use clocked::Release;
 use crate::{
     clock::Clocks,
     faults::{ActuatorEffect, FaultSchedule},
-    figures::{FirmwareSummary, NetworkSummary, SocketcanSummary},
+    figures::KindReport,
     graph::Graph,
     leader::Leader,
     network::ideal::{Inbox, LinkModel},
@@ -128,17 +128,10 @@ pub trait Agents<const N: usize, const M: usize> {
     ) -> Result<()> {
         Err(unclocked())
     }
-    /// Network figures for `summary.json` (none for a link model).
-    fn network(&self) -> Option<NetworkSummary> {
-        None
-    }
-    /// Node-firmware figures for `summary.json` (processor in the loop only).
-    fn firmware(&self) -> Option<Vec<FirmwareSummary>> {
-        None
-    }
-    /// Real-time figures for `summary.json` (a Linux CAN interface only).
-    fn socketcan(&self) -> Option<SocketcanSummary> {
-        None
+    /// What these agents report for `summary.json`, one value per network kind (nothing
+    /// beyond the loop's own figures for a link model).
+    fn report(&self) -> KindReport {
+        KindReport::Ideal
     }
     /// Figures of the agents' own (e.g. the firmware's cost per step) into `dir`, titled
     /// `title`, in the formats of `output` (`[figures]`).

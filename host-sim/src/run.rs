@@ -276,15 +276,8 @@ pub fn run(setup: &Setup, opts: &RunOptions) -> Result<RunResult> {
         bus: opts.trace.as_deref(),
         link: opts.link_trace.as_deref(),
     };
+    trace.check(setup.scenario.network.kind)?;
     match setup.scenario.network.kind {
-        NetworkKind::Ideal if trace.bus.is_some() => Err(Error::invalid(
-            "--trace",
-            "needs a bus: network.kind = \"can\" or \"pil\"",
-        )),
-        NetworkKind::Ideal if trace.link.is_some() => Err(Error::invalid(
-            "--link-trace",
-            "needs serial links: network.kind = \"pil\"",
-        )),
         NetworkKind::Ideal => run_with_link(setup, opts, IdealLink),
         NetworkKind::Can | NetworkKind::Pil | NetworkKind::Socketcan => match &setup.plant {
             PlantModel::Example1(p) => {
@@ -522,11 +515,9 @@ where
     pb.finish_and_clear();
     sim.agents_mut().finish()?;
     let mut summary = metrics.summary(setup, &sim.gains(), divergence);
-    summary.set_network(sim.agents().network());
-    summary.set_firmware(sim.agents().firmware());
+    summary.set_report(sim.agents().report());
     summary.set_clock(clocks.as_ref().map(Clocks::summary));
     let table = table.map(TrajectoryObserver::finish).transpose()?.flatten();
-    summary.set_socketcan(sim.agents().socketcan());
     if let Some(dir) = &opts.out {
         if let Some(c) = file {
             c.finish()?;

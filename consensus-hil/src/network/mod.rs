@@ -30,7 +30,7 @@ pub use crate::network::{pil::PilAgents, socketcan::SocketcanAgents};
 use consensus_plot::error::{Error, Result};
 use consensus_sim::{
     clock::Clocks,
-    figures::{FirmwareSummary, SocketcanSummary},
+    figures::KindReport,
     graph::Graph,
     sim::{Agents, Release},
 };
@@ -92,23 +92,16 @@ impl<const N: usize, const M: usize> BusAgents<N, M> {
         samples: u64,
         traces: Traces<'_>,
     ) -> Result<Self> {
+        traces.check(spec.kind)?;
         match spec.kind {
             NetworkKind::Ideal => Err(Error::invalid(
                 "network.kind",
                 "\"ideal\" has no bus: host-sim's controllers run over a link model",
             )),
-            NetworkKind::Can if traces.link.is_some() => Err(Error::invalid(
-                "--link-trace",
-                "needs serial links: network.kind = \"pil\"",
-            )),
             NetworkKind::Can => CanAgents::new(spec, node, h, graph, configs, traces.bus)
                 .map(|a| Self::Can(Box::new(a))),
             NetworkKind::Pil => PilAgents::new(spec, node, h, graph, configs, samples, traces)
                 .map(|a| Self::Pil(Box::new(a))),
-            NetworkKind::Socketcan if traces.link.is_some() => Err(Error::invalid(
-                "--link-trace",
-                "needs serial links: network.kind = \"pil\"",
-            )),
             NetworkKind::Socketcan => {
                 SocketcanAgents::new(spec, node, h, graph, configs, traces.bus)
                     .map(|a| Self::Socketcan(Box::new(a)))
@@ -174,16 +167,8 @@ impl<const N: usize, const M: usize> Agents<N, M> for BusAgents<N, M> {
         self.agents_mut().run_until(until, sync, clocks, releases)
     }
 
-    fn network(&self) -> Option<NetworkSummary> {
-        self.agents().network()
-    }
-
-    fn firmware(&self) -> Option<Vec<FirmwareSummary>> {
-        self.agents().firmware()
-    }
-
-    fn socketcan(&self) -> Option<SocketcanSummary> {
-        self.agents().socketcan()
+    fn report(&self) -> KindReport {
+        self.agents().report()
     }
 
     fn draw(

@@ -54,7 +54,7 @@ use consensus_plot::{
     },
 };
 use consensus_sim::{
-    figures::{EmcyRecord, FirmwareSummary, NetworkSummary},
+    figures::{EmcyRecord, FirmwareSummary, KindReport, NetworkSummary},
     graph::Graph,
     network::{
         node::{self, NodeSpec},
@@ -1019,18 +1019,17 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
         self.gains
     }
 
-    fn network(&self) -> Option<NetworkSummary> {
-        Some(NetworkSummary::new(
-            NetworkKind::Pil,
-            self.bitrate,
-            &self.bus.stats(),
-            self.malformed,
-            self.stale_samples,
-        ))
-    }
-
-    fn firmware(&self) -> Option<Vec<FirmwareSummary>> {
-        Some(PilAgents::firmware(self))
+    fn report(&self) -> KindReport {
+        KindReport::Pil {
+            network: NetworkSummary::new(
+                NetworkKind::Pil,
+                self.bitrate,
+                &self.bus.stats(),
+                self.malformed,
+                self.stale_samples,
+            ),
+            firmware: PilAgents::firmware(self),
+        }
     }
 
     /// `firmware.png` / `.svg`: instructions of every tick against time, per agent (the

@@ -50,7 +50,7 @@ use consensus_plot::{
     },
 };
 use consensus_sim::{
-    figures::{AgentCommands, SocketcanSummary},
+    figures::{AgentCommands, KindReport, SocketcanSummary},
     graph::Graph,
     network::{
         spec::{node_config, LostCommand, NetworkSpec, NodesMode},
@@ -779,8 +779,8 @@ impl<const N: usize, const M: usize> Agents<N, M> for SocketcanAgents<N, M> {
         self.gains
     }
 
-    fn socketcan(&self) -> Option<SocketcanSummary> {
-        Some(self.summary())
+    fn report(&self) -> KindReport {
+        KindReport::Socketcan(self.summary())
     }
 
     /// `socketcan.png` / `.svg`: the host loop's lateness per sample, and each agent's late

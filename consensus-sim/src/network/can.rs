@@ -12,7 +12,7 @@ use hil_mock::{
 
 use crate::{
     clock::Clocks,
-    figures::{NetworkSummary, NodeSummary},
+    figures::{KindReport, NetworkSummary, NodeSummary},
     graph::Graph,
     network::{
         node::NodeSpec,
@@ -229,7 +229,7 @@ impl<const N: usize, const M: usize> Agents<N, M> for CanAgents<N, M> {
         }
     }
 
-    fn network(&self) -> Option<NetworkSummary> {
-        Some(self.summary())
+    fn report(&self) -> KindReport {
+        KindReport::Can(self.summary())
     }
 }

@@ -19,6 +19,7 @@ use std::{
 use embedded_can::{Frame, Id};
 use hil_mock::{bus::Nanos, mock::MockFrame};
 
+use crate::network::spec::NetworkKind;
 use consensus_plot::error::{Error, Result};
 
 /// Where a run writes its traces (`--trace`, `--link-trace`); `None`: not written.
@@ -28,6 +29,27 @@ pub struct Traces<'a> {
     pub bus: Option<&'a Path>,
     /// Everything on each node's serial link (`kind = "pil"`).
     pub link: Option<&'a Path>,
+}
+
+impl Traces<'_> {
+    /// The one check of which traces a network kind writes: the bus trace needs a bus (every
+    /// kind but `ideal`), the serial-link trace serial links (`pil` only); else an error naming
+    /// the option.
+    pub fn check(&self, kind: NetworkKind) -> Result<()> {
+        if kind == NetworkKind::Ideal && self.bus.is_some() {
+            return Err(Error::invalid(
+                "--trace",
+                "needs a bus: network.kind = \"can\" or \"pil\"",
+            ));
+        }
+        if kind != NetworkKind::Pil && self.link.is_some() {
+            return Err(Error::invalid(
+                "--link-trace",
+                "needs serial links: network.kind = \"pil\"",
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// Interface name written on every line of the bus trace.
