@@ -1,6 +1,10 @@
 //! The communication graph of LAW §2: neighbour lists and pinning, checked against
 //! Assumption 2 (the leader is the root of a spanning tree).
 
+use rand_xoshiro::{
+    rand_core::{Rng as _, SeedableRng as _},
+    SplitMix64,
+};
 use serde::{Deserialize, Serialize};
 
 use crate::generate::{self, Family, GraphRecipe};
@@ -401,12 +405,12 @@ impl Graph {
     /// A seeded random graph of `n` agents: agent 1 pinned, every other agent hears one random
     /// earlier agent (a spanning tree from the leader) and up to `extra` more random agents.
     pub fn random_connected(n: usize, extra: usize, seed: u64) -> Result<Self> {
-        let mut rng = SplitMix64(seed);
+        let mut rng = SplitMix64::seed_from_u64(seed);
         let mut lists = vec![Vec::new(); n];
         for (i, row) in lists.iter_mut().enumerate().skip(1) {
-            row.push(rng.below(i));
+            row.push(below(&mut rng, i));
             for _ in 0..extra {
-                let k = rng.below(n);
+                let k = below(&mut rng, n);
                 if k != i && !row.contains(&k) && row.len() < MAX_NEIGHBOURS {
                     row.push(k);
                 }
@@ -420,21 +424,9 @@ impl Graph {
     }
 }
 
-/// SplitMix64: a tiny deterministic generator for seeded test graphs.
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
-    }
+/// `0..n` from the seeded test graphs' stream (`n ≥ 1`; the remainder, as the graphs were drawn).
+fn below(rng: &mut SplitMix64, n: usize) -> usize {
+    (rng.next_u64() % n as u64) as usize
 }
 
 #[cfg(test)]

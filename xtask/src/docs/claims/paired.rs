@@ -15,6 +15,11 @@
 
 use std::{fmt::Write as _, fs, process::Command};
 
+use rand_xoshiro::{
+    rand_core::{Rng as _, SeedableRng as _},
+    SplitMix64,
+};
+
 use super::super::{cell, diverged, fixed, grouped, rows, run as run_cmd, today, Row, Sources};
 use super::{same_settling, DWELL, SAME_SETTLING_BAND};
 use crate::task::{workspace_root, Result};
@@ -167,22 +172,10 @@ fn outcome(r: &Row) -> Result<Option<Outcome>> {
 // ---------------------------------------------------------------------------------------------
 // Statistics
 
-/// SplitMix64: the bootstrap's resampling stream (its seed written in the table).
-struct SplitMix(u64);
-
-impl SplitMix {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform on `0..n` (`n ≥ 1`; Lemire's multiply-shift, bias below `n / 2⁶⁴`).
-    fn below(&mut self, n: usize) -> usize {
-        ((u128::from(self.next()) * n as u128) >> 64) as usize
-    }
+/// Uniform on `0..n` from the bootstrap's resampling stream (`n ≥ 1`; Lemire's multiply-shift,
+/// bias below `n / 2⁶⁴`).
+fn below(rng: &mut SplitMix64, n: usize) -> usize {
+    ((u128::from(rng.next_u64()) * n as u128) >> 64) as usize
 }
 
 /// A mean and its percentile-bootstrap 95 % interval.
@@ -201,9 +194,14 @@ pub fn bootstrap_mean(x: &[f64], resamples: usize, seed: u64) -> Option<Interval
         return None;
     }
     let n = x.len();
-    let mut rng = SplitMix(seed);
+    let mut rng = SplitMix64::seed_from_u64(seed);
     let mut means: Vec<f64> = (0..resamples)
-        .map(|_| (0..n).filter_map(|_| x.get(rng.below(n))).sum::<f64>() / n as f64)
+        .map(|_| {
+            (0..n)
+                .filter_map(|_| x.get(below(&mut rng, n)))
+                .sum::<f64>()
+                / n as f64
+        })
         .collect();
     means.sort_by(f64::total_cmp);
     let rank = |p: f64| {
