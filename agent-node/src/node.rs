@@ -148,8 +148,41 @@ impl<const K: usize> NodeConfig<K> {
             ids: self.ids,
             neighbours: &self.neighbours,
             stale_timeout_us: self.stale_timeout_us,
+            heartbeat_period_us: self.heartbeat_period_us,
             supervisor: self.supervisor,
         }
+    }
+
+    /// The checks [`Node::new`] makes of the node's own settings with the first
+    /// `neighbour_count` neighbours: an agent number of the identifier plan, a stale timeout,
+    /// heartbeat identifiers for a heartbeat, valid supervision, and a graph row of distinct
+    /// agents of the plan other than itself, within the capacity `K`. The CANopen device
+    /// checks a row, a node-ID or a plan written over SDO with it too.
+    pub fn check(&self, neighbour_count: usize) -> Result<(), NodeError> {
+        if self.agent == 0 {
+            return Err(NodeError::AgentZero);
+        }
+        if self.stale_timeout_us == 0 {
+            return Err(NodeError::ZeroTimeout);
+        }
+        if self.agent > self.ids.agents() {
+            return Err(NodeError::AgentOutsidePlan(self.agent));
+        }
+        if self.heartbeat_period_us > 0 && self.ids.heartbeat_base().is_none() {
+            return Err(NodeError::NoHeartbeatIds);
+        }
+        Supervisor::new(&self.supervisor)?;
+        let listed = self
+            .neighbours
+            .get(..neighbour_count)
+            .ok_or(NodeError::TooManyNeighbours)?;
+        for (k, &a) in listed.iter().enumerate() {
+            let repeated = listed.get(..k).is_some_and(|before| before.contains(&a));
+            if a == 0 || a == self.agent || a > self.ids.agents() || repeated {
+                return Err(NodeError::BadNeighbour(a));
+            }
+        }
+        Ok(())
     }
 }
 
@@ -174,6 +207,9 @@ pub enum NodeError {
     NoHeartbeatIds,
     /// A supervision setting.
     Supervisor(SupervisorError),
+    /// A graph row (neighbours, `pinned`) or an identifier plan written over SDO waits for
+    /// the reset communication that applies it; the node cannot start on it before.
+    PendingGraph,
 }
 
 impl From<SupervisorError> for NodeError {
@@ -198,6 +234,9 @@ impl core::fmt::Display for NodeError {
                 write!(f, "neighbour {a} is 0, the agent itself, or a duplicate")
             }
             Self::ZeroTimeout => f.write_str("stale timeout must be > 0"),
+            Self::PendingGraph => f.write_str(
+                "the graph row or identifier plan written over SDO applies at the next reset communication",
+            ),
             Self::AgentOutsidePlan(a) => {
                 write!(f, "agent {a} has no identifier in the identifier plan")
             }
@@ -441,6 +480,16 @@ impl CanOpenRequest {
     }
 }
 
+/// The neighbour slots of the first `count` agents of `neighbours` (checked by
+/// [`NodeConfig::check`]), nothing heard yet.
+fn slots_of<const K: usize>(neighbours: &[u8], count: usize) -> [Slot; K] {
+    let mut slots = [Slot::default(); K];
+    for (slot, &a) in slots.iter_mut().zip(neighbours.iter().take(count)) {
+        slot.agent = a;
+    }
+    slots
+}
+
 /// `controller` with the rate-limited re-entry a closed-loop safe state needs: a controller
 /// without `[safety]` gets the re-entry alone (no limits) at `sup.reentry_rate`, when some
 /// source is supervised (module `crate::supervisor`, *Safe policies*).
@@ -500,31 +549,10 @@ where
         sensor: S,
         actuator: A,
     ) -> Result<Self, NodeError> {
-        if cfg.agent == 0 {
-            return Err(NodeError::AgentZero);
-        }
-        if cfg.stale_timeout_us == 0 {
-            return Err(NodeError::ZeroTimeout);
-        }
-        if cfg.agent > cfg.ids.agents() {
-            return Err(NodeError::AgentOutsidePlan(cfg.agent));
-        }
-        if cfg.heartbeat_period_us > 0 && cfg.ids.heartbeat_base().is_none() {
-            return Err(NodeError::NoHeartbeatIds);
-        }
-        let supervisor = Supervisor::new(&cfg.supervisor)?;
         let count = controller.neighbour_count;
-        let listed = cfg
-            .neighbours
-            .get(..count)
-            .ok_or(NodeError::TooManyNeighbours)?;
-        let mut slots = [Slot::default(); K];
-        for (k, (&a, slot)) in listed.iter().zip(slots.iter_mut()).enumerate() {
-            if a == 0 || a == cfg.agent || a > cfg.ids.agents() || listed[..k].contains(&a) {
-                return Err(NodeError::BadNeighbour(a));
-            }
-            slot.agent = a;
-        }
+        cfg.check(count)?;
+        let supervisor = Supervisor::new(&cfg.supervisor)?;
+        let slots = slots_of(&cfg.neighbours, count);
         let cfg_pinned = controller.pinned;
         let period_us = micros_from_secs(controller.h);
         let controller = Controller::new(&with_reentry(controller, &cfg.supervisor))?;
@@ -1398,22 +1426,55 @@ where
         }
     }
 
-    /// The device's node-ID (written to `node.node_id` and applied by a reset, or loaded
-    /// from a stored set) becomes the agent number, if the identifier plan has it and it is
-    /// not a neighbour; else EMCY `0x6300` and the agent number stays.
+    /// The device's node-ID, graph row (neighbours, `pinned`) and identifier plan — written
+    /// over SDO and applied by a reset, or loaded from a stored set — become the node's when
+    /// [`NodeConfig::check`] accepts them together (within the capacity `K`): the neighbour
+    /// slots start empty and the next NMT start rebuilds the controller for the new row. Else
+    /// EMCY `0x6300` (count: the node-ID) and the node keeps what it had.
     fn adopt_node_id(&mut self) {
         let Some(c) = &self.canopen else {
             return;
         };
+        let store = &c.device.store;
         let id = c.device.node_id();
-        if id == self.agent {
+        let (count, pinned) = (
+            store.sections.agent.neighbour_count,
+            store.sections.agent.pinned,
+        );
+        let (ids, row) = (store.node.ids, store.node.neighbours);
+        let heard = self.slots.iter().take(self.count).map(|s| s.agent);
+        let same_row = count == self.count && row.iter().take(count).copied().eq(heard);
+        if id == self.agent && ids == self.ids && pinned == self.pinned && same_row {
             return;
         }
-        if id > self.ids.agents() || self.slots.iter().take(self.count).any(|s| s.agent == id) {
+        let mut neighbours = [0u8; K];
+        for (d, s) in neighbours.iter_mut().zip(&row) {
+            *d = *s;
+        }
+        let cfg = NodeConfig {
+            agent: id,
+            neighbours,
+            stale_timeout_us: self.timeout_us,
+            ids,
+            heartbeat_period_us: self.heartbeat_period_us,
+            supervisor: store.supervisor(),
+        };
+        if let Err(e) = cfg.check(count) {
+            error!("agent {}: node-ID {}, graph row or plan refused: {:?}", self.agent, id, e);
             self.emcy(Fault::ConfigRejected, u32::from(id));
-        } else {
+            return;
+        }
+        if id != self.agent {
             info!("agent {}: node-ID {} from now on", self.agent, id);
-            self.agent = id;
+        }
+        self.agent = id;
+        self.ids = ids;
+        self.pinned = pinned;
+        self.count = count;
+        self.slots = slots_of(&neighbours, count);
+        self.leader = Slot::default();
+        if let Some(c) = &mut self.canopen {
+            c.dirty = true;
         }
     }
 
@@ -1434,11 +1495,16 @@ where
         if stale == 0 {
             return Err(NodeError::ZeroTimeout);
         }
-        if controller.neighbour_count != self.count {
-            return Err(NodeError::TooManyNeighbours);
+        let heard = self.slots.iter().take(self.count).map(|s| s.agent);
+        let row = store.node.neighbours.iter().take(controller.neighbour_count);
+        if controller.neighbour_count != self.count
+            || controller.pinned != self.pinned
+            || store.node.ids != self.ids
+            || !row.copied().eq(heard)
+        {
+            return Err(NodeError::PendingGraph);
         }
         self.controller = Controller::new(&with_reentry(&controller, &sup))?;
-        self.pinned = controller.pinned;
         self.period_us = micros_from_secs(controller.h);
         self.supervisor = supervisor;
         self.supervised = sup.supervises_any();

@@ -32,12 +32,13 @@ fn limits(o: &Object) -> Option<(u32, u32)> {
         },
         Item::Setting(s) => {
             let spec = s.spec();
-            if !spec.names.is_empty() {
-                Some((0, spec.names.len().saturating_sub(1) as u32))
-            } else if spec.data_type == DataType::Unsigned8 {
-                Some((1, u32::from(super::MAX_NODE_ID)))
-            } else {
-                None
+            match (s, spec.data_type) {
+                _ if !spec.names.is_empty() => Some((0, spec.names.len().saturating_sub(1) as u32)),
+                (od::Setting::Agents, _) => Some((1, u32::from(u8::MAX))),
+                (od::Setting::HeartbeatIdBase, _) => Some((0, u32::from(u16::MAX))),
+                (_, DataType::Unsigned16) => Some((0, 0x7FF)),
+                (_, DataType::Unsigned8) => Some((1, u32::from(super::MAX_NODE_ID))),
+                _ => None,
             }
         }
         _ => None,
@@ -175,10 +176,11 @@ fn object<W: Write, const N: usize>(w: &mut W, d: &Device<N>, o: &Object) -> fmt
             writeln!(w, "ObjectType=0x{code:X}")?;
             writeln!(w, "SubNumber=0x{:X}", u16::from(subs) + 1)?;
             writeln!(w)?;
-            let sub0_access = if o.item == Item::ErrorField {
-                "rw"
-            } else {
-                "ro"
+            let sub0_access = match o.item {
+                Item::ErrorField => "rw",
+                // The graph row: how many entries are heard.
+                Item::Param(controller_core::Param::Neighbours) => "rw",
+                _ => "ro",
             };
             var(
                 w,

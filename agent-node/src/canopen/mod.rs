@@ -1106,9 +1106,7 @@ impl<const N: usize> Device<N> {
         match (o.kind, o.item) {
             (Kind::Var, _) => 0,
             (_, Item::ErrorField) => self.history_len,
-            (_, Item::Param(controller_core::Param::Neighbours)) => {
-                self.store.sections.agent.neighbour_count as u8
-            }
+            (_, Item::Param(controller_core::Param::Neighbours)) => self.store.slots() as u8,
             (_, Item::Param(_)) => N.min(usize::from(od::MAX_STEPS)) as u8,
             (Kind::Array { len } | Kind::Record { len }, _) => len,
         }
@@ -1126,7 +1124,14 @@ impl<const N: usize> Device<N> {
     pub fn read(&self, index: u16, sub: u8) -> Result<SdoData, Abort> {
         let o = self.object(index, sub)?;
         if sub == 0 && o.kind != Kind::Var {
-            return Ok(Value::Unsigned(u32::from(self.sub_count(o))).encode(DataType::Unsigned8));
+            // The graph row's sub-index 0 is how many of its entries are heard.
+            let n = match o.item {
+                Item::Param(controller_core::Param::Neighbours) => {
+                    self.store.sections.agent.neighbour_count as u8
+                }
+                _ => self.sub_count(o),
+            };
+            return Ok(Value::Unsigned(u32::from(n)).encode(DataType::Unsigned8));
         }
         let u = |v: u32| Ok(Value::Unsigned(v));
         let v = match o.item {
@@ -1184,11 +1189,11 @@ impl<const N: usize> Device<N> {
     fn check_write(&self, index: u16, sub: u8) -> Result<&'static Object, Abort> {
         let o = self.object(index, sub)?;
         if sub == 0 && o.kind != Kind::Var {
-            return if o.item == Item::ErrorField {
-                Ok(o)
-            } else {
-                Err(Abort::ReadOnly)
-            };
+            match o.item {
+                Item::ErrorField => return Ok(o),
+                Item::Param(controller_core::Param::Neighbours) => {}
+                _ => return Err(Abort::ReadOnly),
+            }
         }
         if o.access != Access::ReadWrite {
             return Err(Abort::ReadOnly);
@@ -1273,11 +1278,16 @@ impl<const N: usize> Device<N> {
         let mut w = Writer { out, pos: 0 };
         w.put(STORE_TAG)?;
         for o in OBJECTS.iter().filter(|o| persisted(o)) {
-            let subs = match o.kind {
-                Kind::Var => 0..=0,
+            let subs = match (o.kind, o.item) {
+                (Kind::Var, _) => 0..=0,
+                // The graph row: the entries heard, then their count (loaded in this order).
+                (_, Item::Param(controller_core::Param::Neighbours)) => {
+                    1..=self.store.sections.agent.neighbour_count as u8
+                }
                 _ => 1..=self.sub_count(o),
             };
-            for sub in subs {
+            let count = matches!(o.item, Item::Param(controller_core::Param::Neighbours));
+            for sub in subs.chain(count.then_some(0)) {
                 if let Ok(d) = self.read(o.index, sub) {
                     let i = o.index.to_le_bytes();
                     w.put(&[i[0], i[1], sub, d.as_slice().len() as u8])?;
@@ -1318,6 +1328,15 @@ impl<const N: usize> Device<N> {
 
     fn load_records(&mut self, bytes: &[u8]) -> Result<(), Abort> {
         let mut rest = bytes.strip_prefix(STORE_TAG).ok_or(Abort::Transfer)?;
+        // A stored graph row is written entry by entry onto an empty row (a permutation of the
+        // present row would meet itself), then its count checks it whole.
+        let row = OBJECTS
+            .iter()
+            .find(|o| o.item == Item::Param(controller_core::Param::Neighbours))
+            .map(|o| o.index);
+        if records(rest).any(|(index, sub, _)| Some(index) == row && sub == 0) {
+            self.store.sections.agent.neighbour_count = 0;
+        }
         // Records one by one: a later record may need an earlier one (c1 with c2), so a
         // refusal is retried after the others once.
         let mut retry = false;
@@ -1344,6 +1363,19 @@ impl<const N: usize> Device<N> {
         }
         Ok(())
     }
+}
+
+/// The `(index, sub-index, bytes)` records of a stored dictionary after its tag, up to the
+/// first malformed one.
+fn records(mut rest: &[u8]) -> impl Iterator<Item = (u16, u8, &[u8])> {
+    core::iter::from_fn(move || {
+        let [i0, i1, sub, len, tail @ ..] = rest else {
+            return None;
+        };
+        let data = tail.get(..usize::from(*len))?;
+        rest = tail.get(data.len()..).unwrap_or(&[]);
+        Some((u16::from_le_bytes([*i0, *i1]), *sub, data))
+    })
 }
 
 /// `0x1008`.
