@@ -1329,13 +1329,16 @@ impl<const N: usize> Device<N> {
     fn load_records(&mut self, bytes: &[u8]) -> Result<(), Abort> {
         let mut rest = bytes.strip_prefix(STORE_TAG).ok_or(Abort::Transfer)?;
         // A stored graph row is written entry by entry onto an empty row (a permutation of the
-        // present row would meet itself), then its count checks it whole.
+        // present row would meet itself), then its count checks it whole; pinned meanwhile, so
+        // that the empty row is a valid configuration, until the stored `graph.pinned` (the
+        // next record) says.
         let row = OBJECTS
             .iter()
             .find(|o| o.item == Item::Param(controller_core::Param::Neighbours))
             .map(|o| o.index);
         if records(rest).any(|(index, sub, _)| Some(index) == row && sub == 0) {
             self.store.sections.agent.neighbour_count = 0;
+            self.store.sections.agent.pinned = true;
         }
         // Records one by one: a later record may need an earlier one (c1 with c2), so a
         // refusal is retried after the others once.
