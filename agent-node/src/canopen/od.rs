@@ -996,6 +996,35 @@ impl<const N: usize> ParamStore<N> {
         })
     }
 
+    /// `cfg` and `controller` with the store's node-ID, graph row and identifier plan (as
+    /// written or loaded; a node applies them at its next reset communication): what a board
+    /// builds its node and acceptance filters from at boot. `None` when the row does not fit
+    /// the capacity `K`.
+    pub fn with_graph<const K: usize>(
+        &self,
+        cfg: &crate::NodeConfig<K>,
+        controller: &ControllerConfig<N>,
+    ) -> Option<(crate::NodeConfig<K>, ControllerConfig<N>)> {
+        let count = self.sections.agent.neighbour_count;
+        let mut neighbours = [0u8; K];
+        for (d, s) in neighbours.iter_mut().zip(self.node.neighbours.get(..count)?) {
+            *d = *s;
+        }
+        (count <= K).then_some((
+            crate::NodeConfig {
+                agent: self.node.pending_node_id,
+                neighbours,
+                ids: self.node.ids,
+                ..*cfg
+            },
+            ControllerConfig {
+                neighbour_count: count,
+                pinned: self.sections.agent.pinned,
+                ..*controller
+            },
+        ))
+    }
+
     /// The controller configuration the store holds, validated as a scenario file is.
     pub fn controller(&self) -> Result<ControllerConfig<N>, ConfigError> {
         let cfg = self.sections.config()?;

@@ -424,6 +424,97 @@ mod tests {
         assert_eq!(node.neighbour_agent(0), Some(1));
     }
 
+    /// One image joins any graph: a board with nothing stored (agent 4 of the compiled plan)
+    /// takes node-ID 7, a plan of 8 agents and the row "agents 5 and 6" over SDO, stores;
+    /// after the reset it boots as agent 7 hearing 5 and 6, its acceptance filters those
+    /// agents' frames, and what the filters were set for is what the node runs (no restart
+    /// loop).
+    #[test]
+    fn a_stored_row_and_plan_make_the_filters_and_the_node_after_the_reset() {
+        use crate::can_setup::{acceptance, Accept, Listening};
+        use crate::param_page::{self, row_index};
+        use agent_node::canopen::od::{Setting, SETTING_BASE};
+        let (mut node, _, _) = canopen_board(config::DEFAULT_AGENT);
+        node.service();
+        let agents = SETTING_BASE
+            + Setting::ALL
+                .iter()
+                .position(|s| *s == Setting::Agents)
+                .expect("agents") as u16;
+        let d = node.canopen_mut().expect("device");
+        d.write(agents, 0, &[8]).expect("plan");
+        d.write(row_index(), 1, &[5]).expect("entry 1");
+        d.write(row_index(), 2, &[6]).expect("entry 2");
+        d.write(param_page::node_id_index(), 0, &[7])
+            .expect("node-ID");
+        let mut saved = [0u8; param_page::STORE_CAPACITY];
+        let n = node
+            .canopen()
+            .and_then(|d| d.save(&mut saved))
+            .expect("fits the firmware's buffer");
+        println!("stored object dictionary with the row and the plan: {n} bytes");
+        let mut page = vec![0xFF; param_page::PAGE_BYTES];
+        for (k, w) in param_page::double_words(&saved[..n])
+            .expect("fits")
+            .enumerate()
+        {
+            page[8 * k..8 * k + 8].copy_from_slice(&w);
+        }
+        // Agent 7 is outside the compiled plan, but the page holds its row.
+        let boot = param_page::boot_config(&page, config::in_plan, config::DEFAULT_AGENT);
+        assert_eq!((boot.agent, boot.rejected), (7, None));
+        let (cfg, controller) = config::stored_node(boot.agent, boot.stored).expect("loads");
+        assert_eq!((cfg.agent, cfg.ids.agents()), (7, 8));
+        assert_eq!(&cfg.neighbours[..controller.neighbour_count], &[5, 6]);
+        assert!(!controller.pinned);
+        let f = acceptance(&cfg, controller.neighbour_count, controller.pinned, false);
+        assert_eq!(
+            f,
+            [
+                Some(Accept::Dual(0x000, 0x607)),
+                Some(Accept::Single(0x101)),
+                Some(Accept::Dual(0x108, 0x787)),
+                Some(Accept::Dual(0x106, 0x785)),
+                Some(Accept::Dual(0x107, 0x786)),
+                None,
+                None,
+                None,
+            ]
+        );
+        // The firmware's boot: the node built on the stored row, its device on the compiled
+        // defaults with the page loaded.
+        let (default_cfg, default_controller) =
+            config::stored_node(boot.agent, None).expect("defaults");
+        let (mut node, _, _) = build(&cfg, &controller);
+        node.enable_canopen(
+            &default_cfg,
+            &default_controller,
+            agent_node::canopen::Identity::default(),
+            false,
+            config::CANOPEN_HEARTBEAT_MS,
+        )
+        .expect("device");
+        node.canopen_mut()
+            .expect("device")
+            .load(boot.stored.expect("stored"))
+            .expect("the device takes it");
+        node.service();
+        let booted = Listening::<{ config::K }>::new(
+            cfg.agent,
+            cfg.ids,
+            controller.pinned,
+            cfg.neighbours.iter().take(controller.neighbour_count).copied(),
+        );
+        let running = Listening::new(
+            node.agent(),
+            *node.ids(),
+            node.is_pinned(),
+            (0..config::K).map_while(|k| node.neighbour_agent(k)),
+        );
+        assert_eq!(running, booted, "the node runs what the filters were set for");
+        assert_eq!(node.canopen().map(|d| d.node_id()), Some(7));
+    }
+
     #[test]
     fn only_a_step_that_ended_in_time_feeds_the_watchdog() {
         let mut logic = BoardLogic::new(true, 1_000, 2_500);

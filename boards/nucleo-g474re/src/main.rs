@@ -100,8 +100,12 @@ impl Cycles {
 /// frames' schedule.
 struct Board {
     logic: nucleo_g474re::board::BoardLogic,
-    /// The agent the board booted as; another one adopted over the bus restarts the board.
+    /// The agent the board booted as (its plant-bus frames).
+    #[cfg(feature = "bench")]
     agent: u8,
+    /// What the acceptance filters were set for; a node that adopts another node-ID, graph
+    /// row or plan over the bus restarts the board.
+    listening: nucleo_g474re::can_setup::Listening<{ config::K }>,
     #[cfg(feature = "bench")]
     state_frames: nucleo_g474re::bench::StateFrames,
 }
@@ -244,8 +248,13 @@ mod app {
         // The stored configuration decides which agent of the plan this board is.
         let page = flash::ParamPage::new(dp.FLASH);
         let boot = param_page::boot_config(page.page(), config::in_plan, config::DEFAULT_AGENT);
-        let node_cfg = config::node(boot.agent).unwrap_or(config::NODE);
-        let controller = config::controller_of(boot.agent).unwrap_or_else(config::controller);
+        // The compiled defaults (what 0x1011 restores), and the stored node-ID, graph row and
+        // plan the node and its acceptance filters are built with.
+        let defaults = config::stored_node(boot.agent, None);
+        let (default_cfg, default_controller) =
+            defaults.unwrap_or((config::NODE, config::controller()));
+        let (node_cfg, controller) = config::stored_node(boot.agent, boot.stored)
+            .unwrap_or((default_cfg, default_controller));
         match boot.rejected {
             None => defmt::info!("stored configuration: agent {}", boot.agent),
             Some(r) => defmt::warn!(
@@ -260,7 +269,14 @@ mod app {
                 config::SAMPLE_PERIOD_US,
                 node_cfg.stale_timeout_us,
             ),
+            #[cfg(feature = "bench")]
             agent: node_cfg.agent,
+            listening: can_setup::Listening::new(
+                node_cfg.agent,
+                node_cfg.ids,
+                controller.pinned,
+                node_cfg.neighbours.iter().take(controller.neighbour_count).copied(),
+            ),
             #[cfg(feature = "bench")]
             state_frames: nucleo_g474re::bench::StateFrames::new(),
         };
@@ -300,8 +316,8 @@ mod app {
                 .ok()
                 .and_then(|mut node| {
                     node.enable_canopen(
-                        &node_cfg,
-                        &controller,
+                        &default_cfg,
+                        &default_controller,
                         identity,
                         false,
                         config::CANOPEN_HEARTBEAT_MS,
@@ -490,9 +506,16 @@ mod app {
                 CanOpenRequest::ResetNode => cx.shared.jobs.lock(Jobs::reset),
             }
         }
-        if node.agent() != board.agent {
-            // A reset communication adopted another node-ID: its neighbours are another
-            // agent's, so the board restarts as the stored configuration says.
+        let listening = can_setup::Listening::new(
+            node.agent(),
+            *node.ids(),
+            node.is_pinned(),
+            (0..config::K).map_while(|k| node.neighbour_agent(k)),
+        );
+        if listening != board.listening {
+            // A reset communication adopted another node-ID, graph row or plan: the
+            // acceptance filters are another's, so the board restarts as the stored
+            // configuration says.
             cx.shared.jobs.lock(Jobs::reset);
         }
         if cycles.count >= LOG_EVERY {
