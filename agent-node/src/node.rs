@@ -154,11 +154,35 @@ impl<const K: usize> NodeConfig<K> {
     }
 
     /// The checks [`Node::new`] makes of the node's own settings with the first
-    /// `neighbour_count` neighbours: an agent number of the identifier plan, a stale timeout,
-    /// heartbeat identifiers for a heartbeat, valid supervision, and a graph row of distinct
-    /// agents of the plan other than itself, within the capacity `K`. The CANopen device
+    /// `neighbour_count` neighbours (beside the supervision's, `Supervisor::new`): an agent
+    /// number of the identifier plan, a stale timeout, heartbeat identifiers for a heartbeat,
+    /// and a graph row of distinct agents of the plan other than itself, within the capacity
+    /// `K`. The CANopen device
     /// checks a row, a node-ID or a plan written over SDO with it too.
     pub fn check(&self, neighbour_count: usize) -> Result<(), NodeError> {
+        Own {
+            agent: self.agent,
+            stale_timeout_us: self.stale_timeout_us,
+            ids: &self.ids,
+            heartbeat_period_us: self.heartbeat_period_us,
+        }
+        .check(&self.neighbours, neighbour_count)
+    }
+}
+
+/// A node's own settings as [`NodeConfig::check`] checks them, whatever its capacity: one copy
+/// of the checks for every `K` (the firmware's flash).
+pub(crate) struct Own<'a> {
+    pub(crate) agent: u8,
+    pub(crate) stale_timeout_us: u64,
+    pub(crate) ids: &'a IdPlan,
+    pub(crate) heartbeat_period_us: u64,
+}
+
+impl Own<'_> {
+    /// [`NodeConfig::check`] with the row `neighbours` (its capacity: its length).
+    #[inline(never)]
+    pub(crate) fn check(&self, neighbours: &[u8], neighbour_count: usize) -> Result<(), NodeError> {
         if self.agent == 0 {
             return Err(NodeError::AgentZero);
         }
@@ -171,13 +195,12 @@ impl<const K: usize> NodeConfig<K> {
         if self.heartbeat_period_us > 0 && self.ids.heartbeat_base().is_none() {
             return Err(NodeError::NoHeartbeatIds);
         }
-        Supervisor::new(&self.supervisor)?;
-        let listed = self
-            .neighbours
+        let listed = neighbours
             .get(..neighbour_count)
             .ok_or(NodeError::TooManyNeighbours)?;
         for (k, &a) in listed.iter().enumerate() {
-            let repeated = listed.get(..k).is_some_and(|before| before.contains(&a));
+            // Not `contains`: its `u8` specialisation is a `memchr` the firmware would carry.
+            let repeated = listed.iter().take(k).any(|&b| b == a);
             if a == 0 || a == self.agent || a > self.ids.agents() || repeated {
                 return Err(NodeError::BadNeighbour(a));
             }
@@ -455,6 +478,8 @@ struct CanOpen<const N: usize> {
     /// A device frame held for the next flush: the CAN controller had a frame of the same
     /// identifier pending ([`Node::flush_canopen`]).
     held: Option<CoFrame>,
+    /// [`Node::adoptions`].
+    adoptions: u16,
 }
 
 /// Something the node's CANopen device asks of the application that runs the node.
@@ -1236,6 +1261,7 @@ where
             requests: 0,
             last_overrun_emcy_us: None,
             held: None,
+            adoptions: 0,
         });
         Ok(())
     }
@@ -1435,32 +1461,27 @@ where
         let Some(c) = &self.canopen else {
             return;
         };
-        let store = &c.device.store;
         let id = c.device.node_id();
+        if id == self.agent && !c.device.graph_written() {
+            return;
+        }
+        let store = &c.device.store;
         let (count, pinned) = (
             store.sections.agent.neighbour_count,
             store.sections.agent.pinned,
         );
         let (ids, row) = (store.node.ids, store.node.neighbours);
-        let heard = self.slots.iter().take(self.count).map(|s| s.agent);
-        let same_row = count == self.count && row.iter().take(count).copied().eq(heard);
-        if id == self.agent && ids == self.ids && pinned == self.pinned && same_row {
-            return;
-        }
-        let mut neighbours = [0u8; K];
-        for (d, s) in neighbours.iter_mut().zip(&row) {
-            *d = *s;
-        }
-        let cfg = NodeConfig {
+        let own = Own {
             agent: id,
-            neighbours,
             stale_timeout_us: self.timeout_us,
-            ids,
+            ids: &ids,
             heartbeat_period_us: self.heartbeat_period_us,
-            supervisor: store.supervisor(),
         };
-        if let Err(e) = cfg.check(count) {
-            error!("agent {}: node-ID {}, graph row or plan refused: {:?}", self.agent, id, e);
+        if let Err(e) = own.check(row.get(..K).unwrap_or(&row), count) {
+            error!(
+                "agent {}: node-ID {}, graph row or plan refused: {:?}",
+                self.agent, id, e
+            );
             self.emcy(Fault::ConfigRejected, u32::from(id));
             return;
         }
@@ -1471,11 +1492,20 @@ where
         self.ids = ids;
         self.pinned = pinned;
         self.count = count;
-        self.slots = slots_of(&neighbours, count);
+        self.slots = slots_of(&row, count);
         self.leader = Slot::default();
         if let Some(c) = &mut self.canopen {
+            c.device.graph_adopted();
             c.dirty = true;
+            c.adoptions = c.adoptions.wrapping_add(1);
         }
+    }
+
+    /// Times the node adopted another node-ID, graph row or plan from its device since it
+    /// was built (the boot's adoption of a stored set included): a board whose acceptance
+    /// filters were set for the earlier ones restarts when it changes.
+    pub fn adoptions(&self) -> u16 {
+        self.canopen.as_ref().map_or(0, |c| c.adoptions)
     }
 
     /// Controller, supervisor and stale timeout from the object dictionary. Out of line and
@@ -1495,13 +1525,7 @@ where
         if stale == 0 {
             return Err(NodeError::ZeroTimeout);
         }
-        let heard = self.slots.iter().take(self.count).map(|s| s.agent);
-        let row = store.node.neighbours.iter().take(controller.neighbour_count);
-        if controller.neighbour_count != self.count
-            || controller.pinned != self.pinned
-            || store.node.ids != self.ids
-            || !row.copied().eq(heard)
-        {
+        if c.device.graph_written() {
             return Err(NodeError::PendingGraph);
         }
         self.controller = Controller::new(&with_reentry(&controller, &sup))?;

@@ -244,7 +244,10 @@ fn a_row_written_over_sdo_is_heard_after_the_reset_communication() {
     for (k, (sub, v)) in [(2u8, 4u8), (1, 3), (0, 2)].into_iter().enumerate() {
         send(&mut n, 0x602, &[0x2F, i[0], i[1], sub, v, 0, 0, 0]);
         let (_, frames) = tick_at(&mut n, (1 + k as u64) * MS);
-        assert_eq!(frames, vec![(0x582, vec![0x60, i[0], i[1], sub, 0, 0, 0, 0])]);
+        assert_eq!(
+            frames,
+            vec![(0x582, vec![0x60, i[0], i[1], sub, 0, 0, 0, 0])]
+        );
     }
     assert_eq!(n.neighbour_agent(0), Some(1), "not before the reset");
     // A start on a row not yet applied: EMCY 0x6300, back to pre-operational.
@@ -252,14 +255,19 @@ fn a_row_written_over_sdo_is_heard_after_the_reset_communication() {
     let (tx, frames) = tick_at(&mut n, 4 * MS);
     assert_eq!(tx, TxOutcome::Disabled);
     assert!(
-        frames.iter().any(|(id, d)| *id == 0x082 && d[..2] == [0x00, 0x63]),
+        frames
+            .iter()
+            .any(|(id, d)| *id == 0x082 && d[..2] == [0x00, 0x63]),
         "{frames:x?}"
     );
     // Reset communication: boot-up, the row applied.
     send(&mut n, 0x000, &[0x82, 2]);
     let (_, frames) = tick_at(&mut n, 5 * MS);
     assert!(frames.contains(&(0x702, vec![0x00])), "{frames:x?}");
-    assert_eq!((n.neighbour_agent(0), n.neighbour_agent(1)), (Some(3), Some(4)));
+    assert_eq!(
+        (n.neighbour_agent(0), n.neighbour_agent(1)),
+        (Some(3), Some(4))
+    );
     send(&mut n, 0x000, &[0x01, 2]);
     tick_at(&mut n, 6 * MS);
     let before = *n.stats();
@@ -272,6 +280,14 @@ fn a_row_written_over_sdo_is_heard_after_the_reset_communication() {
         assert_eq!(tx, TxOutcome::Queued);
     }
     let s = n.stats();
-    assert_eq!(s.accepted - before.accepted, 40, "agents 3 and 4, 20 samples");
-    assert_eq!(s.ignored - before.ignored, 20, "agent 1, no longer a neighbour");
+    assert_eq!(
+        s.accepted - before.accepted,
+        40,
+        "agents 3 and 4, 20 samples"
+    );
+    assert_eq!(
+        s.ignored - before.ignored,
+        20,
+        "agent 1, no longer a neighbour"
+    );
 }

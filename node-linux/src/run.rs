@@ -709,8 +709,16 @@ mod tests {
         };
         let text = NodeFile::to_toml(&section, controller).expect("serializes");
         let cfg = NodeFile::parse(&text).expect("valid");
-        let row = PARAM_BASE + Param::ALL.iter().position(|p| *p == Param::Neighbours).expect("row") as u16;
-        let agents = SETTING_BASE + Setting::ALL.iter().position(|s| *s == Setting::Agents).expect("agents") as u16;
+        let row = PARAM_BASE
+            + Param::ALL
+                .iter()
+                .position(|p| *p == Param::Neighbours)
+                .expect("row") as u16;
+        let agents = SETTING_BASE
+            + Setting::ALL
+                .iter()
+                .position(|s| *s == Setting::Agents)
+                .expect("agents") as u16;
         let heard = |n: &TestNode| (0..3).map(|k| n.neighbour_agent(k)).collect::<Vec<_>>();
 
         let mut node = start(&cfg);
@@ -727,7 +735,11 @@ mod tests {
         assert!(path.exists(), "stored");
 
         let node = start(&cfg);
-        assert_eq!(heard(&node), [Some(2), Some(3), Some(6)], "restored at the start");
+        assert_eq!(
+            heard(&node),
+            [Some(2), Some(3), Some(6)],
+            "restored at the start"
+        );
         assert_eq!(node.ids().agents(), 6);
 
         let mut node = start(&cfg);
@@ -737,7 +749,11 @@ mod tests {
         serve_requests(&mut node, &cfg);
         assert!(!path.exists(), "the store file is removed");
         let node = start(&cfg);
-        assert_eq!(heard(&node), [Some(1), Some(3), None], "the file's row again");
+        assert_eq!(
+            heard(&node),
+            [Some(1), Some(3), None],
+            "the file's row again"
+        );
         assert_eq!(node.ids(), &cfg.node_config.ids);
     }
 

@@ -277,9 +277,10 @@ pub fn write_eds<W: Write, const N: usize>(
 
 /// The device `docs/agent-node.eds` describes: agent 1 of the default configuration
 /// (`ControllerConfig::default()`: Example 1's `n = 2`, pinned, no neighbours), node-ID 1, in
-/// the default identifier plan.
+/// the default identifier plan, with room for the most neighbours a node hears
+/// (`graph.neighbours` lists [`crate::wire::MAX_NEIGHBOURS`] entries, all unused).
 pub fn reference_device() -> Option<Device<2>> {
-    let node = crate::node::NodeConfig::<0>::new(1, [], 1);
+    let node = crate::node::NodeConfig::new(1, [0; crate::wire::MAX_NEIGHBOURS], 1);
     let controller = controller_core::ControllerConfig::<2>::default();
     let store = super::od::ParamStore::new(node.identity(), &controller).ok()?;
     Some(Device::new(store, super::Identity::default(), false))

@@ -536,6 +536,9 @@ pub struct Device<const N: usize> {
     tpdo: Option<[u8; PAYLOAD_LEN]>,
     /// The last value frame of each RPDO received in operational.
     rpdo: [Option<[u8; PAYLOAD_LEN]>; od::RPDOS as usize],
+    /// The graph row, pinning or identifier plan was written (or restored, or loaded) since
+    /// the node last adopted them ([`Self::graph_written`]).
+    graph_written: bool,
 }
 
 impl<const N: usize> Device<N> {
@@ -563,6 +566,7 @@ impl<const N: usize> Device<N> {
             now_us: 0,
             tpdo: None,
             rpdo: [None; od::RPDOS as usize],
+            graph_written: false,
         }
     }
 
@@ -605,6 +609,18 @@ impl<const N: usize> Device<N> {
             Some(id) => COB_ID_NO_RTR | u32::from(id),
             None => COB_ID_INVALID | COB_ID_NO_RTR,
         }
+    }
+
+    /// The graph row (`graph.neighbours`, `graph.pinned`) or the identifier plan was written,
+    /// restored or loaded since [`Self::graph_adopted`]: the node takes them at its next reset
+    /// communication and cannot start on the old ones before.
+    pub fn graph_written(&self) -> bool {
+        self.graph_written
+    }
+
+    /// The node adopted the graph row and plan the store holds.
+    pub fn graph_adopted(&mut self) {
+        self.graph_written = false;
     }
 
     /// The node sent its value frame (TPDO1) with these bytes: `0x2200..` read them.
@@ -1231,6 +1247,7 @@ impl<const N: usize> Device<N> {
             }
             Item::Restore if raw == LOAD_SIGNATURE => {
                 self.store = self.defaults.clone();
+                self.graph_written = true;
                 self.events.push(Event::Restore);
             }
             Item::Store | Item::Restore => return Err(Abort::Transfer),
@@ -1238,10 +1255,18 @@ impl<const N: usize> Device<N> {
             Item::HeartbeatProducer => self.set_heartbeat_ms(raw as u16),
             Item::Param(p) => {
                 self.store.write_param(p, sub, v)?;
+                self.graph_written |= matches!(
+                    p,
+                    controller_core::Param::Neighbours | controller_core::Param::Pinned
+                );
                 self.events.push(Event::Written(index, sub));
             }
             Item::Setting(s) => {
                 self.store.write_setting(s, v)?;
+                self.graph_written |= matches!(
+                    s,
+                    od::Setting::IdBase | od::Setting::HeartbeatIdBase | od::Setting::Agents
+                );
                 self.events.push(Event::Written(index, sub));
             }
             _ => return Err(Abort::ReadOnly),

@@ -1007,7 +1007,10 @@ impl<const N: usize> ParamStore<N> {
     ) -> Option<(crate::NodeConfig<K>, ControllerConfig<N>)> {
         let count = self.sections.agent.neighbour_count;
         let mut neighbours = [0u8; K];
-        for (d, s) in neighbours.iter_mut().zip(self.node.neighbours.get(..count)?) {
+        for (d, s) in neighbours
+            .iter_mut()
+            .zip(self.node.neighbours.get(..count)?)
+        {
             *d = *s;
         }
         (count <= K).then_some((
@@ -1110,14 +1113,17 @@ impl<const N: usize> ParamStore<N> {
     /// scenario file's constructors and committed only if they accept it; the abort says why
     /// not, and the store is unchanged.
     pub fn write_param(&mut self, p: Param, sub: u8, v: Value) -> Result<(), Abort> {
-        if matches!(p, Param::Neighbours | Param::Pinned) {
-            return self.write_graph(p, sub, v);
-        }
         let mut next = self.sections.clone();
-        set_param(&mut next, p, sub, v)?;
+        let mut node = self.node;
+        if matches!(p, Param::Neighbours | Param::Pinned) {
+            self.set_graph(&mut next, &mut node, p, sub, v)?;
+        } else {
+            set_param(&mut next, p, sub, v)?;
+        }
         let cfg = next.config().map_err(|e| config_abort(&e, p))?;
         Params::new(&cfg, self.capacity).map_err(|e| config_abort(&e, p))?;
         self.sections = next;
+        self.node = node;
         Ok(())
     }
 
@@ -1128,24 +1134,17 @@ impl<const N: usize> ParamStore<N> {
     }
 
     /// The node configuration the settings describe, the node-ID as written, checked as
-    /// `Node::new` checks a node file ([`crate::NodeConfig::check`]) with `count` neighbours.
-    fn check_node(
-        &self,
-        n: &NodeSettings,
-        count: usize,
-    ) -> Result<(), crate::node::NodeError> {
-        if count > self.slots() {
-            return Err(crate::node::NodeError::TooManyNeighbours);
-        }
-        crate::NodeConfig {
+    /// `Node::new` checks a node file ([`crate::NodeConfig::check`]) with `count` neighbours:
+    /// `0x0604_0043` when it refuses.
+    fn check_node(&self, n: &NodeSettings, count: usize) -> Result<(), Abort> {
+        let row = n.neighbours.get(..self.slots()).unwrap_or(&[]);
+        let own = crate::node::Own {
             agent: n.pending_node_id,
-            neighbours: n.neighbours,
             stale_timeout_us: 1,
-            ids: n.ids,
+            ids: &n.ids,
             heartbeat_period_us: n.heartbeat_period_us,
-            supervisor: n.supervisor,
-        }
-        .check(count)
+        };
+        own.check(row, count).map_err(|_| Abort::ParamIncompatible)
     }
 
     /// Write the graph row: `graph.neighbours` sub-index 0 (how many entries are heard, at
@@ -1154,10 +1153,16 @@ impl<const N: usize> ParamStore<N> {
     /// results is checked as a node file's ([`crate::NodeConfig::check`]: itself, a duplicate
     /// → `0x0604_0043`) and as a scenario's (`ControllerConfig::from_sections`: neither
     /// neighbours nor the leader → `0x0604_0043`); a refusal leaves it unchanged. Applied at
-    /// the next reset communication.
-    fn write_graph(&mut self, p: Param, sub: u8, v: Value) -> Result<(), Abort> {
-        let mut next = self.sections.clone();
-        let mut node = self.node;
+    /// the next reset communication. Sets `next` and `node`; [`Self::write_param`] checks the
+    /// controller and commits.
+    fn set_graph(
+        &self,
+        next: &mut Sections<N>,
+        node: &mut NodeSettings,
+        p: Param,
+        sub: u8,
+        v: Value,
+    ) -> Result<(), Abort> {
         let count = &mut next.agent.neighbour_count;
         match (p, sub, v) {
             (Param::Pinned, 0, Value::Bool(b)) => next.agent.pinned = b,
@@ -1186,13 +1191,7 @@ impl<const N: usize> ParamStore<N> {
             }
             _ => return Err(Abort::ValueRange),
         }
-        self.check_node(&node, next.agent.neighbour_count)
-            .map_err(|_| Abort::ParamIncompatible)?;
-        let cfg = next.config().map_err(|e| config_abort(&e, p))?;
-        Params::new(&cfg, self.capacity).map_err(|e| config_abort(&e, p))?;
-        self.sections = next;
-        self.node = node;
-        Ok(())
+        self.check_node(node, next.agent.neighbour_count)
     }
 
     /// Write the identifier plan (`node.id_base`, `node.heartbeat_id_base`, `node.agents`):
@@ -1216,8 +1215,7 @@ impl<const N: usize> ParamStore<N> {
             IdPlanError::ValueRange | IdPlanError::HeartbeatRange => Abort::ValueTooHigh,
             _ => Abort::ParamIncompatible,
         })?;
-        self.check_node(&n, self.sections.agent.neighbour_count)
-            .map_err(|_| Abort::ParamIncompatible)?;
+        self.check_node(&n, self.sections.agent.neighbour_count)?;
         self.node = n;
         Ok(())
     }
@@ -1268,8 +1266,7 @@ impl<const N: usize> ParamStore<N> {
         if s == Setting::NodeId && (1..=127).contains(&index) {
             // Not one of its own neighbours, and an agent of the plan.
             n.pending_node_id = index;
-            self.check_node(&n, self.sections.agent.neighbour_count)
-                .map_err(|_| Abort::ParamIncompatible)?;
+            self.check_node(&n, self.sections.agent.neighbour_count)?;
         }
         let sup = &mut n.supervisor;
         match s {

@@ -344,7 +344,8 @@ fn every_generated_entry_reads_back_what_is_written() {
                     // Writing an entry's own value back is always accepted, except an absent
                     // optional paired value (c1 alone) which the constructor refuses, and an
                     // unused entry of the graph row (0, no agent).
-                    let unused = o.item == od::Item::Param(Param::Neighbours) && v.as_slice() == [0];
+                    let unused =
+                        o.item == od::Item::Param(Param::Neighbours) && v.as_slice() == [0];
                     if let Err(a) = r {
                         assert!(
                             a == Abort::ParamIncompatible || (unused && a == Abort::ValueTooLow),
@@ -600,7 +601,11 @@ fn value_frames_decode_by_the_pdo_mapping_read_over_sdo() {
 }
 
 fn setting_index(s: od::Setting) -> u16 {
-    SETTING_BASE + od::Setting::ALL.iter().position(|t| *t == s).expect("listed") as u16
+    SETTING_BASE
+        + od::Setting::ALL
+            .iter()
+            .position(|t| *t == s)
+            .expect("listed") as u16
 }
 
 /// The abort code of an SDO answer (0 for a confirmed download).
@@ -625,7 +630,11 @@ fn plan(d: &mut Device<2>) -> (u16, u16, u8) {
     let u16_of = |r: [u8; 8]| u16::from_le_bytes([r[4], r[5]]);
     let base = u16_of(upload(d, setting_index(od::Setting::IdBase), 0));
     let hb = u16_of(upload(d, setting_index(od::Setting::HeartbeatIdBase), 0));
-    (base, hb, upload(d, setting_index(od::Setting::Agents), 0)[4])
+    (
+        base,
+        hb,
+        upload(d, setting_index(od::Setting::Agents), 0)[4],
+    )
 }
 
 #[test]
@@ -648,8 +657,14 @@ fn the_graph_row_and_the_plan_round_trip_and_the_rpdos_follow() {
     let hb = setting_index(od::Setting::HeartbeatIdBase);
     let ag = setting_index(od::Setting::Agents);
     assert_eq!(abort_of(download(&mut d, ag, 0, &[10])), 0);
-    assert_eq!(abort_of(download(&mut d, ib, 0, &0x300u16.to_le_bytes())), 0);
-    assert_eq!(abort_of(download(&mut d, hb, 0, &0x780u16.to_le_bytes())), 0);
+    assert_eq!(
+        abort_of(download(&mut d, ib, 0, &0x300u16.to_le_bytes())),
+        0
+    );
+    assert_eq!(
+        abort_of(download(&mut d, hb, 0, &0x780u16.to_le_bytes())),
+        0
+    );
     assert_eq!(plan(&mut d), (0x300, 0x780, 10));
     // RPDO1 the leader (heard: pinned), RPDO2..4 agents 4, 2, 5, RPDO5 unused.
     let cob = |d: &mut Device<2>, k: u16| {
@@ -686,16 +701,52 @@ fn every_refused_row_or_plan_names_its_abort_and_leaves_the_values() {
         ("itself (node-ID 3)", nb, 1, vec![ID], 0x0604_0043),
         ("itself beyond the count", nb, 4, vec![ID], 0x0604_0043),
         ("agent 0", nb, 1, vec![0], 0x0609_0032),
-        ("an agent outside the plan (99)", nb, 1, vec![100], 0x0609_0031),
+        (
+            "an agent outside the plan (99)",
+            nb,
+            1,
+            vec![100],
+            0x0609_0031,
+        ),
         ("over the capacity K = 4", nb, 0, vec![5], 0x0609_0031),
-        ("a count taking in an unset entry (0)", nb, 0, vec![3], 0x0604_0043),
+        (
+            "a count taking in an unset entry (0)",
+            nb,
+            0,
+            vec![3],
+            0x0604_0043,
+        ),
         ("no neighbour and no leader", nb, 0, vec![0], 0x0604_0043),
         ("a node-ID that is a neighbour", id, 0, vec![2], 0x0604_0043),
-        ("a plan without the node's neighbours", ag, 0, vec![1], 0x0604_0043),
+        (
+            "a plan without the node's neighbours",
+            ag,
+            0,
+            vec![1],
+            0x0604_0043,
+        ),
         ("a plan of no agents", ag, 0, vec![0], 0x0609_0032),
-        ("value frames beyond 11 bits", ib, 0, 0x7F0u16.to_le_bytes().to_vec(), 0x0609_0031),
-        ("value and heartbeat blocks overlapping", hb, 0, 0x120u16.to_le_bytes().to_vec(), 0x0604_0043),
-        ("a sub-index beyond the capacity", nb, 5, vec![4], 0x0609_0011),
+        (
+            "value frames beyond 11 bits",
+            ib,
+            0,
+            0x7F0u16.to_le_bytes().to_vec(),
+            0x0609_0031,
+        ),
+        (
+            "value and heartbeat blocks overlapping",
+            hb,
+            0,
+            0x120u16.to_le_bytes().to_vec(),
+            0x0604_0043,
+        ),
+        (
+            "a sub-index beyond the capacity",
+            nb,
+            5,
+            vec![4],
+            0x0609_0011,
+        ),
     ];
     for (what, index, sub, bytes, code) in cases {
         assert_eq!(

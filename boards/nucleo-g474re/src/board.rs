@@ -427,11 +427,11 @@ mod tests {
     /// One image joins any graph: a board with nothing stored (agent 4 of the compiled plan)
     /// takes node-ID 7, a plan of 8 agents and the row "agents 5 and 6" over SDO, stores;
     /// after the reset it boots as agent 7 hearing 5 and 6, its acceptance filters those
-    /// agents' frames, and what the filters were set for is what the node runs (no restart
-    /// loop).
+    /// agents' frames, and what the filters were set for is what the node runs; only a new
+    /// adoption (which restarts the board) counts, not a reset with nothing new.
     #[test]
     fn a_stored_row_and_plan_make_the_filters_and_the_node_after_the_reset() {
-        use crate::can_setup::{acceptance, Accept, Listening};
+        use crate::can_setup::{acceptance, Accept};
         use crate::param_page::{self, row_index};
         use agent_node::canopen::od::{Setting, SETTING_BASE};
         let (mut node, _, _) = canopen_board(config::DEFAULT_AGENT);
@@ -463,7 +463,18 @@ mod tests {
         // Agent 7 is outside the compiled plan, but the page holds its row.
         let boot = param_page::boot_config(&page, config::in_plan, config::DEFAULT_AGENT);
         assert_eq!((boot.agent, boot.rejected), (7, None));
-        let (cfg, controller) = config::stored_node(boot.agent, boot.stored).expect("loads");
+        // The firmware's boot: the node and its device on the compiled defaults of the agent
+        // (agent 4's for one outside the plan), the page loaded, then the filters from what
+        // the device loaded.
+        let (mut node, _, _) = canopen_board(config::DEFAULT_AGENT);
+        node.canopen_mut()
+            .expect("device")
+            .load(boot.stored.expect("stored"))
+            .expect("the device takes it");
+        let (cfg, controller) = node
+            .canopen()
+            .and_then(|d| d.store.with_graph(&NODE, &config::controller()))
+            .expect("fits K");
         assert_eq!((cfg.agent, cfg.ids.agents()), (7, 8));
         assert_eq!(&cfg.neighbours[..controller.neighbour_count], &[5, 6]);
         assert!(!controller.pinned);
@@ -481,37 +492,39 @@ mod tests {
                 None,
             ]
         );
-        // The firmware's boot: the node built on the stored row, its device on the compiled
-        // defaults with the page loaded.
-        let (default_cfg, default_controller) =
-            config::stored_node(boot.agent, None).expect("defaults");
-        let (mut node, _, _) = build(&cfg, &controller);
-        node.enable_canopen(
-            &default_cfg,
-            &default_controller,
-            agent_node::canopen::Identity::default(),
-            false,
-            config::CANOPEN_HEARTBEAT_MS,
-        )
-        .expect("device");
+        // The node adopts them at its boot-up.
+        node.service();
+        // What the filters were set for is what the node runs.
+        assert_eq!(node.agent(), 7);
+        assert_eq!(node.ids(), &cfg.ids);
+        assert!(!node.is_pinned());
+        assert_eq!(
+            (0..config::K)
+                .map_while(|k| node.neighbour_agent(k))
+                .collect::<Vec<_>>(),
+            [5, 6]
+        );
+        let adopted = node.adoptions();
+        assert_eq!(adopted, 1, "the stored set, adopted at the boot-up");
+        // A reset communication with nothing new adopts nothing: no restart loop; a new row
+        // adopted at the next one counts (the firmware restarts on it).
+        nmt(
+            &mut node,
+            agent_node::canopen::NmtCommand::ResetCommunication,
+        );
+        node.service();
+        assert_eq!(node.adoptions(), adopted);
         node.canopen_mut()
             .expect("device")
-            .load(boot.stored.expect("stored"))
-            .expect("the device takes it");
+            .write(row_index(), 2, &[3])
+            .expect("entry 2");
+        nmt(
+            &mut node,
+            agent_node::canopen::NmtCommand::ResetCommunication,
+        );
         node.service();
-        let booted = Listening::<{ config::K }>::new(
-            cfg.agent,
-            cfg.ids,
-            controller.pinned,
-            cfg.neighbours.iter().take(controller.neighbour_count).copied(),
-        );
-        let running = Listening::new(
-            node.agent(),
-            *node.ids(),
-            node.is_pinned(),
-            (0..config::K).map_while(|k| node.neighbour_agent(k)),
-        );
-        assert_eq!(running, booted, "the node runs what the filters were set for");
+        assert_eq!(node.adoptions(), adopted + 1);
+        assert_eq!(node.neighbour_agent(1), Some(3));
         assert_eq!(node.canopen().map(|d| d.node_id()), Some(7));
     }
 

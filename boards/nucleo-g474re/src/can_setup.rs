@@ -6,7 +6,7 @@
 use agent_node::{
     canopen::{sdo_rx_id, NMT_ID},
     plant_bus,
-    wire::{IdPlan, Source},
+    wire::Source,
     NodeConfig,
 };
 
@@ -153,35 +153,6 @@ pub fn acceptance<const K: usize>(
         *slot = Some(f);
     }
     out
-}
-
-/// What the acceptance filters were set for at boot: the agent, its identifier plan, whether it
-/// hears the leader and the agents it hears. A node that adopts another (NMT reset
-/// communication after SDO writes of the node-ID, the graph row or the plan) would be heard
-/// through the old filters, so the firmware restarts the board, which boots as the stored
-/// configuration says.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Listening<const K: usize> {
-    agent: u8,
-    ids: IdPlan,
-    pinned: bool,
-    row: [u8; K],
-}
-
-impl<const K: usize> Listening<K> {
-    /// Agent `agent` in plan `ids`, pinned or not, hearing `heard` (the first `K`).
-    pub fn new(agent: u8, ids: IdPlan, pinned: bool, heard: impl IntoIterator<Item = u8>) -> Self {
-        let mut row = [0; K];
-        for (d, s) in row.iter_mut().zip(heard) {
-            *d = s;
-        }
-        Self {
-            agent,
-            ids,
-            pinned,
-            row,
-        }
-    }
 }
 
 /// `FDCAN_RXGFC[5:0]` as the set-up writes it: non-matching standard and extended frames

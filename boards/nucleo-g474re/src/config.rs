@@ -2,7 +2,8 @@
 //! the default node-ID, the controller's settings and the scales of the example wiring. One
 //! image serves every agent of any graph: the node-ID, the graph row (the agents heard,
 //! whether the leader is) and the identifier plan come from the stored configuration
-//! ([`crate::param_page`], [`stored_node`]), set over the bus (CANopen SDO `0x2100`
+//! ([`crate::param_page`]; the firmware builds its node and acceptance filters from what the
+//! CANopen device loads of it, `agent_node::canopen::od::ParamStore::with_graph`), set over the bus (CANopen SDO `0x2100`
 //! `node.node_id`, the `graph.neighbours` array, `graph.pinned`, `node.id_base`, …, `0x1010`
 //! store, NMT reset node); the parameters likewise. A stored node-ID without a stored row
 //! takes its row from the compiled plan (Example 1). A board with nothing stored boots as
@@ -18,7 +19,6 @@
 //! `h = 1 ms`.
 
 use agent_node::{
-    canopen::{od::ParamStore, Abort, Device, Identity},
     supervisor::{NeighbourLoss, SafePolicy, SupervisorConfig},
     wire::IdPlan,
     NodeConfig,
@@ -111,30 +111,6 @@ pub fn controller_of(agent: u8) -> Option<ControllerConfig<N>> {
         pinned: p.pinned,
         ..controller()
     })
-}
-
-/// The node and controller settings the board boots with: agent `agent`'s of the compiled
-/// plan (the default node's for an agent outside it), then the node-ID, graph row and
-/// identifier plan of the stored dictionary `stored` as the CANopen device loads it
-/// (`Device::load`, checked as every SDO write); the acceptance filters are set from them.
-/// The abort when the device refuses the stored dictionary (the board then runs the compiled
-/// settings and says so by EMCY).
-pub fn stored_node(
-    agent: u8,
-    stored: Option<&[u8]>,
-) -> Result<(NodeConfig<K>, ControllerConfig<N>), Abort> {
-    let cfg = node(agent).unwrap_or(NODE);
-    let controller = controller_of(agent).unwrap_or_else(controller);
-    let Some(stored) = stored else {
-        return Ok((cfg, controller));
-    };
-    let store = ParamStore::new(cfg.identity(), &controller).map_err(|_| Abort::ValueRange)?;
-    let mut device = Device::new(store, Identity::default(), false);
-    device.load(stored)?;
-    device
-        .store
-        .with_graph(&cfg, &controller)
-        .ok_or(Abort::ValueTooHigh)
 }
 
 /// The default node ([`DEFAULT_AGENT`]), its neighbours, the stale timeout (2.5 `h`, as host-sim's `[network]`

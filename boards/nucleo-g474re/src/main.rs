@@ -103,9 +103,9 @@ struct Board {
     /// The agent the board booted as (its plant-bus frames).
     #[cfg(feature = "bench")]
     agent: u8,
-    /// What the acceptance filters were set for; a node that adopts another node-ID, graph
-    /// row or plan over the bus restarts the board.
-    listening: nucleo_g474re::can_setup::Listening<{ config::K }>,
+    /// The node's adoptions of a node-ID, graph row or plan when the acceptance filters were
+    /// set (`Node::adoptions`); another one over the bus restarts the board.
+    adoptions: u16,
     #[cfg(feature = "bench")]
     state_frames: nucleo_g474re::bench::StateFrames,
 }
@@ -248,13 +248,10 @@ mod app {
         // The stored configuration decides which agent of the plan this board is.
         let page = flash::ParamPage::new(dp.FLASH);
         let boot = param_page::boot_config(page.page(), config::in_plan, config::DEFAULT_AGENT);
-        // The compiled defaults (what 0x1011 restores), and the stored node-ID, graph row and
-        // plan the node and its acceptance filters are built with.
-        let defaults = config::stored_node(boot.agent, None);
-        let (default_cfg, default_controller) =
-            defaults.unwrap_or((config::NODE, config::controller()));
-        let (node_cfg, controller) = config::stored_node(boot.agent, boot.stored)
-            .unwrap_or((default_cfg, default_controller));
+        // The compiled defaults of that agent (what 0x1011 restores); the stored node-ID,
+        // graph row and plan replace them once the device has loaded the page (below).
+        let node_cfg = config::node(boot.agent).unwrap_or(config::NODE);
+        let controller = config::controller_of(boot.agent).unwrap_or_else(config::controller);
         match boot.rejected {
             None => defmt::info!("stored configuration: agent {}", boot.agent),
             Some(r) => defmt::warn!(
@@ -263,7 +260,7 @@ mod app {
                 boot.agent
             ),
         }
-        let board = Board {
+        let mut board = Board {
             logic: BoardLogic::new(
                 can_setup::uses_leader(&node_cfg, controller.pinned),
                 config::SAMPLE_PERIOD_US,
@@ -271,12 +268,7 @@ mod app {
             ),
             #[cfg(feature = "bench")]
             agent: node_cfg.agent,
-            listening: can_setup::Listening::new(
-                node_cfg.agent,
-                node_cfg.ids,
-                controller.pinned,
-                node_cfg.neighbours.iter().take(controller.neighbour_count).copied(),
-            ),
+            adoptions: 0,
             #[cfg(feature = "bench")]
             state_frames: nucleo_g474re::bench::StateFrames::new(),
         };
@@ -294,12 +286,7 @@ mod app {
                 None
             }
             (None, Some(_)) => {
-                let bus = can::configure(
-                    fdcan,
-                    &node_cfg,
-                    controller.neighbour_count,
-                    controller.pinned,
-                );
+                let bus = can::configure(fdcan);
                 let identity = Identity {
                     product: 1,
                     revision: 1,
@@ -316,8 +303,8 @@ mod app {
                 .ok()
                 .and_then(|mut node| {
                     node.enable_canopen(
-                        &default_cfg,
-                        &default_controller,
+                        &node_cfg,
+                        &controller,
                         identity,
                         false,
                         config::CANOPEN_HEARTBEAT_MS,
@@ -355,10 +342,29 @@ mod app {
                 rejected = Some(Rejection::Refused);
             }
         }
+        // The node-ID, graph row and plan as loaded: the acceptance filters and the board's
+        // logic follow them now, the node adopts them at its boot-up (`node.service` below).
+        let (node_cfg, controller) = node
+            .canopen()
+            .and_then(|d| d.store.with_graph(&node_cfg, &controller))
+            .unwrap_or((node_cfg, controller));
+        node.can_mut()
+            .listen(&node_cfg, controller.neighbour_count, controller.pinned);
+        board.logic = BoardLogic::new(
+            can_setup::uses_leader(&node_cfg, controller.pinned),
+            config::SAMPLE_PERIOD_US,
+            node_cfg.stale_timeout_us,
+        );
+        #[cfg(feature = "bench")]
+        {
+            board.agent = node_cfg.agent;
+        }
         node.set_boot_count(heartbeat_word(boot_count, flags));
         node.can_mut().join_bus();
         // Boot-up message, pre-operational; then the EMCY of a configuration not used.
         node.service();
+        // What the filters were set for is what the node adopted at its boot-up.
+        board.adoptions = node.adoptions();
         if let (Some(r), Some(d)) = (rejected, node.canopen_mut()) {
             d.report(Fault::ConfigRejected, r.code());
         }
@@ -506,13 +512,7 @@ mod app {
                 CanOpenRequest::ResetNode => cx.shared.jobs.lock(Jobs::reset),
             }
         }
-        let listening = can_setup::Listening::new(
-            node.agent(),
-            *node.ids(),
-            node.is_pinned(),
-            (0..config::K).map_while(|k| node.neighbour_agent(k)),
-        );
-        if listening != board.listening {
+        if node.adoptions() != board.adoptions {
             // A reset communication adopted another node-ID, graph row or plan: the
             // acceptance filters are another's, so the board restarts as the stored
             // configuration says.
