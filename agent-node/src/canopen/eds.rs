@@ -65,6 +65,14 @@ impl<W: Write> Write for Ascii<'_, W> {
 fn comment<W: Write>(w: &mut W, o: &Object) -> fmt::Result {
     let w = &mut Ascii(w);
     match o.item {
+        Item::Param(controller_core::Param::Neighbours) => writeln!(
+            w,
+            "; graph.neighbours: the graph row; sub-index 0 how many are heard (<= the capacity), entries distinct agents of the plan other than the node-ID; written in pre-operational, applied at reset"
+        ),
+        Item::Param(controller_core::Param::Pinned) => writeln!(
+            w,
+            "; graph.pinned: the node hears the leader (b_i); written in pre-operational, applied at reset"
+        ),
         Item::Param(p) => {
             let spec = p.spec();
             write!(

@@ -996,36 +996,28 @@ impl<const N: usize> ParamStore<N> {
         })
     }
 
-    /// `cfg` and `controller` with the store's node-ID, graph row and identifier plan (as
-    /// written or loaded; a node applies them at its next reset communication): what a board
-    /// builds its node and acceptance filters from at boot. `None` when the row does not fit
-    /// the capacity `K`.
-    pub fn with_graph<const K: usize>(
+    /// Put the store's node-ID, graph row and identifier plan (as written or loaded; a node
+    /// applies them at its next reset communication) into `cfg` and `controller`: what a board
+    /// builds its acceptance filters from at boot. `false`, and nothing changed, when the row
+    /// does not fit the capacity `K`.
+    pub fn graph_into<const K: usize>(
         &self,
-        cfg: &crate::NodeConfig<K>,
-        controller: &ControllerConfig<N>,
-    ) -> Option<(crate::NodeConfig<K>, ControllerConfig<N>)> {
+        cfg: &mut crate::NodeConfig<K>,
+        controller: &mut ControllerConfig<N>,
+    ) -> bool {
         let count = self.sections.agent.neighbour_count;
-        let mut neighbours = [0u8; K];
-        for (d, s) in neighbours
-            .iter_mut()
-            .zip(self.node.neighbours.get(..count)?)
-        {
+        let Some(row) = self.node.neighbours.get(..count).filter(|_| count <= K) else {
+            return false;
+        };
+        cfg.neighbours = [0; K];
+        for (d, s) in cfg.neighbours.iter_mut().zip(row) {
             *d = *s;
         }
-        (count <= K).then_some((
-            crate::NodeConfig {
-                agent: self.node.pending_node_id,
-                neighbours,
-                ids: self.node.ids,
-                ..*cfg
-            },
-            ControllerConfig {
-                neighbour_count: count,
-                pinned: self.sections.agent.pinned,
-                ..*controller
-            },
-        ))
+        cfg.agent = self.node.pending_node_id;
+        cfg.ids = self.node.ids;
+        controller.neighbour_count = count;
+        controller.pinned = self.sections.agent.pinned;
+        true
     }
 
     /// The controller configuration the store holds, validated as a scenario file is.

@@ -471,10 +471,10 @@ mod tests {
             .expect("device")
             .load(boot.stored.expect("stored"))
             .expect("the device takes it");
-        let (cfg, controller) = node
+        let (mut cfg, mut controller) = (NODE, config::controller());
+        assert!(node
             .canopen()
-            .and_then(|d| d.store.with_graph(&NODE, &config::controller()))
-            .expect("fits K");
+            .is_some_and(|d| d.store.graph_into(&mut cfg, &mut controller)));
         assert_eq!((cfg.agent, cfg.ids.agents()), (7, 8));
         assert_eq!(&cfg.neighbours[..controller.neighbour_count], &[5, 6]);
         assert!(!controller.pinned);

@@ -344,10 +344,10 @@ mod app {
         }
         // The node-ID, graph row and plan as loaded: the acceptance filters and the board's
         // logic follow them now, the node adopts them at its boot-up (`node.service` below).
-        let (node_cfg, controller) = node
-            .canopen()
-            .and_then(|d| d.store.with_graph(&node_cfg, &controller))
-            .unwrap_or((node_cfg, controller));
+        let (mut node_cfg, mut controller) = (node_cfg, controller);
+        if let Some(d) = node.canopen() {
+            d.store.graph_into(&mut node_cfg, &mut controller);
+        }
         node.can_mut()
             .listen(&node_cfg, controller.neighbour_count, controller.pinned);
         board.logic = BoardLogic::new(
