@@ -9,7 +9,8 @@ object dictionary with agent i's values as DefaultValue):
 With the board alone on the bus (an unconfigured board answers as node-ID 4, the default;
 --node-id for another), in NMT pre-operational: the identifier plan (node.agents,
 node.id_base, node.heartbeat_id_base) and the graph row of agent i from the scenario's
-[graph] (the EDS's graph.neighbours and graph.pinned) are written first — pinned, the row
+[graph] (the EDS's graph.neighbours and graph.pinned; a scenario without heartbeat identifiers keeps
+the board's, which its heartbeat needs) are written first — pinned, the row
 emptied, its entries, its count, then pinned as the scenario says, so that no step is a row
 the node refuses — then every other writable entry from 0x2000 with the EDS's value (a
 refused write is retried once after the others, as the node's own load does, then
@@ -29,6 +30,7 @@ NODE_ID_KEY = "node.node_id"
 ROW_KEY = "graph.neighbours"
 PINNED_KEY = "graph.pinned"
 PLAN_KEYS = ("node.agents", "node.id_base", "node.heartbeat_id_base")
+NO_HEARTBEAT_IDS = 0xFFFF
 
 
 def writes(od):
@@ -50,6 +52,13 @@ def writes(od):
     return out
 
 
+def plan_keys(od):
+    """The plan's keys to write: a scenario without heartbeat identifiers (0xFFFF) leaves the
+    board's own (it sends a heartbeat, which needs them)."""
+    return [k for k in PLAN_KEYS
+            if not (k == "node.heartbeat_id_base" and od[k].default == NO_HEARTBEAT_IDS)]
+
+
 def row_writes(od, agent):
     """(index, sub-index, name, raw bytes) that make the board agent `agent` with the plan and
     graph row of the EDS, in an order the node accepts at every step: pinned and the row
@@ -63,7 +72,7 @@ def row_writes(od, agent):
         (row.index, 0, f"{ROW_KEY}[0]", row[0].encode_raw(0)),
         (node_id.index, 0, NODE_ID_KEY, node_id.encode_raw(agent)),
     ]
-    for key in PLAN_KEYS:
+    for key in plan_keys(od):
         v = od[key]
         out.append((v.index, 0, key, v.encode_raw(v.default)))
     for k, agent in enumerate(entries, start=1):
@@ -77,7 +86,7 @@ def graph(od):
     """(index, sub-index, name, variable) of the plan and of the graph row heard: what the
     board reads back after the reset."""
     row = od[ROW_KEY]
-    out = [(od[k].index, 0, k, od[k]) for k in PLAN_KEYS + (PINNED_KEY,)]
+    out = [(od[k].index, 0, k, od[k]) for k in plan_keys(od) + [PINNED_KEY]]
     out.append((row.index, 0, f"{ROW_KEY}[0]", row[0]))
     out += [(row.index, k, f"{ROW_KEY}[{k}]", row[k]) for k in range(1, row[0].default + 1)]
     return out
