@@ -8,7 +8,7 @@
 //! | `0x1400 + k`, `0x1600 + k` | RPDO `k + 1` communication and mapping parameters ([`RPDOS`]: the leader's value frame, then one per neighbour slot) |
 //! | `0x1800`, `0x1A00` | TPDO1 communication and mapping parameters: the node's own value frame |
 //! | `0x2000 + k` | `controller_core::param::Param::ALL[k]`, named by its scenario key |
-//! | `0x2100 + k` | [`Setting::ALL`]`[k]`: the node's own settings |
+//! | `0x2100 + k` | [`Setting::ALL`]`[k]`: the node's own settings, the identifier plan last |
 //! | `0x2200`–`0x2203` | the node's own value frame, field by field ([`Field`]; TPDO1 maps them) |
 //! | `0x2210`–`0x2213` | the value frames heard, field by field, sub-index `k + 1` = RPDO `k + 1` |
 //!
@@ -16,7 +16,9 @@
 //!
 //! The value frames of `crate::wire` are the PDOs, with the identifiers of the node's
 //! `IdPlan` (not the predefined connection set's `0x180 + id`): the COB-IDs and the mapping are
-//! read-only, as the node cannot move them. Every value frame (4 bytes) maps the same four
+//! read-only; the COB-IDs follow the identifier plan and the graph row, which are written in
+//! their own objects ([`Setting::IdBase`], …, `graph.neighbours`) and applied at the next reset
+//! communication. Every value frame (4 bytes) maps the same four
 //! fields, bit by bit (granularity 1), least significant bit first:
 //!
 //! | bits | field | object (own / heard `k`) | type, mapped length |

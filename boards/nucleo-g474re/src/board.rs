@@ -377,6 +377,26 @@ mod tests {
         }
     }
 
+    /// The flash page the firmware writes for the node's `0x1010` store (the dictionary's
+    /// length printed).
+    fn stored_page(node: &TestNode) -> Vec<u8> {
+        use crate::param_page;
+        let mut saved = [0u8; param_page::STORE_CAPACITY];
+        let n = node
+            .canopen()
+            .and_then(|d| d.save(&mut saved))
+            .expect("fits the firmware's buffer");
+        println!("stored object dictionary: {n} bytes");
+        let mut page = vec![0xFF; param_page::PAGE_BYTES];
+        for (k, w) in param_page::double_words(&saved[..n])
+            .expect("fits")
+            .enumerate()
+        {
+            page[8 * k..8 * k + 8].copy_from_slice(&w);
+        }
+        page
+    }
+
     /// Commissioning as the README's bench section does it, on the host: a board with nothing
     /// stored boots as the default agent, takes its node-ID and a gain over SDO, stores, and
     /// after the reset boots as that agent with the gain.
@@ -398,19 +418,7 @@ mod tests {
         d.write(param_page::node_id_index(), 0, &[2])
             .expect("node-ID");
         d.write(p, 0, &3.0f32.to_le_bytes()).expect("ts");
-        let mut saved = [0u8; param_page::STORE_CAPACITY];
-        let n = node
-            .canopen()
-            .and_then(|d| d.save(&mut saved))
-            .expect("fits the firmware's buffer");
-        println!("stored object dictionary: {n} bytes");
-        let mut page = vec![0xFF; param_page::PAGE_BYTES];
-        for (k, w) in param_page::double_words(&saved[..n])
-            .expect("fits")
-            .enumerate()
-        {
-            page[8 * k..8 * k + 8].copy_from_slice(&w);
-        }
+        let page = stored_page(&node);
         let boot = param_page::boot_config(&page, config::in_plan, config::DEFAULT_AGENT);
         assert_eq!((boot.agent, boot.rejected), (2, None));
         let (mut node, _, _) = canopen_board(boot.agent);
@@ -447,19 +455,7 @@ mod tests {
         d.write(row_index(), 2, &[6]).expect("entry 2");
         d.write(param_page::node_id_index(), 0, &[7])
             .expect("node-ID");
-        let mut saved = [0u8; param_page::STORE_CAPACITY];
-        let n = node
-            .canopen()
-            .and_then(|d| d.save(&mut saved))
-            .expect("fits the firmware's buffer");
-        println!("stored object dictionary with the row and the plan: {n} bytes");
-        let mut page = vec![0xFF; param_page::PAGE_BYTES];
-        for (k, w) in param_page::double_words(&saved[..n])
-            .expect("fits")
-            .enumerate()
-        {
-            page[8 * k..8 * k + 8].copy_from_slice(&w);
-        }
+        let page = stored_page(&node);
         // Agent 7 is outside the compiled plan, but the page holds its row.
         let boot = param_page::boot_config(&page, config::in_plan, config::DEFAULT_AGENT);
         assert_eq!((boot.agent, boot.rejected), (7, None));
