@@ -1246,13 +1246,10 @@ impl<const N: usize> Device<N> {
                 self.events.push(Event::Store);
             }
             Item::Restore if raw == LOAD_SIGNATURE => {
-                let (a, b) = (&self.store, &self.defaults);
-                let count = a.sections.agent.neighbour_count;
-                self.graph_written |= a.node.ids != b.node.ids
-                    || a.sections.agent.pinned != b.sections.agent.pinned
-                    || count != b.sections.agent.neighbour_count
-                    || a.node.neighbours.get(..count) != b.node.neighbours.get(..count);
                 self.store = self.defaults.clone();
+                // The defaults' row and plan, like a written one, wait for a reset (not compared
+                // with the adopted ones: the board's flash).
+                self.graph_written = true;
                 self.events.push(Event::Restore);
             }
             Item::Store | Item::Restore => return Err(Abort::Transfer),
