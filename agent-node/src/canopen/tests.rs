@@ -826,3 +826,24 @@ fn a_written_or_restored_row_is_pending_until_adopted() {
     assert!(d.graph_written(), "the defaults' row waits for a reset too");
     assert_eq!(row(&mut d), (2, [1, 2, 0, 0]));
 }
+
+/// A node that sends its own heartbeat needs heartbeat identifiers: the plan cannot drop them.
+#[test]
+fn a_plan_without_heartbeat_ids_is_refused_for_a_node_with_a_heartbeat() {
+    let mut node = NodeConfig::new(ID, [1, 2, 0, 0], 2_500);
+    node.heartbeat_period_us = 100_000;
+    let ctrl = ControllerConfig::<2> {
+        neighbour_count: 2,
+        ..ControllerConfig::default()
+    };
+    let store = ParamStore::new(node.identity(), &ctrl).expect("representable");
+    let mut d = Device::new(store, Identity::default(), false);
+    d.boot(0);
+    frames(&mut d);
+    let hb = setting_index(od::Setting::HeartbeatIdBase);
+    assert_eq!(
+        abort_of(download(&mut d, hb, 0, &[0xFF, 0xFF])),
+        0x0604_0043
+    );
+    assert_eq!(plan(&mut d).1, 0x780, "unchanged");
+}
