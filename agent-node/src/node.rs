@@ -157,8 +157,7 @@ impl<const K: usize> NodeConfig<K> {
     /// `neighbour_count` neighbours (beside the supervision's, `Supervisor::new`): an agent
     /// number of the identifier plan, a stale timeout, heartbeat identifiers for a heartbeat,
     /// and a graph row of distinct agents of the plan other than itself, within the capacity
-    /// `K`. The CANopen device
-    /// checks a row, a node-ID or a plan written over SDO with it too.
+    /// `K`. The CANopen device checks a row, a node-ID or a plan written over SDO with it too.
     pub fn check(&self, neighbour_count: usize) -> Result<(), NodeError> {
         Own {
             agent: self.agent,
@@ -1525,7 +1524,7 @@ where
         if stale == 0 {
             return Err(NodeError::ZeroTimeout);
         }
-        if c.device.graph_written() {
+        if c.device.graph_written() || controller.neighbour_count != self.count {
             return Err(NodeError::PendingGraph);
         }
         self.controller = Controller::new(&with_reentry(&controller, &sup))?;
