@@ -1500,6 +1500,13 @@ where
         }
     }
 
+    /// Adopt the device's node-ID, graph row and plan now, as a reset communication does: for
+    /// an application that loads its stored set on NMT reset node (`Device::load`, after the
+    /// device's own reset), so that the next start runs on it.
+    pub fn adopt(&mut self) {
+        self.adopt_node_id();
+    }
+
     /// Times the node adopted another node-ID, graph row or plan from its device since it
     /// was built (the boot's adoption of a stored set included): a board whose acceptance
     /// filters were set for the earlier ones restarts when it changes.

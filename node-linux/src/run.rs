@@ -624,7 +624,11 @@ fn serve_requests<C: embedded_can::nb::Can, Clk: Clock, S: Sensor<N>, A: Actuato
                 Err(e) if e.kind() == io::ErrorKind::NotFound => {}
                 Err(e) => log::error!("node.canopen.store `{path}`: {e}"),
             },
-            CanOpenRequest::ResetNode => load_store(node, co),
+            CanOpenRequest::ResetNode => {
+                // The stored set, row and plan included, is the node's for the next start.
+                load_store(node, co);
+                node.adopt();
+            }
         }
     }
 }
@@ -734,13 +738,22 @@ mod tests {
         serve_requests(&mut node, &cfg);
         assert!(path.exists(), "stored");
 
-        let node = start(&cfg);
+        let mut node = start(&cfg);
         assert_eq!(
             heard(&node),
             [Some(2), Some(3), Some(6)],
             "restored at the start"
         );
         assert_eq!(node.ids().agents(), 6);
+        // Another row written, not stored, then NMT reset node: the stored row again, and
+        // nothing left pending, so a start runs.
+        let d = node.canopen_mut().expect("device");
+        d.write(row, 0, &[1]).expect("count");
+        d.on_frame(agent_node::canopen::NMT_ID, &[0x81, 4], 0);
+        node.service();
+        serve_requests(&mut node, &cfg);
+        assert_eq!(heard(&node), [Some(2), Some(3), Some(6)], "the stored row");
+        assert_eq!(node.canopen().map(|d| d.graph_written()), Some(false));
 
         let mut node = start(&cfg);
         let d = node.canopen_mut().expect("device");
