@@ -7,7 +7,8 @@ over vcan0, knowing the node only by docs/agent-node.eds. Run inside the test VM
 Checks: boot-up, heartbeat states, an SDO read and write-back of every generated entry the EDS
 lists (0x2000..), a refused out-of-range write (abort 0x06090030, value unchanged), a write
 refused outside pre-operational (0x08000022), the PDO mapping read over SDO (TPDO1 = the node's
-value frame, RPDO1 the leader's, RPDO2 its neighbour's) and a value frame decoded by it,
+value frame, RPDO1 the leader's, RPDO2 its neighbour's) and a value frame decoded by it, the
+graph row written and read back (RPDO3 following, a duplicate refused with 0x06040043),
 NMT start/stop/pre-operational, an EMCY on a forced fault (the leader silent: safe state, 0x8250), store -> restart -> the stored value,
 restore -> defaults. Prints a transcript (also written to OUT/transcript.txt); exit status 1 on
 the first failed check.
@@ -144,7 +145,12 @@ pinned = false
         ]
         for v in variables:
             raw = node.sdo.upload(obj.index, v.subindex)
-            if "w" in v.access_type:
+            if obj.name == "graph.neighbours" and raw == b"\x00":
+                # An unused entry of the graph row: 0 is no agent.
+                code = abort_code(lambda: node.sdo.download(obj.index, v.subindex, raw))
+                check(code == 0x06090032, f"{obj.index:#06x}/{v.subindex} unused row entry := 0 refused ({code:#010x})")
+                n_rw += 1
+            elif "w" in v.access_type:
                 node.sdo.download(obj.index, v.subindex, raw)
                 check(node.sdo.upload(obj.index, v.subindex) == raw,
                       f"{obj.index:#06x}/{v.subindex} {v.name} = {raw.hex()} written back")
@@ -166,6 +172,22 @@ pinned = false
     check(node.rpdo[1].cob_id == 0x101 and node.rpdo[1].enabled, "RPDO1: the leader's 0x101")
     check(node.rpdo[2].cob_id == 0x102 and node.rpdo[2].enabled, "RPDO2: neighbour 1's 0x102")
     check(not node.rpdo[3].enabled, "RPDO3: not in use")
+
+    # The graph row over SDO: agent 2 to hear agents 1 and 3 (entry 2, then the count), read
+    # back with RPDO3 following; a duplicate refused, the row unchanged; then agent 1 alone
+    # again (a row applies at a reset, and none is sent before this).
+    row = node.object_dictionary["graph.neighbours"].index
+    node.sdo.download(row, 2, bytes([3]))
+    node.sdo.download(row, 0, bytes([2]))
+    check(node.sdo.upload(row, 0) == b"\x02" and node.sdo.upload(row, 2) == b"\x03",
+          "graph.neighbours := [1, 3] read back")
+    cob = struct.unpack("<I", node.sdo.upload(0x1402, 1))[0]
+    check(cob == 0x104, f"RPDO3 follows the row: COB-ID {cob:#05x} (agent 3's value frame)")
+    code = abort_code(lambda: node.sdo.download(row, 2, bytes([1])))
+    check(code == 0x06040043, f"graph.neighbours[2] := 1 (a duplicate) refused with {code:#010x}")
+    check(node.sdo.upload(row, 2) == b"\x03", "graph.neighbours[2] still 3")
+    node.sdo.download(row, 0, bytes([1]))
+    check(node.sdo.upload(row, 0) == b"\x01", "graph.neighbours back to [1]")
 
     zeta = node.object_dictionary["controller.zeta"].index
     node.sdo[zeta].raw = 0.2

@@ -148,8 +148,63 @@ impl<const K: usize> NodeConfig<K> {
             ids: self.ids,
             neighbours: &self.neighbours,
             stale_timeout_us: self.stale_timeout_us,
+            heartbeat_period_us: self.heartbeat_period_us,
             supervisor: self.supervisor,
         }
+    }
+
+    /// The checks [`Node::new`] makes of the node's own settings with the first
+    /// `neighbour_count` neighbours (beside the supervision's, `Supervisor::new`): an agent
+    /// number of the identifier plan, a stale timeout, heartbeat identifiers for a heartbeat,
+    /// and a graph row of distinct agents of the plan other than itself, within the capacity
+    /// `K`. The CANopen device checks a row, a node-ID or a plan written over SDO with it too.
+    pub fn check(&self, neighbour_count: usize) -> Result<(), NodeError> {
+        Own {
+            agent: self.agent,
+            stale_timeout_us: self.stale_timeout_us,
+            ids: &self.ids,
+            heartbeat_period_us: self.heartbeat_period_us,
+        }
+        .check(&self.neighbours, neighbour_count)
+    }
+}
+
+/// A node's own settings as [`NodeConfig::check`] checks them, whatever its capacity: one copy
+/// of the checks for every `K` (the firmware's flash).
+pub(crate) struct Own<'a> {
+    pub(crate) agent: u8,
+    pub(crate) stale_timeout_us: u64,
+    pub(crate) ids: &'a IdPlan,
+    pub(crate) heartbeat_period_us: u64,
+}
+
+impl Own<'_> {
+    /// [`NodeConfig::check`] with the row `neighbours` (its capacity: its length).
+    #[inline(never)]
+    pub(crate) fn check(&self, neighbours: &[u8], neighbour_count: usize) -> Result<(), NodeError> {
+        if self.agent == 0 {
+            return Err(NodeError::AgentZero);
+        }
+        if self.stale_timeout_us == 0 {
+            return Err(NodeError::ZeroTimeout);
+        }
+        if self.agent > self.ids.agents() {
+            return Err(NodeError::AgentOutsidePlan(self.agent));
+        }
+        if self.heartbeat_period_us > 0 && self.ids.heartbeat_base().is_none() {
+            return Err(NodeError::NoHeartbeatIds);
+        }
+        let listed = neighbours
+            .get(..neighbour_count)
+            .ok_or(NodeError::TooManyNeighbours)?;
+        for (k, &a) in listed.iter().enumerate() {
+            // Not `contains`: its `u8` specialisation is a `memchr` the firmware would carry.
+            let repeated = listed.iter().take(k).any(|&b| b == a);
+            if a == 0 || a == self.agent || a > self.ids.agents() || repeated {
+                return Err(NodeError::BadNeighbour(a));
+            }
+        }
+        Ok(())
     }
 }
 
@@ -174,6 +229,9 @@ pub enum NodeError {
     NoHeartbeatIds,
     /// A supervision setting.
     Supervisor(SupervisorError),
+    /// A graph row (neighbours, `pinned`) or an identifier plan written over SDO waits for
+    /// the reset communication that applies it; the node cannot start on it before.
+    PendingGraph,
 }
 
 impl From<SupervisorError> for NodeError {
@@ -198,6 +256,9 @@ impl core::fmt::Display for NodeError {
                 write!(f, "neighbour {a} is 0, the agent itself, or a duplicate")
             }
             Self::ZeroTimeout => f.write_str("stale timeout must be > 0"),
+            Self::PendingGraph => f.write_str(
+                "the graph row or identifier plan written over SDO applies at the next reset communication",
+            ),
             Self::AgentOutsidePlan(a) => {
                 write!(f, "agent {a} has no identifier in the identifier plan")
             }
@@ -416,6 +477,8 @@ struct CanOpen<const N: usize> {
     /// A device frame held for the next flush: the CAN controller had a frame of the same
     /// identifier pending ([`Node::flush_canopen`]).
     held: Option<CoFrame>,
+    /// [`Node::adoptions`].
+    adoptions: u16,
 }
 
 /// Something the node's CANopen device asks of the application that runs the node.
@@ -439,6 +502,16 @@ impl CanOpenRequest {
             Self::ResetNode => 4,
         }
     }
+}
+
+/// The neighbour slots of the first `count` agents of `neighbours` (checked by
+/// [`NodeConfig::check`]), nothing heard yet.
+fn slots_of<const K: usize>(neighbours: &[u8], count: usize) -> [Slot; K] {
+    let mut slots = [Slot::default(); K];
+    for (slot, &a) in slots.iter_mut().zip(neighbours.iter().take(count)) {
+        slot.agent = a;
+    }
+    slots
 }
 
 /// `controller` with the rate-limited re-entry a closed-loop safe state needs: a controller
@@ -500,31 +573,10 @@ where
         sensor: S,
         actuator: A,
     ) -> Result<Self, NodeError> {
-        if cfg.agent == 0 {
-            return Err(NodeError::AgentZero);
-        }
-        if cfg.stale_timeout_us == 0 {
-            return Err(NodeError::ZeroTimeout);
-        }
-        if cfg.agent > cfg.ids.agents() {
-            return Err(NodeError::AgentOutsidePlan(cfg.agent));
-        }
-        if cfg.heartbeat_period_us > 0 && cfg.ids.heartbeat_base().is_none() {
-            return Err(NodeError::NoHeartbeatIds);
-        }
-        let supervisor = Supervisor::new(&cfg.supervisor)?;
         let count = controller.neighbour_count;
-        let listed = cfg
-            .neighbours
-            .get(..count)
-            .ok_or(NodeError::TooManyNeighbours)?;
-        let mut slots = [Slot::default(); K];
-        for (k, (&a, slot)) in listed.iter().zip(slots.iter_mut()).enumerate() {
-            if a == 0 || a == cfg.agent || a > cfg.ids.agents() || listed[..k].contains(&a) {
-                return Err(NodeError::BadNeighbour(a));
-            }
-            slot.agent = a;
-        }
+        cfg.check(count)?;
+        let supervisor = Supervisor::new(&cfg.supervisor)?;
+        let slots = slots_of(&cfg.neighbours, count);
         let cfg_pinned = controller.pinned;
         let period_us = micros_from_secs(controller.h);
         let controller = Controller::new(&with_reentry(controller, &cfg.supervisor))?;
@@ -1208,6 +1260,7 @@ where
             requests: 0,
             last_overrun_emcy_us: None,
             held: None,
+            adoptions: 0,
         });
         Ok(())
     }
@@ -1398,23 +1451,67 @@ where
         }
     }
 
-    /// The device's node-ID (written to `node.node_id` and applied by a reset, or loaded
-    /// from a stored set) becomes the agent number, if the identifier plan has it and it is
-    /// not a neighbour; else EMCY `0x6300` and the agent number stays.
+    /// The device's node-ID, graph row (neighbours, `pinned`) and identifier plan — written
+    /// over SDO and applied by a reset, or loaded from a stored set — become the node's when
+    /// [`NodeConfig::check`] accepts them together (within the capacity `K`): the neighbour
+    /// slots start empty and the next NMT start rebuilds the controller for the new row. Else
+    /// EMCY `0x6300` (count: the node-ID) and the node keeps what it had.
     fn adopt_node_id(&mut self) {
         let Some(c) = &self.canopen else {
             return;
         };
         let id = c.device.node_id();
-        if id == self.agent {
+        if id == self.agent && !c.device.graph_written() {
             return;
         }
-        if id > self.ids.agents() || self.slots.iter().take(self.count).any(|s| s.agent == id) {
+        let store = &c.device.store;
+        let (count, pinned) = (
+            store.sections.agent.neighbour_count,
+            store.sections.agent.pinned,
+        );
+        let (ids, row) = (store.node.ids, store.node.neighbours);
+        let own = Own {
+            agent: id,
+            stale_timeout_us: self.timeout_us,
+            ids: &ids,
+            heartbeat_period_us: self.heartbeat_period_us,
+        };
+        if let Err(e) = own.check(row.get(..K).unwrap_or(&row), count) {
+            error!(
+                "agent {}: node-ID {}, graph row or plan refused: {:?}",
+                self.agent, id, e
+            );
             self.emcy(Fault::ConfigRejected, u32::from(id));
-        } else {
-            info!("agent {}: node-ID {} from now on", self.agent, id);
-            self.agent = id;
+            return;
         }
+        if id != self.agent {
+            info!("agent {}: node-ID {} from now on", self.agent, id);
+        }
+        self.agent = id;
+        self.ids = ids;
+        self.pinned = pinned;
+        self.count = count;
+        self.slots = slots_of(&row, count);
+        self.leader = Slot::default();
+        if let Some(c) = &mut self.canopen {
+            c.device.graph_adopted();
+            c.dirty = true;
+            c.adoptions = c.adoptions.wrapping_add(1);
+        }
+    }
+
+    /// Adopt the device's node-ID, graph row and plan now, as a reset communication does: for
+    /// an application that loads its stored set on NMT reset node (`Device::load`, after the
+    /// device's own reset), so that the next start runs on it.
+    pub fn adopt(&mut self) {
+        self.adopt_node_id();
+    }
+
+    /// Times the node adopted another node-ID, graph row or plan from its device since it
+    /// was built (the boot's adoption of a stored set included): a board whose acceptance
+    /// filters were set for the earlier ones restarts when it changes.
+    pub fn adoptions(&self) -> u16 {
+        self.canopen.as_ref().map_or(0, |c| c.adoptions)
     }
 
     /// Controller, supervisor and stale timeout from the object dictionary. Out of line and
@@ -1434,11 +1531,10 @@ where
         if stale == 0 {
             return Err(NodeError::ZeroTimeout);
         }
-        if controller.neighbour_count != self.count {
-            return Err(NodeError::TooManyNeighbours);
+        if c.device.graph_written() || controller.neighbour_count != self.count {
+            return Err(NodeError::PendingGraph);
         }
         self.controller = Controller::new(&with_reentry(&controller, &sup))?;
-        self.pinned = controller.pinned;
         self.period_us = micros_from_secs(controller.h);
         self.supervisor = supervisor;
         self.supervised = sup.supervises_any();

@@ -7,13 +7,17 @@ object dictionary with agent i's values as DefaultValue):
     python3 boards/nucleo-g474re/commission.py DIR/agent-2.eds 2 --dry-run  # print the writes
 
 With the board alone on the bus (an unconfigured board answers as node-ID 4, the default;
---node-id for another), in NMT pre-operational: every writable entry from 0x2000 is written
-with the EDS's value (a refused write is retried once after the others, as the node's own
-load does, then reported), then node.node_id = i, 0x1010 "save" (the board writes its flash
-page), NMT reset node; the board restarts as node-ID i and its boot-up and heartbeat
-(PRE-OPERATIONAL) are checked, and its graph entries (graph.neighbours, graph.pinned: read
-only, from the plan compiled into the image) against the scenario's. Exit status 1 on the
-first failure.
+--node-id for another), in NMT pre-operational: the identifier plan (node.agents,
+node.id_base, node.heartbeat_id_base) and the graph row of agent i from the scenario's
+[graph] (the EDS's graph.neighbours and graph.pinned; a scenario without heartbeat identifiers keeps
+the board's, which its heartbeat needs) are written first — pinned, the row
+emptied, its entries, its count, then pinned as the scenario says, so that no step is a row
+the node refuses — then every other writable entry from 0x2000 with the EDS's value (a
+refused write is retried once after the others, as the node's own load does, then
+reported), then node.node_id = i, 0x1010 "save" (the board writes its flash page), NMT reset
+node; the board restarts as node-ID i (its acceptance filters on the stored row) and its
+boot-up and heartbeat (PRE-OPERATIONAL) are checked, and the row and plan read back against
+the scenario's. Exit status 1 on the first failure.
 """
 
 import argparse
@@ -23,6 +27,10 @@ import time
 import canopen
 
 NODE_ID_KEY = "node.node_id"
+ROW_KEY = "graph.neighbours"
+PINNED_KEY = "graph.pinned"
+PLAN_KEYS = ("node.agents", "node.id_base", "node.heartbeat_id_base")
+NO_HEARTBEAT_IDS = 0xFFFF
 
 
 def writes(od):
@@ -38,20 +46,49 @@ def writes(od):
         for v in variables:
             if "w" not in v.access_type or v.default is None or v.name == NODE_ID_KEY:
                 continue
+            if obj.name in (ROW_KEY, PINNED_KEY) or obj.name in PLAN_KEYS:
+                continue
             out.append((obj.index, v.subindex, v.name, v))
     return out
 
 
+def plan_keys(od):
+    """The plan's keys to write: a scenario without heartbeat identifiers (0xFFFF) leaves the
+    board's own (it sends a heartbeat, which needs them)."""
+    return [k for k in PLAN_KEYS
+            if not (k == "node.heartbeat_id_base" and od[k].default == NO_HEARTBEAT_IDS)]
+
+
+def row_writes(od, agent):
+    """(index, sub-index, name, raw bytes) that make the board agent `agent` with the plan and
+    graph row of the EDS, in an order the node accepts at every step: pinned and the row
+    emptied (nothing to conflict with), the node-ID (applied at the reset), the plan, the
+    entries, their count, pinned as the scenario says."""
+    row, pinned, node_id = od[ROW_KEY], od[PINNED_KEY], od[NODE_ID_KEY]
+    count = row[0].default
+    entries = [row[k].default for k in range(1, count + 1)]
+    out = [
+        (pinned.index, 0, PINNED_KEY, pinned.encode_raw(True)),
+        (row.index, 0, f"{ROW_KEY}[0]", row[0].encode_raw(0)),
+        (node_id.index, 0, NODE_ID_KEY, node_id.encode_raw(agent)),
+    ]
+    for key in plan_keys(od):
+        v = od[key]
+        out.append((v.index, 0, key, v.encode_raw(v.default)))
+    for k, agent in enumerate(entries, start=1):
+        out.append((row.index, k, f"{ROW_KEY}[{k}]", row[k].encode_raw(agent)))
+    out.append((row.index, 0, f"{ROW_KEY}[0]", row[0].encode_raw(count)))
+    out.append((pinned.index, 0, PINNED_KEY, pinned.encode_raw(bool(pinned.default))))
+    return out
+
+
 def graph(od):
-    """(index, sub-index, name, variable) of the read-only graph entries: the image's plan."""
-    out = []
-    for obj in od.values():
-        if obj.index < 0x2000 or not obj.name.startswith("graph."):
-            continue
-        if isinstance(obj, canopen.objectdictionary.ODVariable):
-            out.append((obj.index, 0, obj.name, obj))
-        else:
-            out += [(obj.index, v.subindex, f"{obj.name}[{v.subindex}]", v) for v in obj.values()]
+    """(index, sub-index, name, variable) of the plan and of the graph row heard: what the
+    board reads back after the reset."""
+    row = od[ROW_KEY]
+    out = [(od[k].index, 0, k, od[k]) for k in plan_keys(od) + [PINNED_KEY]]
+    out.append((row.index, 0, f"{ROW_KEY}[0]", row[0]))
+    out += [(row.index, k, f"{ROW_KEY}[{k}]", row[k]) for k in range(1, row[0].default + 1)]
     return out
 
 
@@ -67,10 +104,13 @@ def main():
 
     od = canopen.import_od(a.eds)
     plan = writes(od)
+    first = row_writes(od, a.agent)
     if a.dry_run:
+        for index, sub, name, raw in first:
+            print(f"{index:#06x}/{sub} {name} = 0x{raw.hex()} (little-endian)")
         for index, sub, name, v in plan:
             print(f"{index:#06x}/{sub} {name} = {v.default}")
-        print(f"{od[NODE_ID_KEY].index:#06x}/0 {NODE_ID_KEY} = {a.agent}; store; reset node")
+        print("store; reset node")
         for index, sub, name, v in graph(od):
             print(f"expected after the reset: {index:#06x}/{sub} {name} = {v.default}")
         return 0
@@ -83,6 +123,15 @@ def main():
     if state != "PRE-OPERATIONAL":
         print(f"node {a.node_id}: {state}, not PRE-OPERATIONAL", file=sys.stderr)
         return 1
+
+    for index, sub, name, raw in first:
+        try:
+            board.sdo.download(index, sub, raw)
+        except canopen.SdoAbortedError as e:
+            print(f"{index:#06x}/{sub} {name} = 0x{raw.hex()} refused: {e.code:#010x}",
+                  file=sys.stderr)
+            return 1
+    print(f"node-ID, identifier plan and graph row written ({len(first)} writes)")
 
     refused = []
     for index, sub, name, v in plan:
@@ -98,7 +147,6 @@ def main():
             return 1
     print(f"{len(plan)} entries written")
 
-    board.sdo[NODE_ID_KEY].raw = a.agent
     board.store()
     time.sleep(0.5)  # the board erases and programs its page (some 25 ms) in its idle task
     # Listen for the boot-up of the new node-ID before the reset: it follows at once.
@@ -126,10 +174,10 @@ def main():
         print(f"after the reset: node {a.agent} {state}, node.node_id = {got}", file=sys.stderr)
         return 1
     if differ:
-        print("the image's plan is not the scenario's graph (rebuild with it in src/config.rs): "
-              + "; ".join(differ), file=sys.stderr)
+        print("after the reset the row or plan is not the scenario's: " + "; ".join(differ),
+              file=sys.stderr)
         return 1
-    print(f"node-ID {a.agent}: stored, restarted, PRE-OPERATIONAL")
+    print(f"node-ID {a.agent}: row and plan stored, restarted, PRE-OPERATIONAL, read back")
     return 0
 
 

@@ -225,3 +225,69 @@ fn history(n: &MockNode<2, 2, 4>) -> [u32; 2] {
         u32::from_le_bytes(v.as_slice().try_into().expect("4 bytes"))
     })
 }
+
+/// A graph row written over SDO (agent 2: from hearing agent 1 to hearing agents 3 and 4)
+/// waits for the reset communication — a start before it is refused with EMCY `0x6300` —
+/// and the node then hears exactly the new neighbours: their value frames accepted, agent
+/// 1's ignored.
+#[test]
+fn a_row_written_over_sdo_is_heard_after_the_reset_communication() {
+    let mut n = node(SupervisorConfig::OFF);
+    tick_at(&mut n, 0);
+    let row = PARAM_BASE
+        + Param::ALL
+            .iter()
+            .position(|p| *p == Param::Neighbours)
+            .expect("listed") as u16;
+    let i = row.to_le_bytes();
+    // Entry 2 (beyond the count) = 4, entry 1 = 3, count = 2: each confirmed.
+    for (k, (sub, v)) in [(2u8, 4u8), (1, 3), (0, 2)].into_iter().enumerate() {
+        send(&mut n, 0x602, &[0x2F, i[0], i[1], sub, v, 0, 0, 0]);
+        let (_, frames) = tick_at(&mut n, (1 + k as u64) * MS);
+        assert_eq!(
+            frames,
+            vec![(0x582, vec![0x60, i[0], i[1], sub, 0, 0, 0, 0])]
+        );
+    }
+    assert_eq!(n.neighbour_agent(0), Some(1), "not before the reset");
+    // A start on a row not yet applied: EMCY 0x6300, back to pre-operational.
+    send(&mut n, 0x000, &[0x01, 2]);
+    let (tx, frames) = tick_at(&mut n, 4 * MS);
+    assert_eq!(tx, TxOutcome::Disabled);
+    assert!(
+        frames
+            .iter()
+            .any(|(id, d)| *id == 0x082 && d[..2] == [0x00, 0x63]),
+        "{frames:x?}"
+    );
+    // Reset communication: boot-up, the row applied.
+    send(&mut n, 0x000, &[0x82, 2]);
+    let (_, frames) = tick_at(&mut n, 5 * MS);
+    assert!(frames.contains(&(0x702, vec![0x00])), "{frames:x?}");
+    assert_eq!(
+        (n.neighbour_agent(0), n.neighbour_agent(1)),
+        (Some(3), Some(4))
+    );
+    send(&mut n, 0x000, &[0x01, 2]);
+    tick_at(&mut n, 6 * MS);
+    let before = *n.stats();
+    for k in 0..20u64 {
+        for agent in [1u16, 3, 4] {
+            let seq = (k % 64) as u8;
+            send(&mut n, 0x101 + agent, &encode_payload(0.1, seq).data);
+        }
+        let (tx, _) = tick_at(&mut n, (7 + k) * MS);
+        assert_eq!(tx, TxOutcome::Queued);
+    }
+    let s = n.stats();
+    assert_eq!(
+        s.accepted - before.accepted,
+        40,
+        "agents 3 and 4, 20 samples"
+    );
+    assert_eq!(
+        s.ignored - before.ignored,
+        20,
+        "agent 1, no longer a neighbour"
+    );
+}

@@ -531,7 +531,11 @@ fn finish(
 
 /// Make the node a CANopen device and load its stored object dictionary, if there is one (a
 /// stored set the node refuses is reported by EMCY `0x6300` and left aside).
-fn enable_canopen(node: &mut LinuxNode, cfg: &NodeFile, co: &CanOpenSection) -> io::Result<()> {
+fn enable_canopen<C: embedded_can::nb::Can, Clk: Clock, S: Sensor<N>, A: Actuator<N>>(
+    node: &mut Node<C, Clk, S, A, N, N, MAX_NEIGHBOURS>,
+    cfg: &NodeFile,
+    co: &CanOpenSection,
+) -> io::Result<()> {
     let identity = Identity {
         product: 1,
         revision: 1,
@@ -549,7 +553,10 @@ fn enable_canopen(node: &mut LinuxNode, cfg: &NodeFile, co: &CanOpenSection) -> 
     Ok(())
 }
 
-fn load_store(node: &mut LinuxNode, co: &CanOpenSection) {
+fn load_store<C: embedded_can::nb::Can, Clk: Clock, S: Sensor<N>, A: Actuator<N>>(
+    node: &mut Node<C, Clk, S, A, N, N, MAX_NEIGHBOURS>,
+    co: &CanOpenSection,
+) {
     let Some(path) = &co.store else {
         return;
     };
@@ -586,7 +593,10 @@ fn report_can_faults(node: &mut LinuxNode) {
 }
 
 /// Store, restore and reset-node requests of the CANopen device, against the store file.
-fn serve_requests(node: &mut LinuxNode, cfg: &NodeFile) {
+fn serve_requests<C: embedded_can::nb::Can, Clk: Clock, S: Sensor<N>, A: Actuator<N>>(
+    node: &mut Node<C, Clk, S, A, N, N, MAX_NEIGHBOURS>,
+    cfg: &NodeFile,
+) {
     let Some(co) = &cfg.node.canopen else {
         return;
     };
@@ -614,7 +624,11 @@ fn serve_requests(node: &mut LinuxNode, cfg: &NodeFile) {
                 Err(e) if e.kind() == io::ErrorKind::NotFound => {}
                 Err(e) => log::error!("node.canopen.store `{path}`: {e}"),
             },
-            CanOpenRequest::ResetNode => load_store(node, co),
+            CanOpenRequest::ResetNode => {
+                // The stored set, row and plan included, is the node's for the next start.
+                load_store(node, co);
+                node.adopt();
+            }
         }
     }
 }
@@ -622,7 +636,139 @@ fn serve_requests(node: &mut LinuxNode, cfg: &NodeFile) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use agent_node::canopen::od::{Setting, PARAM_BASE, SETTING_BASE};
+    use agent_node::CanFrame;
+    use controller_core::{ControllerConfig, Param};
     use socketcan::CanErrorFrame;
+
+    /// A bus that takes every frame and delivers none.
+    struct NoBus;
+
+    impl embedded_can::nb::Can for NoBus {
+        type Frame = CanFrame;
+        type Error = embedded_can::ErrorKind;
+        fn transmit(&mut self, _: &CanFrame) -> nb::Result<Option<CanFrame>, Self::Error> {
+            Ok(None)
+        }
+        fn receive(&mut self) -> nb::Result<CanFrame, Self::Error> {
+            Err(nb::Error::WouldBlock)
+        }
+    }
+
+    struct Still;
+
+    impl Sensor<N> for Still {
+        type Error = ();
+        fn read(&mut self) -> Result<[f32; N], ()> {
+            Ok([0.0; N])
+        }
+    }
+
+    impl Actuator<N> for Still {
+        type Error = ();
+        fn write(&mut self, _: &[f32; N]) -> Result<(), ()> {
+            Ok(())
+        }
+    }
+
+    type TestNode = Node<NoBus, MonoClock, Still, Still, N, N, MAX_NEIGHBOURS>;
+
+    /// The process's start on `cfg`: the node, its CANopen device with the store file loaded,
+    /// booted (pre-operational).
+    fn start(cfg: &NodeFile) -> TestNode {
+        let mut node = Node::new(
+            &cfg.node_config,
+            &cfg.controller,
+            NoBus,
+            MonoClock(Instant::now(), 1.0),
+            Still,
+            Still,
+        )
+        .expect("valid");
+        let co = cfg.node.canopen.as_ref().expect("[node.canopen]");
+        enable_canopen(&mut node, cfg, co).expect("device");
+        node.service();
+        node
+    }
+
+    /// A written graph row and identifier plan are stored in the file by `0x1010`, back after
+    /// a restart (the node hears the stored row), and gone after `0x1011` and a restart.
+    #[test]
+    fn a_stored_row_and_plan_survive_a_restart_and_a_restore_removes_them() {
+        let path = std::env::temp_dir().join(format!("node-linux-row-{}.co", std::process::id()));
+        let _ = std::fs::remove_file(&path);
+        let mut section = toml::from_str::<crate::config::NodeSection>(
+            "agent = 4\nneighbours = [1, 3]\ninterface = \"vcan0\"\nnode_id = 4\n",
+        )
+        .expect("section");
+        section.canopen = Some(CanOpenSection {
+            store: Some(path.display().to_string()),
+            heartbeat_ms: 0,
+            self_starting: false,
+        });
+        let controller = ControllerConfig::<N> {
+            neighbour_count: 2,
+            h: 0.001,
+            ..ControllerConfig::default()
+        };
+        let text = NodeFile::to_toml(&section, controller).expect("serializes");
+        let cfg = NodeFile::parse(&text).expect("valid");
+        let row = PARAM_BASE
+            + Param::ALL
+                .iter()
+                .position(|p| *p == Param::Neighbours)
+                .expect("row") as u16;
+        let agents = SETTING_BASE
+            + Setting::ALL
+                .iter()
+                .position(|s| *s == Setting::Agents)
+                .expect("agents") as u16;
+        let heard = |n: &TestNode| (0..3).map(|k| n.neighbour_agent(k)).collect::<Vec<_>>();
+
+        let mut node = start(&cfg);
+        assert_eq!(heard(&node), [Some(1), Some(3), None]);
+        let d = node.canopen_mut().expect("device");
+        // Agent 4 hears 2, 3 and 6 in a plan of 6 agents.
+        d.write(agents, 0, &[6]).expect("plan");
+        d.write(row, 3, &[6]).expect("entry 3");
+        d.write(row, 1, &[2]).expect("entry 1");
+        d.write(row, 0, &[3]).expect("count");
+        d.write(0x1010, 1, b"save").expect("store");
+        node.service();
+        serve_requests(&mut node, &cfg);
+        assert!(path.exists(), "stored");
+
+        let mut node = start(&cfg);
+        assert_eq!(
+            heard(&node),
+            [Some(2), Some(3), Some(6)],
+            "restored at the start"
+        );
+        assert_eq!(node.ids().agents(), 6);
+        // Another row written, not stored, then NMT reset node: the stored row again, and
+        // nothing left pending, so a start runs.
+        let d = node.canopen_mut().expect("device");
+        d.write(row, 0, &[1]).expect("count");
+        d.on_frame(agent_node::canopen::NMT_ID, &[0x81, 4], 0);
+        node.service();
+        serve_requests(&mut node, &cfg);
+        assert_eq!(heard(&node), [Some(2), Some(3), Some(6)], "the stored row");
+        assert_eq!(node.canopen().map(|d| d.graph_written()), Some(false));
+
+        let mut node = start(&cfg);
+        let d = node.canopen_mut().expect("device");
+        d.write(0x1011, 1, b"load").expect("restore");
+        node.service();
+        serve_requests(&mut node, &cfg);
+        assert!(!path.exists(), "the store file is removed");
+        let node = start(&cfg);
+        assert_eq!(
+            heard(&node),
+            [Some(1), Some(3), None],
+            "the file's row again"
+        );
+        assert_eq!(node.ids(), &cfg.node_config.ids);
+    }
 
     /// The error a kernel error frame of `class` with `data` decodes to.
     fn error(class: u32, data: &[u8]) -> CanError {

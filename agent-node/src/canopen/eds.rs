@@ -32,12 +32,13 @@ fn limits(o: &Object) -> Option<(u32, u32)> {
         },
         Item::Setting(s) => {
             let spec = s.spec();
-            if !spec.names.is_empty() {
-                Some((0, spec.names.len().saturating_sub(1) as u32))
-            } else if spec.data_type == DataType::Unsigned8 {
-                Some((1, u32::from(super::MAX_NODE_ID)))
-            } else {
-                None
+            match (s, spec.data_type) {
+                _ if !spec.names.is_empty() => Some((0, spec.names.len().saturating_sub(1) as u32)),
+                (od::Setting::Agents, _) => Some((1, u32::from(u8::MAX))),
+                (od::Setting::HeartbeatIdBase, _) => Some((0, u32::from(u16::MAX))),
+                (_, DataType::Unsigned16) => Some((0, 0x7FF)),
+                (_, DataType::Unsigned8) => Some((1, u32::from(super::MAX_NODE_ID))),
+                _ => None,
             }
         }
         _ => None,
@@ -64,6 +65,14 @@ impl<W: Write> Write for Ascii<'_, W> {
 fn comment<W: Write>(w: &mut W, o: &Object) -> fmt::Result {
     let w = &mut Ascii(w);
     match o.item {
+        Item::Param(controller_core::Param::Neighbours) => writeln!(
+            w,
+            "; graph.neighbours: the graph row; sub-index 0 how many are heard (<= the capacity), entries distinct agents of the plan other than the node-ID; written in pre-operational, applied at reset"
+        ),
+        Item::Param(controller_core::Param::Pinned) => writeln!(
+            w,
+            "; graph.pinned: the node hears the leader (b_i); written in pre-operational, applied at reset"
+        ),
         Item::Param(p) => {
             let spec = p.spec();
             write!(
@@ -175,10 +184,11 @@ fn object<W: Write, const N: usize>(w: &mut W, d: &Device<N>, o: &Object) -> fmt
             writeln!(w, "ObjectType=0x{code:X}")?;
             writeln!(w, "SubNumber=0x{:X}", u16::from(subs) + 1)?;
             writeln!(w)?;
-            let sub0_access = if o.item == Item::ErrorField {
-                "rw"
-            } else {
-                "ro"
+            let sub0_access = match o.item {
+                Item::ErrorField => "rw",
+                // The graph row: how many entries are heard.
+                Item::Param(controller_core::Param::Neighbours) => "rw",
+                _ => "ro",
             };
             var(
                 w,
@@ -275,9 +285,10 @@ pub fn write_eds<W: Write, const N: usize>(
 
 /// The device `docs/agent-node.eds` describes: agent 1 of the default configuration
 /// (`ControllerConfig::default()`: Example 1's `n = 2`, pinned, no neighbours), node-ID 1, in
-/// the default identifier plan.
+/// the default identifier plan, with room for the most neighbours a node hears
+/// (`graph.neighbours` lists [`crate::wire::MAX_NEIGHBOURS`] entries, all unused).
 pub fn reference_device() -> Option<Device<2>> {
-    let node = crate::node::NodeConfig::<0>::new(1, [], 1);
+    let node = crate::node::NodeConfig::new(1, [0; crate::wire::MAX_NEIGHBOURS], 1);
     let controller = controller_core::ControllerConfig::<2>::default();
     let store = super::od::ParamStore::new(node.identity(), &controller).ok()?;
     Some(Device::new(store, super::Identity::default(), false))

@@ -536,6 +536,9 @@ pub struct Device<const N: usize> {
     tpdo: Option<[u8; PAYLOAD_LEN]>,
     /// The last value frame of each RPDO received in operational.
     rpdo: [Option<[u8; PAYLOAD_LEN]>; od::RPDOS as usize],
+    /// The graph row, pinning or identifier plan was written (or restored, or loaded) since
+    /// the node last adopted them ([`Self::graph_written`]).
+    graph_written: bool,
 }
 
 impl<const N: usize> Device<N> {
@@ -563,6 +566,7 @@ impl<const N: usize> Device<N> {
             now_us: 0,
             tpdo: None,
             rpdo: [None; od::RPDOS as usize],
+            graph_written: false,
         }
     }
 
@@ -605,6 +609,18 @@ impl<const N: usize> Device<N> {
             Some(id) => COB_ID_NO_RTR | u32::from(id),
             None => COB_ID_INVALID | COB_ID_NO_RTR,
         }
+    }
+
+    /// The graph row (`graph.neighbours`, `graph.pinned`) or the identifier plan was written,
+    /// restored or loaded since [`Self::graph_adopted`]: the node takes them at its next reset
+    /// communication and cannot start on the old ones before.
+    pub fn graph_written(&self) -> bool {
+        self.graph_written
+    }
+
+    /// The node adopted the graph row and plan the store holds.
+    pub fn graph_adopted(&mut self) {
+        self.graph_written = false;
     }
 
     /// The node sent its value frame (TPDO1) with these bytes: `0x2200..` read them.
@@ -1106,9 +1122,7 @@ impl<const N: usize> Device<N> {
         match (o.kind, o.item) {
             (Kind::Var, _) => 0,
             (_, Item::ErrorField) => self.history_len,
-            (_, Item::Param(controller_core::Param::Neighbours)) => {
-                self.store.sections.agent.neighbour_count as u8
-            }
+            (_, Item::Param(controller_core::Param::Neighbours)) => self.store.slots() as u8,
             (_, Item::Param(_)) => N.min(usize::from(od::MAX_STEPS)) as u8,
             (Kind::Array { len } | Kind::Record { len }, _) => len,
         }
@@ -1126,7 +1140,14 @@ impl<const N: usize> Device<N> {
     pub fn read(&self, index: u16, sub: u8) -> Result<SdoData, Abort> {
         let o = self.object(index, sub)?;
         if sub == 0 && o.kind != Kind::Var {
-            return Ok(Value::Unsigned(u32::from(self.sub_count(o))).encode(DataType::Unsigned8));
+            // The graph row's sub-index 0 is how many of its entries are heard.
+            let n = match o.item {
+                Item::Param(controller_core::Param::Neighbours) => {
+                    self.store.sections.agent.neighbour_count as u8
+                }
+                _ => self.sub_count(o),
+            };
+            return Ok(Value::Unsigned(u32::from(n)).encode(DataType::Unsigned8));
         }
         let u = |v: u32| Ok(Value::Unsigned(v));
         let v = match o.item {
@@ -1184,11 +1205,11 @@ impl<const N: usize> Device<N> {
     fn check_write(&self, index: u16, sub: u8) -> Result<&'static Object, Abort> {
         let o = self.object(index, sub)?;
         if sub == 0 && o.kind != Kind::Var {
-            return if o.item == Item::ErrorField {
-                Ok(o)
-            } else {
-                Err(Abort::ReadOnly)
-            };
+            match o.item {
+                Item::ErrorField => return Ok(o),
+                Item::Param(controller_core::Param::Neighbours) => {}
+                _ => return Err(Abort::ReadOnly),
+            }
         }
         if o.access != Access::ReadWrite {
             return Err(Abort::ReadOnly);
@@ -1226,6 +1247,9 @@ impl<const N: usize> Device<N> {
             }
             Item::Restore if raw == LOAD_SIGNATURE => {
                 self.store = self.defaults.clone();
+                // The defaults' row and plan, like a written one, wait for a reset (not compared
+                // with the adopted ones: the board's flash).
+                self.graph_written = true;
                 self.events.push(Event::Restore);
             }
             Item::Store | Item::Restore => return Err(Abort::Transfer),
@@ -1233,10 +1257,18 @@ impl<const N: usize> Device<N> {
             Item::HeartbeatProducer => self.set_heartbeat_ms(raw as u16),
             Item::Param(p) => {
                 self.store.write_param(p, sub, v)?;
+                self.graph_written |= matches!(
+                    p,
+                    controller_core::Param::Neighbours | controller_core::Param::Pinned
+                );
                 self.events.push(Event::Written(index, sub));
             }
             Item::Setting(s) => {
                 self.store.write_setting(s, v)?;
+                self.graph_written |= matches!(
+                    s,
+                    od::Setting::IdBase | od::Setting::HeartbeatIdBase | od::Setting::Agents
+                );
                 self.events.push(Event::Written(index, sub));
             }
             _ => return Err(Abort::ReadOnly),
@@ -1273,11 +1305,16 @@ impl<const N: usize> Device<N> {
         let mut w = Writer { out, pos: 0 };
         w.put(STORE_TAG)?;
         for o in OBJECTS.iter().filter(|o| persisted(o)) {
-            let subs = match o.kind {
-                Kind::Var => 0..=0,
+            let subs = match (o.kind, o.item) {
+                (Kind::Var, _) => 0..=0,
+                // The graph row: the entries heard, then their count (loaded in this order).
+                (_, Item::Param(controller_core::Param::Neighbours)) => {
+                    1..=self.store.sections.agent.neighbour_count as u8
+                }
                 _ => 1..=self.sub_count(o),
             };
-            for sub in subs {
+            let count = matches!(o.item, Item::Param(controller_core::Param::Neighbours));
+            for sub in subs.chain(count.then_some(0)) {
                 if let Ok(d) = self.read(o.index, sub) {
                     let i = o.index.to_le_bytes();
                     w.put(&[i[0], i[1], sub, d.as_slice().len() as u8])?;
@@ -1318,6 +1355,18 @@ impl<const N: usize> Device<N> {
 
     fn load_records(&mut self, bytes: &[u8]) -> Result<(), Abort> {
         let mut rest = bytes.strip_prefix(STORE_TAG).ok_or(Abort::Transfer)?;
+        // A stored graph row is written entry by entry onto an empty row (a permutation of the
+        // present row would meet itself), then its count checks it whole; pinned meanwhile, so
+        // that the empty row is a valid configuration, until the stored `graph.pinned` (the
+        // next record) says.
+        let row = OBJECTS
+            .iter()
+            .find(|o| o.item == Item::Param(controller_core::Param::Neighbours))
+            .map(|o| o.index);
+        if records(rest).any(|(index, sub, _)| Some(index) == row && sub == 0) {
+            self.store.sections.agent.neighbour_count = 0;
+            self.store.sections.agent.pinned = true;
+        }
         // Records one by one: a later record may need an earlier one (c1 with c2), so a
         // refusal is retried after the others once.
         let mut retry = false;
@@ -1344,6 +1393,19 @@ impl<const N: usize> Device<N> {
         }
         Ok(())
     }
+}
+
+/// The `(index, sub-index, bytes)` records of a stored dictionary after its tag, up to the
+/// first malformed one.
+fn records(mut rest: &[u8]) -> impl Iterator<Item = (u16, u8, &[u8])> {
+    core::iter::from_fn(move || {
+        let [i0, i1, sub, len, tail @ ..] = rest else {
+            return None;
+        };
+        let data = tail.get(..usize::from(*len))?;
+        rest = tail.get(data.len()..).unwrap_or(&[]);
+        Some((u16::from_le_bytes([*i0, *i1]), *sub, data))
+    })
 }
 
 /// `0x1008`.

@@ -8,7 +8,7 @@
 //! | `0x1400 + k`, `0x1600 + k` | RPDO `k + 1` communication and mapping parameters ([`RPDOS`]: the leader's value frame, then one per neighbour slot) |
 //! | `0x1800`, `0x1A00` | TPDO1 communication and mapping parameters: the node's own value frame |
 //! | `0x2000 + k` | `controller_core::param::Param::ALL[k]`, named by its scenario key |
-//! | `0x2100 + k` | [`Setting::ALL`]`[k]`: the node's own settings |
+//! | `0x2100 + k` | [`Setting::ALL`]`[k]`: the node's own settings, the identifier plan last |
 //! | `0x2200`–`0x2203` | the node's own value frame, field by field ([`Field`]; TPDO1 maps them) |
 //! | `0x2210`–`0x2213` | the value frames heard, field by field, sub-index `k + 1` = RPDO `k + 1` |
 //!
@@ -16,7 +16,9 @@
 //!
 //! The value frames of `crate::wire` are the PDOs, with the identifiers of the node's
 //! `IdPlan` (not the predefined connection set's `0x180 + id`): the COB-IDs and the mapping are
-//! read-only, as the node cannot move them. Every value frame (4 bytes) maps the same four
+//! read-only; the COB-IDs follow the identifier plan and the graph row, which are written in
+//! their own objects ([`Setting::IdBase`], …, `graph.neighbours`) and applied at the next reset
+//! communication. Every value frame (4 bytes) maps the same four
 //! fields, bit by bit (granularity 1), least significant bit first:
 //!
 //! | bits | field | object (own / heard `k`) | type, mapped length |
@@ -249,6 +251,12 @@ pub enum Setting {
     SensorTimeout,
     /// `node.safe_state.recover_dwell`.
     RecoverDwell,
+    /// `node.id_base`: the identifier plan's leader value frame (`IdPlan::value_base`).
+    IdBase,
+    /// `node.heartbeat_id_base`: agent `i`'s heartbeat at this plus `i` (`0xFFFF`: none).
+    HeartbeatIdBase,
+    /// `node.agents`: the agents `1..=agents` of the identifier plan.
+    Agents,
 }
 
 /// Names of `node.safe_state.policy` and `sensor_policy`, in the order of their `UNSIGNED8`.
@@ -296,7 +304,8 @@ const fn choice(key: &'static str, names: &'static [&'static str]) -> SettingSpe
 impl Setting {
     /// Every setting, in index order (`0x2100 + k`).
     /// The rates come before the policies that need them, so a stored set loads in order.
-    pub const ALL: [Self; 12] = [
+    /// The identifier plan comes last, so that the indexes of the others never move.
+    pub const ALL: [Self; 15] = [
         Self::NodeId,
         Self::StaleTimeout,
         Self::StopDecel,
@@ -309,11 +318,14 @@ impl Setting {
         Self::NeighbourLoss,
         Self::SensorTimeout,
         Self::RecoverDwell,
+        Self::IdBase,
+        Self::HeartbeatIdBase,
+        Self::Agents,
     ];
 
     /// Key, unit, type, range.
     pub const fn spec(self) -> SettingSpec {
-        use DataType::{Real32 as R, Unsigned8 as U8};
+        use DataType::{Real32 as R, Unsigned16 as U16, Unsigned8 as U8};
         match self {
             Self::NodeId => setting("node.node_id", "–", U8, "1..=127; applied at reset"),
             Self::StaleTimeout => setting("network.stale_timeout", "s", R, "[1e-6, 1e6]"),
@@ -342,6 +354,24 @@ impl Setting {
                 "0 (off) or [1e-6, 1e6]",
             ),
             Self::RecoverDwell => setting("node.safe_state.recover_dwell", "s", R, "[0, 1e6]"),
+            Self::IdBase => setting(
+                "node.id_base",
+                "11-bit id",
+                U16,
+                "0..=0x7FF, id_base + agents <= 0x7FF; applied at reset",
+            ),
+            Self::HeartbeatIdBase => setting(
+                "node.heartbeat_id_base",
+                "11-bit id",
+                U16,
+                "0..=0x7FF, clear of the value frames, 0xFFFF: none; applied at reset",
+            ),
+            Self::Agents => setting(
+                "node.agents",
+                "–",
+                U8,
+                "1..=255, holding the node-ID and its neighbours; applied at reset",
+            ),
         }
     }
 }
@@ -547,10 +577,12 @@ pub const fn param_type(p: Param) -> DataType {
     }
 }
 
-/// Read-only parameters: the graph and the plant are not the node's to change.
+/// Read-only parameters: the plant is not the node's to change. The graph row (`graph.neighbours`,
+/// `graph.pinned`) is written in pre-operational and applied at the next reset communication.
 pub const fn param_access(p: Param) -> Access {
-    match p.spec().range {
-        Range::Elsewhere => Access::ReadOnly,
+    match (p, p.spec().range) {
+        (Param::Neighbours | Param::Pinned, _) => Access::ReadWrite,
+        (_, Range::Elsewhere) => Access::ReadOnly,
         _ => Access::ReadWrite,
     }
 }
@@ -774,12 +806,18 @@ pub fn config_abort(e: &ConfigError, written: Param) -> Abort {
 pub struct NodeSettings {
     /// Node-ID in use (= agent number).
     pub node_id: u8,
-    /// Where the value frames (the PDOs) sit (read only: the PDO COB-IDs report it).
+    /// Where the value frames (the PDOs) sit, as written (`node.id_base`, …; applied by reset
+    /// node / reset communication; the PDO COB-IDs report it).
     pub ids: crate::wire::IdPlan,
     /// Node-ID written and not yet applied (applied by reset node / reset communication).
     pub pending_node_id: u8,
-    /// The neighbours heard (read only), `neighbour_count` of them.
+    /// The graph row as written (applied by reset node / reset communication): the first
+    /// `neighbour_count` entries are the agents heard; the others are kept for a row being
+    /// written entry by entry.
     pub neighbours: [u8; MAX_NEIGHBOURS],
+    /// The node's own heartbeat period \[µs\] (not an object: it decides whether the plan
+    /// needs heartbeat identifiers).
+    pub heartbeat_period_us: u64,
     /// Stale timeout (s).
     pub stale_timeout: f32,
     /// Supervision; the policies' rates are [`Self::stop_decel`], [`Self::ramp_rate`].
@@ -905,6 +943,8 @@ pub struct NodeIdentity<'a> {
     pub neighbours: &'a [u8],
     /// The stale timeout \[µs\].
     pub stale_timeout_us: u64,
+    /// The node's own heartbeat period \[µs\] (0: none; else the plan needs heartbeat ids).
+    pub heartbeat_period_us: u64,
     /// The supervision settings.
     pub supervisor: SupervisorConfig,
 }
@@ -948,6 +988,7 @@ impl<const N: usize> ParamStore<N> {
                 ids: node.ids,
                 pending_node_id: node.agent,
                 neighbours,
+                heartbeat_period_us: node.heartbeat_period_us,
                 stale_timeout: secs(Some(node.stale_timeout_us)),
                 supervisor: sup,
                 stop_decel: decel,
@@ -955,6 +996,30 @@ impl<const N: usize> ParamStore<N> {
             },
             capacity: node.neighbours.len(),
         })
+    }
+
+    /// Put the store's node-ID, graph row and identifier plan (as written or loaded; a node
+    /// applies them at its next reset communication) into `cfg` and `controller`: what a board
+    /// builds its acceptance filters from at boot. `false`, and nothing changed, when the row
+    /// does not fit the capacity `K`.
+    pub fn graph_into<const K: usize>(
+        &self,
+        cfg: &mut crate::NodeConfig<K>,
+        controller: &mut ControllerConfig<N>,
+    ) -> bool {
+        let count = self.sections.agent.neighbour_count;
+        let Some(row) = self.node.neighbours.get(..count).filter(|_| count <= K) else {
+            return false;
+        };
+        cfg.neighbours = [0; K];
+        for (d, s) in cfg.neighbours.iter_mut().zip(row) {
+            *d = *s;
+        }
+        cfg.agent = self.node.pending_node_id;
+        cfg.ids = self.node.ids;
+        controller.neighbour_count = count;
+        controller.pinned = self.sections.agent.pinned;
+        true
     }
 
     /// The controller configuration the store holds, validated as a scenario file is.
@@ -1030,7 +1095,7 @@ impl<const N: usize> ParamStore<N> {
                 *self
                     .node
                     .neighbours
-                    .get(..s.agent.neighbour_count)?
+                    .get(..self.slots())?
                     .get(usize::from(sub).checked_sub(1)?)?,
             )),
             Param::Pinned => Value::Bool(s.agent.pinned),
@@ -1043,10 +1108,109 @@ impl<const N: usize> ParamStore<N> {
     /// not, and the store is unchanged.
     pub fn write_param(&mut self, p: Param, sub: u8, v: Value) -> Result<(), Abort> {
         let mut next = self.sections.clone();
-        set_param(&mut next, p, sub, v)?;
+        let mut node = self.node;
+        if matches!(p, Param::Neighbours | Param::Pinned) {
+            self.set_graph(&mut next, &mut node, p, sub, v)?;
+        } else {
+            set_param(&mut next, p, sub, v)?;
+        }
         let cfg = next.config().map_err(|e| config_abort(&e, p))?;
         Params::new(&cfg, self.capacity).map_err(|e| config_abort(&e, p))?;
         self.sections = next;
+        self.node = node;
+        Ok(())
+    }
+
+    /// Entries of the graph row's array (`graph.neighbours` sub-indices `1..=slots`): the
+    /// node's neighbour capacity `K`, at most [`MAX_NEIGHBOURS`].
+    pub fn slots(&self) -> usize {
+        self.capacity.min(MAX_NEIGHBOURS)
+    }
+
+    /// The node configuration the settings describe, the node-ID as written, checked as
+    /// `Node::new` checks a node file ([`crate::NodeConfig::check`]) with `count` neighbours:
+    /// `0x0604_0043` when it refuses.
+    fn check_node(&self, n: &NodeSettings, count: usize) -> Result<(), Abort> {
+        let row = n.neighbours.get(..self.slots()).unwrap_or(&[]);
+        let own = crate::node::Own {
+            agent: n.pending_node_id,
+            stale_timeout_us: 1,
+            ids: &n.ids,
+            heartbeat_period_us: n.heartbeat_period_us,
+        };
+        own.check(row, count).map_err(|_| Abort::ParamIncompatible)
+    }
+
+    /// Write the graph row: `graph.neighbours` sub-index 0 (how many entries are heard, at
+    /// most the capacity: `0x0609_0031`) or an entry `1..=slots` (an agent of the plan:
+    /// `0x0609_0032` for 0, `0x0609_0031` beyond the plan), or `graph.pinned`. The row that
+    /// results is checked as a node file's ([`crate::NodeConfig::check`]: itself, a duplicate
+    /// → `0x0604_0043`) and as a scenario's (`ControllerConfig::from_sections`: neither
+    /// neighbours nor the leader → `0x0604_0043`); a refusal leaves it unchanged. Applied at
+    /// the next reset communication. Sets `next` and `node`; [`Self::write_param`] checks the
+    /// controller and commits.
+    fn set_graph(
+        &self,
+        next: &mut Sections<N>,
+        node: &mut NodeSettings,
+        p: Param,
+        sub: u8,
+        v: Value,
+    ) -> Result<(), Abort> {
+        let count = &mut next.agent.neighbour_count;
+        match (p, sub, v) {
+            (Param::Pinned, 0, Value::Bool(b)) => next.agent.pinned = b,
+            (Param::Neighbours, 0, Value::Unsigned(n)) => {
+                *count = usize::try_from(n).map_err(|_| Abort::ValueTooHigh)?;
+                if *count > self.slots() {
+                    return Err(Abort::ValueTooHigh);
+                }
+            }
+            (Param::Neighbours, _, Value::Unsigned(a)) => {
+                let agent = u8::try_from(a).map_err(|_| Abort::ValueTooHigh)?;
+                if agent == 0 {
+                    return Err(Abort::ValueTooLow);
+                }
+                if agent > node.ids.agents() {
+                    return Err(Abort::ValueTooHigh);
+                }
+                if agent == node.pending_node_id {
+                    return Err(Abort::ParamIncompatible);
+                }
+                let slot = usize::from(sub)
+                    .checked_sub(1)
+                    .and_then(|k| node.neighbours.get_mut(k))
+                    .ok_or(Abort::NoSubIndex)?;
+                *slot = agent;
+            }
+            _ => return Err(Abort::ValueRange),
+        }
+        self.check_node(node, next.agent.neighbour_count)
+    }
+
+    /// Write the identifier plan (`node.id_base`, `node.heartbeat_id_base`, `node.agents`):
+    /// checked by `IdPlan::new` (beyond 11 bits: `0x0609_0031`, no agents: `0x0609_0032`,
+    /// value and heartbeat blocks overlapping: `0x0604_0043`) and with the node-ID and the
+    /// graph row (an agent outside the plan, a heartbeat without its identifiers:
+    /// `0x0604_0043`). Applied at the next reset communication.
+    fn write_plan(&mut self, s: Setting, raw: u32) -> Result<(), Abort> {
+        use crate::wire::{IdPlan, IdPlanError};
+        let ids = self.node.ids;
+        let (mut base, mut hb, mut agents) = (ids.value_base(), ids.heartbeat_base(), ids.agents());
+        let wide = u16::try_from(raw).map_err(|_| Abort::ValueTooHigh)?;
+        match s {
+            Setting::IdBase => base = wide,
+            Setting::HeartbeatIdBase => hb = (wide != u16::MAX).then_some(wide),
+            _ => agents = u8::try_from(raw).map_err(|_| Abort::ValueTooHigh)?,
+        }
+        let mut n = self.node;
+        n.ids = IdPlan::new(base, hb, agents).map_err(|e| match e {
+            IdPlanError::NoAgents => Abort::ValueTooLow,
+            IdPlanError::ValueRange | IdPlanError::HeartbeatRange => Abort::ValueTooHigh,
+            _ => Abort::ParamIncompatible,
+        })?;
+        self.check_node(&n, self.sections.agent.neighbour_count)?;
+        self.node = n;
         Ok(())
     }
 
@@ -1069,11 +1233,21 @@ impl<const N: usize> ParamStore<N> {
             }
             Setting::SensorTimeout => Value::Real(secs(sup.sensor_timeout_us)),
             Setting::RecoverDwell => Value::Real(secs(Some(sup.recover_dwell_us))),
+            Setting::IdBase => Value::Unsigned(u32::from(n.ids.value_base())),
+            Setting::HeartbeatIdBase => {
+                Value::Unsigned(u32::from(n.ids.heartbeat_base().unwrap_or(u16::MAX)))
+            }
+            Setting::Agents => Value::Unsigned(u32::from(n.ids.agents())),
         }
     }
 
     /// Write a setting, checked on a copy by `Supervisor::new` (and the node's own checks).
     pub fn write_setting(&mut self, s: Setting, v: Value) -> Result<(), Abort> {
+        if let (Setting::IdBase | Setting::HeartbeatIdBase | Setting::Agents, Value::Unsigned(u)) =
+            (s, v)
+        {
+            return self.write_plan(s, u);
+        }
         let mut n = self.node;
         let real = match v {
             Value::Real(x) => x,
@@ -1083,6 +1257,11 @@ impl<const N: usize> ParamStore<N> {
             Value::Unsigned(u) => u8::try_from(u).map_err(|_| Abort::ValueTooHigh)?,
             _ => 0,
         };
+        if s == Setting::NodeId && (1..=127).contains(&index) {
+            // Not one of its own neighbours, and an agent of the plan.
+            n.pending_node_id = index;
+            self.check_node(&n, self.sections.agent.neighbour_count)?;
+        }
         let sup = &mut n.supervisor;
         match s {
             Setting::NodeId if !(1..=127).contains(&index) => return Err(Abort::ValueRange),
@@ -1127,6 +1306,9 @@ impl<const N: usize> ParamStore<N> {
             }
             Setting::SensorTimeout => sup.sensor_timeout_us = micros(real)?,
             Setting::RecoverDwell => sup.recover_dwell_us = micros(real)?.unwrap_or(0),
+            Setting::IdBase | Setting::HeartbeatIdBase | Setting::Agents => {
+                return Err(Abort::ValueRange)
+            }
         }
         Supervisor::new(sup).map_err(|_| Abort::ValueRange)?;
         self.node = n;

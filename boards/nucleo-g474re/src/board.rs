@@ -377,6 +377,26 @@ mod tests {
         }
     }
 
+    /// The flash page the firmware writes for the node's `0x1010` store (the dictionary's
+    /// length printed).
+    fn stored_page(node: &TestNode) -> Vec<u8> {
+        use crate::param_page;
+        let mut saved = [0u8; param_page::STORE_CAPACITY];
+        let n = node
+            .canopen()
+            .and_then(|d| d.save(&mut saved))
+            .expect("fits the firmware's buffer");
+        println!("stored object dictionary: {n} bytes");
+        let mut page = vec![0xFF; param_page::PAGE_BYTES];
+        for (k, w) in param_page::double_words(&saved[..n])
+            .expect("fits")
+            .enumerate()
+        {
+            page[8 * k..8 * k + 8].copy_from_slice(&w);
+        }
+        page
+    }
+
     /// Commissioning as the README's bench section does it, on the host: a board with nothing
     /// stored boots as the default agent, takes its node-ID and a gain over SDO, stores, and
     /// after the reset boots as that agent with the gain.
@@ -398,19 +418,7 @@ mod tests {
         d.write(param_page::node_id_index(), 0, &[2])
             .expect("node-ID");
         d.write(p, 0, &3.0f32.to_le_bytes()).expect("ts");
-        let mut saved = [0u8; param_page::STORE_CAPACITY];
-        let n = node
-            .canopen()
-            .and_then(|d| d.save(&mut saved))
-            .expect("fits the firmware's buffer");
-        println!("stored object dictionary: {n} bytes");
-        let mut page = vec![0xFF; param_page::PAGE_BYTES];
-        for (k, w) in param_page::double_words(&saved[..n])
-            .expect("fits")
-            .enumerate()
-        {
-            page[8 * k..8 * k + 8].copy_from_slice(&w);
-        }
+        let page = stored_page(&node);
         let boot = param_page::boot_config(&page, config::in_plan, config::DEFAULT_AGENT);
         assert_eq!((boot.agent, boot.rejected), (2, None));
         let (mut node, _, _) = canopen_board(boot.agent);
@@ -422,6 +430,98 @@ mod tests {
         assert_eq!(node.canopen().map(|d| d.node_id()), Some(2));
         assert_eq!(node.agent(), 2);
         assert_eq!(node.neighbour_agent(0), Some(1));
+    }
+
+    /// One image joins any graph: a board with nothing stored (agent 4 of the compiled plan)
+    /// takes node-ID 7, a plan of 8 agents and the row "agents 5 and 6" over SDO, stores;
+    /// after the reset it boots as agent 7 hearing 5 and 6, its acceptance filters those
+    /// agents' frames, and what the filters were set for is what the node runs; only a new
+    /// adoption (which restarts the board) counts, not a reset with nothing new.
+    #[test]
+    fn a_stored_row_and_plan_make_the_filters_and_the_node_after_the_reset() {
+        use crate::can_setup::{acceptance, Accept};
+        use crate::param_page::{self, row_index};
+        use agent_node::canopen::od::{Setting, SETTING_BASE};
+        let (mut node, _, _) = canopen_board(config::DEFAULT_AGENT);
+        node.service();
+        let agents = SETTING_BASE
+            + Setting::ALL
+                .iter()
+                .position(|s| *s == Setting::Agents)
+                .expect("agents") as u16;
+        let d = node.canopen_mut().expect("device");
+        d.write(agents, 0, &[8]).expect("plan");
+        d.write(row_index(), 1, &[5]).expect("entry 1");
+        d.write(row_index(), 2, &[6]).expect("entry 2");
+        d.write(param_page::node_id_index(), 0, &[7])
+            .expect("node-ID");
+        let page = stored_page(&node);
+        // Agent 7 is outside the compiled plan, but the page holds its row.
+        let boot = param_page::boot_config(&page, config::in_plan, config::DEFAULT_AGENT);
+        assert_eq!((boot.agent, boot.rejected), (7, None));
+        // The firmware's boot: the node and its device on the compiled defaults of the agent
+        // (agent 4's for one outside the plan), the page loaded, then the filters from what
+        // the device loaded.
+        let (mut node, _, _) = canopen_board(config::DEFAULT_AGENT);
+        node.canopen_mut()
+            .expect("device")
+            .load(boot.stored.expect("stored"))
+            .expect("the device takes it");
+        let (mut cfg, mut controller) = (NODE, config::controller());
+        assert!(node
+            .canopen()
+            .is_some_and(|d| d.store.graph_into(&mut cfg, &mut controller)));
+        assert_eq!((cfg.agent, cfg.ids.agents()), (7, 8));
+        assert_eq!(&cfg.neighbours[..controller.neighbour_count], &[5, 6]);
+        assert!(!controller.pinned);
+        let f = acceptance(&cfg, controller.neighbour_count, controller.pinned, false);
+        assert_eq!(
+            f,
+            [
+                Some(Accept::Dual(0x000, 0x607)),
+                Some(Accept::Single(0x101)),
+                Some(Accept::Dual(0x108, 0x787)),
+                Some(Accept::Dual(0x106, 0x785)),
+                Some(Accept::Dual(0x107, 0x786)),
+                None,
+                None,
+                None,
+            ]
+        );
+        // The node adopts them at its boot-up.
+        node.service();
+        // What the filters were set for is what the node runs.
+        assert_eq!(node.agent(), 7);
+        assert_eq!(node.ids(), &cfg.ids);
+        assert!(!node.is_pinned());
+        assert_eq!(
+            (0..config::K)
+                .map_while(|k| node.neighbour_agent(k))
+                .collect::<Vec<_>>(),
+            [5, 6]
+        );
+        let adopted = node.adoptions();
+        assert_eq!(adopted, 1, "the stored set, adopted at the boot-up");
+        // A reset communication with nothing new adopts nothing: no restart loop; a new row
+        // adopted at the next one counts (the firmware restarts on it).
+        nmt(
+            &mut node,
+            agent_node::canopen::NmtCommand::ResetCommunication,
+        );
+        node.service();
+        assert_eq!(node.adoptions(), adopted);
+        node.canopen_mut()
+            .expect("device")
+            .write(row_index(), 2, &[3])
+            .expect("entry 2");
+        nmt(
+            &mut node,
+            agent_node::canopen::NmtCommand::ResetCommunication,
+        );
+        node.service();
+        assert_eq!(node.adoptions(), adopted + 1);
+        assert_eq!(node.neighbour_agent(1), Some(3));
+        assert_eq!(node.canopen().map(|d| d.node_id()), Some(7));
     }
 
     #[test]

@@ -112,40 +112,51 @@ fn to_filter(a: Accept) -> Option<StandardFilter> {
     })
 }
 
-/// Bit timing, classic frames only, the filters of [`can_setup::acceptance`] into FIFO 0,
-/// every other frame rejected, the FIFO 0 new-message interrupt on line 0 (every interrupt's
-/// line after reset). The controller stays in its configuration mode (off the bus: nothing
-/// sent, nothing acknowledged) until [`Fdcan1::join_bus`].
-pub fn configure<const K: usize>(
-    mut can: FdCan<HalCan<FDCAN1>, ConfigMode>,
-    node: &NodeConfig<K>,
-    neighbour_count: usize,
-    pinned: bool,
-) -> Fdcan1 {
+/// Bit timing, classic frames only, every frame rejected until [`Fdcan1::listen`] sets the
+/// filters of [`can_setup::acceptance`] into FIFO 0, the FIFO 0 new-message interrupt on line 0
+/// (every interrupt's line after reset). The controller stays in its configuration mode (off
+/// the bus: nothing sent, nothing acknowledged) until [`Fdcan1::join_bus`].
+pub fn configure(mut can: FdCan<HalCan<FDCAN1>, ConfigMode>) -> Fdcan1 {
     can.set_protocol_exception_handling(false);
     can.set_nominal_bit_timing(NOMINAL);
     can.set_frame_transmit(FrameTransmissionConfig::ClassicCanOnly);
     can.set_automatic_retransmit(true);
     can.set_global_filter(GlobalFilter::reject_all());
-    let filters = can_setup::acceptance(node, neighbour_count, pinned, cfg!(feature = "bench"));
-    for (slot, filter) in SLOTS.into_iter().zip(filters) {
-        if let Some(f) = filter.and_then(to_filter) {
-            can.set_standard_filter(slot, f);
-        }
-    }
     can.enable_interrupt(Interrupt::RxFifo0NewMsg);
     can.enable_interrupt_line(InterruptLine::_0, true);
     Fdcan1 {
         mode: Mode::Configuring(can),
         overruns: 0,
-        ids: node.ids,
-        agent: node.agent,
+        ids: IdPlan::DEFAULT,
+        agent: 0,
         leader_heard: false,
         sensor: None,
     }
 }
 
 impl Fdcan1 {
+    /// The acceptance filters of [`can_setup::acceptance`] for `node`, once, while still in the
+    /// configuration mode (before [`Self::join_bus`]); nothing once on the bus. The firmware sets them for the stored node-ID, graph row and
+    /// plan once the CANopen device has loaded them.
+    pub fn listen<const K: usize>(
+        &mut self,
+        node: &NodeConfig<K>,
+        neighbour_count: usize,
+        pinned: bool,
+    ) {
+        let Mode::Configuring(can) = &mut self.mode else {
+            return;
+        };
+        let filters = can_setup::acceptance(node, neighbour_count, pinned, cfg!(feature = "bench"));
+        for (slot, filter) in SLOTS.into_iter().zip(filters) {
+            if let Some(f) = filter.and_then(to_filter) {
+                can.set_standard_filter(slot, f);
+            }
+        }
+        self.ids = node.ids;
+        self.agent = node.agent;
+    }
+
     /// Normal operation: the controller takes part in the bus from now on.
     pub fn join_bus(&mut self) {
         self.mode = match core::mem::replace(&mut self.mode, Mode::Switching) {

@@ -1,9 +1,13 @@
 //! The node's compiled-in defaults: the agent plan (which agent hears which, who is pinned),
 //! the default node-ID, the controller's settings and the scales of the example wiring. One
-//! image serves every agent of the plan: the node-ID, and with it the agent's neighbours, comes
-//! from the stored configuration ([`crate::param_page`]), set over the bus (CANopen SDO
-//! `0x2100` `node.node_id`, `0x1010` store, NMT reset node); the parameters likewise. A board
-//! with nothing stored boots as [`DEFAULT_AGENT`] in NMT pre-operational.
+//! image serves every agent of any graph: the node-ID, the graph row (the agents heard,
+//! whether the leader is) and the identifier plan come from the stored configuration
+//! ([`crate::param_page`]; the firmware builds its node and acceptance filters from what the
+//! CANopen device loads of it, `agent_node::canopen::od::ParamStore::graph_into`), set over the bus (CANopen SDO `0x2100`
+//! `node.node_id`, the `graph.neighbours` array, `graph.pinned`, `node.id_base`, …, `0x1010`
+//! store, NMT reset node); the parameters likewise. A stored node-ID without a stored row
+//! takes its row from the compiled plan (Example 1). A board with nothing stored boots as
+//! [`DEFAULT_AGENT`] in NMT pre-operational.
 //!
 //! Nothing here is trusted: [`agent_node::Node::new`] validates the node and controller
 //! settings at boot (`controller_core::Controller::new` against the parameter table),

@@ -100,8 +100,12 @@ impl Cycles {
 /// frames' schedule.
 struct Board {
     logic: nucleo_g474re::board::BoardLogic,
-    /// The agent the board booted as; another one adopted over the bus restarts the board.
+    /// The agent the board booted as (its plant-bus frames).
+    #[cfg(feature = "bench")]
     agent: u8,
+    /// The node's adoptions of a node-ID, graph row or plan when the acceptance filters were
+    /// set (`Node::adoptions`); another one over the bus restarts the board.
+    adoptions: u16,
     #[cfg(feature = "bench")]
     state_frames: nucleo_g474re::bench::StateFrames,
 }
@@ -244,6 +248,8 @@ mod app {
         // The stored configuration decides which agent of the plan this board is.
         let page = flash::ParamPage::new(dp.FLASH);
         let boot = param_page::boot_config(page.page(), config::in_plan, config::DEFAULT_AGENT);
+        // The compiled defaults of that agent (what 0x1011 restores); the stored node-ID,
+        // graph row and plan replace them once the device has loaded the page (below).
         let node_cfg = config::node(boot.agent).unwrap_or(config::NODE);
         let controller = config::controller_of(boot.agent).unwrap_or_else(config::controller);
         match boot.rejected {
@@ -254,13 +260,15 @@ mod app {
                 boot.agent
             ),
         }
-        let board = Board {
+        let mut board = Board {
             logic: BoardLogic::new(
                 can_setup::uses_leader(&node_cfg, controller.pinned),
                 config::SAMPLE_PERIOD_US,
                 node_cfg.stale_timeout_us,
             ),
+            #[cfg(feature = "bench")]
             agent: node_cfg.agent,
+            adoptions: 0,
             #[cfg(feature = "bench")]
             state_frames: nucleo_g474re::bench::StateFrames::new(),
         };
@@ -278,12 +286,7 @@ mod app {
                 None
             }
             (None, Some(_)) => {
-                let bus = can::configure(
-                    fdcan,
-                    &node_cfg,
-                    controller.neighbour_count,
-                    controller.pinned,
-                );
+                let bus = can::configure(fdcan);
                 let identity = Identity {
                     product: 1,
                     revision: 1,
@@ -339,10 +342,29 @@ mod app {
                 rejected = Some(Rejection::Refused);
             }
         }
+        // The node-ID, graph row and plan as loaded: the acceptance filters and the board's
+        // logic follow them now, the node adopts them at its boot-up (`node.service` below).
+        let (mut node_cfg, mut controller) = (node_cfg, controller);
+        if let Some(d) = node.canopen() {
+            d.store.graph_into(&mut node_cfg, &mut controller);
+        }
+        node.can_mut()
+            .listen(&node_cfg, controller.neighbour_count, controller.pinned);
+        board.logic = BoardLogic::new(
+            can_setup::uses_leader(&node_cfg, controller.pinned),
+            config::SAMPLE_PERIOD_US,
+            node_cfg.stale_timeout_us,
+        );
+        #[cfg(feature = "bench")]
+        {
+            board.agent = node_cfg.agent;
+        }
         node.set_boot_count(heartbeat_word(boot_count, flags));
         node.can_mut().join_bus();
         // Boot-up message, pre-operational; then the EMCY of a configuration not used.
         node.service();
+        // What the filters were set for is what the node adopted at its boot-up.
+        board.adoptions = node.adoptions();
         if let (Some(r), Some(d)) = (rejected, node.canopen_mut()) {
             d.report(Fault::ConfigRejected, r.code());
         }
@@ -490,9 +512,10 @@ mod app {
                 CanOpenRequest::ResetNode => cx.shared.jobs.lock(Jobs::reset),
             }
         }
-        if node.agent() != board.agent {
-            // A reset communication adopted another node-ID: its neighbours are another
-            // agent's, so the board restarts as the stored configuration says.
+        if node.adoptions() != board.adoptions {
+            // A reset communication adopted another node-ID, graph row or plan: the
+            // acceptance filters are another's, so the board restarts as the stored
+            // configuration says.
             cx.shared.jobs.lock(Jobs::reset);
         }
         if cycles.count >= LOG_EVERY {

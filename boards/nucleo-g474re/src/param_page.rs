@@ -19,8 +19,8 @@
 //!
 //! | page | node-ID (agent) | stored dictionary | EMCY `0x6300` (byte 2 of the EMCY: [`Rejection`]) |
 //! |---|---|---|---|
-//! | valid, node-ID in the plan | the stored `node.node_id` | loaded | none |
-//! | valid, node-ID outside the plan | the default | not loaded | [`Rejection::NodeIdOutsidePlan`] |
+//! | valid, node-ID in the compiled plan, or with a stored graph row | the stored `node.node_id` | loaded | none |
+//! | valid, node-ID outside the compiled plan and no stored row | the default | not loaded | [`Rejection::NodeIdOutsidePlan`] |
 //! | erased (never stored, or `0x1011` "load") | the default | none | [`Rejection::Erased`] |
 //! | wrong magic, length or CRC | the default | not loaded | [`Rejection::Corrupt`] |
 //! | another layout version | the default | not loaded | [`Rejection::Version`] |
@@ -29,12 +29,15 @@
 //! (`Device::load`: the node keeps the node-ID of the page and the compiled defaults). Nothing
 //! here panics on any page content (the tests feed every corruption of a stored page).
 
-use agent_node::canopen::od::{Setting, SETTING_BASE};
+use agent_node::canopen::od::{Setting, PARAM_BASE, SETTING_BASE};
+use controller_core::Param;
 
 /// First bytes of a stored page: `AGCF` (agent configuration).
 pub const MAGIC: [u8; 4] = *b"AGCF";
-/// Layout version; a page of another version is refused (the defaults run).
-pub const VERSION: u16 = 1;
+/// Layout version; a page of another version is refused (the defaults run). Version 2: the
+/// stored dictionary may hold the graph row and the identifier plan (a version-1 page was
+/// written by a firmware that read its row from the compiled plan alone).
+pub const VERSION: u16 = 2;
 /// Bytes before the stored object dictionary.
 pub const HEADER_BYTES: usize = 12;
 /// Bytes of the flash page (a dual-bank STM32G474 page).
@@ -218,23 +221,37 @@ pub fn node_id_index() -> u16 {
     SETTING_BASE + k as u16
 }
 
-/// The node-ID a stored dictionary holds: its `node.node_id` record (`Device::save`'s
-/// records: index `u16` LE, sub-index, length, bytes, after a 4-byte tag); `None` when absent
-/// or malformed.
-pub fn stored_node_id(stored: &[u8]) -> Option<u8> {
-    let index = node_id_index().to_le_bytes();
+/// The CANopen object of the graph row `graph.neighbours` (`0x2000 + k`).
+pub fn row_index() -> u16 {
+    let k = Param::ALL
+        .iter()
+        .position(|p| *p == Param::Neighbours)
+        .unwrap_or(0);
+    PARAM_BASE + k as u16
+}
+
+/// The bytes of record `index`/`sub` of a stored dictionary (`Device::save`'s records: index
+/// `u16` LE, sub-index, length, bytes, after a 4-byte tag); `None` when absent or malformed.
+fn stored_record(stored: &[u8], index: u16, sub: u8) -> Option<&[u8]> {
+    let index = index.to_le_bytes();
     let mut rest = stored.get(4..)?;
-    while let [i0, i1, sub, len, tail @ ..] = rest {
+    while let [i0, i1, s, len, tail @ ..] = rest {
         let data = tail.get(..usize::from(*len))?;
-        if [*i0, *i1] == index && *sub == 0 {
-            return match data {
-                [id] => Some(*id),
-                _ => None,
-            };
+        if [*i0, *i1] == index && *s == sub {
+            return Some(data);
         }
         rest = tail.get(data.len()..)?;
     }
     None
+}
+
+/// The node-ID a stored dictionary holds: its `node.node_id` record; `None` when absent or
+/// malformed.
+pub fn stored_node_id(stored: &[u8]) -> Option<u8> {
+    match stored_record(stored, node_id_index(), 0)? {
+        [id] => Some(*id),
+        _ => None,
+    }
 }
 
 /// What the board boots as.
@@ -260,8 +277,9 @@ pub fn boot_config(page: &[u8], in_plan: impl Fn(u8) -> bool, default_agent: u8)
         Ok(s) => s,
         Err(e) => return defaults(e.into()),
     };
+    let has_row = stored_record(stored, row_index(), 0).is_some();
     match stored_node_id(stored) {
-        Some(id) if in_plan(id) => BootConfig {
+        Some(id) if in_plan(id) || (has_row && id > 0) => BootConfig {
             agent: id,
             stored: Some(stored),
             rejected: None,
@@ -553,14 +571,15 @@ mod tests {
     fn another_layout_version_is_refused_by_name() {
         let d = dictionary(1);
         let mut p = vec![0xFF; PAGE_BYTES];
-        // A page written by a version-2 layout, with its own valid CRC.
-        let vl = [2, 0, d.len() as u8, 0];
+        // A page of the version-1 layout (before the stored graph row), with its own valid
+        // CRC: the compiled defaults and EMCY 0x6300 with reason 3.
+        let vl = [1, 0, d.len() as u8, 0];
         let crc = page_crc(&vl, &d).to_le_bytes();
         p[..4].copy_from_slice(&MAGIC);
         p[4..8].copy_from_slice(&vl);
         p[8..12].copy_from_slice(&crc);
         p[12..12 + d.len()].copy_from_slice(&d);
-        assert_eq!(decode(&p), Err(PageError::Version(2)));
+        assert_eq!(decode(&p), Err(PageError::Version(1)));
         assert_eq!(
             boot_config(&p, in_plan, 4).rejected,
             Some(Rejection::Version)
