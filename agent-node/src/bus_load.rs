@@ -61,12 +61,14 @@ pub struct FrameBits {
 
 impl FrameBits {
     /// Bits on the wire, both phases.
+    #[must_use]
     pub const fn total(&self) -> u32 {
         self.nominal + self.data
     }
 
     /// Nanoseconds on a bus at `rates` (rounded up); a data phase without a data bit rate goes
     /// at the nominal rate.
+    #[must_use]
     pub fn time_ns(&self, rates: Bitrates) -> u64 {
         let ns = |bits: u32, rate: u32| {
             (u64::from(bits) * 1_000_000_000).div_ceil(u64::from(rate.max(1)))
@@ -87,6 +89,7 @@ pub struct Bitrates {
 impl Bitrates {
     /// The format of every frame on this bus: CAN FD with bit-rate switching when a data bit
     /// rate is given, classical otherwise.
+    #[must_use]
     pub const fn format(&self) -> Format {
         match self.data {
             Some(_) => Format::Fd { brs: true },
@@ -102,6 +105,7 @@ impl Bitrates {
 /// use agent_node::bus_load::fd_len;
 /// assert_eq!((fd_len(8), fd_len(9), fd_len(40), fd_len(65)), (Some(8), Some(12), Some(48), None));
 /// ```
+#[must_use]
 pub const fn fd_len(n: usize) -> Option<usize> {
     Some(match n {
         0..=8 => n,
@@ -120,6 +124,7 @@ pub const fn fd_len(n: usize) -> Option<usize> {
 /// remote frame; above 8 classical or 64 FD counts as the maximum, the controller sends no
 /// more), `extended` for a 29-bit identifier, with worst-case dynamic stuffing if `stuffing`
 /// (CAN FD's fixed stuff bits always count), as Linux `can_frame_bits()`.
+#[must_use]
 pub const fn frame_bits(
     format: Format,
     extended: bool,
@@ -227,11 +232,13 @@ pub struct Load {
 
 impl Load {
     /// Bus time per sample \[ns\], all kinds.
+    #[must_use]
     pub fn busy_ns(&self) -> f64 {
         self.kinds.iter().map(|k| k.ns_per_sample).sum()
     }
 
     /// Share of the sample period the frames take, in per cent.
+    #[must_use]
     pub fn percent(&self) -> f64 {
         100.0 * self.busy_ns() / self.period_ns
     }
@@ -268,6 +275,7 @@ impl FrameSet {
     /// value frame every sample, each node's heartbeat and state frame at their periods, and on
     /// a bench the sensor frames (one per follower, or packed) and each node's command frame
     /// every sample.
+    #[must_use]
     pub fn load(&self) -> Load {
         let [sensor, command, state] = &PLANT_MESSAGES;
         let n = self.agents;

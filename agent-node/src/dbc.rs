@@ -82,6 +82,7 @@ impl Signal {
     }
 
     /// The raw bits of this signal in `data` (little-endian); `None` when `data` is too short.
+    #[must_use]
     pub fn raw(&self, data: &[u8]) -> Option<u64> {
         (0..self.len).rev().try_fold(0u64, |v, k| {
             let bit = usize::from(self.start + k);
@@ -91,6 +92,7 @@ impl Signal {
     }
 
     /// The value of this signal in `data`: raw count, `f32`, or scaled two's complement.
+    #[must_use]
     pub fn value(&self, data: &[u8]) -> Option<f64> {
         let raw = self.raw(data)?;
         Some(match self.encoding {
@@ -121,6 +123,7 @@ pub struct Message {
 
 impl Message {
     /// Payload bytes: up to the last bit of the last signal.
+    #[must_use]
     pub fn len(&self) -> u16 {
         self.signals
             .iter()
@@ -130,6 +133,7 @@ impl Message {
     }
 
     /// No signals (a request without data).
+    #[must_use]
     pub fn is_empty(&self) -> bool {
         self.signals.is_empty()
     }
@@ -578,6 +582,7 @@ pub fn write_dbc(out: &mut impl Write) -> fmt::Result {
 }
 
 /// The link message of a 29-bit identifier.
+#[must_use]
 pub fn io_message(id: u32) -> Option<&'static Message> {
     IO_MESSAGES.iter().find(|m| m.id == id)
 }

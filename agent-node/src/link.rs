@@ -123,6 +123,7 @@ pub const SLOW_PERIOD_UNIT: u32 = 1 << 16;
 /// A step's duration of `periods` sample periods in the units of [`io::SLOW`] (rounded to
 /// 2⁻¹⁶ period; at least one unit for any `periods > 0`; saturating), or `None` for a value
 /// that is not finite and > 0.
+#[must_use]
 pub fn slow_periods(periods: f64) -> Option<u32> {
     if !(periods.is_finite() && periods > 0.0) {
         return None;
@@ -145,11 +146,13 @@ pub struct CanFrame {
 impl CanFrame {
     /// A process-I/O data frame with 29-bit identifier `id`; `None` if `id` or `data` is too
     /// long.
+    #[must_use]
     pub fn io(id: u32, data: &[u8]) -> Option<Self> {
         Self::new(ExtendedId::new(id)?, data)
     }
 
     /// The 29-bit identifier of a process-I/O frame; `None` for an 11-bit (bus) frame.
+    #[must_use]
     pub fn io_id(&self) -> Option<u32> {
         match self.id {
             Id::Extended(e) => Some(e.as_raw()),
@@ -158,6 +161,7 @@ impl CanFrame {
     }
 
     /// Raw identifier bits (11 or 29) — the arbitration priority (lower wins).
+    #[must_use]
     pub fn raw_id(&self) -> u32 {
         match self.id {
             Id::Standard(s) => u32::from(s.as_raw()),
@@ -240,6 +244,7 @@ pub struct Tick {
 
 impl Tick {
     /// The payload and its length: `x` (`f32` LE each), then `dt_us` (`u32` LE) when given.
+    #[must_use]
     pub fn to_bytes(&self) -> ([u8; 12], usize) {
         let mut b = [0u8; 12];
         b[..4].copy_from_slice(&self.x[0].to_le_bytes());
@@ -293,6 +298,7 @@ pub const REPORT_BYTES: usize = 48;
 impl Report {
     /// The payload: the nine `f32` (`q`, `u`, `e`, `μ̂`, `ξ̂`, `λ̂`), the four status bytes,
     /// `instructions`, `resolution`; little-endian.
+    #[must_use]
     pub fn to_bytes(&self) -> [u8; REPORT_BYTES] {
         let mut b = [0u8; REPORT_BYTES];
         let floats = [
@@ -317,6 +323,7 @@ impl Report {
     }
 
     /// The report of a payload; `None` unless it has [`REPORT_BYTES`] bytes.
+    #[must_use]
     pub fn from_bytes(b: &[u8]) -> Option<Self> {
         let b: &[u8; REPORT_BYTES] = b.try_into().ok()?;
         let mut w = [0u32; 12];
@@ -392,7 +399,10 @@ pub enum Slcan {
 }
 
 /// Why an SLCAN line was rejected.
+///
+/// `#[non_exhaustive]`: the link may learn further SLCAN commands, each with its own refusal.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum SlcanError {
     /// Empty line or unknown command letter.
     UnknownCommand,
@@ -559,12 +569,14 @@ fn decode_record(letter: u8, digits: &[u8]) -> Result<Slcan, SlcanError> {
 }
 
 /// Two `f32` as the 8 data bytes of a process-I/O frame (little-endian).
+#[must_use]
 pub fn pack_f32x2(a: f32, b: f32) -> [u8; 8] {
     let (a, b) = (a.to_le_bytes(), b.to_le_bytes());
     [a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]]
 }
 
 /// The two `u32` (or `f32` bit patterns) of 8 data bytes; `None` for another length.
+#[must_use]
 pub fn unpack_u32x2(data: &[u8]) -> Option<(u32, u32)> {
     let [a0, a1, a2, a3, b0, b1, b2, b3] = *data else {
         return None;
@@ -576,6 +588,7 @@ pub fn unpack_u32x2(data: &[u8]) -> Option<(u32, u32)> {
 }
 
 /// The `u32` of 4 data bytes; `None` for another length.
+#[must_use]
 pub fn unpack_u32(data: &[u8]) -> Option<u32> {
     let [a, b, c, d] = *data else {
         return None;
@@ -591,6 +604,7 @@ pub fn unpack_u32(data: &[u8]) -> Option<u32> {
 /// assert_eq!(extend_clock(5, 7), 7);
 /// assert_eq!(extend_clock(0xFFFF_FFF0, 0x10), 0x1_0000_0010);
 /// ```
+#[must_use]
 pub fn extend_clock(last: u64, low: u32) -> u64 {
     let t = (last & !0xFFFF_FFFF) | u64::from(low);
     if t < last {
@@ -631,14 +645,19 @@ impl ConfigWords {
     }
 
     /// The words; `None` when they did not fit [`MAX_CONFIG_WORDS`].
+    #[must_use]
     pub fn as_slice(&self) -> Option<&[u32]> {
         self.words.get(..self.len)
     }
 }
 
 /// Why a configuration could not be read (sent back in [`io::REJECTED`]).
+///
+/// `#[non_exhaustive]`: a longer configuration layout brings new checks; the byte of each
+/// reason on the link never changes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[repr(u8)]
+#[non_exhaustive]
 pub enum ConfigReject {
     /// Fewer or more words than the layout needs.
     WordCount = 1,
@@ -664,6 +683,7 @@ impl core::fmt::Display for ConfigReject {
 impl core::error::Error for ConfigReject {}
 
 /// The words of `node` and `ctrl` (see [`ConfigWords`]).
+#[must_use]
 pub fn encode_config<const N: usize, const K: usize>(
     node: &NodeConfig<K>,
     ctrl: &ControllerConfig<N>,

@@ -130,6 +130,7 @@ pub struct NodeConfig<const K: usize> {
 impl<const K: usize> NodeConfig<K> {
     /// Agent `agent` hearing `neighbours` with the stale timeout (µs), in the default
     /// identifier plan, without heartbeat or supervision.
+    #[must_use]
     pub const fn new(agent: u8, neighbours: [u8; K], stale_timeout_us: u64) -> Self {
         Self {
             agent,
@@ -142,6 +143,7 @@ impl<const K: usize> NodeConfig<K> {
     }
 
     /// What the CANopen parameter store keeps of this configuration.
+    #[must_use]
     pub fn identity(&self) -> NodeIdentity<'_> {
         NodeIdentity {
             agent: self.agent,
@@ -209,6 +211,8 @@ impl core::fmt::Display for NodeError {
     }
 }
 
+/// `Display` includes the controller's or the supervisor's message (a `no_std` log prints only
+/// `Display`), so `source` stays `None`.
 impl core::error::Error for NodeError {}
 
 /// Counters of one node since it started.

@@ -81,6 +81,7 @@ pub enum NodeState {
 impl NodeState {
     /// Code on the wire: 0 operational, 1 boot, 2 safe, 3 fault (0 so a healthy node's PIL
     /// report reads as before).
+    #[must_use]
     pub const fn code(self) -> u8 {
         match self {
             Self::Operational => 0,
@@ -91,6 +92,7 @@ impl NodeState {
     }
 
     /// The state of a code; `None` above 3.
+    #[must_use]
     pub const fn from_code(code: u8) -> Option<Self> {
         match code {
             0 => Some(Self::Operational),
@@ -102,6 +104,7 @@ impl NodeState {
     }
 
     /// The lower-case name.
+    #[must_use]
     pub const fn as_str(self) -> &'static str {
         match self {
             Self::Operational => "operational",
@@ -139,11 +142,13 @@ pub enum SafePolicy {
 
 impl SafePolicy {
     /// The controller keeps stepping (the loop stays closed around a safe reference).
+    #[must_use]
     pub const fn is_closed_loop(&self) -> bool {
         matches!(self, Self::HoldPosition | Self::Stop { .. })
     }
 
     /// The lower-case name used in scenario and node files.
+    #[must_use]
     pub const fn as_str(&self) -> &'static str {
         match self {
             Self::HoldPosition => "hold-position",
@@ -208,6 +213,7 @@ impl SupervisorConfig {
     };
 
     /// Some source has a loss timeout (otherwise the node never enters `Safe`).
+    #[must_use]
     pub const fn supervises_any(&self) -> bool {
         self.leader_timeout_us.is_some()
             || self.neighbour_timeout_us.is_some()
@@ -254,8 +260,11 @@ impl Default for SupervisorConfig {
 }
 
 /// Which [`SupervisorConfig`] field is invalid.
+///
+/// `#[non_exhaustive]`: each new supervision setting brings its own check.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum SupervisorError {
     /// `policy = Ramp { rate }` with a rate that is not finite and > 0.
     RampRate,
@@ -306,6 +315,7 @@ pub struct StopProfile {
 impl StopProfile {
     /// The profile from `y0` moving at `w` (units per s) at `t0_us`, decelerating at `decel`
     /// (> 0, validated with the policy); a non-finite `w` counts as rest.
+    #[must_use]
     pub fn new(y0: f32, w: f32, decel: f32, t0_us: u64) -> Self {
         let w = if w.is_finite() { w } else { 0.0 };
         Self {
@@ -317,6 +327,7 @@ impl StopProfile {
     }
 
     /// The reference at `now_us`.
+    #[must_use]
     pub fn at(&self, now_us: u64) -> f32 {
         let tau = now_us.saturating_sub(self.t0_us) as f32 * 1e-6;
         let speed = self.w.abs();
@@ -343,31 +354,37 @@ impl Lost {
     pub const SENSOR: u8 = 4;
 
     /// From bits (unknown bits dropped).
+    #[must_use]
     pub const fn from_bits(bits: u8) -> Self {
         Self(bits & (Self::LEADER | Self::NEIGHBOURS | Self::SENSOR))
     }
 
     /// The bits.
+    #[must_use]
     pub const fn bits(self) -> u8 {
         self.0
     }
 
     /// No source lost.
+    #[must_use]
     pub const fn is_empty(self) -> bool {
         self.0 == 0
     }
 
     /// The leader is lost.
+    #[must_use]
     pub const fn leader(self) -> bool {
         self.0 & Self::LEADER != 0
     }
 
     /// The neighbours are lost.
+    #[must_use]
     pub const fn neighbours(self) -> bool {
         self.0 & Self::NEIGHBOURS != 0
     }
 
     /// The sensor is lost.
+    #[must_use]
     pub const fn sensor(self) -> bool {
         self.0 & Self::SENSOR != 0
     }
@@ -430,22 +447,26 @@ impl Supervisor {
     }
 
     /// The configuration.
+    #[must_use]
     pub fn config(&self) -> &SupervisorConfig {
         &self.cfg
     }
 
     /// The current state.
+    #[must_use]
     pub fn state(&self) -> NodeState {
         self.state
     }
 
     /// Sources lost at the last update.
+    #[must_use]
     pub fn lost(&self) -> Lost {
         self.lost
     }
 
     /// The policy that applies while `Safe`: [`SupervisorConfig::sensor_policy`] while the
     /// sensor is lost, [`SupervisorConfig::policy`] otherwise.
+    #[must_use]
     pub fn policy_in_force(&self) -> SafePolicy {
         if self.lost.sensor() {
             self.cfg.sensor_policy
@@ -455,11 +476,13 @@ impl Supervisor {
     }
 
     /// Times the node entered `Safe`.
+    #[must_use]
     pub fn safe_entries(&self) -> u32 {
         self.entries
     }
 
     /// The leader is supervised.
+    #[must_use]
     pub fn watches_leader(&self) -> bool {
         self.cfg.leader_timeout_us.is_some()
     }
@@ -543,6 +566,7 @@ impl Supervisor {
 
 /// The safe-state command after `dt_us` at `policy`, from the `last` one.
 /// Closed-loop policies have no command of their own: they return `last`.
+#[must_use]
 pub fn safe_command<const M: usize>(policy: SafePolicy, last: &[f32; M], dt_us: u64) -> [f32; M] {
     match policy {
         SafePolicy::Hold | SafePolicy::HoldPosition | SafePolicy::Stop { .. } => *last,
@@ -824,6 +848,7 @@ mod tests {
 /// assert_eq!(micros_from_secs(2.5e-3), 2_500);
 /// assert_eq!(micros_from_secs(-1.0), 0);
 /// ```
+#[must_use]
 pub const fn micros_from_secs(s: f32) -> u64 {
     let bits = s.to_bits();
     let biased = ((bits >> 23) & 0xff) as i32;
