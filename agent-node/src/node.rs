@@ -133,6 +133,19 @@ pub const MAX_RX_PER_POLL: usize = 32;
 /// ```
 pub trait Clock {
     /// Microseconds since an arbitrary origin; never decreases.
+    ///
+    /// ```
+    /// use agent_node::Clock;
+    /// struct Ticks(u64);
+    /// impl Clock for Ticks {
+    ///     fn now_us(&mut self) -> u64 {
+    ///         self.0 += 1_000; // a 1 kHz timer
+    ///         self.0
+    ///     }
+    /// }
+    /// let mut c = Ticks(0);
+    /// assert!(c.now_us() < c.now_us()); // monotonic
+    /// ```
     fn now_us(&mut self) -> u64;
 }
 
@@ -189,6 +202,21 @@ pub trait Sensor<const N: usize> {
     /// Why a read failed.
     type Error;
     /// One sample of the state.
+    ///
+    /// ```
+    /// use agent_node::Sensor;
+    /// // Position from an encoder count, velocity from a tachometer; a dead encoder is an error.
+    /// struct Encoder { count: Option<i32>, rpm: f32 }
+    /// impl Sensor<2> for Encoder {
+    ///     type Error = &'static str;
+    ///     fn read(&mut self) -> Result<[f32; 2], Self::Error> {
+    ///         let c = self.count.ok_or("encoder silent")?;
+    ///         Ok([c as f32 / 4096.0, self.rpm / 60.0])
+    ///     }
+    /// }
+    /// assert_eq!(Encoder { count: Some(2048), rpm: 60.0 }.read(), Ok([0.5, 1.0]));
+    /// assert!(Encoder { count: None, rpm: 0.0 }.read().is_err());
+    /// ```
     fn read(&mut self) -> Result<[f32; N], Self::Error>;
 }
 
@@ -242,6 +270,24 @@ pub trait Actuator<const M: usize> {
     /// Why a write failed.
     type Error;
     /// Apply the commands until the next write.
+    ///
+    /// ```
+    /// use agent_node::Actuator;
+    /// // A PWM duty in per mille from the quantized command, refused beyond full scale.
+    /// struct Pwm(u16);
+    /// impl Actuator<1> for Pwm {
+    ///     type Error = ();
+    ///     fn write(&mut self, q: &[f32; 1]) -> Result<(), ()> {
+    ///         if !(0.0..=1.0).contains(&q[0]) { return Err(()); }
+    ///         self.0 = (q[0] * 1000.0) as u16;
+    ///         Ok(())
+    ///     }
+    /// }
+    /// let mut p = Pwm(0);
+    /// assert_eq!(p.write(&[0.5]), Ok(()));
+    /// assert_eq!(p.0, 500);
+    /// assert!(p.write(&[2.0]).is_err());
+    /// ```
     fn write(&mut self, q: &[f32; M]) -> Result<(), Self::Error>;
 }
 
