@@ -64,6 +64,7 @@ impl Kind {
     /// assert_eq!(Kind::Sensor.id(1).map(|i| i.as_raw()), Some(0x201));
     /// assert_eq!(Kind::Sensor.id(0), None);
     /// ```
+    #[must_use]
     pub fn id(self, agent: u8) -> Option<StandardId> {
         if agent == 0 {
             return None;
@@ -79,6 +80,7 @@ impl Kind {
     /// assert_eq!(Kind::classify(0x101), None); // the leader's value frame
     /// assert_eq!(Kind::classify(0x200), None); // agent 0
     /// ```
+    #[must_use]
     pub const fn classify(raw: u16) -> Option<(Self, u8)> {
         let kind = match raw & 0x700 {
             SENSOR_BASE => Self::Sensor,
@@ -101,6 +103,7 @@ impl Kind {
 /// assert_eq!(&b[..4], &0.5f32.to_le_bytes());
 /// assert_eq!(decode_pair(&b), Some([0.5, -2.0]));
 /// ```
+#[must_use]
 pub fn encode_pair(v: [f32; 2]) -> [u8; PAIR_LEN] {
     let mut b = [0; PAIR_LEN];
     b[..4].copy_from_slice(&v[0].to_le_bytes());
@@ -115,6 +118,7 @@ pub fn encode_pair(v: [f32; 2]) -> [u8; PAIR_LEN] {
 /// assert_eq!(decode_pair(&[0; 8]), Some([0.0, 0.0]));
 /// assert_eq!(decode_pair(&[0; 7]), None);
 /// ```
+#[must_use]
 pub fn decode_pair(data: &[u8]) -> Option<[f32; 2]> {
     let b: &[u8; PAIR_LEN] = data.try_into().ok()?;
     let f = |k: usize| f32::from_le_bytes([b[k], b[k + 1], b[k + 2], b[k + 3]]);
@@ -135,6 +139,7 @@ pub const PACKED_SENSOR_AGENTS: u8 = 8;
 /// assert_eq!((packed_first(1), packed_first(8), packed_first(9)), (Some(1), Some(1), Some(9)));
 /// assert_eq!(packed_first(0), None);
 /// ```
+#[must_use]
 pub const fn packed_first(agent: u8) -> Option<u8> {
     if agent == 0 {
         return None;
@@ -175,6 +180,7 @@ pub fn encode_packed(x: &[[f32; 2]], out: &mut [u8]) -> Option<usize> {
 /// assert_eq!(decode_packed(1, 4, &out), None); // the payload does not reach agent 4
 /// assert_eq!(decode_packed(2, 1, &out), None); // before the first agent
 /// ```
+#[must_use]
 pub fn decode_packed(first: u8, agent: u8, data: &[u8]) -> Option<[f32; 2]> {
     let k = usize::from(agent.checked_sub(first)?);
     if k >= usize::from(PACKED_SENSOR_AGENTS) {
@@ -192,6 +198,7 @@ pub fn decode_packed(first: u8, agent: u8, data: &[u8]) -> Option<[f32; 2]> {
 /// assert_eq!(f.raw_id(), 0x302);
 /// assert_eq!(decode(&f), Some(PlantFrame::Command(2, [0.1, 0.1])));
 /// ```
+#[must_use]
 pub fn pair_frame<F: Frame>(kind: Kind, agent: u8, v: [f32; 2]) -> Option<F> {
     F::new(kind.id(agent)?, &encode_pair(v))
 }
@@ -207,6 +214,7 @@ pub fn pair_frame<F: Frame>(kind: Kind, agent: u8, v: [f32; 2]) -> Option<F> {
 /// assert_eq!(decode(&f), Some(PlantFrame::Stop(4))); // a sensor frame without data
 /// assert!(stop_frame::<CanFrame>(0).is_none());
 /// ```
+#[must_use]
 pub fn stop_frame<F: Frame>(sensor_agent: u8) -> Option<F> {
     F::new(Kind::Sensor.id(sensor_agent)?, &[])
 }
@@ -289,6 +297,7 @@ impl Mode {
     /// assert_eq!(Mode::from_u8(1), Some(Mode::Running));
     /// assert_eq!(Mode::from_u8(4), None);
     /// ```
+    #[must_use]
     pub const fn from_u8(v: u8) -> Option<Self> {
         Some(match v {
             0 => Self::Waiting,
@@ -306,6 +315,7 @@ impl Mode {
     /// assert_eq!(Mode::Waiting.as_str(), "waiting");
     /// assert_eq!(Mode::Stopping.as_str(), "stopping");
     /// ```
+    #[must_use]
     pub const fn as_str(self) -> &'static str {
         match self {
             Self::Waiting => "waiting",
@@ -343,6 +353,7 @@ impl NodeState {
     /// let st = NodeState { mode: Mode::Waiting, degraded_links: 0, late_ticks: 1 };
     /// assert_eq!(st.to_bytes(), [0, 0, 1, 0]);
     /// ```
+    #[must_use]
     pub fn to_bytes(&self) -> [u8; STATE_LEN] {
         let l = self.late_ticks.to_le_bytes();
         [self.mode as u8, self.degraded_links, l[0], l[1]]
@@ -355,6 +366,7 @@ impl NodeState {
     /// assert_eq!(NodeState::from_bytes(&[9, 0, 0, 0]), None); // unknown mode
     /// assert_eq!(NodeState::from_bytes(&[0, 0, 0]), None); // short
     /// ```
+    #[must_use]
     pub fn from_bytes(data: &[u8]) -> Option<Self> {
         let b: &[u8; STATE_LEN] = data.try_into().ok()?;
         Some(Self {
@@ -373,6 +385,7 @@ impl NodeState {
     /// assert_eq!(st.frame::<CanFrame>(2).unwrap().raw_id(), 0x402);
     /// assert!(st.frame::<CanFrame>(0).is_none());
     /// ```
+    #[must_use]
     pub fn frame<F: Frame>(&self, agent: u8) -> Option<F> {
         F::new(Kind::State.id(agent)?, &self.to_bytes())
     }

@@ -109,6 +109,7 @@ impl Source {
     /// assert_eq!(Source::Agent(0).raw_id(), None); // agents are 1-based, as in the paper
     /// assert_eq!(Source::Agent(100).raw_id(), None); // beyond the default plan's 99
     /// ```
+    #[must_use]
     pub const fn raw_id(self) -> Option<u16> {
         IdPlan::DEFAULT.value_id(self)
     }
@@ -133,6 +134,7 @@ impl Source {
     /// assert_eq!(Source::from_raw_id(0x101), Some(Source::Leader));
     /// assert_eq!(Source::from_raw_id(0x782), None); // agent 1's heartbeat, not a value frame
     /// ```
+    #[must_use]
     pub const fn from_raw_id(raw: u16) -> Option<Self> {
         match IdPlan::DEFAULT.classify(raw) {
             Some(FrameKind::Value(s)) => Some(s),
@@ -267,6 +269,7 @@ impl IdPlan {
     /// use agent_node::wire::IdPlan;
     /// assert_eq!(IdPlan::DEFAULT.value_base(), 0x101); // the leader's identifier
     /// ```
+    #[must_use]
     pub const fn value_base(&self) -> u16 {
         self.value_base
     }
@@ -279,6 +282,7 @@ impl IdPlan {
     /// assert_eq!(IdPlan::new(0x100, None, 8)?.heartbeat_base(), None);
     /// # Ok::<(), agent_node::wire::IdPlanError>(())
     /// ```
+    #[must_use]
     pub const fn heartbeat_base(&self) -> Option<u16> {
         self.heartbeat_base
     }
@@ -289,6 +293,7 @@ impl IdPlan {
     /// use agent_node::wire::IdPlan;
     /// assert_eq!(IdPlan::DEFAULT.agents(), 99);
     /// ```
+    #[must_use]
     pub const fn agents(&self) -> u8 {
         self.agents
     }
@@ -303,6 +308,7 @@ impl IdPlan {
     /// assert_eq!(plan.value_id(Source::Agent(5)), None);
     /// # Ok::<(), agent_node::wire::IdPlanError>(())
     /// ```
+    #[must_use]
     pub const fn value_id(&self, source: Source) -> Option<u16> {
         match source {
             Source::Leader => Some(self.value_base),
@@ -320,6 +326,7 @@ impl IdPlan {
     /// assert_eq!(IdPlan::DEFAULT.heartbeat_id(1), Some(0x781));
     /// assert_eq!(IdPlan::DEFAULT.heartbeat_id(0), None);
     /// ```
+    #[must_use]
     pub const fn heartbeat_id(&self, agent: u8) -> Option<u16> {
         match self.heartbeat_base {
             Some(hb) if agent != 0 && agent <= self.agents => Some(hb + agent as u16),
@@ -335,6 +342,7 @@ impl IdPlan {
     /// assert_eq!(plan.classify(0x101), Some(FrameKind::Value(Source::Leader)));
     /// assert_eq!(plan.classify(0x000), None); // NMT: not this protocol's
     /// ```
+    #[must_use]
     pub const fn classify(&self, raw: u16) -> Option<FrameKind> {
         let n = self.agents as u16;
         if raw >= self.value_base && raw <= self.value_base + n {
@@ -475,6 +483,7 @@ impl DecodeStats {
     /// let st = DecodeStats { extended_id: u32::MAX, remote: 1, ..Default::default() };
     /// assert_eq!(st.total(), u32::MAX); // saturating
     /// ```
+    #[must_use]
     pub fn total(&self) -> u32 {
         self.extended_id
             .saturating_add(self.remote)
@@ -512,6 +521,7 @@ pub struct Encoded {
 /// assert_eq!(quantize(1000.0), Some((128.0 - 1.0 / 65536.0, true)));
 /// assert_eq!(quantize(f32::NAN), None);
 /// ```
+#[must_use]
 pub fn quantize(y: f32) -> Option<(f32, bool)> {
     let (v, sat) = to_wire(y)?;
     Some((v.to_num(), sat))
@@ -536,6 +546,7 @@ fn to_wire(y: f32) -> Option<(WireValue, bool)> {
 /// assert_eq!(encode_payload(1.0, 5).data, [0x00, 0x00, 0x01, 5]);
 /// assert_eq!(encode_payload(1.0, 69).data[3], 5); // counter modulo 64
 /// ```
+#[must_use]
 pub fn encode_payload(y: f32, seq: u8) -> Encoded {
     let mut flags = seq & SEQ_MASK;
     let (bits, saturated, no_value) = match to_wire(y) {
@@ -570,6 +581,7 @@ pub fn encode_payload(y: f32, seq: u8) -> Encoded {
 /// assert!(encode::<CanFrame>(Source::Agent(0), 0.0, 0).is_none());
 /// # Ok::<(), agent_node::wire::WireError>(())
 /// ```
+#[must_use]
 pub fn encode<F: Frame>(source: Source, y: f32, seq: u8) -> Option<(F, Encoded)> {
     encode_in(&IdPlan::DEFAULT, source, y, seq)
 }
@@ -707,6 +719,7 @@ pub fn decode_in<F: Frame>(plan: &IdPlan, frame: &F) -> Result<Decoded, WireErro
 /// assert_eq!(f.raw_id(), 0x200);
 /// assert!(encode_in::<CanFrame>(&plan, Source::Agent(5), 1.0, 0).is_none()); // beyond the plan
 /// ```
+#[must_use]
 pub fn encode_in<F: Frame>(plan: &IdPlan, source: Source, y: f32, seq: u8) -> Option<(F, Encoded)> {
     let id = StandardId::new(plan.value_id(source)?)?;
     let enc = encode_payload(y, seq);
@@ -756,6 +769,7 @@ impl Heartbeat {
     ///     boot_count: 0, overruns: 0, safe_entries: 3 };
     /// assert_eq!(hb.to_bytes(), [2, 4, 0, 0, 0, 0, 3, 0]);
     /// ```
+    #[must_use]
     pub fn to_bytes(&self) -> [u8; HEARTBEAT_LEN] {
         let [b0, b1] = self.boot_count.to_le_bytes();
         let [o0, o1] = self.overruns.to_le_bytes();
@@ -801,6 +815,7 @@ impl Heartbeat {
 /// let no_hb = IdPlan::new(0x100, None, 8).unwrap();
 /// assert!(encode_heartbeat::<CanFrame>(&no_hb, 7, &hb).is_none());
 /// ```
+#[must_use]
 pub fn encode_heartbeat<F: Frame>(plan: &IdPlan, agent: u8, hb: &Heartbeat) -> Option<F> {
     F::new(StandardId::new(plan.heartbeat_id(agent)?)?, &hb.to_bytes())
 }
@@ -838,6 +853,7 @@ pub enum SeqCheck {
 /// assert_eq!(seq_check(6, 6), SeqCheck::Repeated);
 /// assert_eq!(seq_check(6, 5), SeqCheck::Older);
 /// ```
+#[must_use]
 pub fn seq_check(last: u8, new: u8) -> SeqCheck {
     let d = new.wrapping_sub(last) & SEQ_MASK;
     match d {

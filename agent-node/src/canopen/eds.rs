@@ -294,6 +294,7 @@ pub fn write_eds<W: Write, const N: usize>(
 /// assert_eq!(dev.nmt(), NmtState::Initialising); // not booted
 /// assert!(dev.store.controller().unwrap().pinned);
 /// ```
+#[must_use]
 pub fn reference_device() -> Option<Device<2>> {
     let node = crate::node::NodeConfig::<0>::new(1, [], 1);
     let controller = controller_core::ControllerConfig::<2>::default();

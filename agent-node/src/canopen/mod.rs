@@ -42,6 +42,7 @@ pub const SYNC_ID: u16 = 0x080;
 /// use agent_node::canopen::emcy_id;
 /// assert_eq!(emcy_id(2), 0x082);
 /// ```
+#[must_use]
 pub const fn emcy_id(id: u8) -> u16 {
     0x080 + id as u16
 }
@@ -51,6 +52,7 @@ pub const fn emcy_id(id: u8) -> u16 {
 /// use agent_node::canopen::tpdo_id;
 /// assert_eq!(tpdo_id(1, 2), 0x182); // the predefined set's TPDO1 (the node's own uses its IdPlan)
 /// ```
+#[must_use]
 pub const fn tpdo_id(k: u8, id: u8) -> u16 {
     0x080 + 0x100 * k as u16 + id as u16
 }
@@ -60,6 +62,7 @@ pub const fn tpdo_id(k: u8, id: u8) -> u16 {
 /// use agent_node::canopen::rpdo_id;
 /// assert_eq!(rpdo_id(1, 2), 0x202);
 /// ```
+#[must_use]
 pub const fn rpdo_id(k: u8, id: u8) -> u16 {
     0x100 + 0x100 * k as u16 + id as u16
 }
@@ -69,6 +72,7 @@ pub const fn rpdo_id(k: u8, id: u8) -> u16 {
 /// use agent_node::canopen::sdo_tx_id;
 /// assert_eq!(sdo_tx_id(2), 0x582);
 /// ```
+#[must_use]
 pub const fn sdo_tx_id(id: u8) -> u16 {
     0x580 + id as u16
 }
@@ -78,6 +82,7 @@ pub const fn sdo_tx_id(id: u8) -> u16 {
 /// use agent_node::canopen::sdo_rx_id;
 /// assert_eq!(sdo_rx_id(2), 0x602);
 /// ```
+#[must_use]
 pub const fn sdo_rx_id(id: u8) -> u16 {
     0x600 + id as u16
 }
@@ -87,6 +92,7 @@ pub const fn sdo_rx_id(id: u8) -> u16 {
 /// use agent_node::canopen::heartbeat_id;
 /// assert_eq!(heartbeat_id(2), 0x702);
 /// ```
+#[must_use]
 pub const fn heartbeat_id(id: u8) -> u16 {
     0x700 + id as u16
 }
@@ -128,6 +134,7 @@ impl NmtState {
     /// assert_eq!(NmtState::Initialising.code(), 0x00); // the boot-up message
     /// assert_eq!(NmtState::Operational.code(), 0x05);
     /// ```
+    #[must_use]
     pub const fn code(self) -> u8 {
         match self {
             Self::Initialising => 0x00,
@@ -145,6 +152,7 @@ impl NmtState {
     /// assert_eq!(NmtState::from_code(0x7F), Some(NmtState::PreOperational));
     /// assert_eq!(NmtState::from_code(0x85), None); // node guarding's toggle bit: not a heartbeat
     /// ```
+    #[must_use]
     pub const fn from_code(c: u8) -> Option<Self> {
         match c {
             0x00 => Some(Self::Initialising),
@@ -161,6 +169,7 @@ impl NmtState {
     /// use agent_node::canopen::NmtState;
     /// assert_eq!(NmtState::PreOperational.name(), "PRE-OPERATIONAL"); // as python-canopen prints it
     /// ```
+    #[must_use]
     pub const fn name(self) -> &'static str {
         match self {
             Self::Initialising => "INITIALISING",
@@ -215,6 +224,7 @@ impl NmtCommand {
     /// use agent_node::canopen::NmtCommand;
     /// assert_eq!(NmtCommand::ResetNode.code(), 0x81);
     /// ```
+    #[must_use]
     pub const fn code(self) -> u8 {
         match self {
             Self::Start => 0x01,
@@ -232,6 +242,7 @@ impl NmtCommand {
     /// assert_eq!(NmtCommand::from_code(0x80), Some(NmtCommand::EnterPreOperational));
     /// assert_eq!(NmtCommand::from_code(0x03), None);
     /// ```
+    #[must_use]
     pub const fn from_code(c: u8) -> Option<Self> {
         match c {
             0x01 => Some(Self::Start),
@@ -317,6 +328,7 @@ impl Abort {
     /// assert_eq!(Abort::NoObject.code(), 0x0602_0000);
     /// assert_eq!(Abort::ValueTooHigh.code(), 0x0609_0031);
     /// ```
+    #[must_use]
     pub const fn code(self) -> u32 {
         match self {
             Self::Toggle => 0x0503_0000,
@@ -422,6 +434,7 @@ impl SdoData {
     /// dev.set_heartbeat_ms(250);
     /// assert_eq!(dev.read(0x1017, 0).unwrap().as_slice(), &250u16.to_le_bytes());
     /// ```
+    #[must_use]
     pub fn as_slice(&self) -> &[u8] {
         self.buf.get(..self.len).unwrap_or(&[])
     }
@@ -476,6 +489,7 @@ impl CoFrame {
     /// assert_eq!((f.id, f.len), (0x080, 0));
     /// assert_eq!(CoFrame::new(0x602, &[0; 10]).len, 8); // more than 8 bytes are cut
     /// ```
+    #[must_use]
     pub fn new(id: u16, data: &[u8]) -> Self {
         let mut f = Self {
             id,
@@ -494,6 +508,7 @@ impl CoFrame {
     /// use agent_node::canopen::CoFrame;
     /// assert_eq!(CoFrame::new(0x582, &[0x60, 0x17, 0x10, 0]).data(), &[0x60, 0x17, 0x10, 0]);
     /// ```
+    #[must_use]
     pub fn data(&self) -> &[u8] {
         self.data.get(..usize::from(self.len)).unwrap_or(&self.data)
     }
@@ -508,6 +523,7 @@ impl CoFrame {
     /// assert_eq!((f.raw_id(), f.dlc()), (0x082, 8));
     /// assert!(CoFrame::new(0x800, &[]).to_frame::<CanFrame>().is_none()); // beyond 11 bits
     /// ```
+    #[must_use]
     pub fn to_frame<F: embedded_can::Frame>(&self) -> Option<F> {
         let id = embedded_can::StandardId::new(self.id)?;
         F::new(id, self.data())
@@ -620,6 +636,7 @@ impl Fault {
     /// assert_eq!(Fault::Overrun.code(), 0x6200);
     /// assert_eq!(Fault::HeartbeatLost(4).code(), 0x8130);
     /// ```
+    #[must_use]
     pub const fn code(self) -> u16 {
         match self {
             Self::SafeState(lost) if lost & 0b11 == 0 => 0x7300,
@@ -644,6 +661,7 @@ impl Fault {
     /// assert_eq!(Fault::Fault.register_bits(), 0x01); // generic only
     /// assert_eq!(Fault::Overrun.register_bits(), 0x81); // generic + manufacturer
     /// ```
+    #[must_use]
     pub const fn register_bits(self) -> u8 {
         match self.code() >> 8 {
             0x81 | 0x82 => 0x11,
@@ -662,6 +680,7 @@ impl Fault {
     /// assert_eq!(Fault::Overrun.info(300), [4, 0, 44, 1, 0]); // cause 4, 300 overruns
     /// assert_eq!(Fault::HeartbeatLost(7).info(0), [9, 7, 0, 0, 0]);
     /// ```
+    #[must_use]
     pub const fn info(self, count: u16) -> [u8; 5] {
         let (cause, detail) = match self {
             Self::SafeState(lost) => (1, lost),
@@ -893,6 +912,7 @@ impl<const N: usize> Device<N> {
     /// assert_eq!(dev.nmt(), NmtState::Operational);
     /// assert_eq!(dev.next_tx().unwrap().id, heartbeat_id(2)); // the boot-up message
     /// ```
+    #[must_use]
     pub fn new(store: ParamStore<N>, identity: Identity, self_starting: bool) -> Self {
         Self {
             node_id: store.node.node_id,
@@ -939,6 +959,7 @@ impl<const N: usize> Device<N> {
     /// use agent_node::wire::IdPlan;
     /// assert_eq!(*dev.id_plan(), IdPlan::DEFAULT);
     /// ```
+    #[must_use]
     pub fn id_plan(&self) -> &IdPlan {
         &self.store.node.ids
     }
@@ -967,6 +988,7 @@ impl<const N: usize> Device<N> {
     /// assert_eq!(dev.rpdo_source(0), Some((Source::Leader, true))); // RPDO1: pinned
     /// assert_eq!(dev.rpdo_source(1), Some((Source::Agent(1), true))); // neighbour slot 0
     /// ```
+    #[must_use]
     pub fn rpdo_source(&self, k: u8) -> Option<(Source, bool)> {
         let agent = &self.store.sections.agent;
         if k == 0 {
@@ -1075,6 +1097,7 @@ impl<const N: usize> Device<N> {
     /// # let mut dev = device();
     /// assert_eq!(dev.node_id(), 2); // the agent number i
     /// ```
+    #[must_use]
     pub fn node_id(&self) -> u8 {
         self.node_id
     }
@@ -1102,6 +1125,7 @@ impl<const N: usize> Device<N> {
     /// dev.on_frame(0x000, &[0x02, 2], 0); // NMT stop
     /// assert_eq!(dev.nmt(), NmtState::Stopped);
     /// ```
+    #[must_use]
     pub fn nmt(&self) -> NmtState {
         self.nmt
     }
@@ -1128,6 +1152,7 @@ impl<const N: usize> Device<N> {
     /// dev.on_frame(0x000, &[0x01, 2], 0);
     /// assert!(dev.outputs_enabled());
     /// ```
+    #[must_use]
     pub fn outputs_enabled(&self) -> bool {
         self.nmt == NmtState::Operational
     }
@@ -1154,6 +1179,7 @@ impl<const N: usize> Device<N> {
     /// dev.on_frame(0x000, &[0x01, 0], 0); // NMT start, every node
     /// assert!(dev.pdo_enabled());
     /// ```
+    #[must_use]
     pub fn pdo_enabled(&self) -> bool {
         self.nmt == NmtState::Operational
     }
@@ -1244,6 +1270,7 @@ impl<const N: usize> Device<N> {
     /// dev.clear(Fault::SensorInvalid);
     /// assert_eq!(dev.error_register(), 0);
     /// ```
+    #[must_use]
     pub fn error_register(&self) -> u8 {
         self.register
     }
@@ -1483,6 +1510,7 @@ impl<const N: usize> Device<N> {
     /// dev.tick(101_000);
     /// assert!(dev.heartbeat_lost(3));
     /// ```
+    #[must_use]
     pub fn heartbeat_lost(&self, node: u8) -> bool {
         self.consumers
             .iter()
@@ -1547,6 +1575,7 @@ impl<const N: usize> Device<N> {
     /// dev.on_frame(heartbeat_id(1), &[0x7F], 0);
     /// assert_eq!(dev.consumed_state(1), Some(NmtState::PreOperational));
     /// ```
+    #[must_use]
     pub fn consumed_state(&self, node: u8) -> Option<NmtState> {
         self.consumers
             .iter()
@@ -2352,6 +2381,7 @@ pub enum Message {
 /// assert_eq!((node, request, index, code), (5, false, 0x2000, Some(0x0609_0030)));
 /// assert_eq!(decode(0x185, &[0; 4]), None); // a PDO
 /// ```
+#[must_use]
 pub fn decode(id: u16, data: &[u8]) -> Option<Message> {
     let node = (id & 0x7F) as u8;
     let byte = |k: usize| data.get(k).copied().unwrap_or(0);
@@ -2399,6 +2429,7 @@ pub fn decode(id: u16, data: &[u8]) -> Option<Message> {
 /// use agent_node::canopen::{abort_frame, Abort};
 /// assert_eq!(abort_frame(0x1017, 0, Abort::ReadOnly), [0x80, 0x17, 0x10, 0, 0x02, 0, 0x01, 0x06]);
 /// ```
+#[must_use]
 pub fn abort_frame(index: u16, sub: u8, a: Abort) -> [u8; 8] {
     let i = index.to_le_bytes();
     let c = a.code().to_le_bytes();

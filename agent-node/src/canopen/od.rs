@@ -110,6 +110,7 @@ impl Field {
     /// assert_eq!(Field::ALL.iter().map(|f| u32::from(f.bits())).sum::<u32>(), 32); // 4 bytes
     /// assert_eq!(Field::Sequence.bits(), 6); // counter modulo 64
     /// ```
+    #[must_use]
     pub const fn bits(self) -> u8 {
         match self {
             Self::Y => 8 * (crate::wire::PAYLOAD_LEN as u8 - 1),
@@ -124,6 +125,7 @@ impl Field {
     /// use agent_node::canopen::od::Field;
     /// assert_eq!((Field::Y.offset(), Field::Sequence.offset(), Field::NoValue.offset()), (0, 24, 31));
     /// ```
+    #[must_use]
     pub const fn offset(self) -> u8 {
         let mut off = 0;
         let mut k = 0;
@@ -144,6 +146,7 @@ impl Field {
     /// // The object of the own frame's saturated flag.
     /// assert_eq!(TX_VALUE_BASE + Field::Saturated.position(), 0x2202);
     /// ```
+    #[must_use]
     pub const fn position(self) -> u16 {
         self as u16
     }
@@ -155,6 +158,7 @@ impl Field {
     /// assert_eq!(Field::Y.data_type(), DataType::Integer24);
     /// assert_eq!(Field::NoValue.data_type(), DataType::Boolean);
     /// ```
+    #[must_use]
     pub const fn data_type(self) -> DataType {
         match self {
             Self::Y => DataType::Integer24,
@@ -169,6 +173,7 @@ impl Field {
     /// use agent_node::canopen::od::Field;
     /// assert!(Field::Y.name().contains("Q7.16"));
     /// ```
+    #[must_use]
     pub const fn name(self) -> &'static str {
         match self {
             Self::Y => "Value y (Q7.16, y = raw / 65536)",
@@ -188,6 +193,7 @@ impl Field {
     /// let neg = encode_payload(-1.0, 0).data;
     /// assert_eq!(Field::Y.extract(&neg), 0xFF_0000); // -1.0 as a 24-bit pattern
     /// ```
+    #[must_use]
     pub fn extract(self, frame: &[u8; crate::wire::PAYLOAD_LEN]) -> u32 {
         let all = u32::from_le_bytes(*frame);
         (all >> self.offset()) & ((1u32 << self.bits()) - 1)
@@ -201,6 +207,7 @@ impl Field {
     /// // TPDO1 maps 0x2200:00, 24 bits.
     /// assert_eq!(Field::Y.mapping(0x2200, 0), 0x2200_0018);
     /// ```
+    #[must_use]
     pub const fn mapping(self, index: u16, sub: u8) -> u32 {
         (index as u32) << 16 | (sub as u32) << 8 | self.bits() as u32
     }
@@ -238,6 +245,7 @@ impl DataType {
     /// use agent_node::canopen::od::DataType;
     /// assert_eq!(DataType::Unsigned16.code(), 0x0006); // the EDS DataType
     /// ```
+    #[must_use]
     pub const fn code(self) -> u16 {
         match self {
             Self::Boolean => 0x0001,
@@ -256,6 +264,7 @@ impl DataType {
     /// use agent_node::canopen::od::DataType;
     /// assert_eq!(DataType::Integer24.size(), Some(3));
     /// ```
+    #[must_use]
     pub const fn size(self) -> Option<usize> {
         match self {
             Self::Boolean | Self::Unsigned8 => Some(1),
@@ -291,6 +300,7 @@ impl Access {
     /// use agent_node::canopen::od::Access;
     /// assert_eq!([Access::ReadOnly, Access::Const, Access::ReadWrite].map(Access::eds), ["ro", "const", "rw"]);
     /// ```
+    #[must_use]
     pub const fn eds(self) -> &'static str {
         match self {
             Self::ReadOnly => "ro",
@@ -413,6 +423,7 @@ impl Setting {
     /// assert_eq!((s.key, s.unit), ("network.stale_timeout", "s"));
     /// assert!(Setting::ALL.iter().all(|s| !s.spec().key.is_empty()));
     /// ```
+    #[must_use]
     pub const fn spec(self) -> SettingSpec {
         use DataType::{Real32 as R, Unsigned8 as U8};
         match self {
@@ -668,6 +679,7 @@ const COMM: [Object; 13] = {
 /// assert_eq!(param_type(Param::Zeta), DataType::Real32); // ζ ∈ (0, 1)
 /// assert_eq!(param_type(Param::MtnOrder), DataType::Unsigned8); // a count
 /// ```
+#[must_use]
 pub const fn param_type(p: Param) -> DataType {
     match p.spec().range {
         Range::Bool => DataType::Boolean,
@@ -688,6 +700,7 @@ pub const fn param_type(p: Param) -> DataType {
 /// assert_eq!(param_access(Param::Ts), Access::ReadWrite);
 /// assert_eq!(param_access(Param::Neighbours), Access::ReadOnly); // the graph is not the node's
 /// ```
+#[must_use]
 pub const fn param_access(p: Param) -> Access {
     match p.spec().range {
         Range::Elsewhere => Access::ReadOnly,
@@ -854,6 +867,7 @@ pub static OBJECTS: [Object; OBJECT_COUNT] = build();
 /// assert_eq!(find(0x1018).unwrap().name, "Identity object");
 /// assert!(find(0x1002).is_none());
 /// ```
+#[must_use]
 pub fn find(index: u16) -> Option<&'static Object> {
     OBJECTS
         .binary_search_by_key(&index, |o| o.index)
@@ -868,6 +882,7 @@ pub fn find(index: u16) -> Option<&'static Object> {
 /// let id = find(0x1018).unwrap();
 /// assert_eq!((sub_name(id, 0), sub_name(id, 4)), ("Highest sub-index supported", "Serial number"));
 /// ```
+#[must_use]
 pub fn sub_name(o: &Object, sub: u8) -> &'static str {
     match (o.item, sub) {
         (_, 0) => "Highest sub-index supported",
@@ -900,6 +915,7 @@ pub fn sub_name(o: &Object, sub: u8) -> &'static str {
 /// assert_eq!(sub_data_type(tpdo, 1), DataType::Unsigned32); // COB-ID
 /// assert_eq!(sub_data_type(tpdo, 2), DataType::Unsigned8); // transmission type
 /// ```
+#[must_use]
 pub fn sub_data_type(o: &Object, sub: u8) -> DataType {
     match (o.item, sub) {
         (_, 0) if o.kind != Kind::Var => DataType::Unsigned8,
@@ -919,6 +935,7 @@ pub fn sub_data_type(o: &Object, sub: u8) -> DataType {
 /// assert_eq!(config_abort(&e, Param::PhiLow), Abort::ValueTooHigh); // φ_low above φ_up
 /// assert_eq!(config_abort(&e, Param::PhiUp), Abort::ParamIncompatible); // written φ_up clashes
 /// ```
+#[must_use]
 pub fn config_abort(e: &ConfigError, written: Param) -> Abort {
     if e.param() != written {
         return Abort::ParamIncompatible;
@@ -1035,6 +1052,7 @@ impl Value {
     /// assert_eq!(Value::Unsigned(0x1234).encode(DataType::Unsigned16).as_slice(), &[0x34, 0x12]);
     /// assert_eq!(Value::Bool(true).encode(DataType::Boolean).as_slice(), &[1]);
     /// ```
+    #[must_use]
     pub fn encode(self, t: DataType) -> SdoData {
         let mut d = SdoData::default();
         let (bytes, n) = match (self, t) {
@@ -1249,6 +1267,7 @@ impl<const N: usize> ParamStore<N> {
     /// use agent_node::SupervisorConfig;
     /// assert_eq!(store.supervisor(), SupervisorConfig::OFF);
     /// ```
+    #[must_use]
     pub fn supervisor(&self) -> SupervisorConfig {
         self.node.supervisor
     }
@@ -1271,6 +1290,7 @@ impl<const N: usize> ParamStore<N> {
     /// // c_1 absent (computed from Theorem 1): reads NaN.
     /// assert!(matches!(store.read_param(Param::C1, 0), Some(Value::Real(c)) if c.is_nan()));
     /// ```
+    #[must_use]
     pub fn read_param(&self, p: Param, sub: u8) -> Option<Value> {
         let s = &self.sections;
         let c = &s.controller;
@@ -1380,6 +1400,7 @@ impl<const N: usize> ParamStore<N> {
     /// assert_eq!(store.read_setting(Setting::NodeId), Value::Unsigned(2));
     /// assert_eq!(store.read_setting(Setting::LeaderTimeout), Value::Real(0.0)); // not supervised
     /// ```
+    #[must_use]
     pub fn read_setting(&self, s: Setting) -> Value {
         let n = &self.node;
         let sup = &n.supervisor;
@@ -1585,6 +1606,7 @@ fn set_param<const N: usize>(
 /// assert_eq!(param_default(Param::MtnOrder), Some(Value::Unsigned(2)));
 /// assert_eq!(param_default(Param::C1), None); // computed (Theorem 1)
 /// ```
+#[must_use]
 pub fn param_default(p: Param) -> Option<Value> {
     let spec = p.spec();
     match spec.default {
