@@ -376,6 +376,7 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
     /// assert_eq!(out.status.links.missing_neighbours, 1);
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
+    #[must_use = "the step's quantized command `q` is what the actuators must get"]
     pub fn step(&mut self, x: &[f32; N], neighbours: &[Link], leader: Link) -> StepOutput<N, M> {
         // With safety on: differentiators restart after a held step and returning links
         // re-enter at the recovery rate, each value as the law reads it (no copy of the
