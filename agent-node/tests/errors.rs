@@ -22,7 +22,7 @@ fn supervisor_and_node_errors() {
         policy: SafePolicy::Stop { decel: 0.0 },
         ..SupervisorConfig::OFF
     };
-    let e = Supervisor::new(&cfg).unwrap_err();
+    let e = Supervisor::new(&cfg).expect_err("a stop deceleration of 0");
     assert_eq!(e, SupervisorError::StopDecel);
     assert!(message(&e).contains("deceleration"));
 
@@ -42,20 +42,20 @@ fn supervisor_and_node_errors() {
 
 #[test]
 fn wire_and_link_errors() {
-    let e = IdPlan::new(0x100, Some(0x100), 4).unwrap_err();
+    let e = IdPlan::new(0x100, Some(0x100), 4).expect_err("overlapping blocks");
     assert_eq!(e, IdPlanError::Overlap);
     assert!(message(&e).contains("overlap"));
 
-    let f = CanFrame::new(StandardId::new(0x600).unwrap(), &[0; 4]).unwrap();
-    let e = decode(&f).unwrap_err();
+    let f = CanFrame::new(StandardId::new(0x600).expect("11-bit"), &[0; 4]).expect("4 bytes");
+    let e = decode(&f).expect_err("not an identifier of the plan");
     assert_eq!(e, WireError::UnknownId(0x600));
     assert!(message(&e).contains("0x600"));
 
-    let e = slcan_decode(b"?").unwrap_err();
+    let e = slcan_decode(b"?").expect_err("no SLCAN command");
     assert_eq!(e, SlcanError::UnknownCommand);
     message(&e);
 
-    let e = decode_config::<2, 0>(&[1, 2, 3]).unwrap_err();
+    let e = decode_config::<2, 0>(&[1, 2, 3]).expect_err("three words");
     assert_eq!(e, ConfigReject::WordCount);
     message(&e);
     for r in [
@@ -69,8 +69,8 @@ fn wire_and_link_errors() {
 
 #[test]
 fn canopen_errors() {
-    let mut dev = reference_device().unwrap();
-    let e = dev.write(0x1018, 1, &[0; 4]).unwrap_err(); // the identity is read-only
+    let mut dev = reference_device().expect("the reference device");
+    let e = dev.write(0x1018, 1, &[0; 4]).expect_err("read-only"); // the identity is read-only
     assert_eq!(e, Abort::ReadOnly);
     assert_eq!(
         message(&e),
@@ -81,7 +81,7 @@ fn canopen_errors() {
         NodeConfig::new(128, [], 1_000).identity(),
         &ControllerConfig::<2>::default(),
     );
-    let e = r.unwrap_err();
+    let e = r.expect_err("node-ID 128");
     assert_eq!(e, StoreError::Unrepresentable);
     assert!(message(&e).contains("1..=127"));
 
