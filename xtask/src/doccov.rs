@@ -43,7 +43,7 @@ const CRATES: [Gate; 2] = [
 pub const MIN_EXAMPLES: u64 = 156;
 
 /// Items of agent-node with a runnable example (rustdoc's count) below which the gate fails.
-pub const MIN_EXAMPLES_AGENT_NODE: u64 = 8;
+pub const MIN_EXAMPLES_AGENT_NODE: u64 = 284;
 
 /// Per-file counts of rustdoc's coverage report.
 #[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
