@@ -1400,19 +1400,21 @@ where
     /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
     /// #         .unwrap()
     /// # }
-    /// use agent_node::canopen::{Fault, Identity};
+    /// use agent_node::canopen::Fault;
     /// // Without a CANopen device nothing is sent; with one, an EMCY with the CiA 301 code.
     /// let mut n = node();
     /// n.report_fault(Fault::BusOff, 1);
     /// assert!(n.can().tx.is_empty());
+    /// # #[cfg(feature = "canopen")] {
     /// let (cfg, ctrl) = (NodeConfig::new(2, [1], 2_500),
     ///     ControllerConfig::<2> { neighbour_count: 1, ..Default::default() });
-    /// n.enable_canopen(&cfg, &ctrl, Identity::default(), true, 0).unwrap();
+    /// n.enable_canopen(&cfg, &ctrl, agent_node::canopen::Identity::default(), true, 0).unwrap();
     /// n.service(); // boot-up message
     /// n.report_fault(Fault::BusOff, 1);
     /// let emcy = n.can().tx.last().unwrap();
     /// assert_eq!(emcy.raw_id(), 0x80 + 2);
     /// assert_eq!(&embedded_can::Frame::data(emcy)[..2], &0x8140u16.to_le_bytes());
+    /// # }
     /// ```
     pub fn report_fault(&mut self, f: Fault, count: u32) {
         self.emcy(f, count);

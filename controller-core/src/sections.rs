@@ -839,9 +839,9 @@ impl<const N: usize> Sections<N> {
     /// ```
     /// use controller_core::{param::Param, sections::Sections, ControllerConfig, Reason};
     /// let mut s = Sections::from(ControllerConfig::<2>::default());
-    /// s.controller.ts = -1.0; // T_s > 0 (Theorem 1): the error names the key
+    /// s.controller.a_check.pop(); // one ǎ_j for a plant of order n = 2
     /// let e = s.config().unwrap_err();
-    /// assert_eq!((e.param(), e.reason()), (Param::Ts, Reason::NonPositive));
+    /// assert_eq!((e.param(), e.reason()), (Param::ACheck, Reason::StepCount { expected: 2, got: 1 }));
     /// ```
     pub fn config(&self) -> Result<ControllerConfig<N>, ConfigError> {
         ControllerConfig::from_sections(self.agent, &self.controller, &self.quantizer, &self.safety)
