@@ -88,44 +88,8 @@ pub const MAX_RX_PER_POLL: usize = 32;
 /// A monotonic clock.
 ///
 /// ```
-/// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-/// # use controller_core::ControllerConfig;
-/// # use embedded_can::{nb::Can, ErrorKind};
-/// # #[derive(Default)]
-/// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-/// # impl Can for Bus {
-/// #     type Frame = CanFrame;
-/// #     type Error = ErrorKind;
-/// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-/// #         self.tx.push(*f);
-/// #         Ok(None)
-/// #     }
-/// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-/// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-/// #     }
-/// # }
-/// # struct Time(u64);
-/// # impl Clock for Time {
-/// #     fn now_us(&mut self) -> u64 { self.0 }
-/// # }
-/// # struct State(Result<[f32; 2], ()>);
-/// # impl Sensor<2> for State {
-/// #     type Error = ();
-/// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-/// # }
-/// # #[derive(Default)]
-/// # struct Drive([f32; 2]);
-/// # impl Actuator<2> for Drive {
-/// #     type Error = ();
-/// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-/// # }
-/// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-/// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-/// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-/// #     let cfg = NodeConfig::new(2, [1], 2_500);
-/// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-/// #         .unwrap()
-/// # }
+/// # mod hw { include!("doctest_node.rs"); }
+/// # use hw::*;
 /// // The node reads its clock once per tick: the tick reports the reading.
 /// let mut n = node();
 /// n.clock_mut().0 = 1_000;
@@ -152,44 +116,8 @@ pub trait Clock {
 /// The agent's state sensors: `x_i` (`N` entries; `x_{i,1} = y_i`).
 ///
 /// ```
-/// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-/// # use controller_core::ControllerConfig;
-/// # use embedded_can::{nb::Can, ErrorKind};
-/// # #[derive(Default)]
-/// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-/// # impl Can for Bus {
-/// #     type Frame = CanFrame;
-/// #     type Error = ErrorKind;
-/// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-/// #         self.tx.push(*f);
-/// #         Ok(None)
-/// #     }
-/// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-/// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-/// #     }
-/// # }
-/// # struct Time(u64);
-/// # impl Clock for Time {
-/// #     fn now_us(&mut self) -> u64 { self.0 }
-/// # }
-/// # struct State(Result<[f32; 2], ()>);
-/// # impl Sensor<2> for State {
-/// #     type Error = ();
-/// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-/// # }
-/// # #[derive(Default)]
-/// # struct Drive([f32; 2]);
-/// # impl Actuator<2> for Drive {
-/// #     type Error = ();
-/// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-/// # }
-/// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-/// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-/// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-/// #     let cfg = NodeConfig::new(2, [1], 2_500);
-/// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-/// #         .unwrap()
-/// # }
+/// # mod hw { include!("doctest_node.rs"); }
+/// # use hw::*;
 /// use controller_core::StepFault;
 /// // A failed read passes a NaN state: the controller holds its command (LAW §6).
 /// let mut n = node();
@@ -223,44 +151,8 @@ pub trait Sensor<const N: usize> {
 /// The agent's actuators: the `M` quantized commands `q_{i,l}`.
 ///
 /// ```
-/// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-/// # use controller_core::ControllerConfig;
-/// # use embedded_can::{nb::Can, ErrorKind};
-/// # #[derive(Default)]
-/// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-/// # impl Can for Bus {
-/// #     type Frame = CanFrame;
-/// #     type Error = ErrorKind;
-/// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-/// #         self.tx.push(*f);
-/// #         Ok(None)
-/// #     }
-/// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-/// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-/// #     }
-/// # }
-/// # struct Time(u64);
-/// # impl Clock for Time {
-/// #     fn now_us(&mut self) -> u64 { self.0 }
-/// # }
-/// # struct State(Result<[f32; 2], ()>);
-/// # impl Sensor<2> for State {
-/// #     type Error = ();
-/// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-/// # }
-/// # #[derive(Default)]
-/// # struct Drive([f32; 2]);
-/// # impl Actuator<2> for Drive {
-/// #     type Error = ();
-/// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-/// # }
-/// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-/// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-/// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-/// #     let cfg = NodeConfig::new(2, [1], 2_500);
-/// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-/// #         .unwrap()
-/// # }
+/// # mod hw { include!("doctest_node.rs"); }
+/// # use hw::*;
 /// // Each tick writes the quantized commands q of the step to the actuators.
 /// let mut n = node();
 /// let t = n.tick();
@@ -446,44 +338,8 @@ impl core::error::Error for NodeError {}
 /// Counters of one node since it started.
 ///
 /// ```
-/// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-/// # use controller_core::ControllerConfig;
-/// # use embedded_can::{nb::Can, ErrorKind};
-/// # #[derive(Default)]
-/// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-/// # impl Can for Bus {
-/// #     type Frame = CanFrame;
-/// #     type Error = ErrorKind;
-/// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-/// #         self.tx.push(*f);
-/// #         Ok(None)
-/// #     }
-/// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-/// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-/// #     }
-/// # }
-/// # struct Time(u64);
-/// # impl Clock for Time {
-/// #     fn now_us(&mut self) -> u64 { self.0 }
-/// # }
-/// # struct State(Result<[f32; 2], ()>);
-/// # impl Sensor<2> for State {
-/// #     type Error = ();
-/// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-/// # }
-/// # #[derive(Default)]
-/// # struct Drive([f32; 2]);
-/// # impl Actuator<2> for Drive {
-/// #     type Error = ();
-/// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-/// # }
-/// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-/// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-/// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-/// #     let cfg = NodeConfig::new(2, [1], 2_500);
-/// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-/// #         .unwrap()
-/// # }
+/// # mod hw { include!("doctest_node.rs"); }
+/// # use hw::*;
 /// use agent_node::wire::{encode, Source};
 /// let mut n = node();
 /// let (f, _) = encode::<CanFrame>(Source::Agent(1), 0.5, 0).unwrap();
@@ -555,44 +411,8 @@ pub struct NodeStats {
 /// What happened to this sample's frame.
 ///
 /// ```
-/// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-/// # use controller_core::ControllerConfig;
-/// # use embedded_can::{nb::Can, ErrorKind};
-/// # #[derive(Default)]
-/// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-/// # impl Can for Bus {
-/// #     type Frame = CanFrame;
-/// #     type Error = ErrorKind;
-/// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-/// #         self.tx.push(*f);
-/// #         Ok(None)
-/// #     }
-/// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-/// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-/// #     }
-/// # }
-/// # struct Time(u64);
-/// # impl Clock for Time {
-/// #     fn now_us(&mut self) -> u64 { self.0 }
-/// # }
-/// # struct State(Result<[f32; 2], ()>);
-/// # impl Sensor<2> for State {
-/// #     type Error = ();
-/// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-/// # }
-/// # #[derive(Default)]
-/// # struct Drive([f32; 2]);
-/// # impl Actuator<2> for Drive {
-/// #     type Error = ();
-/// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-/// # }
-/// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-/// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-/// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-/// #     let cfg = NodeConfig::new(2, [1], 2_500);
-/// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-/// #         .unwrap()
-/// # }
+/// # mod hw { include!("doctest_node.rs"); }
+/// # use hw::*;
 /// use agent_node::TxOutcome;
 /// let mut n = node();
 /// assert_eq!(n.tick().tx, TxOutcome::Queued);
@@ -617,44 +437,8 @@ pub enum TxOutcome {
 /// The result of one [`Node::tick`].
 ///
 /// ```
-/// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-/// # use controller_core::ControllerConfig;
-/// # use embedded_can::{nb::Can, ErrorKind};
-/// # #[derive(Default)]
-/// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-/// # impl Can for Bus {
-/// #     type Frame = CanFrame;
-/// #     type Error = ErrorKind;
-/// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-/// #         self.tx.push(*f);
-/// #         Ok(None)
-/// #     }
-/// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-/// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-/// #     }
-/// # }
-/// # struct Time(u64);
-/// # impl Clock for Time {
-/// #     fn now_us(&mut self) -> u64 { self.0 }
-/// # }
-/// # struct State(Result<[f32; 2], ()>);
-/// # impl Sensor<2> for State {
-/// #     type Error = ();
-/// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-/// # }
-/// # #[derive(Default)]
-/// # struct Drive([f32; 2]);
-/// # impl Actuator<2> for Drive {
-/// #     type Error = ();
-/// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-/// # }
-/// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-/// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-/// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-/// #     let cfg = NodeConfig::new(2, [1], 2_500);
-/// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-/// #         .unwrap()
-/// # }
+/// # mod hw { include!("doctest_node.rs"); }
+/// # use hw::*;
 /// use agent_node::{NodeState, Tick};
 /// let mut n = node();
 /// n.clock_mut().0 = 5;
@@ -731,44 +515,8 @@ impl Slot {
 /// actuators. `N` state order, `M` actuators, `K` neighbour capacity.
 ///
 /// ```
-/// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-/// # use controller_core::ControllerConfig;
-/// # use embedded_can::{nb::Can, ErrorKind};
-/// # #[derive(Default)]
-/// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-/// # impl Can for Bus {
-/// #     type Frame = CanFrame;
-/// #     type Error = ErrorKind;
-/// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-/// #         self.tx.push(*f);
-/// #         Ok(None)
-/// #     }
-/// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-/// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-/// #     }
-/// # }
-/// # struct Time(u64);
-/// # impl Clock for Time {
-/// #     fn now_us(&mut self) -> u64 { self.0 }
-/// # }
-/// # struct State(Result<[f32; 2], ()>);
-/// # impl Sensor<2> for State {
-/// #     type Error = ();
-/// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-/// # }
-/// # #[derive(Default)]
-/// # struct Drive([f32; 2]);
-/// # impl Actuator<2> for Drive {
-/// #     type Error = ();
-/// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-/// # }
-/// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-/// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-/// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-/// #     let cfg = NodeConfig::new(2, [1], 2_500);
-/// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-/// #         .unwrap()
-/// # }
+/// # mod hw { include!("doctest_node.rs"); }
+/// # use hw::*;
 /// use agent_node::wire::{decode, encode, Source};
 /// use controller_core::Link;
 /// // Agent 2 hears agent 1's value 0.5, runs the law and broadcasts its own output y_2 = 0.1.
@@ -848,44 +596,8 @@ struct CanOpen<const N: usize> {
 /// Something the node's CANopen device asks of the application that runs the node.
 ///
 /// ```
-/// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-/// # use controller_core::ControllerConfig;
-/// # use embedded_can::{nb::Can, ErrorKind};
-/// # #[derive(Default)]
-/// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-/// # impl Can for Bus {
-/// #     type Frame = CanFrame;
-/// #     type Error = ErrorKind;
-/// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-/// #         self.tx.push(*f);
-/// #         Ok(None)
-/// #     }
-/// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-/// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-/// #     }
-/// # }
-/// # struct Time(u64);
-/// # impl Clock for Time {
-/// #     fn now_us(&mut self) -> u64 { self.0 }
-/// # }
-/// # struct State(Result<[f32; 2], ()>);
-/// # impl Sensor<2> for State {
-/// #     type Error = ();
-/// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-/// # }
-/// # #[derive(Default)]
-/// # struct Drive([f32; 2]);
-/// # impl Actuator<2> for Drive {
-/// #     type Error = ();
-/// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-/// # }
-/// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-/// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-/// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-/// #     let cfg = NodeConfig::new(2, [1], 2_500);
-/// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-/// #         .unwrap()
-/// # }
+/// # mod hw { include!("doctest_node.rs"); }
+/// # use hw::*;
 /// use agent_node::node::CanOpenRequest;
 /// use agent_node::canopen::Identity;
 /// // An SDO write of "save" to 0x1010:1 asks the application to persist the parameters.
@@ -958,44 +670,8 @@ where
     /// Validate the configuration (logging the culprit on failure) and build the node.
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// use agent_node::NodeError;
     /// assert_eq!(node().agent(), 2);
     /// let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
@@ -1096,44 +772,8 @@ where
     /// The node's state.
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// use agent_node::NodeState;
     /// let mut n = node();
     /// assert_eq!(n.state(), NodeState::Boot);
@@ -1147,44 +787,8 @@ where
     /// The supervisor (state, lost sources, entries).
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// let mut n = node();
     /// n.tick();
     /// assert!(n.supervisor().lost().is_empty());
@@ -1197,44 +801,8 @@ where
     /// The identifier plan.
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// use agent_node::IdPlan;
     /// assert_eq!(*node().ids(), IdPlan::DEFAULT);
     /// ```
@@ -1245,44 +813,8 @@ where
     /// The board's reset or boot counter, sent in the heartbeat.
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// use agent_node::wire::Heartbeat;
     /// // The boot counter travels in the heartbeat (bytes 2–3).
     /// let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
@@ -1307,44 +839,8 @@ where
     /// skipped are not counted again (see the module docs).
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// let mut n = node();
     /// n.record_overrun(); // the sample timer found the step still running
     /// assert_eq!(n.stats().overruns, 1);
@@ -1362,44 +858,8 @@ where
     /// `Node::canopen_mut`, the configuration is left as it is.
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// use agent_node::canopen::Fault;
     /// // Without a CANopen device nothing is sent; with one, an EMCY with the CiA 301 code.
     /// let mut n = node();
@@ -1425,44 +885,8 @@ where
     /// tick (outputs zero, heartbeat `fault`) until it is restarted.
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// use agent_node::NodeState;
     /// let mut n = node();
     /// n.enter_fault();
@@ -1477,44 +901,8 @@ where
     /// This agent's number.
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// assert_eq!(node().agent(), 2);
     /// ```
     pub fn agent(&self) -> u8 {
@@ -1524,44 +912,8 @@ where
     /// Counters since start.
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// let mut n = node();
     /// n.tick();
     /// n.tick();
@@ -1575,44 +927,8 @@ where
     /// The controller (read-only: state, parameters).
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// let mut n = node();
     /// n.tick();
     /// assert_eq!(n.controller().state().k, 1); // one sample of the law taken
@@ -1624,44 +940,8 @@ where
     /// The actuators (read-only: the commands applied).
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// let mut n = node();
     /// let q = n.tick().output.q;
     /// assert_eq!(n.actuator().0, q);
@@ -1673,44 +953,8 @@ where
     /// The CAN controller (read-only).
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// let mut n = node();
     /// assert!(n.can().tx.is_empty());
     /// n.tick();
@@ -1723,44 +967,8 @@ where
     /// The CAN controller (the host harness moves frames through it).
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// use agent_node::wire::{encode, Source};
     /// let mut n = node();
     /// let (f, _) = encode::<CanFrame>(Source::Leader, 0.25, 3).unwrap();
@@ -1775,44 +983,8 @@ where
     /// The clock.
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// let mut n = node();
     /// n.clock_mut().0 = 42;
     /// assert_eq!(n.tick().now_us, 42);
@@ -1824,44 +996,8 @@ where
     /// The sensors.
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// let mut n = node();
     /// n.sensor_mut().0 = Ok([0.75, 0.0]);
     /// n.tick();
@@ -1875,44 +1011,8 @@ where
     /// The actuators.
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// let mut n = node();
     /// n.actuator_mut().0 = [9.0; 2];
     /// n.tick();
@@ -1926,44 +1026,8 @@ where
     /// not a configured neighbour).
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// use agent_node::wire::{encode, Source};
     /// use controller_core::Link;
     /// let mut n = node();
@@ -1985,44 +1049,8 @@ where
     /// The agent heard in neighbour slot `k`.
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// let n = node();
     /// assert_eq!(n.neighbour_agent(0), Some(1));
     /// assert_eq!(n.neighbour_agent(1), None);
@@ -2034,44 +1062,8 @@ where
     /// The agent receives the leader (`r_i = 1`).
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// assert!(node().is_pinned()); // r_2 = 1: the default configuration hears the leader
     /// ```
     pub fn is_pinned(&self) -> bool {
@@ -2081,44 +1073,8 @@ where
     /// Receive time (µs) of the value held for neighbour slot `k`, if any.
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// use agent_node::wire::{encode, Source};
     /// let mut n = node();
     /// assert_eq!(n.neighbour_rx_time(0), None);
@@ -2136,44 +1092,8 @@ where
     /// clock now. Call from the CAN receive interrupt; [`Node::tick`] calls it too.
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// use agent_node::wire::{encode, Source};
     /// let mut n = node();
     /// let (f, _) = encode::<CanFrame>(Source::Agent(9), 0.5, 0).unwrap();
@@ -2274,44 +1194,8 @@ where
     /// module docs).
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// use agent_node::TxOutcome;
     /// let mut n = node();
     /// let t = n.tick();
@@ -2739,44 +1623,8 @@ where
     /// boot, without an NMT start. `heartbeat_ms`: `0x1017`.
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// use agent_node::canopen::{Identity, NmtState};
     /// use agent_node::TxOutcome;
     /// let mut n = node();
@@ -2812,44 +1660,8 @@ where
     /// The CANopen device, if enabled.
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// use agent_node::canopen::Identity;
     /// let mut n = node();
     /// assert!(n.canopen().is_none());
@@ -2866,44 +1678,8 @@ where
     /// ([`Device::report`]: bus-off, receive overflow, watchdog reset).
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// use agent_node::canopen::Identity;
     /// let mut n = node();
     /// let (cfg, ctrl) = (NodeConfig::new(2, [1], 2_500),
@@ -2923,44 +1699,8 @@ where
     /// The next request of the CANopen device for the application.
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// use agent_node::{canopen::Identity, node::CanOpenRequest};
     /// let mut n = node();
     /// assert_eq!(n.take_canopen_request(), None); // no device, no requests
@@ -3195,44 +1935,8 @@ where
     /// Nothing without a device.
     ///
     /// ```
-    /// # use agent_node::{Actuator, CanFrame, Clock, Node, NodeConfig, Sensor};
-    /// # use controller_core::ControllerConfig;
-    /// # use embedded_can::{nb::Can, ErrorKind};
-    /// # #[derive(Default)]
-    /// # struct Bus { rx: std::collections::VecDeque<CanFrame>, tx: Vec<CanFrame> }
-    /// # impl Can for Bus {
-    /// #     type Frame = CanFrame;
-    /// #     type Error = ErrorKind;
-    /// #     fn transmit(&mut self, f: &CanFrame) -> nb::Result<Option<CanFrame>, ErrorKind> {
-    /// #         self.tx.push(*f);
-    /// #         Ok(None)
-    /// #     }
-    /// #     fn receive(&mut self) -> nb::Result<CanFrame, ErrorKind> {
-    /// #         self.rx.pop_front().ok_or(nb::Error::WouldBlock)
-    /// #     }
-    /// # }
-    /// # struct Time(u64);
-    /// # impl Clock for Time {
-    /// #     fn now_us(&mut self) -> u64 { self.0 }
-    /// # }
-    /// # struct State(Result<[f32; 2], ()>);
-    /// # impl Sensor<2> for State {
-    /// #     type Error = ();
-    /// #     fn read(&mut self) -> Result<[f32; 2], ()> { self.0 }
-    /// # }
-    /// # #[derive(Default)]
-    /// # struct Drive([f32; 2]);
-    /// # impl Actuator<2> for Drive {
-    /// #     type Error = ();
-    /// #     fn write(&mut self, q: &[f32; 2]) -> Result<(), ()> { self.0 = *q; Ok(()) }
-    /// # }
-    /// # // Agent 2 of Example 1: hears agent 1 and the leader; stale after 2.5 ms.
-    /// # fn node() -> Node<Bus, Time, State, Drive, 2, 2, 1> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let cfg = NodeConfig::new(2, [1], 2_500);
-    /// #     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.1, 0.0])), Drive::default())
-    /// #         .unwrap()
-    /// # }
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
     /// use agent_node::canopen::Identity;
     /// let mut n = node();
     /// let (cfg, ctrl) = (NodeConfig::new(2, [1], 2_500),

@@ -183,19 +183,8 @@ impl NmtState {
 /// NMT command specifiers (CiA 301 §7.2.8.3.1).
 ///
 /// ```
-/// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-/// # use agent_node::NodeConfig;
-/// # use controller_core::ControllerConfig;
-/// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-/// # fn device() -> Device<2> {
-/// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-/// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-/// #     let mut dev = Device::new(store, Identity::default(), false);
-/// #     dev.boot(0);
-/// #     while dev.next_tx().is_some() {}
-/// #     while dev.next_event().is_some() {}
-/// #     dev
-/// # }
+/// # mod hw { include!("doctest_device.rs"); }
+/// # use hw::*;
 /// # #[allow(unused_mut)]
 /// # let mut dev = device();
 /// use agent_node::canopen::{NmtCommand, NmtState, NMT_ID};
@@ -260,19 +249,8 @@ impl NmtCommand {
 /// `#[non_exhaustive]`: CiA 301 defines more codes than the device sends today.
 ///
 /// ```
-/// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-/// # use agent_node::NodeConfig;
-/// # use controller_core::ControllerConfig;
-/// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-/// # fn device() -> Device<2> {
-/// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-/// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-/// #     let mut dev = Device::new(store, Identity::default(), false);
-/// #     dev.boot(0);
-/// #     while dev.next_tx().is_some() {}
-/// #     while dev.next_event().is_some() {}
-/// #     dev
-/// # }
+/// # mod hw { include!("doctest_device.rs"); }
+/// # use hw::*;
 /// # #[allow(unused_mut)]
 /// # let mut dev = device();
 /// use agent_node::canopen::Abort;
@@ -415,19 +393,8 @@ impl SdoData {
     /// The bytes.
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// // The producer heartbeat time (0x1017) reads as UNSIGNED16, little-endian.
@@ -551,19 +518,8 @@ impl CoFrame {
 /// What the application learns from the device.
 ///
 /// ```
-/// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-/// # use agent_node::NodeConfig;
-/// # use controller_core::ControllerConfig;
-/// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-/// # fn device() -> Device<2> {
-/// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-/// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-/// #     let mut dev = Device::new(store, Identity::default(), false);
-/// #     dev.boot(0);
-/// #     while dev.next_tx().is_some() {}
-/// #     while dev.next_event().is_some() {}
-/// #     dev
-/// # }
+/// # mod hw { include!("doctest_device.rs"); }
+/// # use hw::*;
 /// # #[allow(unused_mut)]
 /// # let mut dev = device();
 /// use agent_node::canopen::{Event, NmtState, SYNC_ID};
@@ -713,19 +669,8 @@ impl Fault {
 /// `0x1018`.
 ///
 /// ```
-/// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-/// # use agent_node::NodeConfig;
-/// # use controller_core::ControllerConfig;
-/// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-/// # fn device() -> Device<2> {
-/// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-/// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-/// #     let mut dev = Device::new(store, Identity::default(), false);
-/// #     dev.boot(0);
-/// #     while dev.next_tx().is_some() {}
-/// #     while dev.next_event().is_some() {}
-/// #     dev
-/// # }
+/// # mod hw { include!("doctest_device.rs"); }
+/// # use hw::*;
 /// # #[allow(unused_mut)]
 /// # let mut dev = device();
 /// let id = Identity { vendor: 0, product: 0x2, revision: 0x1_0000, serial: 42 };
@@ -832,19 +777,8 @@ enum Transfer {
 /// The CANopen device of one node. `N`: state order of its controller.
 ///
 /// ```
-/// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-/// # use agent_node::NodeConfig;
-/// # use controller_core::ControllerConfig;
-/// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-/// # fn device() -> Device<2> {
-/// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-/// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-/// #     let mut dev = Device::new(store, Identity::default(), false);
-/// #     dev.boot(0);
-/// #     while dev.next_tx().is_some() {}
-/// #     while dev.next_event().is_some() {}
-/// #     dev
-/// # }
+/// # mod hw { include!("doctest_device.rs"); }
+/// # use hw::*;
 /// # #[allow(unused_mut)]
 /// # let mut dev = device();
 /// use agent_node::canopen::{sdo_rx_id, sdo_tx_id, NmtState};
@@ -888,19 +822,8 @@ impl<const N: usize> Device<N> {
     /// without waiting for an NMT start (simulations that start every node at `t = 0`).
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// use agent_node::canopen::{heartbeat_id, NmtState};
@@ -941,19 +864,8 @@ impl<const N: usize> Device<N> {
     /// report: the node configuration's.
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// use agent_node::wire::IdPlan;
@@ -969,19 +881,8 @@ impl<const N: usize> Device<N> {
     /// `k` (heard for `k <= neighbour_count`).
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// use agent_node::wire::Source;
@@ -1024,19 +925,8 @@ impl<const N: usize> Device<N> {
     /// The node sent its value frame (TPDO1) with these bytes: `0x2200..` read them.
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// use agent_node::wire::encode_payload;
@@ -1080,19 +970,8 @@ impl<const N: usize> Device<N> {
     /// Node-ID in use.
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// assert_eq!(dev.node_id(), 2); // the agent number i
@@ -1105,19 +984,8 @@ impl<const N: usize> Device<N> {
     /// NMT state.
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// use agent_node::canopen::NmtState;
@@ -1133,19 +1001,8 @@ impl<const N: usize> Device<N> {
     /// The control outputs are enabled (NMT `Operational`).
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// assert!(!dev.outputs_enabled()); // pre-operational: actuators and value frames off
@@ -1160,19 +1017,8 @@ impl<const N: usize> Device<N> {
     /// PDOs may be sent (NMT `Operational`).
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// assert!(!dev.pdo_enabled());
@@ -1187,19 +1033,8 @@ impl<const N: usize> Device<N> {
     /// `0x1017` producer heartbeat time (ms; 0: off).
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// use agent_node::canopen::heartbeat_id;
@@ -1218,19 +1053,8 @@ impl<const N: usize> Device<N> {
     /// `0x1016` entry `k` (1-based): watch node `node` with `time_ms` (0: off).
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// use agent_node::canopen::{heartbeat_id, Event};
@@ -1248,19 +1072,8 @@ impl<const N: usize> Device<N> {
     /// The error register (`0x1001`).
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// use agent_node::canopen::Fault;
@@ -1278,19 +1091,8 @@ impl<const N: usize> Device<N> {
     /// Boot: the boot-up message, then `PreOperational` (or `Operational` when self-starting).
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// use agent_node::canopen::{Event, NmtState};
@@ -1330,19 +1132,8 @@ impl<const N: usize> Device<N> {
     /// The next frame to send.
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// use agent_node::canopen::{emcy_id, Fault};
@@ -1357,19 +1148,8 @@ impl<const N: usize> Device<N> {
     /// The next event for the application.
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// use agent_node::canopen::Event;
@@ -1384,19 +1164,8 @@ impl<const N: usize> Device<N> {
     /// Take a received frame; `false` when it is none of the device's (value frames etc.).
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// // A value frame is the application's: the device keeps a copy and says `false`.
@@ -1487,19 +1256,8 @@ impl<const N: usize> Device<N> {
     /// The consumed heartbeat (`0x1016`) of `node` timed out and has not come back.
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// use agent_node::canopen::heartbeat_id;
@@ -1520,19 +1278,8 @@ impl<const N: usize> Device<N> {
     /// The node-IDs whose consumed heartbeat is lost.
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// use agent_node::canopen::heartbeat_id;
@@ -1554,19 +1301,8 @@ impl<const N: usize> Device<N> {
     /// The last NMT state heard from a consumed node.
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// use agent_node::canopen::{heartbeat_id, NmtState};
@@ -1586,19 +1322,8 @@ impl<const N: usize> Device<N> {
     /// Advance to `now_us`: heartbeat producer, consumer timeouts, SDO timeout.
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// use agent_node::canopen::{abort_frame, sdo_rx_id, Abort};
@@ -1664,19 +1389,8 @@ impl<const N: usize> Device<N> {
     /// [`Self::clear`]. `count`: see [`Fault::info`].
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// use agent_node::canopen::{decode, Fault, Message};
@@ -1709,19 +1423,8 @@ impl<const N: usize> Device<N> {
     /// register clears and an EMCY "error reset" (`0x0000`) is sent.
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// use agent_node::canopen::Fault;
@@ -1962,19 +1665,8 @@ impl<const N: usize> Device<N> {
     /// Read an entry (the SDO upload's data).
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// use agent_node::canopen::Abort;
@@ -2066,19 +1758,8 @@ impl<const N: usize> Device<N> {
     /// unchanged, unless every check passes.
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// use agent_node::canopen::Abort;
@@ -2158,19 +1839,8 @@ impl<const N: usize> Device<N> {
     /// Returns the bytes written into `out`, `None` if it is too small.
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// use controller_core::Param;
@@ -2208,19 +1878,8 @@ impl<const N: usize> Device<N> {
     /// changes and the abort is returned.
     ///
     /// ```
-    /// # use agent_node::canopen::{od::ParamStore, Device, Identity};
-    /// # use agent_node::NodeConfig;
-    /// # use controller_core::ControllerConfig;
-    /// # // Agent 2 (node-ID 2) hearing agent 1 and the leader, booted at t = 0: pre-operational.
-    /// # fn device() -> Device<2> {
-    /// #     let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
-    /// #     let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
-    /// #     let mut dev = Device::new(store, Identity::default(), false);
-    /// #     dev.boot(0);
-    /// #     while dev.next_tx().is_some() {}
-    /// #     while dev.next_event().is_some() {}
-    /// #     dev
-    /// # }
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
     /// # #[allow(unused_mut)]
     /// # let mut dev = device();
     /// let before = dev.store.clone();
