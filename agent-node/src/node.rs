@@ -349,8 +349,11 @@ impl core::error::Error for NodeError {}
 /// let st = n.stats();
 /// assert_eq!((st.ticks, st.frames_rx, st.accepted, st.repeated, st.tx_queued), (1, 2, 1, 1, 1));
 /// ```
+///
+/// `#[non_exhaustive]`: the node gains counters; outside this crate it is read field by field.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub struct NodeStats {
     /// Calls of [`Node::tick`].
     pub ticks: u32,
@@ -418,7 +421,10 @@ pub struct NodeStats {
 /// assert_eq!(n.tick().tx, TxOutcome::Queued);
 /// assert_eq!(n.can().tx.len(), 1); // y_2 = x_{2,1} broadcast once
 /// ```
+///
+/// `#[non_exhaustive]`: a new way for a frame to stay unsent is a new outcome.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum TxOutcome {
     /// Queued in the CAN controller.
     Queued,

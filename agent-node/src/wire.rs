@@ -441,8 +441,11 @@ impl core::error::Error for WireError {}
 /// st.record(WireError::Remote);
 /// assert_eq!((st.unknown_id, st.remote, st.total()), (1, 1, 2));
 /// ```
+///
+/// `#[non_exhaustive]`: one counter per [`WireError`], which grows too; read field by field.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub struct DecodeStats {
     /// [`WireError::ExtendedId`].
     pub extended_id: u32,
@@ -479,9 +482,12 @@ impl DecodeStats {
     /// All rejected frames.
     ///
     /// ```
-    /// use agent_node::wire::DecodeStats;
-    /// let st = DecodeStats { extended_id: u32::MAX, remote: 1, ..Default::default() };
-    /// assert_eq!(st.total(), u32::MAX); // saturating
+    /// use agent_node::wire::{DecodeStats, WireError};
+    /// let mut st = DecodeStats::default();
+    /// st.record(WireError::WrongLength(3));
+    /// st.record(WireError::UnknownId(0x7FF));
+    /// st.record(WireError::WrongLength(8));
+    /// assert_eq!((st.wrong_length, st.total()), (2, 3));
     /// ```
     #[must_use]
     pub fn total(&self) -> u32 {

@@ -528,7 +528,10 @@ impl CoFrame {
 /// dev.on_frame(0x000, &[0x01, 0], 20); // NMT start, all nodes
 /// assert_eq!(dev.next_event(), Some(Event::Nmt(NmtState::Operational)));
 /// ```
+///
+/// `#[non_exhaustive]`: the device tells the application more as it learns more services.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
 pub enum Event {
     /// The NMT state changed to this one (outputs are enabled only in `Operational`).
     Nmt(NmtState),
