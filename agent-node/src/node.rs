@@ -520,6 +520,11 @@ impl Slot {
 /// One follower agent's node: the controller between its CAN controller, clock, sensors and
 /// actuators. `N` state order, `M` actuators, `K` neighbour capacity.
 ///
+/// The examples on `Node` run over mocked hardware (`src/doctest_node.rs`, hidden in them):
+/// `node()` is agent 2 of Example 1, hearing agent 1 and the leader, stale after 2.5 ms; its CAN
+/// controller keeps the frames it sends in `tx` and hands out those pushed to `rx`; the clock
+/// (`.0`, µs), the sensor's state and the actuator's command are plain fields.
+///
 /// ```
 /// # mod hw { include!("doctest_node.rs"); }
 /// # use hw::*;

@@ -779,6 +779,10 @@ enum Transfer {
 
 /// The CANopen device of one node. `N`: state order of its controller.
 ///
+/// The examples on `Device` start from `device()` (`src/canopen/doctest_device.rs`, hidden in
+/// them): agent 2 hearing agent 1 and the leader, node-ID 2, booted at `t = 0` and so
+/// pre-operational, its boot-up message already taken.
+///
 /// ```
 /// # mod hw { include!("doctest_device.rs"); }
 /// # use hw::*;
