@@ -259,6 +259,14 @@ impl<const K: usize> NodeConfig<K> {
     /// number of the identifier plan, a stale timeout, heartbeat identifiers for a heartbeat,
     /// and a graph row of distinct agents of the plan other than itself, within the capacity
     /// `K`. The CANopen device checks a row, a node-ID or a plan written over SDO with it too.
+    ///
+    /// ```
+    /// use agent_node::NodeConfig;
+    /// assert!(NodeConfig::new(2, [1, 3], 2_500).check(2).is_ok());
+    /// assert!(NodeConfig::new(2, [1, 2], 2_500).check(2).is_err()); // hears itself
+    /// assert!(NodeConfig::new(2, [1, 1], 2_500).check(2).is_err()); // twice the same agent
+    /// assert!(NodeConfig::new(2, [1, 1], 2_500).check(1).is_ok()); // only the first counts
+    /// ```
     pub fn check(&self, neighbour_count: usize) -> Result<(), NodeError> {
         Own {
             agent: self.agent,
@@ -1997,6 +2005,23 @@ where
     /// Adopt the device's node-ID, graph row and plan now, as a reset communication does: for
     /// an application that loads its stored set on NMT reset node (`Device::load`, after the
     /// device's own reset), so that the next start runs on it.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// use agent_node::canopen::{od::PARAM_BASE, Identity};
+    /// use controller_core::Param;
+    /// let mut n = node();
+    /// let (cfg, ctrl) = (NodeConfig::new(2, [1], 2_500),
+    ///     ControllerConfig::<2> { neighbour_count: 1, ..Default::default() });
+    /// n.enable_canopen(&cfg, &ctrl, Identity::default(), false, 0).unwrap();
+    /// n.tick(); // boot-up: pre-operational, where the row is writable
+    /// let pinned = PARAM_BASE + Param::ALL.iter().position(|p| *p == Param::Pinned).unwrap() as u16;
+    /// n.canopen_mut().unwrap().write(pinned, 0, &[0]).unwrap();
+    /// assert!(n.canopen().unwrap().graph_written());
+    /// n.adopt();
+    /// assert!(!n.canopen().unwrap().graph_written());
+    /// ```
     pub fn adopt(&mut self) {
         self.adopt_node_id();
     }
@@ -2004,6 +2029,25 @@ where
     /// Times the node adopted another node-ID, graph row or plan from its device since it
     /// was built (the boot's adoption of a stored set included): a board whose acceptance
     /// filters were set for the earlier ones restarts when it changes.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// use agent_node::canopen::{od::PARAM_BASE, Identity};
+    /// use controller_core::Param;
+    /// let mut n = node();
+    /// assert_eq!(n.adoptions(), 0); // no device
+    /// let (cfg, ctrl) = (NodeConfig::new(2, [1], 2_500),
+    ///     ControllerConfig::<2> { neighbour_count: 1, ..Default::default() });
+    /// n.enable_canopen(&cfg, &ctrl, Identity::default(), false, 0).unwrap();
+    /// n.adopt();
+    /// assert_eq!(n.adoptions(), 0); // nothing written: nothing to adopt
+    /// n.tick(); // boot-up: pre-operational
+    /// let pinned = PARAM_BASE + Param::ALL.iter().position(|p| *p == Param::Pinned).unwrap() as u16;
+    /// n.canopen_mut().unwrap().write(pinned, 0, &[0]).unwrap(); // stop hearing the leader
+    /// n.adopt();
+    /// assert_eq!(n.adoptions(), 1);
+    /// ```
     pub fn adoptions(&self) -> u16 {
         self.canopen.as_ref().map_or(0, |c| c.adoptions)
     }

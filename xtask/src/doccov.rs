@@ -4,10 +4,9 @@
 //! with the pinned nightly [`TOOLCHAIN`] on the build docs.rs makes of each crate of [`CRATES`]
 //! (controller-core: default features and `serde`; agent-node: default features, `canopen`
 //! included), prints the per-file table, and fails when an item that rustdoc counts lacks
-//! documentation or when fewer items carry a runnable example than the crate's floor, the count
-//! reached. rustdoc counts for examples the public functions, methods, structs, enums, traits
-//! and unions; not modules, fields, variants, constants, statics, type aliases or trait impls.
-//! Raise a floor when examples are added; lowering it needs a reason in the commit.
+//! documentation or an item that can carry an example has none. rustdoc counts for examples
+//! the public functions, methods, structs, enums, traits and unions; not modules, fields,
+//! variants, constants, statics, type aliases or trait impls.
 
 use crate::task::{workspace_root, Result};
 use serde_json::Value;
@@ -17,33 +16,23 @@ use std::process::Command;
 /// the JSON coverage report is unstable and may change between nightlies.
 pub const TOOLCHAIN: &str = "nightly-2026-05-19";
 
-/// One crate under the gate: its package, the features docs.rs builds, and the number of items
-/// with a runnable example (rustdoc's count) below which the gate fails.
+/// One crate under the gate: its package and the features docs.rs builds.
 struct Gate {
     package: &'static str,
     features: &'static str,
-    min_examples: u64,
 }
 
-/// The crates under the gate, each with its floor.
+/// The crates under the gate.
 const CRATES: [Gate; 2] = [
     Gate {
         package: "controller-core",
         features: "serde",
-        min_examples: MIN_EXAMPLES,
     },
     Gate {
         package: "agent-node",
         features: "",
-        min_examples: MIN_EXAMPLES_AGENT_NODE,
     },
 ];
-
-/// Items of controller-core with a runnable example (rustdoc's count) below which the gate fails.
-pub const MIN_EXAMPLES: u64 = 156;
-
-/// Items of agent-node with a runnable example (rustdoc's count) below which the gate fails.
-pub const MIN_EXAMPLES_AGENT_NODE: u64 = 284;
 
 /// Per-file counts of rustdoc's coverage report.
 #[derive(Debug, Default, Clone, Copy, PartialEq, Eq)]
@@ -93,7 +82,7 @@ pub fn doc_coverage() -> Result<()> {
     }
 }
 
-/// The coverage report of one crate, printed, against its floor.
+/// The coverage report of one crate, printed and checked.
 fn check(gate: &Gate) -> Result<()> {
     let root = workspace_root();
     let mut cmd = Command::new("cargo");
@@ -159,16 +148,17 @@ fn check(gate: &Gate) -> Result<()> {
             sum.total
         ));
     }
-    if sum.with_examples < gate.min_examples {
+    if sum.with_examples < sum.total_examples {
         problems.push(format!(
-            "{} items with an example, fewer than the {} reached (xtask/src/doccov.rs)",
-            sum.with_examples, gate.min_examples
+            "{} of {} items that can carry an example have none (the table above names the files)",
+            sum.total_examples - sum.with_examples,
+            sum.total_examples
         ));
     }
     if problems.is_empty() {
         println!(
-            "doc-coverage OK: {} of {} items of {} with an example (floor {})",
-            sum.with_examples, sum.total_examples, gate.package, gate.min_examples
+            "doc-coverage OK: {} of {} items of {} with an example",
+            sum.with_examples, sum.total_examples, gate.package
         );
         Ok(())
     } else {

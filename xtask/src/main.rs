@@ -23,8 +23,8 @@
 //!   with `--features bench`, and fails when either's flash (text + data) exceeds 64 KiB or its
 //!   RAM (data + bss) 16 KiB (details: `board.rs`).
 //! * `doc-coverage`: rustdoc's documentation coverage of controller-core and agent-node with a
-//!   pinned nightly; fails on an undocumented item or fewer runnable examples than the count
-//!   reached, per crate (details: `doccov.rs`).
+//!   pinned nightly; fails on an undocumented item or an item without a runnable example
+//!   (details: `doccov.rs`).
 //! * `vm`: runs a command in a Linux guest that has CAN (`vcan0`, optional SJA1000
 //!   controllers) with the repository at the same path (details: `vm.rs`).
 //!

@@ -936,11 +936,34 @@ impl<const N: usize> Device<N> {
     /// The graph row (`graph.neighbours`, `graph.pinned`) or the identifier plan was written,
     /// restored or loaded since [`Self::graph_adopted`]: the node takes them at its next reset
     /// communication and cannot start on the old ones before.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # let mut dev = device();
+    /// use agent_node::canopen::od::PARAM_BASE;
+    /// use controller_core::Param;
+    /// assert!(!dev.graph_written());
+    /// // Agent 2 stops hearing the leader (pre-operational: writable).
+    /// let pinned = PARAM_BASE + Param::ALL.iter().position(|p| *p == Param::Pinned).unwrap() as u16;
+    /// dev.write(pinned, 0, &[0]).unwrap();
+    /// assert!(dev.graph_written());
+    /// ```
     pub fn graph_written(&self) -> bool {
         self.graph_written
     }
 
     /// The node adopted the graph row and plan the store holds.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # let mut dev = device();
+    /// dev.write(0x1011, 1, b"load").unwrap(); // restore: the defaults' row waits too
+    /// assert!(dev.graph_written());
+    /// dev.graph_adopted();
+    /// assert!(!dev.graph_written());
+    /// ```
     pub fn graph_adopted(&mut self) {
         self.graph_written = false;
     }

@@ -409,6 +409,14 @@ impl Setting {
     /// Every setting, in index order (`0x2100 + k`).
     /// The rates come before the policies that need them, so a stored set loads in order.
     /// The identifier plan comes last, so that the indexes of the others never move.
+    ///
+    /// ```
+    /// use agent_node::canopen::od::{Setting, SETTING_BASE};
+    /// // The identifier plan is last: node.agents at 0x2100 + 14 = 0x210E.
+    /// let k = Setting::ALL.iter().position(|s| *s == Setting::Agents).unwrap();
+    /// assert_eq!(SETTING_BASE + k as u16, 0x210E);
+    /// assert_eq!(Setting::ALL[k].spec().key, "node.agents");
+    /// ```
     pub const ALL: [Self; 15] = [
         Self::NodeId,
         Self::StaleTimeout,
@@ -1280,6 +1288,22 @@ impl<const N: usize> ParamStore<N> {
     /// applies them at its next reset communication) into `cfg` and `controller`: what a board
     /// builds its acceptance filters from at boot. `false`, and nothing changed, when the row
     /// does not fit the capacity `K`.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # let dev = device();
+    /// // device(): agent 2 hearing agent 1 and the leader.
+    /// let mut cfg = NodeConfig::new(9, [0], 2_500);
+    /// let mut ctrl = ControllerConfig::<2>::default();
+    /// assert!(dev.store.graph_into(&mut cfg, &mut ctrl));
+    /// assert_eq!((cfg.agent, cfg.neighbours), (2, [1]));
+    /// assert_eq!((ctrl.neighbour_count, ctrl.pinned), (1, true));
+    /// // A row of one does not fit a node without room for neighbours: nothing changes.
+    /// let mut none = NodeConfig::new(9, [], 2_500);
+    /// assert!(!dev.store.graph_into(&mut none, &mut ctrl));
+    /// assert_eq!(none.agent, 9);
+    /// ```
     pub fn graph_into<const K: usize>(
         &self,
         cfg: &mut crate::NodeConfig<K>,
@@ -1460,6 +1484,18 @@ impl<const N: usize> ParamStore<N> {
 
     /// Entries of the graph row's array (`graph.neighbours` sub-indices `1..=slots`): the
     /// node's neighbour capacity `K`, at most [`MAX_NEIGHBOURS`].
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # let dev = device();
+    /// use agent_node::canopen::od::PARAM_BASE;
+    /// use controller_core::Param;
+    /// // device() was built for one neighbour: graph.neighbours has sub-indices 1..=1.
+    /// assert_eq!(dev.store.slots(), 1);
+    /// let row = PARAM_BASE + Param::ALL.iter().position(|p| *p == Param::Neighbours).unwrap() as u16;
+    /// assert!(dev.read(row, 1).is_ok() && dev.read(row, 2).is_err());
+    /// ```
     pub fn slots(&self) -> usize {
         self.capacity.min(MAX_NEIGHBOURS)
     }
