@@ -39,6 +39,14 @@ use crate::{
 };
 
 /// How a frame is sent.
+///
+/// ```
+/// use agent_node::bus_load::{frame_bits, Format};
+/// // A value frame (4 bytes, 11-bit id), worst-case stuffing: 95 bits classical.
+/// assert_eq!(frame_bits(Format::Classical, false, 4, true).total(), 95);
+/// let fd = frame_bits(Format::Fd { brs: false }, false, 4, true);
+/// assert_eq!(fd.data, 0); // without bit-rate switching everything goes at the nominal rate
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Format {
     /// Classical CAN: at most 8 data bytes, one bit rate.
@@ -51,6 +59,15 @@ pub enum Format {
 }
 
 /// The bits of one frame on the wire, by the bit rate they are sent at.
+///
+/// ```
+/// use agent_node::bus_load::{frame_bits, Bitrates, Format};
+/// // A heartbeat (8 bytes) on CAN FD with bit-rate switching, 1 Mbit/s and 5 Mbit/s.
+/// let b = frame_bits(Format::Fd { brs: true }, false, 8, true);
+/// assert_eq!((b.nominal, b.data, b.total()), (34, 113, 147));
+/// let ns = b.time_ns(Bitrates { nominal: 1_000_000, data: Some(5_000_000) });
+/// assert_eq!(ns, 34_000 + 22_600);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct FrameBits {
     /// Bits at the nominal (arbitration) bit rate, intermission included.
@@ -61,12 +78,28 @@ pub struct FrameBits {
 
 impl FrameBits {
     /// Bits on the wire, both phases.
+    ///
+    /// ```
+    /// use agent_node::bus_load::{frame_bits, Format};
+    /// assert_eq!(frame_bits(Format::Classical, false, 8, true).total(), 135);
+    /// assert_eq!(frame_bits(Format::Classical, false, 8, false).total(), 111); // no stuff bits
+    /// ```
+    #[must_use]
     pub const fn total(&self) -> u32 {
         self.nominal + self.data
     }
 
     /// Nanoseconds on a bus at `rates` (rounded up); a data phase without a data bit rate goes
     /// at the nominal rate.
+    ///
+    /// ```
+    /// use agent_node::bus_load::{frame_bits, Bitrates, Format};
+    /// // 95 bits at 1 Mbit/s: 95 µs; at 500 kbit/s: 190 µs.
+    /// let b = frame_bits(Format::Classical, false, 4, true);
+    /// assert_eq!(b.time_ns(Bitrates { nominal: 1_000_000, data: None }), 95_000);
+    /// assert_eq!(b.time_ns(Bitrates { nominal: 500_000, data: None }), 190_000);
+    /// ```
+    #[must_use]
     pub fn time_ns(&self, rates: Bitrates) -> u64 {
         let ns = |bits: u32, rate: u32| {
             (u64::from(bits) * 1_000_000_000).div_ceil(u64::from(rate.max(1)))
@@ -76,6 +109,13 @@ impl FrameBits {
 }
 
 /// The bit rates of a bus.
+///
+/// ```
+/// use agent_node::bus_load::{Bitrates, Format};
+/// let classical = Bitrates { nominal: 1_000_000, data: None };
+/// let fd = Bitrates { nominal: 1_000_000, data: Some(5_000_000) };
+/// assert_eq!((classical.format(), fd.format()), (Format::Classical, Format::Fd { brs: true }));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Bitrates {
     /// Nominal (arbitration) bit rate [bit/s].
@@ -87,6 +127,13 @@ pub struct Bitrates {
 impl Bitrates {
     /// The format of every frame on this bus: CAN FD with bit-rate switching when a data bit
     /// rate is given, classical otherwise.
+    ///
+    /// ```
+    /// use agent_node::bus_load::{Bitrates, Format};
+    /// assert_eq!(Bitrates { nominal: 500_000, data: Some(2_000_000) }.format(), Format::Fd { brs: true });
+    /// assert_eq!(Bitrates { nominal: 500_000, data: None }.format(), Format::Classical);
+    /// ```
+    #[must_use]
     pub const fn format(&self) -> Format {
         match self.data {
             Some(_) => Format::Fd { brs: true },
@@ -102,6 +149,7 @@ impl Bitrates {
 /// use agent_node::bus_load::fd_len;
 /// assert_eq!((fd_len(8), fd_len(9), fd_len(40), fd_len(65)), (Some(8), Some(12), Some(48), None));
 /// ```
+#[must_use]
 pub const fn fd_len(n: usize) -> Option<usize> {
     Some(match n {
         0..=8 => n,
@@ -120,6 +168,17 @@ pub const fn fd_len(n: usize) -> Option<usize> {
 /// remote frame; above 8 classical or 64 FD counts as the maximum, the controller sends no
 /// more), `extended` for a 29-bit identifier, with worst-case dynamic stuffing if `stuffing`
 /// (CAN FD's fixed stuff bits always count), as Linux `can_frame_bits()`.
+///
+/// ```
+/// use agent_node::bus_load::{frame_bits, Format};
+/// // An extended (29-bit) identifier costs 20 header bits more, 25 with stuffing.
+/// let std = frame_bits(Format::Classical, false, 8, true).total();
+/// let ext = frame_bits(Format::Classical, true, 8, true).total();
+/// assert_eq!(ext - std, 25);
+/// // Beyond 8 bytes a classical controller sends 8.
+/// assert_eq!(frame_bits(Format::Classical, false, 12, true), frame_bits(Format::Classical, false, 8, true));
+/// ```
+#[must_use]
 pub const fn frame_bits(
     format: Format,
     extended: bool,
@@ -166,6 +225,18 @@ pub const fn frame_bits(
 }
 
 /// How the host's sensor frames carry the followers' states (`network.sensor_frames`).
+///
+/// ```
+/// use agent_node::bus_load::{Bitrates, FrameSet, PlantFrames, SensorFrames};
+/// // Eight followers on CAN FD: packed sensor frames are fewer than one per agent.
+/// let set = |sensor| FrameSet { agents: 8, rates: Bitrates { nominal: 1_000_000, data: Some(5_000_000) },
+///     sample_period_us: 1_000, heartbeat_period_us: 0,
+///     plant: Some(PlantFrames { sensor, state_period_us: 0 }) };
+/// let per_agent = set(SensorFrames::PerAgent).load().kinds[2];
+/// let packed = set(SensorFrames::Packed).load().kinds[2];
+/// assert_eq!(per_agent.frames, 8.0);
+/// assert!(packed.frames < per_agent.frames);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum SensorFrames {
     /// One sensor frame per follower (8 bytes: `x_{i,1}`, `x_{i,2}`).
@@ -177,6 +248,17 @@ pub enum SensorFrames {
 }
 
 /// The plant's frames on the bus of a bench (`crate::plant_bus`).
+///
+/// ```
+/// use agent_node::bus_load::{Bitrates, FrameSet, PlantFrames, SensorFrames};
+/// // A bench: the plant's sensor and command frames every sample add to the nodes' own.
+/// let mut set = FrameSet { agents: 4, rates: Bitrates { nominal: 1_000_000, data: None },
+///     sample_period_us: 1_000, heartbeat_period_us: 0, plant: None };
+/// let alone = set.load().percent();
+/// set.plant = Some(PlantFrames { sensor: SensorFrames::PerAgent, state_period_us: 100_000 });
+/// assert!(set.load().percent() > alone);
+/// assert_eq!(set.load().kinds[3].frames, 4.0); // one command frame per follower
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct PlantFrames {
     /// How the sensor frames are laid out.
@@ -186,6 +268,15 @@ pub struct PlantFrames {
 }
 
 /// The frames a scenario puts on one bus.
+///
+/// ```
+/// use agent_node::bus_load::{Bitrates, FrameSet};
+/// // The paper's four followers and the leader, 1 Mbit/s classical, h = 1 ms:
+/// // five value frames of 95 bits take 475 µs of every 1 ms sample.
+/// let set = FrameSet { agents: 4, rates: Bitrates { nominal: 1_000_000, data: None },
+///     sample_period_us: 1_000, heartbeat_period_us: 0, plant: None };
+/// assert!((set.load().percent() - 47.5).abs() < 1e-9);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct FrameSet {
     /// Followers (agents `1..=agents`); the leader sends too.
@@ -201,6 +292,17 @@ pub struct FrameSet {
 }
 
 /// One frame kind's share of a sample period.
+///
+/// ```
+/// use agent_node::bus_load::{Bitrates, FrameSet};
+/// // Heartbeats every 100 ms at h = 1 ms: 4 nodes × 1/100 frame per sample.
+/// let set = FrameSet { agents: 4, rates: Bitrates { nominal: 1_000_000, data: None },
+///     sample_period_us: 1_000, heartbeat_period_us: 100_000, plant: None };
+/// let hb = set.load().kinds[1];
+/// assert_eq!((hb.kind, hb.data_len, hb.bits.total()), ("heartbeat", 8, 135));
+/// assert!((hb.frames - 0.04).abs() < 1e-12);
+/// assert!((hb.ns_per_sample - 0.04 * 135_000.0).abs() < 1e-6);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct KindLoad {
     /// The frame kind (`value`, `heartbeat`, `sensor`, `command`, `state`).
@@ -216,6 +318,16 @@ pub struct KindLoad {
 }
 
 /// The worst-case bus time of a frame set, per sample.
+///
+/// ```
+/// use agent_node::bus_load::{Bitrates, FrameSet, LOAD_WARNING_PERCENT};
+/// let set = FrameSet { agents: 4, rates: Bitrates { nominal: 1_000_000, data: None },
+///     sample_period_us: 1_000, heartbeat_period_us: 0, plant: None };
+/// let load = set.load();
+/// assert_eq!(load.kinds[0].kind, "value");
+/// assert_eq!(load.period_ns, 1e6);
+/// assert!(load.percent() < LOAD_WARNING_PERCENT);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Load {
     /// Value, heartbeat, sensor, command, state frames (kinds absent from the set have 0
@@ -227,11 +339,28 @@ pub struct Load {
 
 impl Load {
     /// Bus time per sample \[ns\], all kinds.
+    ///
+    /// ```
+    /// use agent_node::bus_load::{Bitrates, FrameSet};
+    /// let set = FrameSet { agents: 1, rates: Bitrates { nominal: 1_000_000, data: None },
+    ///     sample_period_us: 1_000, heartbeat_period_us: 0, plant: None };
+    /// assert_eq!(set.load().busy_ns(), 2.0 * 95_000.0); // the leader's and agent 1's value frame
+    /// ```
+    #[must_use]
     pub fn busy_ns(&self) -> f64 {
         self.kinds.iter().map(|k| k.ns_per_sample).sum()
     }
 
     /// Share of the sample period the frames take, in per cent.
+    ///
+    /// ```
+    /// use agent_node::bus_load::{Bitrates, FrameSet};
+    /// // At 125 kbit/s the same five value frames no longer fit a 1 ms sample.
+    /// let set = FrameSet { agents: 4, rates: Bitrates { nominal: 125_000, data: None },
+    ///     sample_period_us: 1_000, heartbeat_period_us: 0, plant: None };
+    /// assert!((set.load().percent() - 380.0).abs() < 1e-9);
+    /// ```
+    #[must_use]
     pub fn percent(&self) -> f64 {
         100.0 * self.busy_ns() / self.period_ns
     }
@@ -268,6 +397,17 @@ impl FrameSet {
     /// value frame every sample, each node's heartbeat and state frame at their periods, and on
     /// a bench the sensor frames (one per follower, or packed) and each node's command frame
     /// every sample.
+    ///
+    /// ```
+    /// use agent_node::bus_load::{Bitrates, FrameSet};
+    /// // Halving h doubles the share of the bus.
+    /// let mut set = FrameSet { agents: 4, rates: Bitrates { nominal: 1_000_000, data: None },
+    ///     sample_period_us: 1_000, heartbeat_period_us: 0, plant: None };
+    /// let at_1ms = set.load().percent();
+    /// set.sample_period_us = 500;
+    /// assert!((set.load().percent() - 2.0 * at_1ms).abs() < 1e-9);
+    /// ```
+    #[must_use]
     pub fn load(&self) -> Load {
         let [sensor, command, state] = &PLANT_MESSAGES;
         let n = self.agents;

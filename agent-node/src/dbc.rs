@@ -23,6 +23,15 @@ use crate::{
 };
 
 /// How a signal's raw bits become a value.
+///
+/// ```
+/// use agent_node::dbc::{Encoding, VALUE_SIGNALS};
+/// use agent_node::wire::encode_payload;
+/// // The value frame's `y` is Q7.16: a scaled two's complement signal of resolution 2^-16.
+/// let y = &VALUE_SIGNALS[0];
+/// assert!(matches!(y.encoding, Encoding::Scaled { factor, .. } if factor == 1.0 / 65536.0));
+/// assert_eq!(y.value(&encode_payload(-0.5, 0).data), Some(-0.5));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Encoding {
     /// An unsigned integer.
@@ -41,6 +50,15 @@ pub enum Encoding {
 }
 
 /// One signal of a message.
+///
+/// ```
+/// use agent_node::dbc::VALUE_SIGNALS;
+/// use agent_node::wire::encode_payload;
+/// // Decode agent 3's value frame signal by signal, as cantools does with docs/wire.dbc.
+/// let data = encode_payload(0.25, 7).data;
+/// let get = |name| VALUE_SIGNALS.iter().find(|s| s.name == name).unwrap().value(&data);
+/// assert_eq!((get("y"), get("seq")), (Some(0.25), Some(7.0)));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Signal {
     /// DBC name.
@@ -82,6 +100,15 @@ impl Signal {
     }
 
     /// The raw bits of this signal in `data` (little-endian); `None` when `data` is too short.
+    ///
+    /// ```
+    /// use agent_node::dbc::{HEARTBEAT_SIGNALS};
+    /// // The heartbeat's first byte is the node's state code (2: safe).
+    /// let state = HEARTBEAT_SIGNALS.iter().find(|s| s.name == "state").unwrap();
+    /// assert_eq!(state.raw(&[2, 0, 0, 0, 0, 0, 0, 0]), Some(2));
+    /// assert_eq!(state.raw(&[]), None); // too short
+    /// ```
+    #[must_use]
     pub fn raw(&self, data: &[u8]) -> Option<u64> {
         (0..self.len).rev().try_fold(0u64, |v, k| {
             let bit = usize::from(self.start + k);
@@ -91,6 +118,17 @@ impl Signal {
     }
 
     /// The value of this signal in `data`: raw count, `f32`, or scaled two's complement.
+    ///
+    /// ```
+    /// use agent_node::dbc::PLANT_MESSAGES;
+    /// use agent_node::link::pack_f32x2;
+    /// // A sensor frame of the plant bus carries x_1, x_2 as f32.
+    /// let sensor = &PLANT_MESSAGES[0];
+    /// let data = pack_f32x2(0.5, -1.5);
+    /// let x: Vec<_> = sensor.signals.iter().map(|s| s.value(&data)).collect();
+    /// assert_eq!(x, [Some(0.5), Some(-1.5)]);
+    /// ```
+    #[must_use]
     pub fn value(&self, data: &[u8]) -> Option<f64> {
         let raw = self.raw(data)?;
         Some(match self.encoding {
@@ -105,6 +143,14 @@ impl Signal {
 }
 
 /// One message kind of the link.
+///
+/// ```
+/// use agent_node::dbc::io_message;
+/// use agent_node::link::io;
+/// let boot = io_message(io::BOOT).unwrap();
+/// assert_eq!((boot.name, boot.sender, boot.len()), ("Boot", "Node", 1));
+/// assert_eq!(boot.signals[0].value(&[3]), Some(3.0)); // the link protocol's version
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Message {
     /// DBC name.
@@ -121,6 +167,14 @@ pub struct Message {
 
 impl Message {
     /// Payload bytes: up to the last bit of the last signal.
+    ///
+    /// ```
+    /// use agent_node::dbc::{io_message, PLANT_MESSAGES};
+    /// use agent_node::link::{io, REPORT_BYTES};
+    /// assert_eq!(PLANT_MESSAGES[0].len(), 8); // x_1, x_2 as f32
+    /// assert_eq!(usize::from(io_message(io::REPORT).unwrap().len()), REPORT_BYTES);
+    /// ```
+    #[must_use]
     pub fn len(&self) -> u16 {
         self.signals
             .iter()
@@ -130,6 +184,14 @@ impl Message {
     }
 
     /// No signals (a request without data).
+    ///
+    /// ```
+    /// use agent_node::dbc::io_message;
+    /// use agent_node::link::io;
+    /// assert!(io_message(io::STATS_REQUEST).unwrap().is_empty()); // a request without data
+    /// assert!(!io_message(io::STATS).unwrap().is_empty());
+    /// ```
+    #[must_use]
     pub fn is_empty(&self) -> bool {
         self.signals.is_empty()
     }
@@ -485,6 +547,15 @@ fn write_value_message(out: &mut impl Write, source: Source, id: u16) -> fmt::Re
 /// `docs/wire.dbc`: nodes, every value frame and heartbeat of the default identifier plan, the
 /// plant-bus frames of every agent of the plan, every link message, comments, and the `f32`
 /// signal types, in that order.
+///
+/// ```
+/// use agent_node::dbc::write_dbc;
+/// let mut dbc = String::new();
+/// write_dbc(&mut dbc).unwrap();
+/// assert!(dbc.starts_with("VERSION"));
+/// assert!(dbc.contains("BO_ 257 Leader: 4 Leader")); // 0x101, the leader's value frame
+/// assert!(dbc.contains("SG_ y "));
+/// ```
 pub fn write_dbc(out: &mut impl Write) -> fmt::Result {
     let plan = IdPlan::DEFAULT;
     out.write_str("VERSION \"\"\n\nNS_ :\n\nBS_:\n\nBU_: Host Node Leader")?;
@@ -578,6 +649,14 @@ pub fn write_dbc(out: &mut impl Write) -> fmt::Result {
 }
 
 /// The link message of a 29-bit identifier.
+///
+/// ```
+/// use agent_node::dbc::io_message;
+/// use agent_node::link::io;
+/// assert_eq!(io_message(io::READY).map(|m| m.name), Some("Ready"));
+/// assert!(io_message(0x7FF).is_none()); // a bus identifier, not a link message
+/// ```
+#[must_use]
 pub fn io_message(id: u32) -> Option<&'static Message> {
     IO_MESSAGES.iter().find(|m| m.id == id)
 }

@@ -39,7 +39,7 @@
 //!   `cargo build -p agent-node --target thumbv7em-none-eabihf --no-default-features --features defmt`.
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
-#![warn(missing_docs)]
+#![deny(missing_docs)]
 
 #[macro_use]
 mod fmt;

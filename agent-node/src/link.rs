@@ -123,6 +123,16 @@ pub const SLOW_PERIOD_UNIT: u32 = 1 << 16;
 /// A step's duration of `periods` sample periods in the units of [`io::SLOW`] (rounded to
 /// 2⁻¹⁶ period; at least one unit for any `periods > 0`; saturating), or `None` for a value
 /// that is not finite and > 0.
+///
+/// ```
+/// use agent_node::link::{slow_periods, SLOW_PERIOD_UNIT};
+/// // A step that takes 1.5 sample periods (a deadline overrun of half a period).
+/// assert_eq!(slow_periods(1.5), Some(3 * SLOW_PERIOD_UNIT / 2));
+/// assert_eq!(slow_periods(1e-9), Some(1)); // at least one unit
+/// assert_eq!(slow_periods(0.0), None);
+/// assert_eq!(slow_periods(f64::NAN), None);
+/// ```
+#[must_use]
 pub fn slow_periods(periods: f64) -> Option<u32> {
     if !(periods.is_finite() && periods > 0.0) {
         return None;
@@ -134,6 +144,17 @@ pub fn slow_periods(periods: f64) -> Option<u32> {
 
 /// A classical CAN frame (standard or extended id, data or remote, 0..=8 bytes): the frames
 /// of SLCAN, of `hil-mock`'s mocked CAN controller and of its bus model.
+///
+/// ```
+/// use agent_node::link::CanFrame;
+/// use embedded_can::{Frame, StandardId};
+/// // The leader's value frame (11-bit id 0x101) and a process-I/O frame (29 bits).
+/// let bus = CanFrame::new(StandardId::new(0x101).unwrap(), &[1, 2, 3, 4]).unwrap();
+/// assert_eq!((bus.raw_id(), bus.io_id(), bus.data()), (0x101, None, &[1u8, 2, 3, 4][..]));
+/// let io = CanFrame::io(agent_node::link::io::READY, &[3]).unwrap();
+/// assert!(io.is_extended() && !io.is_remote_frame());
+/// assert!(CanFrame::new(StandardId::ZERO, &[0; 9]).is_none()); // classical CAN: 8 bytes at most
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct CanFrame {
     id: Id,
@@ -145,11 +166,30 @@ pub struct CanFrame {
 impl CanFrame {
     /// A process-I/O data frame with 29-bit identifier `id`; `None` if `id` or `data` is too
     /// long.
+    ///
+    /// ```
+    /// use agent_node::link::{io, CanFrame};
+    /// use embedded_can::Frame;
+    /// let f = CanFrame::io(io::CONFIG_END, &12u16.to_le_bytes()).unwrap();
+    /// assert_eq!(f.io_id(), Some(io::CONFIG_END));
+    /// assert_eq!(f.dlc(), 2);
+    /// assert!(CanFrame::io(1 << 29, &[]).is_none()); // beyond 29 bits
+    /// ```
+    #[must_use]
     pub fn io(id: u32, data: &[u8]) -> Option<Self> {
         Self::new(ExtendedId::new(id)?, data)
     }
 
     /// The 29-bit identifier of a process-I/O frame; `None` for an 11-bit (bus) frame.
+    ///
+    /// ```
+    /// use agent_node::link::{io, CanFrame};
+    /// use embedded_can::{Frame, StandardId};
+    /// assert_eq!(CanFrame::io(io::BOOT, &[3]).unwrap().io_id(), Some(io::BOOT));
+    /// let bus = CanFrame::new(StandardId::new(0x102).unwrap(), &[0; 4]).unwrap();
+    /// assert_eq!(bus.io_id(), None); // a bus frame, not process I/O
+    /// ```
+    #[must_use]
     pub fn io_id(&self) -> Option<u32> {
         match self.id {
             Id::Extended(e) => Some(e.as_raw()),
@@ -158,6 +198,16 @@ impl CanFrame {
     }
 
     /// Raw identifier bits (11 or 29) — the arbitration priority (lower wins).
+    ///
+    /// ```
+    /// use agent_node::link::CanFrame;
+    /// use embedded_can::{Frame, StandardId};
+    /// // The lower identifier wins arbitration: the leader (0x101) before agent 1 (0x102).
+    /// let leader = CanFrame::new(StandardId::new(0x101).unwrap(), &[]).unwrap();
+    /// let agent1 = CanFrame::new(StandardId::new(0x102).unwrap(), &[]).unwrap();
+    /// assert!(leader.raw_id() < agent1.raw_id());
+    /// ```
+    #[must_use]
     pub fn raw_id(&self) -> u32 {
         match self.id {
             Id::Standard(s) => u32::from(s.as_raw()),
@@ -230,6 +280,16 @@ pub mod record {
 pub const RECORD_MAX_LINE: usize = 66;
 
 /// The `k` record: sample `t_k` for the node.
+///
+/// ```
+/// use agent_node::link::{slcan_decode, tick_encode, Slcan, Tick, RECORD_MAX_LINE};
+/// // x_i = (0.5, -1) after 1 ms: 12 bytes, 16 base64 digits after the letter `k`.
+/// let t = Tick { x: [0.5, -1.0], dt_us: Some(1_000) };
+/// let mut line = [0u8; RECORD_MAX_LINE];
+/// let n = tick_encode(&t, &mut line);
+/// assert_eq!((line[0], n), (b'k', 18));
+/// assert_eq!(slcan_decode(&line[..n - 1]), Ok(Slcan::Tick(t)));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Tick {
     /// The state `x_{i,1}`, `x_{i,2}` (the node's sensor).
@@ -240,6 +300,15 @@ pub struct Tick {
 
 impl Tick {
     /// The payload and its length: `x` (`f32` LE each), then `dt_us` (`u32` LE) when given.
+    ///
+    /// ```
+    /// use agent_node::link::Tick;
+    /// let (b, n) = Tick { x: [1.0, 0.0], dt_us: None }.to_bytes();
+    /// assert_eq!(n, 8); // the interval is left out when unchanged
+    /// assert_eq!(&b[..4], &1.0f32.to_le_bytes());
+    /// assert_eq!(Tick { x: [1.0, 0.0], dt_us: Some(7) }.to_bytes().1, 12);
+    /// ```
+    #[must_use]
     pub fn to_bytes(&self) -> ([u8; 12], usize) {
         let mut b = [0u8; 12];
         b[..4].copy_from_slice(&self.x[0].to_le_bytes());
@@ -256,6 +325,16 @@ impl Tick {
 }
 
 /// The `y` record: what the node did in one tick.
+///
+/// ```
+/// use agent_node::link::{report_encode, slcan_decode, Report, Slcan, RECORD_MAX_LINE};
+/// let r = Report { q: [0.1, 0.1], u: [0.12, 0.12], e: [0.02, -0.3], mu: 1.0, xi: 2.0,
+///     lambda: 3.0, fault: 0, stale: 1, missing: 0, leader: 0, state: 2, instructions: 9_000,
+///     resolution: 1 };
+/// let mut line = [0u8; RECORD_MAX_LINE];
+/// let n = report_encode(&r, &mut line);
+/// assert_eq!(slcan_decode(&line[..n - 1]), Ok(Slcan::Report(r))); // bit-exact round trip
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Report {
     /// Quantized commands written to the actuators.
@@ -293,6 +372,16 @@ pub const REPORT_BYTES: usize = 48;
 impl Report {
     /// The payload: the nine `f32` (`q`, `u`, `e`, `μ̂`, `ξ̂`, `λ̂`), the four status bytes,
     /// `instructions`, `resolution`; little-endian.
+    ///
+    /// ```
+    /// use agent_node::link::{Report, REPORT_BYTES};
+    /// let r = Report { q: [0.5, 0.5], u: [0.6, 0.6], e: [0.0; 2], mu: 0.0, xi: 0.0, lambda: 0.0,
+    ///     fault: 1, stale: 0, missing: 0, leader: 0, state: 0, instructions: 0, resolution: 1 };
+    /// let b: [u8; REPORT_BYTES] = r.to_bytes();
+    /// assert_eq!(&b[..4], &0.5f32.to_le_bytes()); // q_1 first
+    /// assert_eq!(Report::from_bytes(&b), Some(r));
+    /// ```
+    #[must_use]
     pub fn to_bytes(&self) -> [u8; REPORT_BYTES] {
         let mut b = [0u8; REPORT_BYTES];
         let floats = [
@@ -317,6 +406,13 @@ impl Report {
     }
 
     /// The report of a payload; `None` unless it has [`REPORT_BYTES`] bytes.
+    ///
+    /// ```
+    /// use agent_node::link::{Report, REPORT_BYTES};
+    /// assert!(Report::from_bytes(&[0u8; REPORT_BYTES]).is_some());
+    /// assert_eq!(Report::from_bytes(&[0u8; REPORT_BYTES - 1]), None); // wrong length
+    /// ```
+    #[must_use]
     pub fn from_bytes(b: &[u8]) -> Option<Self> {
         let b: &[u8; REPORT_BYTES] = b.try_into().ok()?;
         let mut w = [0u32; 12];
@@ -367,11 +463,28 @@ pub fn tick_encode(tick: &Tick, out: &mut [u8; RECORD_MAX_LINE]) -> usize {
 }
 
 /// The line of a report record (ending in `\r`) in `out`; returns its length.
+///
+/// ```
+/// use agent_node::link::{report_encode, Report, RECORD_MAX_LINE};
+/// let r = Report { q: [0.0; 2], u: [0.0; 2], e: [0.0; 2], mu: 0.0, xi: 0.0, lambda: 0.0,
+///     fault: 0, stale: 0, missing: 0, leader: 0, state: 0, instructions: 0, resolution: 0 };
+/// let mut line = [0u8; RECORD_MAX_LINE];
+/// // 48 bytes are 64 base64 digits: `y`, the digits, `\r` fill the longest record line.
+/// assert_eq!(report_encode(&r, &mut line), RECORD_MAX_LINE);
+/// assert_eq!((line[0], line[RECORD_MAX_LINE - 1]), (b'y', b'\r'));
+/// ```
 pub fn report_encode(report: &Report, out: &mut [u8; RECORD_MAX_LINE]) -> usize {
     encode_record(record::REPORT, &report.to_bytes(), out)
 }
 
 /// One SLCAN command, or one of this link's own records.
+///
+/// ```
+/// use agent_node::link::{slcan_decode, Slcan};
+/// assert_eq!(slcan_decode(b"O"), Ok(Slcan::Open));
+/// assert_eq!(slcan_decode(b"C"), Ok(Slcan::Close));
+/// assert_eq!(slcan_decode(b"S8"), Ok(Slcan::Bitrate(8))); // 1 Mbit/s
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Slcan {
     /// `t`, `T`, `r`, `R`: a frame.
@@ -392,7 +505,17 @@ pub enum Slcan {
 }
 
 /// Why an SLCAN line was rejected.
+///
+/// `#[non_exhaustive]`: the link may learn further SLCAN commands, each with its own refusal.
+///
+/// ```
+/// use agent_node::link::{slcan_decode, SlcanError};
+/// assert_eq!(slcan_decode(b"x"), Err(SlcanError::UnknownCommand));
+/// assert_eq!(slcan_decode(b"t10G0"), Err(SlcanError::Malformed)); // `G` is no hex digit
+/// assert!(!SlcanError::Malformed.to_string().is_empty());
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum SlcanError {
     /// Empty line or unknown command letter.
     UnknownCommand,
@@ -444,6 +567,17 @@ pub fn slcan_encode(frame: &CanFrame, out: &mut [u8; SLCAN_MAX_LINE]) -> usize {
 }
 
 /// The SLCAN line of `frame` with the 4-digit timestamp `ts` (see [`Slcan::Timed`]).
+///
+/// ```
+/// use agent_node::link::{slcan_decode, slcan_encode_timed, CanFrame, Slcan, SLCAN_MAX_LINE};
+/// use embedded_can::{Frame, StandardId};
+/// // Agent 1's frame delivered 250 µs after the last tick.
+/// let f = CanFrame::new(StandardId::new(0x102).unwrap(), &[0xAB]).unwrap();
+/// let mut buf = [0u8; SLCAN_MAX_LINE];
+/// let n = slcan_encode_timed(&f, 250, &mut buf);
+/// assert_eq!(&buf[..n], b"t1021AB00FA\r");
+/// assert_eq!(slcan_decode(&buf[..n - 1]), Ok(Slcan::Timed(f, 250)));
+/// ```
 pub fn slcan_encode_timed(frame: &CanFrame, ts: u16, out: &mut [u8; SLCAN_MAX_LINE]) -> usize {
     encode_line(frame, Some(ts), out)
 }
@@ -478,6 +612,15 @@ fn encode_line(frame: &CanFrame, ts: Option<u16>, out: &mut [u8; SLCAN_MAX_LINE]
 }
 
 /// Parse one SLCAN line or record (without its `\r`). Never panics.
+///
+/// ```
+/// use agent_node::link::{slcan_decode, Slcan, SlcanError};
+/// use embedded_can::Frame;
+/// let Ok(Slcan::Frame(f)) = slcan_decode(b"T0001001221122") else { panic!() };
+/// assert_eq!((f.io_id(), f.data()), (Some(0x0001_0012), &[0x11u8, 0x22][..]));
+/// assert_eq!(slcan_decode(b""), Err(SlcanError::UnknownCommand));
+/// assert_eq!(slcan_decode(b"t1029"), Err(SlcanError::Malformed)); // DLC 9
+/// ```
 pub fn slcan_decode(line: &[u8]) -> Result<Slcan, SlcanError> {
     let (&cmd, rest) = line.split_first().ok_or(SlcanError::UnknownCommand)?;
     let digits = match cmd {
@@ -559,12 +702,27 @@ fn decode_record(letter: u8, digits: &[u8]) -> Result<Slcan, SlcanError> {
 }
 
 /// Two `f32` as the 8 data bytes of a process-I/O frame (little-endian).
+///
+/// ```
+/// use agent_node::link::{pack_f32x2, unpack_u32x2};
+/// let b = pack_f32x2(0.25, -2.0);
+/// let (a, c) = unpack_u32x2(&b).unwrap();
+/// assert_eq!((f32::from_bits(a), f32::from_bits(c)), (0.25, -2.0));
+/// ```
+#[must_use]
 pub fn pack_f32x2(a: f32, b: f32) -> [u8; 8] {
     let (a, b) = (a.to_le_bytes(), b.to_le_bytes());
     [a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]]
 }
 
 /// The two `u32` (or `f32` bit patterns) of 8 data bytes; `None` for another length.
+///
+/// ```
+/// use agent_node::link::unpack_u32x2;
+/// assert_eq!(unpack_u32x2(&[1, 0, 0, 0, 2, 0, 0, 0]), Some((1, 2)));
+/// assert_eq!(unpack_u32x2(&[1, 0, 0, 0]), None);
+/// ```
+#[must_use]
 pub fn unpack_u32x2(data: &[u8]) -> Option<(u32, u32)> {
     let [a0, a1, a2, a3, b0, b1, b2, b3] = *data else {
         return None;
@@ -576,6 +734,13 @@ pub fn unpack_u32x2(data: &[u8]) -> Option<(u32, u32)> {
 }
 
 /// The `u32` of 4 data bytes; `None` for another length.
+///
+/// ```
+/// use agent_node::link::unpack_u32;
+/// assert_eq!(unpack_u32(&[0x10, 0x27, 0, 0]), Some(10_000));
+/// assert_eq!(unpack_u32(&[0; 8]), None);
+/// ```
+#[must_use]
 pub fn unpack_u32(data: &[u8]) -> Option<u32> {
     let [a, b, c, d] = *data else {
         return None;
@@ -591,6 +756,7 @@ pub fn unpack_u32(data: &[u8]) -> Option<u32> {
 /// assert_eq!(extend_clock(5, 7), 7);
 /// assert_eq!(extend_clock(0xFFFF_FFF0, 0x10), 0x1_0000_0010);
 /// ```
+#[must_use]
 pub fn extend_clock(last: u64, low: u32) -> u64 {
     let t = (last & !0xFFFF_FFFF) | u64::from(low);
     if t < last {
@@ -606,6 +772,17 @@ pub const MAX_CONFIG_WORDS: usize = 80;
 /// The configuration of one node as 32-bit words: node settings, then every field of the
 /// controller configuration (`f32` as bit patterns, options and enums as tags), in the order
 /// [`decode_config`] reads them.
+///
+/// ```
+/// use agent_node::link::{decode_config, encode_config};
+/// use agent_node::NodeConfig;
+/// use controller_core::ControllerConfig;
+/// let node = NodeConfig::new(4, [1, 3], 2_500);
+/// let ctrl = ControllerConfig::<2> { neighbour_count: 2, pinned: false, ..Default::default() };
+/// let words = encode_config(&node, &ctrl);
+/// let (n2, c2) = decode_config::<2, 2>(words.as_slice().unwrap()).unwrap();
+/// assert_eq!((n2, c2), (node, ctrl));
+/// ```
 pub struct ConfigWords {
     words: [u32; MAX_CONFIG_WORDS],
     len: usize,
@@ -631,14 +808,42 @@ impl ConfigWords {
     }
 
     /// The words; `None` when they did not fit [`MAX_CONFIG_WORDS`].
+    ///
+    /// ```
+    /// use agent_node::link::{encode_config, MAX_CONFIG_WORDS};
+    /// use agent_node::NodeConfig;
+    /// use controller_core::ControllerConfig;
+    /// let words = encode_config(&NodeConfig::new(1, [], 2_500), &ControllerConfig::<2>::default());
+    /// let w = words.as_slice().unwrap();
+    /// assert!(!w.is_empty() && w.len() <= MAX_CONFIG_WORDS);
+    /// // The agent, the neighbour count and r_i in the first word's three low bytes.
+    /// assert_eq!(w[0] & 0xFF_FFFF, 1 | (1 << 16)); // agent 1, no neighbour, pinned
+    /// ```
+    #[must_use]
     pub fn as_slice(&self) -> Option<&[u32]> {
         self.words.get(..self.len)
     }
 }
 
 /// Why a configuration could not be read (sent back in [`io::REJECTED`]).
+///
+/// `#[non_exhaustive]`: a longer configuration layout brings new checks; the byte of each
+/// reason on the link never changes.
+///
+/// ```
+/// use agent_node::link::{decode_config, encode_config, ConfigReject};
+/// use agent_node::NodeConfig;
+/// use controller_core::ControllerConfig;
+/// let words = encode_config(&NodeConfig::new(1, [], 2_500), &ControllerConfig::<2>::default());
+/// let w = words.as_slice().unwrap();
+/// // One word short: refused; the code goes back to the host in `io::REJECTED`.
+/// let e = decode_config::<2, 0>(&w[..w.len() - 1]).unwrap_err();
+/// assert_eq!((e, e as u8), (ConfigReject::WordCount, 1));
+/// assert!(!e.to_string().is_empty());
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[repr(u8)]
+#[non_exhaustive]
 pub enum ConfigReject {
     /// Fewer or more words than the layout needs.
     WordCount = 1,
@@ -664,6 +869,18 @@ impl core::fmt::Display for ConfigReject {
 impl core::error::Error for ConfigReject {}
 
 /// The words of `node` and `ctrl` (see [`ConfigWords`]).
+///
+/// ```
+/// use agent_node::link::{encode_config, unpack_u32x2};
+/// use agent_node::NodeConfig;
+/// use controller_core::ControllerConfig;
+/// // Two words per CONFIG frame, then CONFIG_END with the count.
+/// let words = encode_config(&NodeConfig::new(1, [], 2_500), &ControllerConfig::<2>::default());
+/// let w = words.as_slice().unwrap();
+/// let frames = w.chunks(2).count();
+/// assert_eq!(frames, w.len().div_ceil(2));
+/// ```
+#[must_use]
 pub fn encode_config<const N: usize, const K: usize>(
     node: &NodeConfig<K>,
     ctrl: &ControllerConfig<N>,
@@ -820,6 +1037,17 @@ impl Reader<'_> {
 
 /// The node and controller configuration of [`encode_config`]'s words. Values are checked
 /// later by [`crate::Node::new`]; here only the layout (count, tags) is.
+///
+/// ```
+/// use agent_node::link::{decode_config, encode_config, ConfigReject};
+/// use agent_node::NodeConfig;
+/// use controller_core::ControllerConfig;
+/// let ctrl = ControllerConfig::<2> { ts: 0.5, ..Default::default() };
+/// let words = encode_config(&NodeConfig::new(1, [], 2_500), &ctrl);
+/// let (_, back) = decode_config::<2, 0>(words.as_slice().unwrap()).unwrap();
+/// assert_eq!(back.ts, 0.5); // T_s of Theorem 1, bit for bit
+/// assert_eq!(decode_config::<2, 0>(&[]).unwrap_err(), ConfigReject::WordCount);
+/// ```
 pub fn decode_config<const N: usize, const K: usize>(
     words: &[u32],
 ) -> Result<(NodeConfig<K>, ControllerConfig<N>), ConfigReject> {

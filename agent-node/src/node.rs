@@ -86,28 +86,113 @@ pub const OVERRUN_EMCY_INHIBIT_US: u64 = 1_000_000;
 pub const MAX_RX_PER_POLL: usize = 32;
 
 /// A monotonic clock.
+///
+/// ```
+/// # mod hw { include!("doctest_node.rs"); }
+/// # use hw::*;
+/// // The node reads its clock once per tick: the tick reports the reading.
+/// let mut n = node();
+/// n.clock_mut().0 = 1_000;
+/// assert_eq!(n.tick().now_us, 1_000);
+/// ```
 pub trait Clock {
     /// Microseconds since an arbitrary origin; never decreases.
+    ///
+    /// ```
+    /// use agent_node::Clock;
+    /// struct Ticks(u64);
+    /// impl Clock for Ticks {
+    ///     fn now_us(&mut self) -> u64 {
+    ///         self.0 += 1_000; // a 1 kHz timer
+    ///         self.0
+    ///     }
+    /// }
+    /// let mut c = Ticks(0);
+    /// assert!(c.now_us() < c.now_us()); // monotonic
+    /// ```
     fn now_us(&mut self) -> u64;
 }
 
 /// The agent's state sensors: `x_i` (`N` entries; `x_{i,1} = y_i`).
+///
+/// ```
+/// # mod hw { include!("doctest_node.rs"); }
+/// # use hw::*;
+/// use controller_core::StepFault;
+/// // A failed read passes a NaN state: the controller holds its command (LAW §6).
+/// let mut n = node();
+/// n.sensor_mut().0 = Err(());
+/// let t = n.tick();
+/// assert_eq!(t.output.status.fault, Some(StepFault::InvalidState));
+/// assert_eq!(n.stats().sensor_errors, 1);
+/// ```
 pub trait Sensor<const N: usize> {
     /// Why a read failed.
     type Error;
     /// One sample of the state.
+    ///
+    /// ```
+    /// use agent_node::Sensor;
+    /// // Position from an encoder count, velocity from a tachometer; a dead encoder is an error.
+    /// struct Encoder { count: Option<i32>, rpm: f32 }
+    /// impl Sensor<2> for Encoder {
+    ///     type Error = &'static str;
+    ///     fn read(&mut self) -> Result<[f32; 2], Self::Error> {
+    ///         let c = self.count.ok_or("encoder silent")?;
+    ///         Ok([c as f32 / 4096.0, self.rpm / 60.0])
+    ///     }
+    /// }
+    /// assert_eq!(Encoder { count: Some(2048), rpm: 60.0 }.read(), Ok([0.5, 1.0]));
+    /// assert!(Encoder { count: None, rpm: 0.0 }.read().is_err());
+    /// ```
     fn read(&mut self) -> Result<[f32; N], Self::Error>;
 }
 
 /// The agent's actuators: the `M` quantized commands `q_{i,l}`.
+///
+/// ```
+/// # mod hw { include!("doctest_node.rs"); }
+/// # use hw::*;
+/// // Each tick writes the quantized commands q of the step to the actuators.
+/// let mut n = node();
+/// let t = n.tick();
+/// assert_eq!(n.actuator().0, t.output.q);
+/// ```
 pub trait Actuator<const M: usize> {
     /// Why a write failed.
     type Error;
     /// Apply the commands until the next write.
+    ///
+    /// ```
+    /// use agent_node::Actuator;
+    /// // A PWM duty in per mille from the quantized command, refused beyond full scale.
+    /// struct Pwm(u16);
+    /// impl Actuator<1> for Pwm {
+    ///     type Error = ();
+    ///     fn write(&mut self, q: &[f32; 1]) -> Result<(), ()> {
+    ///         if !(0.0..=1.0).contains(&q[0]) { return Err(()); }
+    ///         self.0 = (q[0] * 1000.0) as u16;
+    ///         Ok(())
+    ///     }
+    /// }
+    /// let mut p = Pwm(0);
+    /// assert_eq!(p.write(&[0.5]), Ok(()));
+    /// assert_eq!(p.0, 500);
+    /// assert!(p.write(&[2.0]).is_err());
+    /// ```
     fn write(&mut self, q: &[f32; M]) -> Result<(), Self::Error>;
 }
 
 /// The node's settings apart from the controller's.
+///
+/// ```
+/// use agent_node::{IdPlan, NodeConfig, SupervisorConfig};
+/// // Agent 4 of the paper's graph hears agents 1 and 3; a value older than 2.5 ms is stale.
+/// let cfg = NodeConfig { heartbeat_period_us: 100_000, ..NodeConfig::new(4, [1, 3], 2_500) };
+/// assert_eq!((cfg.agent, cfg.neighbours), (4, [1, 3]));
+/// assert_eq!(cfg.ids, IdPlan::DEFAULT);
+/// assert_eq!(cfg.supervisor, SupervisorConfig::OFF);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct NodeConfig<const K: usize> {
@@ -130,6 +215,14 @@ pub struct NodeConfig<const K: usize> {
 impl<const K: usize> NodeConfig<K> {
     /// Agent `agent` hearing `neighbours` with the stale timeout (µs), in the default
     /// identifier plan, without heartbeat or supervision.
+    ///
+    /// ```
+    /// use agent_node::{IdPlan, NodeConfig};
+    /// let cfg = NodeConfig::new(1, [], 2_500); // agent 1: the leader only
+    /// assert_eq!((cfg.agent, cfg.stale_timeout_us, cfg.heartbeat_period_us), (1, 2_500, 0));
+    /// assert_eq!(cfg.ids.value_id(agent_node::wire::Source::Agent(1)), Some(0x102));
+    /// ```
+    #[must_use]
     pub const fn new(agent: u8, neighbours: [u8; K], stale_timeout_us: u64) -> Self {
         Self {
             agent,
@@ -142,6 +235,14 @@ impl<const K: usize> NodeConfig<K> {
     }
 
     /// What the CANopen parameter store keeps of this configuration.
+    ///
+    /// ```
+    /// use agent_node::NodeConfig;
+    /// let cfg = NodeConfig::new(4, [1, 3], 2_500);
+    /// let id = cfg.identity();
+    /// assert_eq!((id.agent, id.neighbours, id.stale_timeout_us), (4, &[1u8, 3][..], 2_500));
+    /// ```
+    #[must_use]
     pub fn identity(&self) -> NodeIdentity<'_> {
         NodeIdentity {
             agent: self.agent,
@@ -158,6 +259,14 @@ impl<const K: usize> NodeConfig<K> {
     /// number of the identifier plan, a stale timeout, heartbeat identifiers for a heartbeat,
     /// and a graph row of distinct agents of the plan other than itself, within the capacity
     /// `K`. The CANopen device checks a row, a node-ID or a plan written over SDO with it too.
+    ///
+    /// ```
+    /// use agent_node::NodeConfig;
+    /// assert!(NodeConfig::new(2, [1, 3], 2_500).check(2).is_ok());
+    /// assert!(NodeConfig::new(2, [1, 2], 2_500).check(2).is_err()); // hears itself
+    /// assert!(NodeConfig::new(2, [1, 1], 2_500).check(2).is_err()); // twice the same agent
+    /// assert!(NodeConfig::new(2, [1, 1], 2_500).check(1).is_ok()); // only the first counts
+    /// ```
     pub fn check(&self, neighbour_count: usize) -> Result<(), NodeError> {
         Own {
             agent: self.agent,
@@ -209,6 +318,27 @@ impl Own<'_> {
 }
 
 /// Why a node could not be built.
+///
+/// ```
+/// use agent_node::{CanFrame, Node, NodeConfig, NodeError};
+/// use controller_core::ControllerConfig;
+/// // Agent 2 listing itself as its neighbour: refused with the entry at fault.
+/// let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
+/// let e = NodeConfig::new(2, [2], 2_500);
+/// # struct X;
+/// # impl embedded_can::nb::Can for X {
+/// #     type Frame = CanFrame; type Error = embedded_can::ErrorKind;
+/// #     fn transmit(&mut self, _: &CanFrame) -> nb::Result<Option<CanFrame>, Self::Error> { Ok(None) }
+/// #     fn receive(&mut self) -> nb::Result<CanFrame, Self::Error> { Err(nb::Error::WouldBlock) }
+/// # }
+/// # impl agent_node::Clock for X { fn now_us(&mut self) -> u64 { 0 } }
+/// # impl agent_node::Sensor<2> for X { type Error = (); fn read(&mut self) -> Result<[f32; 2], ()> { Ok([0.0; 2]) } }
+/// # impl agent_node::Actuator<2> for X { type Error = (); fn write(&mut self, _: &[f32; 2]) -> Result<(), ()> { Ok(()) } }
+/// let r = Node::<X, X, X, X, 2, 2, 1>::new(&e, &ctrl, X, X, X, X);
+/// let err = r.err().unwrap();
+/// assert_eq!(err, NodeError::BadNeighbour(2));
+/// assert_eq!(err.to_string(), "neighbour 2 is 0, the agent itself, or a duplicate");
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
@@ -270,11 +400,29 @@ impl core::fmt::Display for NodeError {
     }
 }
 
+/// `Display` includes the controller's or the supervisor's message (a `no_std` log prints only
+/// `Display`), so `source` stays `None`.
 impl core::error::Error for NodeError {}
 
 /// Counters of one node since it started.
+///
+/// ```
+/// # mod hw { include!("doctest_node.rs"); }
+/// # use hw::*;
+/// use agent_node::wire::{encode, Source};
+/// let mut n = node();
+/// let (f, _) = encode::<CanFrame>(Source::Agent(1), 0.5, 0).unwrap();
+/// n.can_mut().rx.push_back(f);
+/// n.can_mut().rx.push_back(f); // the same sequence counter again: dropped
+/// n.tick();
+/// let st = n.stats();
+/// assert_eq!((st.ticks, st.frames_rx, st.accepted, st.repeated, st.tx_queued), (1, 2, 1, 1, 1));
+/// ```
+///
+/// `#[non_exhaustive]`: the node gains counters; outside this crate it is read field by field.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub struct NodeStats {
     /// Calls of [`Node::tick`].
     pub ticks: u32,
@@ -333,7 +481,19 @@ pub struct NodeStats {
 }
 
 /// What happened to this sample's frame.
+///
+/// ```
+/// # mod hw { include!("doctest_node.rs"); }
+/// # use hw::*;
+/// use agent_node::TxOutcome;
+/// let mut n = node();
+/// assert_eq!(n.tick().tx, TxOutcome::Queued);
+/// assert_eq!(n.can().tx.len(), 1); // y_2 = x_{2,1} broadcast once
+/// ```
+///
+/// `#[non_exhaustive]`: a new way for a frame to stay unsent is a new outcome.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum TxOutcome {
     /// Queued in the CAN controller.
     Queued,
@@ -350,6 +510,17 @@ pub enum TxOutcome {
 }
 
 /// The result of one [`Node::tick`].
+///
+/// ```
+/// # mod hw { include!("doctest_node.rs"); }
+/// # use hw::*;
+/// use agent_node::{NodeState, Tick};
+/// let mut n = node();
+/// n.clock_mut().0 = 5;
+/// let t: Tick<2, 2> = n.tick();
+/// assert_eq!((t.now_us, t.state), (5, NodeState::Operational));
+/// assert!(t.output.u.iter().all(|u| u.is_finite()));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Tick<const N: usize, const M: usize> {
     /// Clock reading at the sample.
@@ -417,6 +588,29 @@ impl Slot {
 
 /// One follower agent's node: the controller between its CAN controller, clock, sensors and
 /// actuators. `N` state order, `M` actuators, `K` neighbour capacity.
+///
+/// The examples on `Node` run over mocked hardware (`src/doctest_node.rs`, hidden in them):
+/// `node()` is agent 2 of Example 1, hearing agent 1 and the leader, stale after 2.5 ms; its CAN
+/// controller keeps the frames it sends in `tx` and hands out those pushed to `rx`; the clock
+/// (`.0`, µs), the sensor's state and the actuator's command are plain fields.
+///
+/// ```
+/// # mod hw { include!("doctest_node.rs"); }
+/// # use hw::*;
+/// use agent_node::wire::{decode, encode, Source};
+/// use controller_core::Link;
+/// // Agent 2 hears agent 1's value 0.5, runs the law and broadcasts its own output y_2 = 0.1.
+/// let mut n = node();
+/// let (f, _) = encode::<CanFrame>(Source::Agent(1), 0.5, 0).unwrap();
+/// n.can_mut().rx.push_back(f);
+/// n.clock_mut().0 = 1_000;
+/// let t = n.tick();
+/// assert_eq!(n.neighbour_link(0, 1_000), Some(Link::Fresh(0.5)));
+/// assert_eq!(t.output.status.links.missing_neighbours, 0);
+/// let sent = decode(&n.can().tx[0]).unwrap();
+/// assert_eq!(sent.source, Source::Agent(2));
+/// assert!((sent.y.unwrap() - 0.1).abs() <= 1.0 / 65536.0); // Q7.16 on the wire
+/// ```
 pub struct Node<C, Clk, S, A, const N: usize, const M: usize, const K: usize> {
     can: C,
     clock: Clk,
@@ -482,6 +676,22 @@ struct CanOpen<const N: usize> {
 }
 
 /// Something the node's CANopen device asks of the application that runs the node.
+///
+/// ```
+/// # mod hw { include!("doctest_node.rs"); }
+/// # use hw::*;
+/// use agent_node::node::CanOpenRequest;
+/// use agent_node::canopen::Identity;
+/// // An SDO write of "save" to 0x1010:1 asks the application to persist the parameters.
+/// let mut n = node();
+/// let (cfg, ctrl) = (NodeConfig::new(2, [1], 2_500),
+///     ControllerConfig::<2> { neighbour_count: 1, ..Default::default() });
+/// n.enable_canopen(&cfg, &ctrl, Identity::default(), true, 0).unwrap();
+/// assert_eq!(n.canopen_mut().unwrap().write(0x1010, 1, b"save"), Ok(()));
+/// n.tick();
+/// assert_eq!(n.take_canopen_request(), Some(CanOpenRequest::Store));
+/// assert_eq!(n.take_canopen_request(), None);
+/// ```
 #[cfg(feature = "canopen")]
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum CanOpenRequest {
@@ -550,6 +760,18 @@ where
     A: Actuator<M>,
 {
     /// Validate the configuration (logging the culprit on failure) and build the node.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// use agent_node::NodeError;
+    /// assert_eq!(node().agent(), 2);
+    /// let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
+    /// let zero = NodeConfig::new(2, [1], 0); // a stale timeout of 0
+    /// let r = Node::new(&zero, &ctrl, Bus::default(), Time(0), State(Ok([0.0; 2])), Drive::default());
+    /// let r: Result<Node<_, _, _, _, 2, 2, 1>, _> = r;
+    /// assert_eq!(r.err(), Some(NodeError::ZeroTimeout));
+    /// ```
     pub fn new(
         cfg: &NodeConfig<K>,
         controller: &ControllerConfig<N>,
@@ -619,21 +841,66 @@ where
     }
 
     /// The node's state.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// use agent_node::NodeState;
+    /// let mut n = node();
+    /// assert_eq!(n.state(), NodeState::Boot);
+    /// n.tick(); // nothing supervised: operational at the first tick
+    /// assert_eq!(n.state(), NodeState::Operational);
+    /// ```
     pub fn state(&self) -> NodeState {
         self.supervisor.state()
     }
 
     /// The supervisor (state, lost sources, entries).
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// let mut n = node();
+    /// n.tick();
+    /// assert!(n.supervisor().lost().is_empty());
+    /// assert_eq!(n.supervisor().safe_entries(), 0);
+    /// ```
     pub fn supervisor(&self) -> &Supervisor {
         &self.supervisor
     }
 
     /// The identifier plan.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// use agent_node::IdPlan;
+    /// assert_eq!(*node().ids(), IdPlan::DEFAULT);
+    /// ```
     pub fn ids(&self) -> &IdPlan {
         &self.ids
     }
 
     /// The board's reset or boot counter, sent in the heartbeat.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// use agent_node::wire::Heartbeat;
+    /// // The boot counter travels in the heartbeat (bytes 2–3).
+    /// let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
+    /// let cfg = NodeConfig { heartbeat_period_us: 1_000, ..NodeConfig::new(2, [1], 2_500) };
+    /// let mut n: Node<_, _, _, _, 2, 2, 1> =
+    ///     Node::new(&cfg, &ctrl, Bus::default(), Time(0), State(Ok([0.0; 2])), Drive::default()).unwrap();
+    /// n.set_boot_count(7);
+    /// n.clock_mut().0 = 1_000; // agent 2's heartbeat goes out one sample after the first tick
+    /// n.tick();
+    /// n.clock_mut().0 = 2_000;
+    /// n.tick();
+    /// let hb = n.can().tx.iter().find(|f| f.raw_id() == 0x782).unwrap();
+    /// let bytes: [u8; 8] = embedded_can::Frame::data(hb).try_into().unwrap();
+    /// assert_eq!(Heartbeat::from_bytes(&bytes).unwrap().boot_count, 7);
+    /// ```
     pub fn set_boot_count(&mut self, count: u16) {
         self.boot_count = count;
     }
@@ -641,6 +908,14 @@ where
     /// The board saw a sample miss its slot: a release of its sample timer found the step still
     /// running (one call per such release). Counted at once; the samples the next tick finds
     /// skipped are not counted again (see the module docs).
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// let mut n = node();
+    /// n.record_overrun(); // the sample timer found the step still running
+    /// assert_eq!(n.stats().overruns, 1);
+    /// ```
     pub fn record_overrun(&mut self) {
         self.stats.overruns = self.stats.overruns.saturating_add(1);
         self.reported_overruns = self.reported_overruns.saturating_add(1);
@@ -652,6 +927,26 @@ where
     /// reset found at boot — : an EMCY with `count` (e.g. occurrences since start) when the node
     /// is a CANopen device, sent at once; nothing otherwise. Unlike a change through
     /// `Node::canopen_mut`, the configuration is left as it is.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// use agent_node::canopen::Fault;
+    /// // Without a CANopen device nothing is sent; with one, an EMCY with the CiA 301 code.
+    /// let mut n = node();
+    /// n.report_fault(Fault::BusOff, 1);
+    /// assert!(n.can().tx.is_empty());
+    /// # #[cfg(feature = "canopen")] {
+    /// let (cfg, ctrl) = (NodeConfig::new(2, [1], 2_500),
+    ///     ControllerConfig::<2> { neighbour_count: 1, ..Default::default() });
+    /// n.enable_canopen(&cfg, &ctrl, agent_node::canopen::Identity::default(), true, 0).unwrap();
+    /// n.service(); // boot-up message
+    /// n.report_fault(Fault::BusOff, 1);
+    /// let emcy = n.can().tx.last().unwrap();
+    /// assert_eq!(emcy.raw_id(), 0x80 + 2);
+    /// assert_eq!(&embedded_can::Frame::data(emcy)[..2], &0x8140u16.to_le_bytes());
+    /// # }
+    /// ```
     pub fn report_fault(&mut self, f: Fault, count: u32) {
         self.emcy(f, count);
         self.flush_canopen();
@@ -659,57 +954,162 @@ where
 
     /// The board found a fault it cannot recover from: the node latches `Fault` at the next
     /// tick (outputs zero, heartbeat `fault`) until it is restarted.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// use agent_node::NodeState;
+    /// let mut n = node();
+    /// n.enter_fault();
+    /// let t = n.tick();
+    /// assert_eq!(t.state, NodeState::Fault);
+    /// assert_eq!(n.actuator().0, [0.0, 0.0]); // outputs zero until restarted
+    /// ```
     pub fn enter_fault(&mut self) {
         self.fault_pending = true;
     }
 
     /// This agent's number.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// assert_eq!(node().agent(), 2);
+    /// ```
     pub fn agent(&self) -> u8 {
         self.agent
     }
 
     /// Counters since start.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// let mut n = node();
+    /// n.tick();
+    /// n.tick();
+    /// assert_eq!(n.stats().ticks, 2);
+    /// assert_eq!(n.stats().tx_queued, 2);
+    /// ```
     pub fn stats(&self) -> &NodeStats {
         &self.stats
     }
 
     /// The controller (read-only: state, parameters).
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// let mut n = node();
+    /// n.tick();
+    /// assert_eq!(n.controller().state().k, 1); // one sample of the law taken
+    /// ```
     pub fn controller(&self) -> &Controller<N, M, K> {
         &self.controller
     }
 
     /// The actuators (read-only: the commands applied).
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// let mut n = node();
+    /// let q = n.tick().output.q;
+    /// assert_eq!(n.actuator().0, q);
+    /// ```
     pub fn actuator(&self) -> &A {
         &self.actuator
     }
 
     /// The CAN controller (read-only).
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// let mut n = node();
+    /// assert!(n.can().tx.is_empty());
+    /// n.tick();
+    /// assert_eq!(n.can().tx.len(), 1);
+    /// ```
     pub fn can(&self) -> &C {
         &self.can
     }
 
     /// The CAN controller (the host harness moves frames through it).
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// use agent_node::wire::{encode, Source};
+    /// let mut n = node();
+    /// let (f, _) = encode::<CanFrame>(Source::Leader, 0.25, 3).unwrap();
+    /// n.can_mut().rx.push_back(f);
+    /// n.poll_rx();
+    /// assert_eq!(n.stats().accepted, 1);
+    /// ```
     pub fn can_mut(&mut self) -> &mut C {
         &mut self.can
     }
 
     /// The clock.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// let mut n = node();
+    /// n.clock_mut().0 = 42;
+    /// assert_eq!(n.tick().now_us, 42);
+    /// ```
     pub fn clock_mut(&mut self) -> &mut Clk {
         &mut self.clock
     }
 
     /// The sensors.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// let mut n = node();
+    /// n.sensor_mut().0 = Ok([0.75, 0.0]);
+    /// n.tick();
+    /// let sent = agent_node::wire::decode(&n.can().tx[0]).unwrap();
+    /// assert_eq!(sent.y, Some(0.75)); // y_2 = x_{2,1}
+    /// ```
     pub fn sensor_mut(&mut self) -> &mut S {
         &mut self.sensor
     }
 
     /// The actuators.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// let mut n = node();
+    /// n.actuator_mut().0 = [9.0; 2];
+    /// n.tick();
+    /// assert_ne!(n.actuator().0, [9.0; 2]); // overwritten by the tick's command
+    /// ```
     pub fn actuator_mut(&mut self) -> &mut A {
         &mut self.actuator
     }
 
     /// The link the controller would get for neighbour slot `k` at `now_us` (`None` if `k` is
     /// not a configured neighbour).
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// use agent_node::wire::{encode, Source};
+    /// use controller_core::Link;
+    /// let mut n = node();
+    /// assert_eq!(n.neighbour_link(0, 0), Some(Link::Missing)); // never heard
+    /// let (f, _) = encode::<CanFrame>(Source::Agent(1), 0.5, 0).unwrap();
+    /// n.can_mut().rx.push_back(f);
+    /// n.poll_rx(); // received at t = 0
+    /// assert_eq!(n.neighbour_link(0, 2_500), Some(Link::Fresh(0.5)));
+    /// assert_eq!(n.neighbour_link(0, 2_501), Some(Link::Stale(0.5))); // held, counted stale
+    /// assert_eq!(n.neighbour_link(1, 0), None); // one neighbour only
+    /// ```
     pub fn neighbour_link(&self, k: usize, now_us: u64) -> Option<Link> {
         self.slots
             .get(..self.count)?
@@ -718,22 +1118,61 @@ where
     }
 
     /// The agent heard in neighbour slot `k`.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// let n = node();
+    /// assert_eq!(n.neighbour_agent(0), Some(1));
+    /// assert_eq!(n.neighbour_agent(1), None);
+    /// ```
     pub fn neighbour_agent(&self, k: usize) -> Option<u8> {
         self.slots.get(..self.count)?.get(k).map(|s| s.agent)
     }
 
     /// The agent receives the leader (`r_i = 1`).
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// assert!(node().is_pinned()); // r_2 = 1: the default configuration hears the leader
+    /// ```
     pub fn is_pinned(&self) -> bool {
         self.pinned
     }
 
     /// Receive time (µs) of the value held for neighbour slot `k`, if any.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// use agent_node::wire::{encode, Source};
+    /// let mut n = node();
+    /// assert_eq!(n.neighbour_rx_time(0), None);
+    /// let (f, _) = encode::<CanFrame>(Source::Agent(1), 0.5, 0).unwrap();
+    /// n.can_mut().rx.push_back(f);
+    /// n.clock_mut().0 = 700;
+    /// n.poll_rx();
+    /// assert_eq!(n.neighbour_rx_time(0), Some(700));
+    /// ```
     pub fn neighbour_rx_time(&self, k: usize) -> Option<u64> {
         self.slots.get(..self.count)?.get(k)?.value.map(|(_, t)| t)
     }
 
     /// Drain up to [`MAX_RX_PER_POLL`] frames from the CAN controller, time-stamped with the
     /// clock now. Call from the CAN receive interrupt; [`Node::tick`] calls it too.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// use agent_node::wire::{encode, Source};
+    /// let mut n = node();
+    /// let (f, _) = encode::<CanFrame>(Source::Agent(9), 0.5, 0).unwrap();
+    /// n.can_mut().rx.push_back(f); // agent 9 is not a neighbour of agent 2
+    /// n.poll_rx();
+    /// assert_eq!((n.stats().frames_rx, n.stats().ignored), (1, 1));
+    /// assert!(n.can().rx.is_empty());
+    /// ```
     pub fn poll_rx(&mut self) {
         let now = self.clock.now_us();
         self.poll_rx_at(now);
@@ -824,6 +1263,17 @@ where
 
     /// One sample: sense, drain, freshness, supervise, step, actuate, broadcast (see the
     /// module docs).
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// use agent_node::TxOutcome;
+    /// let mut n = node();
+    /// let t = n.tick();
+    /// assert_eq!(t.tx, TxOutcome::Queued);
+    /// assert_eq!(t.output.q, n.actuator().0);
+    /// assert_eq!(t.output.status.links.missing_neighbours, 1); // agent 1 not heard yet
+    /// ```
     pub fn tick(&mut self) -> Tick<N, M> {
         let now = self.clock.now_us();
         self.stats.ticks = self.stats.ticks.saturating_add(1);
@@ -1242,6 +1692,20 @@ where
     /// message goes out at the next tick, and the control outputs — actuators and value frames
     /// — are enabled only while the device is NMT operational. `self_starting`: operational at
     /// boot, without an NMT start. `heartbeat_ms`: `0x1017`.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// use agent_node::canopen::{Identity, NmtState};
+    /// use agent_node::TxOutcome;
+    /// let mut n = node();
+    /// let (cfg, ctrl) = (NodeConfig::new(2, [1], 2_500),
+    ///     ControllerConfig::<2> { neighbour_count: 1, ..Default::default() });
+    /// n.enable_canopen(&cfg, &ctrl, Identity::default(), false, 0).unwrap();
+    /// // Not self-starting: pre-operational after boot-up, the outputs are off.
+    /// assert_eq!(n.tick().tx, TxOutcome::Disabled);
+    /// assert_eq!(n.canopen().unwrap().nmt(), NmtState::PreOperational);
+    /// ```
     pub fn enable_canopen(
         &mut self,
         cfg: &NodeConfig<K>,
@@ -1266,12 +1730,36 @@ where
     }
 
     /// The CANopen device, if enabled.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// use agent_node::canopen::Identity;
+    /// let mut n = node();
+    /// assert!(n.canopen().is_none());
+    /// let (cfg, ctrl) = (NodeConfig::new(2, [1], 2_500),
+    ///     ControllerConfig::<2> { neighbour_count: 1, ..Default::default() });
+    /// n.enable_canopen(&cfg, &ctrl, Identity::default(), true, 0).unwrap();
+    /// assert_eq!(n.canopen().unwrap().node_id(), 2);
+    /// ```
     pub fn canopen(&self) -> Option<&Device<N>> {
         self.canopen.as_ref().map(|c| &c.device)
     }
 
     /// The CANopen device, to load a stored configuration ([`Device::load`]) or report a fault
     /// ([`Device::report`]: bus-off, receive overflow, watchdog reset).
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// use agent_node::canopen::Identity;
+    /// let mut n = node();
+    /// let (cfg, ctrl) = (NodeConfig::new(2, [1], 2_500),
+    ///     ControllerConfig::<2> { neighbour_count: 1, ..Default::default() });
+    /// n.enable_canopen(&cfg, &ctrl, Identity::default(), true, 0).unwrap();
+    /// n.canopen_mut().unwrap().set_heartbeat_ms(100);
+    /// assert_eq!(n.canopen().unwrap().read(0x1017, 0).unwrap().as_slice(), &100u16.to_le_bytes());
+    /// ```
     pub fn canopen_mut(&mut self) -> Option<&mut Device<N>> {
         self.canopen.as_mut().map(|c| {
             // Whatever the caller changes is applied at the next NMT start.
@@ -1281,6 +1769,20 @@ where
     }
 
     /// The next request of the CANopen device for the application.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// use agent_node::{canopen::Identity, node::CanOpenRequest};
+    /// let mut n = node();
+    /// assert_eq!(n.take_canopen_request(), None); // no device, no requests
+    /// let (cfg, ctrl) = (NodeConfig::new(2, [1], 2_500),
+    ///     ControllerConfig::<2> { neighbour_count: 1, ..Default::default() });
+    /// n.enable_canopen(&cfg, &ctrl, Identity::default(), true, 0).unwrap();
+    /// n.canopen_mut().unwrap().write(0x1011, 1, b"load").unwrap();
+    /// n.service();
+    /// assert_eq!(n.take_canopen_request(), Some(CanOpenRequest::Restore));
+    /// ```
     pub fn take_canopen_request(&mut self) -> Option<CanOpenRequest> {
         let c = self.canopen.as_mut()?;
         let r = [
@@ -1503,6 +2005,23 @@ where
     /// Adopt the device's node-ID, graph row and plan now, as a reset communication does: for
     /// an application that loads its stored set on NMT reset node (`Device::load`, after the
     /// device's own reset), so that the next start runs on it.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// use agent_node::canopen::{od::PARAM_BASE, Identity};
+    /// use controller_core::Param;
+    /// let mut n = node();
+    /// let (cfg, ctrl) = (NodeConfig::new(2, [1], 2_500),
+    ///     ControllerConfig::<2> { neighbour_count: 1, ..Default::default() });
+    /// n.enable_canopen(&cfg, &ctrl, Identity::default(), false, 0).unwrap();
+    /// n.tick(); // boot-up: pre-operational, where the row is writable
+    /// let pinned = PARAM_BASE + Param::ALL.iter().position(|p| *p == Param::Pinned).unwrap() as u16;
+    /// n.canopen_mut().unwrap().write(pinned, 0, &[0]).unwrap();
+    /// assert!(n.canopen().unwrap().graph_written());
+    /// n.adopt();
+    /// assert!(!n.canopen().unwrap().graph_written());
+    /// ```
     pub fn adopt(&mut self) {
         self.adopt_node_id();
     }
@@ -1510,6 +2029,25 @@ where
     /// Times the node adopted another node-ID, graph row or plan from its device since it
     /// was built (the boot's adoption of a stored set included): a board whose acceptance
     /// filters were set for the earlier ones restarts when it changes.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// use agent_node::canopen::{od::PARAM_BASE, Identity};
+    /// use controller_core::Param;
+    /// let mut n = node();
+    /// assert_eq!(n.adoptions(), 0); // no device
+    /// let (cfg, ctrl) = (NodeConfig::new(2, [1], 2_500),
+    ///     ControllerConfig::<2> { neighbour_count: 1, ..Default::default() });
+    /// n.enable_canopen(&cfg, &ctrl, Identity::default(), false, 0).unwrap();
+    /// n.adopt();
+    /// assert_eq!(n.adoptions(), 0); // nothing written: nothing to adopt
+    /// n.tick(); // boot-up: pre-operational
+    /// let pinned = PARAM_BASE + Param::ALL.iter().position(|p| *p == Param::Pinned).unwrap() as u16;
+    /// n.canopen_mut().unwrap().write(pinned, 0, &[0]).unwrap(); // stop hearing the leader
+    /// n.adopt();
+    /// assert_eq!(n.adoptions(), 1);
+    /// ```
     pub fn adoptions(&self) -> u16 {
         self.canopen.as_ref().map_or(0, |c| c.adoptions)
     }
@@ -1546,6 +2084,19 @@ where
     /// The CANopen device's work alone — boot-up, received frames (SDO, NMT, heartbeats),
     /// events, heartbeat — for an application that is not sampling yet (waiting for its host).
     /// Nothing without a device.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// use agent_node::canopen::Identity;
+    /// let mut n = node();
+    /// let (cfg, ctrl) = (NodeConfig::new(2, [1], 2_500),
+    ///     ControllerConfig::<2> { neighbour_count: 1, ..Default::default() });
+    /// n.enable_canopen(&cfg, &ctrl, Identity::default(), true, 0).unwrap();
+    /// n.service(); // boot-up message 0x700 + node-ID, no sample taken
+    /// assert_eq!(n.can().tx[0].raw_id(), 0x702);
+    /// assert_eq!(n.stats().ticks, 0);
+    /// ```
     pub fn service(&mut self) {
         if self.canopen.is_some() {
             let now = self.clock.now_us();

@@ -30,6 +30,14 @@ pub const PAIR_LEN: usize = 8;
 pub const STATE_LEN: usize = 4;
 
 /// The kind of a plant-bus frame.
+///
+/// ```
+/// use agent_node::plant_bus::Kind;
+/// // Agent 3's sensor, command and state frames.
+/// let ids = [Kind::Sensor, Kind::Command, Kind::State].map(|k| k.id(3).unwrap().as_raw());
+/// assert_eq!(ids, [0x203, 0x303, 0x403]);
+/// assert_eq!(Kind::classify(0x303), Some((Kind::Command, 3)));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Kind {
     /// host → node: the agent's state `x_i`.
@@ -50,6 +58,13 @@ impl Kind {
     }
 
     /// The identifier of agent `agent`'s frame of this kind; `None` for agent 0.
+    ///
+    /// ```
+    /// use agent_node::plant_bus::Kind;
+    /// assert_eq!(Kind::Sensor.id(1).map(|i| i.as_raw()), Some(0x201));
+    /// assert_eq!(Kind::Sensor.id(0), None);
+    /// ```
+    #[must_use]
     pub fn id(self, agent: u8) -> Option<StandardId> {
         if agent == 0 {
             return None;
@@ -58,6 +73,14 @@ impl Kind {
     }
 
     /// The kind and agent of a raw 11-bit identifier, `None` when it is not a plant-bus frame.
+    ///
+    /// ```
+    /// use agent_node::plant_bus::Kind;
+    /// assert_eq!(Kind::classify(0x4FF), Some((Kind::State, 255)));
+    /// assert_eq!(Kind::classify(0x101), None); // the leader's value frame
+    /// assert_eq!(Kind::classify(0x200), None); // agent 0
+    /// ```
+    #[must_use]
     pub const fn classify(raw: u16) -> Option<(Self, u8)> {
         let kind = match raw & 0x700 {
             SENSOR_BASE => Self::Sensor,
@@ -73,6 +96,14 @@ impl Kind {
 }
 
 /// Two `f32`, little-endian: the payload of sensor and command frames.
+///
+/// ```
+/// use agent_node::plant_bus::{decode_pair, encode_pair};
+/// let b = encode_pair([0.5, -2.0]); // x_{i,1}, x_{i,2}, f32 LE
+/// assert_eq!(&b[..4], &0.5f32.to_le_bytes());
+/// assert_eq!(decode_pair(&b), Some([0.5, -2.0]));
+/// ```
+#[must_use]
 pub fn encode_pair(v: [f32; 2]) -> [u8; PAIR_LEN] {
     let mut b = [0; PAIR_LEN];
     b[..4].copy_from_slice(&v[0].to_le_bytes());
@@ -81,6 +112,13 @@ pub fn encode_pair(v: [f32; 2]) -> [u8; PAIR_LEN] {
 }
 
 /// The two `f32` of a sensor or command payload; `None` unless it has [`PAIR_LEN`] bytes.
+///
+/// ```
+/// use agent_node::plant_bus::decode_pair;
+/// assert_eq!(decode_pair(&[0; 8]), Some([0.0, 0.0]));
+/// assert_eq!(decode_pair(&[0; 7]), None);
+/// ```
+#[must_use]
 pub fn decode_pair(data: &[u8]) -> Option<[f32; 2]> {
     let b: &[u8; PAIR_LEN] = data.try_into().ok()?;
     let f = |k: usize| f32::from_le_bytes([b[k], b[k + 1], b[k + 2], b[k + 3]]);
@@ -94,6 +132,14 @@ pub const PACKED_SENSOR_AGENTS: u8 = 8;
 /// The first agent of `agent`'s packed sensor frame: the frame goes out with that agent's
 /// sensor identifier ([`Kind::id`]) and carries agents `first..first + 8` in order. `None` for
 /// agent 0.
+///
+/// ```
+/// use agent_node::plant_bus::packed_first;
+/// // Agents 1..=8 share the first packed frame, 9..=16 the second.
+/// assert_eq!((packed_first(1), packed_first(8), packed_first(9)), (Some(1), Some(1), Some(9)));
+/// assert_eq!(packed_first(0), None);
+/// ```
+#[must_use]
 pub const fn packed_first(agent: u8) -> Option<u8> {
     if agent == 0 {
         return None;
@@ -104,6 +150,15 @@ pub const fn packed_first(agent: u8) -> Option<u8> {
 /// Writes the states `x` (agents `first, first + 1, …` in order; at most
 /// [`PACKED_SENSOR_AGENTS`]) into `out` as consecutive sensor payloads; the bytes written, or
 /// `None` when `out` is too short.
+///
+/// ```
+/// use agent_node::plant_bus::{decode_packed, encode_packed};
+/// // The states of agents 9 and 10 in one CAN FD payload.
+/// let mut out = [0u8; 64];
+/// assert_eq!(encode_packed(&[[1.0, 0.0], [2.0, 0.5]], &mut out), Some(16));
+/// assert_eq!(decode_packed(9, 10, &out), Some([2.0, 0.5]));
+/// assert_eq!(encode_packed(&[[0.0; 2]; 2], &mut [0u8; 8]), None); // too short
+/// ```
 pub fn encode_packed(x: &[[f32; 2]], out: &mut [u8]) -> Option<usize> {
     let x = x.get(..x.len().min(usize::from(PACKED_SENSOR_AGENTS)))?;
     let len = x.len() * PAIR_LEN;
@@ -116,6 +171,16 @@ pub fn encode_packed(x: &[[f32; 2]], out: &mut [u8]) -> Option<usize> {
 /// Agent `agent`'s state in a packed sensor payload whose first agent is `first`; `None` when
 /// the payload does not reach it (an FD frame is padded to its length: trailing bytes are
 /// ignored).
+///
+/// ```
+/// use agent_node::plant_bus::{decode_packed, encode_packed};
+/// let mut out = [0u8; 24];
+/// encode_packed(&[[1.0, 1.0], [2.0, 2.0], [3.0, 3.0]], &mut out).unwrap();
+/// assert_eq!(decode_packed(1, 3, &out), Some([3.0, 3.0]));
+/// assert_eq!(decode_packed(1, 4, &out), None); // the payload does not reach agent 4
+/// assert_eq!(decode_packed(2, 1, &out), None); // before the first agent
+/// ```
+#[must_use]
 pub fn decode_packed(first: u8, agent: u8, data: &[u8]) -> Option<[f32; 2]> {
     let k = usize::from(agent.checked_sub(first)?);
     if k >= usize::from(PACKED_SENSOR_AGENTS) {
@@ -125,6 +190,15 @@ pub fn decode_packed(first: u8, agent: u8, data: &[u8]) -> Option<[f32; 2]> {
 }
 
 /// A frame of `kind` for `agent` with payload `v`; `None` for agent 0.
+///
+/// ```
+/// use agent_node::link::CanFrame;
+/// use agent_node::plant_bus::{decode, pair_frame, Kind, PlantFrame};
+/// let f: CanFrame = pair_frame(Kind::Command, 2, [0.1, 0.1]).unwrap();
+/// assert_eq!(f.raw_id(), 0x302);
+/// assert_eq!(decode(&f), Some(PlantFrame::Command(2, [0.1, 0.1])));
+/// ```
+#[must_use]
 pub fn pair_frame<F: Frame>(kind: Kind, agent: u8, v: [f32; 2]) -> Option<F> {
     F::new(kind.id(agent)?, &encode_pair(v))
 }
@@ -132,11 +206,28 @@ pub fn pair_frame<F: Frame>(kind: Kind, agent: u8, v: [f32; 2]) -> Option<F> {
 /// The host's stop command for the node(s) whose sensor frames come under `sensor_agent`'s
 /// sensor identifier (the agent itself, or the first agent of its packed group): a sensor frame
 /// without data. The node ends its run ("a stop was commanded"). `None` for agent 0.
+///
+/// ```
+/// use agent_node::link::CanFrame;
+/// use agent_node::plant_bus::{decode, stop_frame, PlantFrame};
+/// let f: CanFrame = stop_frame(4).unwrap();
+/// assert_eq!(decode(&f), Some(PlantFrame::Stop(4))); // a sensor frame without data
+/// assert!(stop_frame::<CanFrame>(0).is_none());
+/// ```
+#[must_use]
 pub fn stop_frame<F: Frame>(sensor_agent: u8) -> Option<F> {
     F::new(Kind::Sensor.id(sensor_agent)?, &[])
 }
 
 /// A received plant-bus frame.
+///
+/// ```
+/// use agent_node::link::CanFrame;
+/// use agent_node::plant_bus::{decode, pair_frame, Kind, PlantFrame};
+/// // The host's sensor frame for agent 1: x_1 = (0.25, 0).
+/// let f: CanFrame = pair_frame(Kind::Sensor, 1, [0.25, 0.0]).unwrap();
+/// assert_eq!(decode(&f), Some(PlantFrame::Sensor(1, [0.25, 0.0])));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum PlantFrame {
     /// Agent's state from the host.
@@ -150,6 +241,17 @@ pub enum PlantFrame {
 }
 
 /// Decodes a plant-bus frame; `None` for any other frame or a malformed payload.
+///
+/// ```
+/// use agent_node::link::CanFrame;
+/// use agent_node::plant_bus::{decode, Mode, NodeState, PlantFrame};
+/// use embedded_can::{Frame, StandardId};
+/// let st = NodeState { mode: Mode::Running, degraded_links: 0, late_ticks: 0 };
+/// let f: CanFrame = st.frame(5).unwrap();
+/// assert_eq!(decode(&f), Some(PlantFrame::State(5, st)));
+/// let short = CanFrame::new(StandardId::new(0x205).unwrap(), &[0; 3]).unwrap();
+/// assert_eq!(decode(&short), None); // malformed sensor payload
+/// ```
 pub fn decode<F: Frame>(frame: &F) -> Option<PlantFrame> {
     let Id::Standard(id) = frame.id() else {
         return None;
@@ -168,6 +270,12 @@ pub fn decode<F: Frame>(frame: &F) -> Option<PlantFrame> {
 }
 
 /// What a node is doing, as its state frame says.
+///
+/// ```
+/// use agent_node::plant_bus::Mode;
+/// assert_eq!(Mode::from_u8(Mode::HostLost as u8), Some(Mode::HostLost));
+/// assert_eq!(Mode::HostLost.as_str(), "host-lost");
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[repr(u8)]
 pub enum Mode {
@@ -183,6 +291,13 @@ pub enum Mode {
 
 impl Mode {
     /// The mode of a state byte.
+    ///
+    /// ```
+    /// use agent_node::plant_bus::Mode;
+    /// assert_eq!(Mode::from_u8(1), Some(Mode::Running));
+    /// assert_eq!(Mode::from_u8(4), None);
+    /// ```
+    #[must_use]
     pub const fn from_u8(v: u8) -> Option<Self> {
         Some(match v {
             0 => Self::Waiting,
@@ -194,6 +309,13 @@ impl Mode {
     }
 
     /// A short name for logs and the bus monitor.
+    ///
+    /// ```
+    /// use agent_node::plant_bus::Mode;
+    /// assert_eq!(Mode::Waiting.as_str(), "waiting");
+    /// assert_eq!(Mode::Stopping.as_str(), "stopping");
+    /// ```
+    #[must_use]
     pub const fn as_str(self) -> &'static str {
         match self {
             Self::Waiting => "waiting",
@@ -205,6 +327,14 @@ impl Mode {
 }
 
 /// The payload of a state frame.
+///
+/// ```
+/// use agent_node::plant_bus::{Mode, NodeState};
+/// // Running, one link not fresh, 300 late samples.
+/// let st = NodeState { mode: Mode::Running, degraded_links: 1, late_ticks: 300 };
+/// assert_eq!(st.to_bytes(), [1, 1, 44, 1]);
+/// assert_eq!(NodeState::from_bytes(&st.to_bytes()), Some(st));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct NodeState {
     /// What the node does.
@@ -217,12 +347,26 @@ pub struct NodeState {
 
 impl NodeState {
     /// `mode`, `degraded_links`, `late_ticks` (`u16` LE).
+    ///
+    /// ```
+    /// use agent_node::plant_bus::{Mode, NodeState};
+    /// let st = NodeState { mode: Mode::Waiting, degraded_links: 0, late_ticks: 1 };
+    /// assert_eq!(st.to_bytes(), [0, 0, 1, 0]);
+    /// ```
+    #[must_use]
     pub fn to_bytes(&self) -> [u8; STATE_LEN] {
         let l = self.late_ticks.to_le_bytes();
         [self.mode as u8, self.degraded_links, l[0], l[1]]
     }
 
     /// The state of a payload; `None` unless it has [`STATE_LEN`] bytes and a known mode.
+    ///
+    /// ```
+    /// use agent_node::plant_bus::NodeState;
+    /// assert_eq!(NodeState::from_bytes(&[9, 0, 0, 0]), None); // unknown mode
+    /// assert_eq!(NodeState::from_bytes(&[0, 0, 0]), None); // short
+    /// ```
+    #[must_use]
     pub fn from_bytes(data: &[u8]) -> Option<Self> {
         let b: &[u8; STATE_LEN] = data.try_into().ok()?;
         Some(Self {
@@ -233,6 +377,15 @@ impl NodeState {
     }
 
     /// A state frame of `agent`; `None` for agent 0.
+    ///
+    /// ```
+    /// use agent_node::link::CanFrame;
+    /// use agent_node::plant_bus::{Mode, NodeState};
+    /// let st = NodeState { mode: Mode::Stopping, degraded_links: 0, late_ticks: 0 };
+    /// assert_eq!(st.frame::<CanFrame>(2).unwrap().raw_id(), 0x402);
+    /// assert!(st.frame::<CanFrame>(0).is_none());
+    /// ```
+    #[must_use]
     pub fn frame<F: Frame>(&self, agent: u8) -> Option<F> {
         F::new(Kind::State.id(agent)?, &self.to_bytes())
     }

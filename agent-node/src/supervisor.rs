@@ -65,6 +65,15 @@
 //! commands that were not applied.
 
 /// The node's state; [`NodeState::code`] is what the heartbeat and the PIL report carry.
+///
+/// ```
+/// use agent_node::{supervisor::Supervisor, NodeState, SupervisorConfig};
+/// // A node starts in Boot; with nothing supervised its first tick makes it Operational.
+/// let sup = Supervisor::new(&SupervisorConfig::OFF)?;
+/// assert_eq!(sup.state(), NodeState::Boot);
+/// assert_eq!(NodeState::from_code(NodeState::Safe.code()), Some(NodeState::Safe));
+/// # Ok::<(), agent_node::supervisor::SupervisorError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum NodeState {
@@ -81,6 +90,14 @@ pub enum NodeState {
 impl NodeState {
     /// Code on the wire: 0 operational, 1 boot, 2 safe, 3 fault (0 so a healthy node's PIL
     /// report reads as before).
+    ///
+    /// ```
+    /// use agent_node::NodeState;
+    /// // 0 so that a healthy node's PIL report reads as before the supervisor existed.
+    /// assert_eq!(NodeState::Operational.code(), 0);
+    /// assert_eq!(NodeState::Fault.code(), 3);
+    /// ```
+    #[must_use]
     pub const fn code(self) -> u8 {
         match self {
             Self::Operational => 0,
@@ -91,6 +108,13 @@ impl NodeState {
     }
 
     /// The state of a code; `None` above 3.
+    ///
+    /// ```
+    /// use agent_node::NodeState;
+    /// assert_eq!(NodeState::from_code(2), Some(NodeState::Safe));
+    /// assert_eq!(NodeState::from_code(4), None); // a corrupt heartbeat byte
+    /// ```
+    #[must_use]
     pub const fn from_code(code: u8) -> Option<Self> {
         match code {
             0 => Some(Self::Operational),
@@ -102,6 +126,13 @@ impl NodeState {
     }
 
     /// The lower-case name.
+    ///
+    /// ```
+    /// use agent_node::NodeState;
+    /// assert_eq!(NodeState::Safe.as_str(), "safe");
+    /// assert_eq!(NodeState::Operational.as_str(), "operational");
+    /// ```
+    #[must_use]
     pub const fn as_str(self) -> &'static str {
         match self {
             Self::Operational => "operational",
@@ -113,6 +144,14 @@ impl NodeState {
 }
 
 /// What the node does while `Safe` (module docs, *Safe policies*).
+///
+/// ```
+/// use agent_node::{supervisor::safe_command, SafePolicy};
+/// // Open-loop ramp at 2 units/s: after 0.25 s a command of 1.0 has come down to 0.5.
+/// let q = safe_command(SafePolicy::Ramp { rate: 2.0 }, &[1.0], 250_000);
+/// assert!((q[0] - 0.5).abs() < 1e-6);
+/// assert!(SafePolicy::HoldPosition.is_closed_loop() && !SafePolicy::Off.is_closed_loop());
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum SafePolicy {
@@ -139,11 +178,26 @@ pub enum SafePolicy {
 
 impl SafePolicy {
     /// The controller keeps stepping (the loop stays closed around a safe reference).
+    ///
+    /// ```
+    /// use agent_node::SafePolicy;
+    /// // CiA 402 halt and quick stop keep the controller stepping; hold, ramp and off do not.
+    /// assert!(SafePolicy::Stop { decel: 1.0 }.is_closed_loop());
+    /// assert!(!SafePolicy::Ramp { rate: 1.0 }.is_closed_loop());
+    /// ```
+    #[must_use]
     pub const fn is_closed_loop(&self) -> bool {
         matches!(self, Self::HoldPosition | Self::Stop { .. })
     }
 
     /// The lower-case name used in scenario and node files.
+    ///
+    /// ```
+    /// use agent_node::SafePolicy;
+    /// assert_eq!(SafePolicy::HoldPosition.as_str(), "hold-position");
+    /// assert_eq!(SafePolicy::Stop { decel: 3.0 }.as_str(), "stop");
+    /// ```
+    #[must_use]
     pub const fn as_str(&self) -> &'static str {
         match self {
             Self::HoldPosition => "hold-position",
@@ -156,6 +210,22 @@ impl SafePolicy {
 }
 
 /// Which neighbour silence is a loss.
+///
+/// ```
+/// use agent_node::supervisor::{Observation, Supervisor};
+/// use agent_node::{NeighbourLoss, NodeState, SupervisorConfig};
+/// // One neighbour silent for 20 ms, the other fresh: a loss only under `Any`.
+/// let obs = Observation { now_us: 20_000, stale_timeout_us: 2_500, leader_age_us: 0,
+///     newest_neighbour_age_us: Some(0), oldest_neighbour_age_us: Some(20_000), sensor_ok: true };
+/// for (loss, state) in [(NeighbourLoss::All, NodeState::Operational), (NeighbourLoss::Any, NodeState::Safe)] {
+///     let cfg = SupervisorConfig { neighbour_timeout_us: Some(10_000), neighbour_loss: loss,
+///         ..SupervisorConfig::OFF };
+///     let mut sup = Supervisor::new(&cfg)?;
+///     sup.update(&obs);
+///     assert_eq!(sup.state(), state);
+/// }
+/// # Ok::<(), agent_node::supervisor::SupervisorError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum NeighbourLoss {
@@ -167,6 +237,17 @@ pub enum NeighbourLoss {
 }
 
 /// When the node enters and leaves its safe state, and what it commands there.
+///
+/// ```
+/// use agent_node::{supervisor::SupervisorError, SafePolicy, SupervisorConfig};
+/// // Leader silent for 50 ms: quick stop at 2 units/s².
+/// let cfg = SupervisorConfig { leader_timeout_us: Some(50_000),
+///     policy: SafePolicy::Stop { decel: 2.0 }, ..SupervisorConfig::OFF };
+/// assert_eq!(cfg.validate(), Ok(()));
+/// // A sensor lost leaves no loop to close: a closed-loop sensor policy is refused.
+/// let bad = SupervisorConfig { sensor_policy: SafePolicy::HoldPosition, ..cfg };
+/// assert_eq!(bad.validate(), Err(SupervisorError::SensorPolicyClosedLoop));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct SupervisorConfig {
@@ -208,6 +289,14 @@ impl SupervisorConfig {
     };
 
     /// Some source has a loss timeout (otherwise the node never enters `Safe`).
+    ///
+    /// ```
+    /// use agent_node::SupervisorConfig;
+    /// assert!(!SupervisorConfig::OFF.supervises_any());
+    /// let cfg = SupervisorConfig { sensor_timeout_us: Some(5_000), ..SupervisorConfig::OFF };
+    /// assert!(cfg.supervises_any());
+    /// ```
+    #[must_use]
     pub const fn supervises_any(&self) -> bool {
         self.leader_timeout_us.is_some()
             || self.neighbour_timeout_us.is_some()
@@ -215,6 +304,13 @@ impl SupervisorConfig {
     }
 
     /// Check every field once.
+    ///
+    /// ```
+    /// use agent_node::{supervisor::SupervisorError, SupervisorConfig};
+    /// assert_eq!(SupervisorConfig::OFF.validate(), Ok(()));
+    /// let cfg = SupervisorConfig { leader_timeout_us: Some(0), ..SupervisorConfig::OFF };
+    /// assert_eq!(cfg.validate(), Err(SupervisorError::LeaderTimeout));
+    /// ```
     pub fn validate(&self) -> Result<(), SupervisorError> {
         let positive = |v: f32| v.is_finite() && v > 0.0;
         for p in [self.policy, self.sensor_policy] {
@@ -254,8 +350,19 @@ impl Default for SupervisorConfig {
 }
 
 /// Which [`SupervisorConfig`] field is invalid.
+///
+/// `#[non_exhaustive]`: each new supervision setting brings its own check.
+///
+/// ```
+/// use agent_node::{supervisor::{Supervisor, SupervisorError}, SafePolicy, SupervisorConfig};
+/// let cfg = SupervisorConfig { policy: SafePolicy::Ramp { rate: f32::NAN }, ..SupervisorConfig::OFF };
+/// let e = Supervisor::new(&cfg).unwrap_err();
+/// assert_eq!(e, SupervisorError::RampRate);
+/// assert_eq!(e.to_string(), "safe-state ramp rate must be finite and > 0");
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum SupervisorError {
     /// `policy = Ramp { rate }` with a rate that is not finite and > 0.
     RampRate,
@@ -294,6 +401,15 @@ impl core::error::Error for SupervisorError {}
 
 /// The reference of [`SafePolicy::Stop`]: from the output `y0` and velocity `w` at entry
 /// (`t0`), `y(τ) = y0 + w τ − sgn(w) d τ²/2` until rest at `τ = |w|/d`, then held.
+///
+/// ```
+/// use agent_node::supervisor::StopProfile;
+/// // From y = 1 moving at 2 units/s, decelerating at 4 units/s²: at rest after 0.5 s at y = 1.5.
+/// let p = StopProfile::new(1.0, 2.0, 4.0, 0);
+/// assert!((p.at(250_000) - 1.375).abs() < 1e-6);
+/// assert!((p.at(500_000) - 1.5).abs() < 1e-6);
+/// assert_eq!(p.at(2_000_000), p.at(500_000)); // held at rest
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct StopProfile {
@@ -306,6 +422,14 @@ pub struct StopProfile {
 impl StopProfile {
     /// The profile from `y0` moving at `w` (units per s) at `t0_us`, decelerating at `decel`
     /// (> 0, validated with the policy); a non-finite `w` counts as rest.
+    ///
+    /// ```
+    /// use agent_node::supervisor::StopProfile;
+    /// // A non-finite velocity counts as rest: the reference stays at y0.
+    /// let p = StopProfile::new(0.3, f32::NAN, 1.0, 10);
+    /// assert_eq!(p.at(1_000_000), 0.3);
+    /// ```
+    #[must_use]
     pub fn new(y0: f32, w: f32, decel: f32, t0_us: u64) -> Self {
         let w = if w.is_finite() { w } else { 0.0 };
         Self {
@@ -317,6 +441,15 @@ impl StopProfile {
     }
 
     /// The reference at `now_us`.
+    ///
+    /// ```
+    /// use agent_node::supervisor::StopProfile;
+    /// // Moving backwards at 1 unit/s from 0, decelerating at 1 unit/s²: rest at -0.5 after 1 s.
+    /// let p = StopProfile::new(0.0, -1.0, 1.0, 1_000);
+    /// assert_eq!(p.at(0), 0.0); // before entry: y0
+    /// assert!((p.at(1_001_000) + 0.5).abs() < 1e-6);
+    /// ```
+    #[must_use]
     pub fn at(&self, now_us: u64) -> f32 {
         let tau = now_us.saturating_sub(self.t0_us) as f32 * 1e-6;
         let speed = self.w.abs();
@@ -330,6 +463,13 @@ impl StopProfile {
 }
 
 /// Supervised sources that are lost, as bits (heartbeat byte 1).
+///
+/// ```
+/// use agent_node::supervisor::Lost;
+/// let lost = Lost::from_bits(Lost::LEADER | Lost::SENSOR);
+/// assert!(lost.leader() && lost.sensor() && !lost.neighbours());
+/// assert_eq!(lost.bits(), 0b101);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Lost(u8);
@@ -343,31 +483,73 @@ impl Lost {
     pub const SENSOR: u8 = 4;
 
     /// From bits (unknown bits dropped).
+    ///
+    /// ```
+    /// use agent_node::supervisor::Lost;
+    /// // Unknown bits of a heartbeat byte are dropped.
+    /// assert_eq!(Lost::from_bits(0xF8).bits(), 0);
+    /// assert!(Lost::from_bits(0xFA).neighbours());
+    /// ```
+    #[must_use]
     pub const fn from_bits(bits: u8) -> Self {
         Self(bits & (Self::LEADER | Self::NEIGHBOURS | Self::SENSOR))
     }
 
     /// The bits.
+    ///
+    /// ```
+    /// use agent_node::supervisor::Lost;
+    /// assert_eq!(Lost::from_bits(Lost::NEIGHBOURS).bits(), 2);
+    /// ```
+    #[must_use]
     pub const fn bits(self) -> u8 {
         self.0
     }
 
     /// No source lost.
+    ///
+    /// ```
+    /// use agent_node::supervisor::Lost;
+    /// assert!(Lost::default().is_empty());
+    /// assert!(!Lost::from_bits(Lost::SENSOR).is_empty());
+    /// ```
+    #[must_use]
     pub const fn is_empty(self) -> bool {
         self.0 == 0
     }
 
     /// The leader is lost.
+    ///
+    /// ```
+    /// use agent_node::supervisor::Lost;
+    /// assert!(Lost::from_bits(Lost::LEADER).leader());
+    /// assert!(!Lost::from_bits(Lost::SENSOR).leader());
+    /// ```
+    #[must_use]
     pub const fn leader(self) -> bool {
         self.0 & Self::LEADER != 0
     }
 
     /// The neighbours are lost.
+    ///
+    /// ```
+    /// use agent_node::supervisor::Lost;
+    /// assert!(Lost::from_bits(Lost::NEIGHBOURS).neighbours());
+    /// assert!(!Lost::from_bits(Lost::LEADER).neighbours());
+    /// ```
+    #[must_use]
     pub const fn neighbours(self) -> bool {
         self.0 & Self::NEIGHBOURS != 0
     }
 
     /// The sensor is lost.
+    ///
+    /// ```
+    /// use agent_node::supervisor::Lost;
+    /// assert!(Lost::from_bits(Lost::SENSOR).sensor());
+    /// assert!(!Lost::default().sensor());
+    /// ```
+    #[must_use]
     pub const fn sensor(self) -> bool {
         self.0 & Self::SENSOR != 0
     }
@@ -375,6 +557,19 @@ impl Lost {
 
 /// What the node observed at one tick, for [`Supervisor::update`]. Ages are µs since the last
 /// valid value (since the first tick for a source never heard).
+///
+/// ```
+/// use agent_node::supervisor::{Observation, Supervisor};
+/// use agent_node::{NodeState, SupervisorConfig};
+/// let cfg = SupervisorConfig { leader_timeout_us: Some(10_000), ..SupervisorConfig::OFF };
+/// let mut sup = Supervisor::new(&cfg)?;
+/// // The leader's value 1 ms old, within the 2.5 ms stale timeout: healthy.
+/// let obs = Observation { now_us: 1_000, stale_timeout_us: 2_500, leader_age_us: 1_000,
+///     newest_neighbour_age_us: None, oldest_neighbour_age_us: None, sensor_ok: true };
+/// sup.update(&obs);
+/// assert_eq!(sup.state(), NodeState::Operational);
+/// # Ok::<(), agent_node::supervisor::SupervisorError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Observation {
     /// Clock at the tick (µs).
@@ -392,6 +587,21 @@ pub struct Observation {
 }
 
 /// A change of state.
+///
+/// ```
+/// use agent_node::supervisor::{Observation, Supervisor, Transition};
+/// use agent_node::{NodeState, SupervisorConfig};
+/// let cfg = SupervisorConfig { sensor_timeout_us: Some(1_000), ..SupervisorConfig::OFF };
+/// let mut sup = Supervisor::new(&cfg)?;
+/// let mut obs = Observation { now_us: 0, stale_timeout_us: 2_500, leader_age_us: 0,
+///     newest_neighbour_age_us: None, oldest_neighbour_age_us: None, sensor_ok: false };
+/// assert_eq!(sup.update(&obs), None); // invalid, not yet for longer than 1 ms
+/// obs.now_us = 2_000;
+/// let t: Transition = sup.update(&obs).unwrap();
+/// assert_eq!((t.from, t.to), (NodeState::Boot, NodeState::Safe));
+/// assert!(t.lost.sensor());
+/// # Ok::<(), agent_node::supervisor::SupervisorError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Transition {
@@ -404,6 +614,26 @@ pub struct Transition {
 }
 
 /// The state machine of the module docs; pure, no I/O.
+///
+/// ```
+/// use agent_node::supervisor::{Observation, Supervisor};
+/// use agent_node::{NodeState, SupervisorConfig};
+/// // The leader supervised with a 10 ms timeout and a 5 ms recovery dwell.
+/// let cfg = SupervisorConfig { leader_timeout_us: Some(10_000), recover_dwell_us: 5_000,
+///     ..SupervisorConfig::OFF };
+/// let mut sup = Supervisor::new(&cfg)?;
+/// let at = |now_us, leader_age_us| Observation { now_us, stale_timeout_us: 2_500, leader_age_us,
+///     newest_neighbour_age_us: None, oldest_neighbour_age_us: None, sensor_ok: true };
+/// sup.update(&at(0, 0));
+/// assert_eq!(sup.state(), NodeState::Operational);
+/// sup.update(&at(20_000, 20_000)); // silent for 20 ms: safe state
+/// assert_eq!(sup.state(), NodeState::Safe);
+/// sup.update(&at(21_000, 0)); // back: the dwell starts
+/// assert_eq!(sup.state(), NodeState::Safe);
+/// sup.update(&at(26_000, 0)); // healthy for 5 ms: operational again
+/// assert_eq!((sup.state(), sup.safe_entries()), (NodeState::Operational, 1));
+/// # Ok::<(), agent_node::supervisor::SupervisorError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Supervisor {
@@ -417,6 +647,13 @@ pub struct Supervisor {
 
 impl Supervisor {
     /// A supervisor in `Boot`; the configuration is checked once.
+    ///
+    /// ```
+    /// use agent_node::{supervisor::{Supervisor, SupervisorError}, SupervisorConfig};
+    /// assert!(Supervisor::new(&SupervisorConfig::OFF).is_ok());
+    /// let cfg = SupervisorConfig { reentry_rate: 0.0, ..SupervisorConfig::OFF };
+    /// assert_eq!(Supervisor::new(&cfg), Err(SupervisorError::ReentryRate));
+    /// ```
     pub fn new(cfg: &SupervisorConfig) -> Result<Self, SupervisorError> {
         cfg.validate()?;
         Ok(Self {
@@ -430,22 +667,69 @@ impl Supervisor {
     }
 
     /// The configuration.
+    ///
+    /// ```
+    /// use agent_node::{supervisor::Supervisor, SupervisorConfig};
+    /// let cfg = SupervisorConfig { recover_dwell_us: 7, ..SupervisorConfig::OFF };
+    /// assert_eq!(Supervisor::new(&cfg)?.config(), &cfg);
+    /// # Ok::<(), agent_node::supervisor::SupervisorError>(())
+    /// ```
+    #[must_use]
     pub fn config(&self) -> &SupervisorConfig {
         &self.cfg
     }
 
     /// The current state.
+    ///
+    /// ```
+    /// use agent_node::{supervisor::Supervisor, NodeState, SupervisorConfig};
+    /// let mut sup = Supervisor::new(&SupervisorConfig::OFF)?;
+    /// assert_eq!(sup.state(), NodeState::Boot);
+    /// sup.fault();
+    /// assert_eq!(sup.state(), NodeState::Fault);
+    /// # Ok::<(), agent_node::supervisor::SupervisorError>(())
+    /// ```
+    #[must_use]
     pub fn state(&self) -> NodeState {
         self.state
     }
 
     /// Sources lost at the last update.
+    ///
+    /// ```
+    /// use agent_node::supervisor::{Observation, Supervisor};
+    /// use agent_node::SupervisorConfig;
+    /// let cfg = SupervisorConfig { leader_timeout_us: Some(1_000), ..SupervisorConfig::OFF };
+    /// let mut sup = Supervisor::new(&cfg)?;
+    /// assert!(sup.lost().is_empty());
+    /// sup.update(&Observation { now_us: 5_000, stale_timeout_us: 2_500, leader_age_us: 5_000,
+    ///     newest_neighbour_age_us: None, oldest_neighbour_age_us: None, sensor_ok: true });
+    /// assert!(sup.lost().leader());
+    /// # Ok::<(), agent_node::supervisor::SupervisorError>(())
+    /// ```
+    #[must_use]
     pub fn lost(&self) -> Lost {
         self.lost
     }
 
     /// The policy that applies while `Safe`: [`SupervisorConfig::sensor_policy`] while the
     /// sensor is lost, [`SupervisorConfig::policy`] otherwise.
+    ///
+    /// ```
+    /// use agent_node::supervisor::{Observation, Supervisor};
+    /// use agent_node::{SafePolicy, SupervisorConfig};
+    /// let cfg = SupervisorConfig { sensor_timeout_us: Some(1_000), sensor_policy: SafePolicy::Off,
+    ///     ..SupervisorConfig::OFF };
+    /// let mut sup = Supervisor::new(&cfg)?;
+    /// assert_eq!(sup.policy_in_force(), SafePolicy::HoldPosition);
+    /// let bad = |now_us| Observation { now_us, stale_timeout_us: 2_500, leader_age_us: 0,
+    ///     newest_neighbour_age_us: None, oldest_neighbour_age_us: None, sensor_ok: false };
+    /// sup.update(&bad(0));
+    /// sup.update(&bad(2_000)); // sensor lost: its open-loop policy applies
+    /// assert_eq!(sup.policy_in_force(), SafePolicy::Off);
+    /// # Ok::<(), agent_node::supervisor::SupervisorError>(())
+    /// ```
+    #[must_use]
     pub fn policy_in_force(&self) -> SafePolicy {
         if self.lost.sensor() {
             self.cfg.sensor_policy
@@ -455,16 +739,47 @@ impl Supervisor {
     }
 
     /// Times the node entered `Safe`.
+    ///
+    /// ```
+    /// use agent_node::supervisor::{Observation, Supervisor};
+    /// use agent_node::SupervisorConfig;
+    /// let cfg = SupervisorConfig { leader_timeout_us: Some(1_000), ..SupervisorConfig::OFF };
+    /// let mut sup = Supervisor::new(&cfg)?;
+    /// assert_eq!(sup.safe_entries(), 0);
+    /// sup.update(&Observation { now_us: 3_000, stale_timeout_us: 2_500, leader_age_us: 3_000,
+    ///     newest_neighbour_age_us: None, oldest_neighbour_age_us: None, sensor_ok: true });
+    /// assert_eq!(sup.safe_entries(), 1);
+    /// # Ok::<(), agent_node::supervisor::SupervisorError>(())
+    /// ```
+    #[must_use]
     pub fn safe_entries(&self) -> u32 {
         self.entries
     }
 
     /// The leader is supervised.
+    ///
+    /// ```
+    /// use agent_node::{supervisor::Supervisor, SupervisorConfig};
+    /// assert!(!Supervisor::new(&SupervisorConfig::OFF)?.watches_leader());
+    /// let cfg = SupervisorConfig { leader_timeout_us: Some(1), ..SupervisorConfig::OFF };
+    /// assert!(Supervisor::new(&cfg)?.watches_leader());
+    /// # Ok::<(), agent_node::supervisor::SupervisorError>(())
+    /// ```
+    #[must_use]
     pub fn watches_leader(&self) -> bool {
         self.cfg.leader_timeout_us.is_some()
     }
 
     /// Latch `Fault`.
+    ///
+    /// ```
+    /// use agent_node::{supervisor::Supervisor, NodeState, SupervisorConfig};
+    /// let mut sup = Supervisor::new(&SupervisorConfig::OFF)?;
+    /// let t = sup.fault().unwrap();
+    /// assert_eq!((t.from, t.to), (NodeState::Boot, NodeState::Fault));
+    /// assert_eq!(sup.fault(), None); // latched: no second transition
+    /// # Ok::<(), agent_node::supervisor::SupervisorError>(())
+    /// ```
     pub fn fault(&mut self) -> Option<Transition> {
         self.go(NodeState::Fault)
     }
@@ -487,6 +802,18 @@ impl Supervisor {
     }
 
     /// One tick's observation: evaluate loss and health, and change state if due.
+    ///
+    /// ```
+    /// use agent_node::supervisor::{Observation, Supervisor};
+    /// use agent_node::{NodeState, SupervisorConfig};
+    /// let mut sup = Supervisor::new(&SupervisorConfig::OFF)?;
+    /// let obs = Observation { now_us: 0, stale_timeout_us: 2_500, leader_age_us: 0,
+    ///     newest_neighbour_age_us: None, oldest_neighbour_age_us: None, sensor_ok: true };
+    /// let t = sup.update(&obs).unwrap();
+    /// assert_eq!(t.to, NodeState::Operational);
+    /// assert_eq!(sup.update(&obs), None); // no change, no transition
+    /// # Ok::<(), agent_node::supervisor::SupervisorError>(())
+    /// ```
     pub fn update(&mut self, o: &Observation) -> Option<Transition> {
         let c = &self.cfg;
         let lost_after = |timeout: Option<u64>, age: Option<u64>| match (timeout, age) {
@@ -543,6 +870,16 @@ impl Supervisor {
 
 /// The safe-state command after `dt_us` at `policy`, from the `last` one.
 /// Closed-loop policies have no command of their own: they return `last`.
+///
+/// ```
+/// use agent_node::{supervisor::safe_command, SafePolicy};
+/// assert_eq!(safe_command(SafePolicy::Off, &[0.7, -0.2], 1_000), [0.0, 0.0]);
+/// assert_eq!(safe_command(SafePolicy::Hold, &[0.7, -0.2], 1_000), [0.7, -0.2]);
+/// // Ramp at 1 unit/s for 0.5 s: -0.2 reaches 0 and stays there, 0.7 comes down to 0.2.
+/// let q = safe_command(SafePolicy::Ramp { rate: 1.0 }, &[0.7, -0.2], 500_000);
+/// assert!((q[0] - 0.2).abs() < 1e-6 && q[1] == 0.0);
+/// ```
+#[must_use]
 pub fn safe_command<const M: usize>(policy: SafePolicy, last: &[f32; M], dt_us: u64) -> [f32; M] {
     match policy {
         SafePolicy::Hold | SafePolicy::HoldPosition | SafePolicy::Stop { .. } => *last,
@@ -824,6 +1161,7 @@ mod tests {
 /// assert_eq!(micros_from_secs(2.5e-3), 2_500);
 /// assert_eq!(micros_from_secs(-1.0), 0);
 /// ```
+#[must_use]
 pub const fn micros_from_secs(s: f32) -> u64 {
     let bits = s.to_bits();
     let biased = ((bits >> 23) & 0xff) as i32;

@@ -82,6 +82,14 @@ const FLAG_SATURATED: u8 = 1 << 6;
 const FLAG_NO_VALUE: u8 = 1 << 7;
 
 /// Who sent a frame.
+///
+/// ```
+/// use agent_node::wire::Source;
+/// // The leader sends y_d at 0x101, follower i its y_i at 0x101 + i.
+/// assert_eq!(Source::Leader.raw_id(), Some(0x101));
+/// assert_eq!(Source::Agent(4).raw_id(), Some(0x105));
+/// assert_eq!(Source::from_raw_id(0x105), Some(Source::Agent(4)));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Source {
@@ -94,17 +102,39 @@ pub enum Source {
 impl Source {
     /// The raw 11-bit identifier of its value frames in the default plan; `None` for
     /// `Agent(0)` and agents beyond the plan.
+    ///
+    /// ```
+    /// use agent_node::wire::Source;
+    /// assert_eq!(Source::Agent(1).raw_id(), Some(0x102));
+    /// assert_eq!(Source::Agent(0).raw_id(), None); // agents are 1-based, as in the paper
+    /// assert_eq!(Source::Agent(100).raw_id(), None); // beyond the default plan's 99
+    /// ```
+    #[must_use]
     pub const fn raw_id(self) -> Option<u16> {
         IdPlan::DEFAULT.value_id(self)
     }
 
     /// The standard identifier in the default plan.
+    ///
+    /// ```
+    /// use agent_node::wire::Source;
+    /// use embedded_can::StandardId;
+    /// assert_eq!(Source::Leader.id(), StandardId::new(0x101));
+    /// assert_eq!(Source::Agent(0).id(), None);
+    /// ```
     pub fn id(self) -> Option<StandardId> {
         self.raw_id().and_then(StandardId::new)
     }
 
     /// The sender of a raw 11-bit value-frame identifier of the default plan, `None` when the
     /// id is not one.
+    ///
+    /// ```
+    /// use agent_node::wire::Source;
+    /// assert_eq!(Source::from_raw_id(0x101), Some(Source::Leader));
+    /// assert_eq!(Source::from_raw_id(0x782), None); // agent 1's heartbeat, not a value frame
+    /// ```
+    #[must_use]
     pub const fn from_raw_id(raw: u16) -> Option<Self> {
         match IdPlan::DEFAULT.classify(raw) {
             Some(FrameKind::Value(s)) => Some(s),
@@ -114,6 +144,13 @@ impl Source {
 }
 
 /// What an identifier of a plan carries.
+///
+/// ```
+/// use agent_node::wire::{FrameKind, IdPlan, Source};
+/// let plan = IdPlan::DEFAULT;
+/// assert_eq!(plan.classify(0x103), Some(FrameKind::Value(Source::Agent(2))));
+/// assert_eq!(plan.classify(0x783), Some(FrameKind::Heartbeat(3)));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum FrameKind {
@@ -126,6 +163,16 @@ pub enum FrameKind {
 /// Where the protocol's identifiers sit: value frames at `value_base` (leader) and
 /// `value_base + i` (agent `i`), heartbeats at `heartbeat_base + i`, for agents `1..=agents`.
 /// Built only by [`IdPlan::new`], which checks that both blocks are 11-bit and disjoint.
+///
+/// ```
+/// use agent_node::wire::{IdPlan, IdPlanError, Source};
+/// // Ten agents moved to 0x200, heartbeats at 0x700 + i.
+/// let plan = IdPlan::new(0x200, Some(0x700), 10)?;
+/// assert_eq!(plan.value_id(Source::Agent(10)), Some(0x20A));
+/// assert_eq!(plan.heartbeat_id(10), Some(0x70A));
+/// assert_eq!(IdPlan::new(0x200, Some(0x205), 10), Err(IdPlanError::Overlap));
+/// # Ok::<(), IdPlanError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct IdPlan {
@@ -135,8 +182,19 @@ pub struct IdPlan {
 }
 
 /// Why an identifier plan was refused.
+///
+/// ```
+/// use agent_node::wire::{IdPlan, IdPlanError};
+/// assert_eq!(IdPlan::new(0x7FA, None, 10), Err(IdPlanError::ValueRange)); // beyond 0x7FF
+/// let e = IdPlan::new(0x100, None, 0).unwrap_err();
+/// assert_eq!(e, IdPlanError::NoAgents);
+/// assert_eq!(e.to_string(), "an identifier plan needs at least one agent");
+/// ```
+///
+/// `#[non_exhaustive]`: a plan that grows a block of identifiers brings its own check.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum IdPlanError {
     /// A plan for no agent.
     NoAgents,
@@ -171,6 +229,12 @@ impl IdPlan {
     };
 
     /// A plan for agents `1..=agents`; `heartbeat_base` `None`: no heartbeat identifiers.
+    ///
+    /// ```
+    /// use agent_node::wire::{IdPlan, IdPlanError};
+    /// assert!(IdPlan::new(0x100, None, 255).is_ok()); // no heartbeats: 0x100..=0x1FF
+    /// assert_eq!(IdPlan::new(0x100, Some(0x7F0), 20), Err(IdPlanError::HeartbeatRange));
+    /// ```
     pub const fn new(
         value_base: u16,
         heartbeat_base: Option<u16>,
@@ -200,21 +264,51 @@ impl IdPlan {
     }
 
     /// The leader's identifier.
+    ///
+    /// ```
+    /// use agent_node::wire::IdPlan;
+    /// assert_eq!(IdPlan::DEFAULT.value_base(), 0x101); // the leader's identifier
+    /// ```
+    #[must_use]
     pub const fn value_base(&self) -> u16 {
         self.value_base
     }
 
     /// Agent `i`'s heartbeat is at this plus `i`; `None`: no heartbeats.
+    ///
+    /// ```
+    /// use agent_node::wire::IdPlan;
+    /// assert_eq!(IdPlan::DEFAULT.heartbeat_base(), Some(0x780));
+    /// assert_eq!(IdPlan::new(0x100, None, 8)?.heartbeat_base(), None);
+    /// # Ok::<(), agent_node::wire::IdPlanError>(())
+    /// ```
+    #[must_use]
     pub const fn heartbeat_base(&self) -> Option<u16> {
         self.heartbeat_base
     }
 
     /// Agents `1..=agents()` have identifiers.
+    ///
+    /// ```
+    /// use agent_node::wire::IdPlan;
+    /// assert_eq!(IdPlan::DEFAULT.agents(), 99);
+    /// ```
+    #[must_use]
     pub const fn agents(&self) -> u8 {
         self.agents
     }
 
     /// The value-frame identifier of `source`; `None` for agent 0 or beyond the plan.
+    ///
+    /// ```
+    /// use agent_node::wire::{IdPlan, Source};
+    /// let plan = IdPlan::new(0x300, None, 4)?;
+    /// assert_eq!(plan.value_id(Source::Leader), Some(0x300));
+    /// assert_eq!(plan.value_id(Source::Agent(4)), Some(0x304));
+    /// assert_eq!(plan.value_id(Source::Agent(5)), None);
+    /// # Ok::<(), agent_node::wire::IdPlanError>(())
+    /// ```
+    #[must_use]
     pub const fn value_id(&self, source: Source) -> Option<u16> {
         match source {
             Source::Leader => Some(self.value_base),
@@ -226,6 +320,13 @@ impl IdPlan {
 
     /// Agent `agent`'s heartbeat identifier; `None` without heartbeats, for agent 0 or
     /// beyond the plan.
+    ///
+    /// ```
+    /// use agent_node::wire::IdPlan;
+    /// assert_eq!(IdPlan::DEFAULT.heartbeat_id(1), Some(0x781));
+    /// assert_eq!(IdPlan::DEFAULT.heartbeat_id(0), None);
+    /// ```
+    #[must_use]
     pub const fn heartbeat_id(&self, agent: u8) -> Option<u16> {
         match self.heartbeat_base {
             Some(hb) if agent != 0 && agent <= self.agents => Some(hb + agent as u16),
@@ -234,6 +335,14 @@ impl IdPlan {
     }
 
     /// What `raw` carries in this plan; `None`: not one of its identifiers.
+    ///
+    /// ```
+    /// use agent_node::wire::{FrameKind, IdPlan, Source};
+    /// let plan = IdPlan::DEFAULT;
+    /// assert_eq!(plan.classify(0x101), Some(FrameKind::Value(Source::Leader)));
+    /// assert_eq!(plan.classify(0x000), None); // NMT: not this protocol's
+    /// ```
+    #[must_use]
     pub const fn classify(&self, raw: u16) -> Option<FrameKind> {
         let n = self.agents as u16;
         if raw >= self.value_base && raw <= self.value_base + n {
@@ -257,6 +366,15 @@ impl Default for IdPlan {
 }
 
 /// One decoded frame.
+///
+/// ```
+/// use agent_node::wire::{decode_payload, encode_payload, Message, Source};
+/// // A leader value above the Q7.16 range: sent clamped, flagged saturated.
+/// let m: Message = decode_payload(Source::Leader, &encode_payload(200.0, 3).data)?;
+/// assert_eq!((m.seq, m.saturated), (3, true));
+/// assert!(m.y.unwrap() < 128.0);
+/// # Ok::<(), agent_node::wire::WireError>(())
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Message {
@@ -271,8 +389,22 @@ pub struct Message {
 }
 
 /// Why a frame was rejected.
+///
+/// ```
+/// use agent_node::link::CanFrame;
+/// use agent_node::wire::{decode, WireError};
+/// use embedded_can::{Frame, StandardId};
+/// // Agent 1's identifier with 3 data bytes instead of 4.
+/// let f = CanFrame::new(StandardId::new(0x102).unwrap(), &[0, 0, 0]).unwrap();
+/// let e = decode(&f).unwrap_err();
+/// assert_eq!(e, WireError::WrongLength(3));
+/// assert_eq!(e.to_string(), "3 data bytes where the frame has 4");
+/// ```
+///
+/// `#[non_exhaustive]`: each new frame kind may bring its own way of being malformed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum WireError {
     /// 29-bit identifier: this protocol uses standard ids only.
     ExtendedId,
@@ -301,8 +433,19 @@ impl core::fmt::Display for WireError {
 impl core::error::Error for WireError {}
 
 /// Counts of rejected frames, per kind.
+///
+/// ```
+/// use agent_node::wire::{DecodeStats, WireError};
+/// let mut st = DecodeStats::default();
+/// st.record(WireError::UnknownId(0x600));
+/// st.record(WireError::Remote);
+/// assert_eq!((st.unknown_id, st.remote, st.total()), (1, 1, 2));
+/// ```
+///
+/// `#[non_exhaustive]`: one counter per [`WireError`], which grows too; read field by field.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub struct DecodeStats {
     /// [`WireError::ExtendedId`].
     pub extended_id: u32,
@@ -318,6 +461,13 @@ pub struct DecodeStats {
 
 impl DecodeStats {
     /// Count one rejection.
+    ///
+    /// ```
+    /// use agent_node::wire::{DecodeStats, WireError};
+    /// let mut st = DecodeStats::default();
+    /// st.record(WireError::BadPayload);
+    /// assert_eq!(st.bad_payload, 1);
+    /// ```
     pub fn record(&mut self, e: WireError) {
         let c = match e {
             WireError::ExtendedId => &mut self.extended_id,
@@ -330,6 +480,16 @@ impl DecodeStats {
     }
 
     /// All rejected frames.
+    ///
+    /// ```
+    /// use agent_node::wire::{DecodeStats, WireError};
+    /// let mut st = DecodeStats::default();
+    /// st.record(WireError::WrongLength(3));
+    /// st.record(WireError::UnknownId(0x7FF));
+    /// st.record(WireError::WrongLength(8));
+    /// assert_eq!((st.wrong_length, st.total()), (2, 3));
+    /// ```
+    #[must_use]
     pub fn total(&self) -> u32 {
         self.extended_id
             .saturating_add(self.remote)
@@ -340,6 +500,13 @@ impl DecodeStats {
 }
 
 /// The payload of one value, and whether it had to be clamped.
+///
+/// ```
+/// use agent_node::wire::encode_payload;
+/// let e = encode_payload(f32::NAN, 1); // a failed sensor: NO_VALUE, never a NaN on the wire
+/// assert!(e.no_value && !e.saturated);
+/// assert_eq!(e.data, [0, 0, 0, 0x81]);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Encoded {
@@ -360,6 +527,7 @@ pub struct Encoded {
 /// assert_eq!(quantize(1000.0), Some((128.0 - 1.0 / 65536.0, true)));
 /// assert_eq!(quantize(f32::NAN), None);
 /// ```
+#[must_use]
 pub fn quantize(y: f32) -> Option<(f32, bool)> {
     let (v, sat) = to_wire(y)?;
     Some((v.to_num(), sat))
@@ -377,6 +545,14 @@ fn to_wire(y: f32) -> Option<(WireValue, bool)> {
 }
 
 /// The payload for `y` with sequence counter `seq` (taken modulo 64).
+///
+/// ```
+/// use agent_node::wire::encode_payload;
+/// // y = 1.0 is 0x010000 in Q7.16 (little-endian), then the flags byte with the counter.
+/// assert_eq!(encode_payload(1.0, 5).data, [0x00, 0x00, 0x01, 5]);
+/// assert_eq!(encode_payload(1.0, 69).data[3], 5); // counter modulo 64
+/// ```
+#[must_use]
 pub fn encode_payload(y: f32, seq: u8) -> Encoded {
     let mut flags = seq & SEQ_MASK;
     let (bits, saturated, no_value) = match to_wire(y) {
@@ -400,11 +576,31 @@ pub fn encode_payload(y: f32, seq: u8) -> Encoded {
 /// A frame from `source` carrying `y` and `seq` under the default plan, built through the
 /// `embedded-can` [`Frame`] constructor of the caller's frame type. `None` if `source` has no
 /// id (agent 0, or beyond the plan) or the frame type refuses a 4-byte data frame.
+///
+/// ```
+/// use agent_node::link::CanFrame;
+/// use agent_node::wire::{decode, encode, Source};
+/// let (f, enc) = encode::<CanFrame>(Source::Agent(2), -0.75, 9).unwrap();
+/// assert_eq!(f.raw_id(), 0x103);
+/// assert!(!enc.saturated);
+/// assert_eq!(decode(&f)?.y, Some(-0.75));
+/// assert!(encode::<CanFrame>(Source::Agent(0), 0.0, 0).is_none());
+/// # Ok::<(), agent_node::wire::WireError>(())
+/// ```
+#[must_use]
 pub fn encode<F: Frame>(source: Source, y: f32, seq: u8) -> Option<(F, Encoded)> {
     encode_in(&IdPlan::DEFAULT, source, y, seq)
 }
 
 /// Decode a payload (after the identifier was checked).
+///
+/// ```
+/// use agent_node::wire::{decode_payload, Source, WireError};
+/// // NO_VALUE with non-zero value bytes breaks the layout.
+/// assert_eq!(decode_payload(Source::Leader, &[1, 0, 0, 0x80]), Err(WireError::BadPayload));
+/// assert_eq!(decode_payload(Source::Leader, &[0, 0, 0, 0x80])?.y, None);
+/// # Ok::<(), WireError>(())
+/// ```
 pub fn decode_payload(source: Source, data: &[u8]) -> Result<Message, WireError> {
     let [b0, b1, b2, flags] = *data else {
         return Err(WireError::WrongLength(
@@ -432,6 +628,16 @@ pub fn decode_payload(source: Source, data: &[u8]) -> Result<Message, WireError>
 
 /// Decode a value frame of the default plan ([`IdPlan::DEFAULT`]; its heartbeats are
 /// [`WireError::UnknownId`] here, see [`decode_in`]). Never panics.
+///
+/// ```
+/// use agent_node::link::CanFrame;
+/// use agent_node::wire::{decode, WireError};
+/// use embedded_can::{ExtendedId, Frame, StandardId};
+/// let remote = CanFrame::new_remote(StandardId::new(0x101).unwrap(), 4).unwrap();
+/// assert_eq!(decode(&remote), Err(WireError::Remote));
+/// let ext = CanFrame::new(ExtendedId::new(0x101).unwrap(), &[0; 4]).unwrap();
+/// assert_eq!(decode(&ext), Err(WireError::ExtendedId));
+/// ```
 pub fn decode<F: Frame>(frame: &F) -> Result<Message, WireError> {
     if let Some(raw) = raw_std_id(frame) {
         if let Some(FrameKind::Heartbeat(_)) = IdPlan::DEFAULT.classify(raw) {
@@ -452,6 +658,16 @@ fn raw_std_id<F: Frame>(frame: &F) -> Option<u16> {
 }
 
 /// A frame of the protocol, decoded.
+///
+/// ```
+/// use agent_node::link::CanFrame;
+/// use agent_node::wire::{decode_in, encode_heartbeat, Decoded, Heartbeat, IdPlan};
+/// use agent_node::{supervisor::Lost, NodeState};
+/// let hb = Heartbeat { state: NodeState::Safe, lost: Lost::from_bits(Lost::LEADER),
+///     boot_count: 1, overruns: 0, safe_entries: 1 };
+/// let f: CanFrame = encode_heartbeat(&IdPlan::DEFAULT, 3, &hb).unwrap();
+/// assert_eq!(decode_in(&IdPlan::DEFAULT, &f), Ok(Decoded::Heartbeat { agent: 3, heartbeat: hb }));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Decoded {
@@ -467,6 +683,17 @@ pub enum Decoded {
 }
 
 /// Decode any `embedded-can` frame under `plan`. Never panics.
+///
+/// ```
+/// use agent_node::link::CanFrame;
+/// use agent_node::wire::{decode_in, encode_in, Decoded, IdPlan, Source, WireError};
+/// let plan = IdPlan::new(0x200, None, 4).unwrap();
+/// let (f, _) = encode_in::<CanFrame>(&plan, Source::Agent(4), 0.5, 0).unwrap();
+/// let Ok(Decoded::Value(m)) = decode_in(&plan, &f) else { panic!() };
+/// assert_eq!((m.source, m.y), (Source::Agent(4), Some(0.5)));
+/// // The same frame under the default plan is none of its identifiers.
+/// assert_eq!(decode_in(&IdPlan::DEFAULT, &f), Err(WireError::UnknownId(0x204)));
+/// ```
 pub fn decode_in<F: Frame>(plan: &IdPlan, frame: &F) -> Result<Decoded, WireError> {
     let raw = raw_std_id(frame).ok_or(WireError::ExtendedId)?;
     if frame.is_remote_frame() {
@@ -489,6 +716,16 @@ pub fn decode_in<F: Frame>(plan: &IdPlan, frame: &F) -> Result<Decoded, WireErro
 }
 
 /// A value frame from `source` under `plan` (see [`encode`]).
+///
+/// ```
+/// use agent_node::link::CanFrame;
+/// use agent_node::wire::{encode_in, IdPlan, Source};
+/// let plan = IdPlan::new(0x200, None, 4).unwrap();
+/// let (f, _) = encode_in::<CanFrame>(&plan, Source::Leader, 1.0, 0).unwrap();
+/// assert_eq!(f.raw_id(), 0x200);
+/// assert!(encode_in::<CanFrame>(&plan, Source::Agent(5), 1.0, 0).is_none()); // beyond the plan
+/// ```
+#[must_use]
 pub fn encode_in<F: Frame>(plan: &IdPlan, source: Source, y: f32, seq: u8) -> Option<(F, Encoded)> {
     let id = StandardId::new(plan.value_id(source)?)?;
     let enc = encode_payload(y, seq);
@@ -503,6 +740,15 @@ pub fn encode_in<F: Frame>(plan: &IdPlan, source: Source, y: f32, seq: u8) -> Op
 /// byte 2..3  boot counter (0 when the board keeps none)
 /// byte 4..5  deadline overruns since start (saturating)
 /// byte 6..7  safe-state entries since start (saturating)
+/// ```
+///
+/// ```
+/// use agent_node::wire::Heartbeat;
+/// use agent_node::{supervisor::Lost, NodeState};
+/// let hb = Heartbeat { state: NodeState::Operational, lost: Lost::default(), boot_count: 2,
+///     overruns: 300, safe_entries: 0 };
+/// assert_eq!(hb.to_bytes(), [0, 0, 2, 0, 44, 1, 0, 0]);
+/// assert_eq!(Heartbeat::from_bytes(&hb.to_bytes()), Ok(hb));
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -521,6 +767,15 @@ pub struct Heartbeat {
 
 impl Heartbeat {
     /// The payload.
+    ///
+    /// ```
+    /// use agent_node::wire::Heartbeat;
+    /// use agent_node::{supervisor::Lost, NodeState};
+    /// let hb = Heartbeat { state: NodeState::Safe, lost: Lost::from_bits(Lost::SENSOR),
+    ///     boot_count: 0, overruns: 0, safe_entries: 3 };
+    /// assert_eq!(hb.to_bytes(), [2, 4, 0, 0, 0, 0, 3, 0]);
+    /// ```
+    #[must_use]
     pub fn to_bytes(&self) -> [u8; HEARTBEAT_LEN] {
         let [b0, b1] = self.boot_count.to_le_bytes();
         let [o0, o1] = self.overruns.to_le_bytes();
@@ -529,6 +784,13 @@ impl Heartbeat {
     }
 
     /// The heartbeat of a payload; [`WireError::BadPayload`] for an unknown state or lost bit.
+    ///
+    /// ```
+    /// use agent_node::wire::{Heartbeat, WireError};
+    /// assert_eq!(Heartbeat::from_bytes(&[4, 0, 0, 0, 0, 0, 0, 0]), Err(WireError::BadPayload)); // state 4
+    /// assert_eq!(Heartbeat::from_bytes(&[0, 8, 0, 0, 0, 0, 0, 0]), Err(WireError::BadPayload)); // lost bit 3
+    /// assert!(Heartbeat::from_bytes(&[3, 7, 0, 0, 0, 0, 0, 0]).is_ok());
+    /// ```
     pub fn from_bytes(b: &[u8; HEARTBEAT_LEN]) -> Result<Self, WireError> {
         let state = NodeState::from_code(b[0]).ok_or(WireError::BadPayload)?;
         let lost = Lost::from_bits(b[1]);
@@ -547,11 +809,32 @@ impl Heartbeat {
 }
 
 /// Agent `agent`'s heartbeat frame under `plan`; `None` when the plan has no heartbeat id for it.
+///
+/// ```
+/// use agent_node::link::CanFrame;
+/// use agent_node::wire::{encode_heartbeat, Heartbeat, IdPlan};
+/// use agent_node::{supervisor::Lost, NodeState};
+/// let hb = Heartbeat { state: NodeState::Boot, lost: Lost::default(), boot_count: 0,
+///     overruns: 0, safe_entries: 0 };
+/// let f: CanFrame = encode_heartbeat(&IdPlan::DEFAULT, 7, &hb).unwrap();
+/// assert_eq!(f.raw_id(), 0x787);
+/// let no_hb = IdPlan::new(0x100, None, 8).unwrap();
+/// assert!(encode_heartbeat::<CanFrame>(&no_hb, 7, &hb).is_none());
+/// ```
+#[must_use]
 pub fn encode_heartbeat<F: Frame>(plan: &IdPlan, agent: u8, hb: &Heartbeat) -> Option<F> {
     F::new(StandardId::new(plan.heartbeat_id(agent)?)?, &hb.to_bytes())
 }
 
 /// How a received sequence counter relates to the last accepted one of a fresh link.
+///
+/// ```
+/// use agent_node::wire::{seq_check, SeqCheck};
+/// // Counters 10 then 13: two frames (11, 12) never seen.
+/// assert_eq!(seq_check(10, 13), SeqCheck::Newer { skipped: 2 });
+/// assert_eq!(seq_check(10, 10), SeqCheck::Repeated);
+/// assert_eq!(seq_check(10, 9), SeqCheck::Older);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum SeqCheck {
@@ -576,6 +859,7 @@ pub enum SeqCheck {
 /// assert_eq!(seq_check(6, 6), SeqCheck::Repeated);
 /// assert_eq!(seq_check(6, 5), SeqCheck::Older);
 /// ```
+#[must_use]
 pub fn seq_check(last: u8, new: u8) -> SeqCheck {
     let d = new.wrapping_sub(last) & SEQ_MASK;
     match d {

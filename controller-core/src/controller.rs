@@ -25,6 +25,9 @@ use crate::{
 /// assert_eq!(held.u, good.u);
 /// # Ok::<(), controller_core::ConfigError>(())
 /// ```
+///
+/// Exhaustive: the PIL record carries each fault as a number (`node-fw` matches every variant),
+/// so a new fault must get its number before it compiles.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum StepFault {
@@ -34,6 +37,17 @@ pub enum StepFault {
     /// that `f32` overflowed). Nothing was committed.
     NonFiniteResult,
 }
+
+impl core::fmt::Display for StepFault {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::InvalidState => "the own state has a NaN or infinite entry; command held",
+            Self::NonFiniteResult => "the law overflowed f32; command held, no state committed",
+        })
+    }
+}
+
+impl core::error::Error for StepFault {}
 
 /// Health of one step: the links as resolved, and a fault if the command was held.
 ///
@@ -362,6 +376,7 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
     /// assert_eq!(out.status.links.missing_neighbours, 1);
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
+    #[must_use = "the step's quantized command `q` is what the actuators must get"]
     pub fn step(&mut self, x: &[f32; N], neighbours: &[Link], leader: Link) -> StepOutput<N, M> {
         // With safety on: differentiators restart after a held step and returning links
         // re-enter at the recovery rate, each value as the law reads it (no copy of the

@@ -15,8 +15,9 @@ pub const MAX_GAIN: f32 = 1.844_674_3e19;
 
 /// One configuration parameter, named after its scenario key (docs/SCENARIO.md).
 ///
-/// `#[non_exhaustive]`: the law gains parameters (each a new scenario key), so a `match` outside
-/// this crate needs a wildcard arm; [`Param::ALL`] lists the current ones.
+/// Deliberately exhaustive (not `#[non_exhaustive]`): agent-node's object dictionary and the
+/// EDS written from it match every variant, so a new parameter cannot compile until it has its
+/// CANopen entry. [`Param::ALL`] lists them.
 ///
 /// ```
 /// use controller_core::param::{Param, Range};
@@ -29,8 +30,6 @@ pub const MAX_GAIN: f32 = 1.844_674_3e19;
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-// Not `#[non_exhaustive]`: agent-node's object dictionary matches every parameter, so that a new
-// one cannot compile until it has its CANopen entry.
 pub enum Param {
     /// `simulation.h`: sample period `h`.
     H,
@@ -443,6 +442,14 @@ impl Param {
 
     /// The parameter as figure text names it: the paper's symbol with a few words, e.g.
     /// `predefined time Tₛ` (the unit is [`Spec::unit`]).
+    ///
+    /// ```
+    /// use controller_core::param::Param;
+    /// assert_eq!(Param::Ts.label(), "predefined time Tₛ"); // T_s of Theorem 1
+    /// assert_eq!(Param::Ts.spec().unit, "s");
+    /// assert!(Param::ALL.iter().all(|p| !p.label().is_empty()));
+    /// ```
+    #[must_use]
     pub const fn label(self) -> &'static str {
         match self {
             Self::H => "sample period h",
@@ -678,6 +685,37 @@ pub enum Reason {
     /// Set together with this parameter, which overrides it.
     Conflicts(Param),
 }
+
+/// The reason alone, without the parameter ([`crate::ConfigError`]'s `Display` names it).
+impl fmt::Display for Reason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NonFinite => f.write_str("not a finite number"),
+            Self::NonPositive => f.write_str("must be > 0"),
+            Self::Negative => f.write_str("must be >= 0"),
+            Self::Zero => f.write_str("must not be 0"),
+            Self::OutOfRange => f.write_str("outside its range"),
+            Self::TooLarge => f.write_str("at or above sqrt(f32::MAX): every step would overflow"),
+            Self::DerivedOverflow => f.write_str("a setting derived from it overflows f32"),
+            Self::Exceeds(q) => write!(f, "must not exceed `{}`", q.key()),
+            Self::NotAbove(q) => write!(f, "must be above `{}`", q.key()),
+            Self::BelowInitialEstimates => {
+                f.write_str("must not be below `mu0`, `xi0` and `lambda0`")
+            }
+            Self::OverCapacity => f.write_str("exceeds the controller's capacity K"),
+            Self::Isolated => f.write_str("the agent hears neither a neighbour nor the leader"),
+            Self::StepCount { expected, got } => {
+                write!(f, "must have {expected} entries, one per step (got {got})")
+            }
+            Self::Unpaired => f.write_str("given without its pair (`c1` and `c2`)"),
+            Self::BaselineOnly => f.write_str("only for the baseline scheme"),
+            Self::NotBuilt => f.write_str("needs controller-core's `safety` feature"),
+            Self::Conflicts(q) => write!(f, "cannot be used with `{}`", q.key()),
+        }
+    }
+}
+
+impl core::error::Error for Reason {}
 
 #[cfg(test)]
 mod tests {

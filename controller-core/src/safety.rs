@@ -389,10 +389,10 @@ mod tests {
         let mut c = agent(1e3);
         let y = [0.2, 0.0];
         for _ in 0..10 {
-            c.step(&y, &[Link::Fresh(0.0)], Link::Missing);
+            let _ = c.step(&y, &[Link::Fresh(0.0)], Link::Missing);
         }
         for _ in 0..100 {
-            c.step(&y, &[Link::Stale(0.0)], Link::Missing);
+            let _ = c.step(&y, &[Link::Stale(0.0)], Link::Missing);
         }
         // Back with a jump of 0.5: e_1 = y − ŷ moves by h·v_r = 1e-3 per sample.
         let mut e_prev = 0.2;

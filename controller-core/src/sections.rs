@@ -811,6 +811,16 @@ impl<const N: usize, S: PerStep<f32>> TryFrom<ConfigFile<S>> for ControllerConfi
 /// The sections a scenario file would give for a configuration: the inverse of
 /// [`ControllerConfig::from_sections`] (an object dictionary's parameter store and
 /// `ConfigFile` both start from it).
+///
+/// ```
+/// use controller_core::{sections::Sections, ControllerConfig};
+/// // Example 1's defaults, T_s = 0.5 s: to sections and back is the same configuration.
+/// let cfg = ControllerConfig::<2> { ts: 0.5, ..Default::default() };
+/// let s = Sections::from(cfg);
+/// assert_eq!(s.controller.ts, 0.5);
+/// assert_eq!(s.controller.a_check.len(), 2); // one ǎ_j per step j = 1..n
+/// assert_eq!(s.config(), Ok(cfg));
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct Sections<const N: usize> {
     /// Sample period and topology.
@@ -825,6 +835,14 @@ pub struct Sections<const N: usize> {
 
 impl<const N: usize> Sections<N> {
     /// The configuration these sections describe ([`ControllerConfig::from_sections`]).
+    ///
+    /// ```
+    /// use controller_core::{param::Param, sections::Sections, ControllerConfig, Reason};
+    /// let mut s = Sections::from(ControllerConfig::<2>::default());
+    /// s.controller.a_check.pop(); // one ǎ_j for a plant of order n = 2
+    /// let e = s.config().unwrap_err();
+    /// assert_eq!((e.param(), e.reason()), (Param::ACheck, Reason::StepCount { expected: 2, got: 1 }));
+    /// ```
     pub fn config(&self) -> Result<ControllerConfig<N>, ConfigError> {
         ControllerConfig::from_sections(self.agent, &self.controller, &self.quantizer, &self.safety)
     }

@@ -220,6 +220,8 @@ fn decode_kind(e: WireError) -> &'static str {
         WireError::UnknownId(_) => "unknown_id",
         WireError::WrongLength(_) => "wrong_length",
         WireError::BadPayload => "bad_payload",
+        // `WireError` is `#[non_exhaustive]`: a new rejection needs its corpus name here.
+        _ => "unnamed",
     }
 }
 

@@ -22,8 +22,8 @@
 //! * `board-size`: builds the board firmware `boards/nucleo-g474re` in release, as shipped and
 //!   with `--features bench`, and fails when either's flash (text + data) exceeds 64 KiB or its
 //!   RAM (data + bss) 16 KiB (details: `board.rs`).
-//! * `doc-coverage`: rustdoc's documentation coverage of controller-core with a pinned nightly;
-//!   fails on an undocumented item or fewer runnable examples than the count reached
+//! * `doc-coverage`: rustdoc's documentation coverage of controller-core and agent-node with a
+//!   pinned nightly; fails on an undocumented item or an item without a runnable example
 //!   (details: `doccov.rs`).
 //! * `vm`: runs a command in a Linux guest that has CAN (`vcan0`, optional SJA1000
 //!   controllers) with the repository at the same path (details: `vm.rs`).
@@ -91,9 +91,10 @@ tasks:
       text + data exceeds 64 KiB (65,536 B) or data + bss exceeds 16 KiB (16,384 B); writes
       target/board/size.json
   doc-coverage
-      rustdoc's coverage report of controller-core (default features and serde) with the
-      pinned nightly-2026-05-19; fail if an item lacks documentation or fewer items than the
-      count reached (xtask/src/doccov.rs) carry a runnable example
+      rustdoc's coverage report of controller-core (default features and serde) and of
+      agent-node (default features) with the pinned nightly-2026-05-19; fail if an item lacks
+      documentation or fewer items than the count reached per crate (xtask/src/doccov.rs)
+      carry a runnable example
   trace-load <candump log> --bitrate B [--data-bitrate D] [--h S]
       the bus time per sample (one leader value frame) of the frames of a `--trace` log, by
       frame kind, with the worst-case bit lengths of agent_node::bus_load at the given bit

@@ -229,6 +229,16 @@ fn list<W: Write>(w: &mut W, section: &str, pick: impl Fn(u16) -> bool) -> fmt::
 
 /// Write the EDS of `device` (its values as `DefaultValue`); `file_name` goes into
 /// `[FileInfo]`.
+///
+/// ```
+/// use agent_node::canopen::eds::{reference_device, write_eds};
+/// let dev = reference_device().unwrap();
+/// let mut eds = String::new();
+/// write_eds(&mut eds, &dev, "agent-node.eds").unwrap();
+/// assert!(eds.contains("FileName=agent-node.eds"));
+/// assert!(eds.contains("[2000]")); // the first controller parameter
+/// assert!(eds.contains("ParameterName=controller.ts"));
+/// ```
 pub fn write_eds<W: Write, const N: usize>(
     w: &mut W,
     device: &Device<N>,
@@ -287,6 +297,15 @@ pub fn write_eds<W: Write, const N: usize>(
 /// (`ControllerConfig::default()`: Example 1's `n = 2`, pinned, no neighbours), node-ID 1, in
 /// the default identifier plan, with room for the most neighbours a node hears
 /// (`graph.neighbours` lists [`crate::wire::MAX_NEIGHBOURS`] entries, all unused).
+///
+/// ```
+/// use agent_node::canopen::{eds::reference_device, NmtState};
+/// let dev = reference_device().unwrap();
+/// assert_eq!(dev.node_id(), 1); // agent 1 of Example 1, pinned, no neighbours
+/// assert_eq!(dev.nmt(), NmtState::Initialising); // not booted
+/// assert!(dev.store.controller().unwrap().pinned);
+/// ```
+#[must_use]
 pub fn reference_device() -> Option<Device<2>> {
     let node = crate::node::NodeConfig::new(1, [0; crate::wire::MAX_NEIGHBOURS], 1);
     let controller = controller_core::ControllerConfig::<2>::default();

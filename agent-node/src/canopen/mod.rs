@@ -37,26 +37,62 @@ pub const NMT_ID: u16 = 0x000;
 /// SYNC identifier.
 pub const SYNC_ID: u16 = 0x080;
 /// EMCY of node `id`.
+///
+/// ```
+/// use agent_node::canopen::emcy_id;
+/// assert_eq!(emcy_id(2), 0x082);
+/// ```
+#[must_use]
 pub const fn emcy_id(id: u8) -> u16 {
     0x080 + id as u16
 }
 /// TPDO `k` (1..=4) of node `id`.
+///
+/// ```
+/// use agent_node::canopen::tpdo_id;
+/// assert_eq!(tpdo_id(1, 2), 0x182); // the predefined set's TPDO1 (the node's own uses its IdPlan)
+/// ```
+#[must_use]
 pub const fn tpdo_id(k: u8, id: u8) -> u16 {
     0x080 + 0x100 * k as u16 + id as u16
 }
 /// RPDO `k` (1..=4) of node `id`.
+///
+/// ```
+/// use agent_node::canopen::rpdo_id;
+/// assert_eq!(rpdo_id(1, 2), 0x202);
+/// ```
+#[must_use]
 pub const fn rpdo_id(k: u8, id: u8) -> u16 {
     0x100 + 0x100 * k as u16 + id as u16
 }
 /// SDO server → client of node `id`.
+///
+/// ```
+/// use agent_node::canopen::sdo_tx_id;
+/// assert_eq!(sdo_tx_id(2), 0x582);
+/// ```
+#[must_use]
 pub const fn sdo_tx_id(id: u8) -> u16 {
     0x580 + id as u16
 }
 /// SDO client → server of node `id`.
+///
+/// ```
+/// use agent_node::canopen::sdo_rx_id;
+/// assert_eq!(sdo_rx_id(2), 0x602);
+/// ```
+#[must_use]
 pub const fn sdo_rx_id(id: u8) -> u16 {
     0x600 + id as u16
 }
 /// Heartbeat and boot-up of node `id`.
+///
+/// ```
+/// use agent_node::canopen::heartbeat_id;
+/// assert_eq!(heartbeat_id(2), 0x702);
+/// ```
+#[must_use]
 pub const fn heartbeat_id(id: u8) -> u16 {
     0x700 + id as u16
 }
@@ -70,6 +106,13 @@ pub const LOAD_SIGNATURE: u32 = 0x6461_6F6C;
 pub const SDO_TIMEOUT_US: u64 = 1_000_000;
 
 /// The NMT states of CiA 301 §7.3.2 and their heartbeat byte.
+///
+/// ```
+/// use agent_node::canopen::NmtState;
+/// assert_eq!(NmtState::from_code(0x05), Some(NmtState::Operational));
+/// assert_eq!(NmtState::PreOperational.code(), 0x7F);
+/// assert_eq!(NmtState::Stopped.name(), "STOPPED");
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum NmtState {
     /// Initialisation (sent once as the boot-up message, `0x00`).
@@ -85,6 +128,13 @@ pub enum NmtState {
 
 impl NmtState {
     /// The heartbeat byte.
+    ///
+    /// ```
+    /// use agent_node::canopen::NmtState;
+    /// assert_eq!(NmtState::Initialising.code(), 0x00); // the boot-up message
+    /// assert_eq!(NmtState::Operational.code(), 0x05);
+    /// ```
+    #[must_use]
     pub const fn code(self) -> u8 {
         match self {
             Self::Initialising => 0x00,
@@ -96,6 +146,13 @@ impl NmtState {
 
     /// The state of a heartbeat byte (the toggle bit 7 of node guarding masked off only for
     /// `0x00`..`0x05`; `0x7F` is pre-operational).
+    ///
+    /// ```
+    /// use agent_node::canopen::NmtState;
+    /// assert_eq!(NmtState::from_code(0x7F), Some(NmtState::PreOperational));
+    /// assert_eq!(NmtState::from_code(0x85), None); // node guarding's toggle bit: not a heartbeat
+    /// ```
+    #[must_use]
     pub const fn from_code(c: u8) -> Option<Self> {
         match c {
             0x00 => Some(Self::Initialising),
@@ -107,6 +164,12 @@ impl NmtState {
     }
 
     /// The name Python `canopen` and most tools print.
+    ///
+    /// ```
+    /// use agent_node::canopen::NmtState;
+    /// assert_eq!(NmtState::PreOperational.name(), "PRE-OPERATIONAL"); // as python-canopen prints it
+    /// ```
+    #[must_use]
     pub const fn name(self) -> &'static str {
         match self {
             Self::Initialising => "INITIALISING",
@@ -118,6 +181,17 @@ impl NmtState {
 }
 
 /// NMT command specifiers (CiA 301 §7.2.8.3.1).
+///
+/// ```
+/// # mod hw { include!("doctest_device.rs"); }
+/// # use hw::*;
+/// # #[allow(unused_mut)]
+/// # let mut dev = device();
+/// use agent_node::canopen::{NmtCommand, NmtState, NMT_ID};
+/// // The master starts node 2 (NMT 0x01, node-ID 2).
+/// dev.on_frame(NMT_ID, &[NmtCommand::Start.code(), 2], 1_000);
+/// assert_eq!(dev.nmt(), NmtState::Operational);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum NmtCommand {
     /// `0x01` start remote node.
@@ -134,6 +208,12 @@ pub enum NmtCommand {
 
 impl NmtCommand {
     /// The command specifier.
+    ///
+    /// ```
+    /// use agent_node::canopen::NmtCommand;
+    /// assert_eq!(NmtCommand::ResetNode.code(), 0x81);
+    /// ```
+    #[must_use]
     pub const fn code(self) -> u8 {
         match self {
             Self::Start => 0x01,
@@ -145,6 +225,13 @@ impl NmtCommand {
     }
 
     /// The command of a specifier.
+    ///
+    /// ```
+    /// use agent_node::canopen::NmtCommand;
+    /// assert_eq!(NmtCommand::from_code(0x80), Some(NmtCommand::EnterPreOperational));
+    /// assert_eq!(NmtCommand::from_code(0x03), None);
+    /// ```
+    #[must_use]
     pub const fn from_code(c: u8) -> Option<Self> {
         match c {
             0x01 => Some(Self::Start),
@@ -157,8 +244,23 @@ impl NmtCommand {
     }
 }
 
-/// SDO abort codes (CiA 301 §7.2.4.3.17).
+/// SDO abort codes (CiA 301 §7.2.4.3.17): why the device refused an access.
+///
+/// `#[non_exhaustive]`: CiA 301 defines more codes than the device sends today.
+///
+/// ```
+/// # mod hw { include!("doctest_device.rs"); }
+/// # use hw::*;
+/// # #[allow(unused_mut)]
+/// # let mut dev = device();
+/// use agent_node::canopen::Abort;
+/// // A write to a read-only object is refused with its CiA 301 code.
+/// let e = dev.write(0x1000, 0, &[0; 4]).unwrap_err();
+/// assert_eq!((e, e.code()), (Abort::ReadOnly, 0x0601_0002));
+/// assert!(e.to_string().contains("0x06010002"));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum Abort {
     /// `0x0503_0000` toggle bit not alternated.
     Toggle,
@@ -198,6 +300,13 @@ pub enum Abort {
 
 impl Abort {
     /// The 32-bit code.
+    ///
+    /// ```
+    /// use agent_node::canopen::Abort;
+    /// assert_eq!(Abort::NoObject.code(), 0x0602_0000);
+    /// assert_eq!(Abort::ValueTooHigh.code(), 0x0609_0031);
+    /// ```
+    #[must_use]
     pub const fn code(self) -> u32 {
         match self {
             Self::Toggle => 0x0503_0000,
@@ -221,7 +330,47 @@ impl Abort {
     }
 }
 
+/// The code and CiA 301's words for it, e.g. `SDO abort 0x06010002: attempt to write a
+/// read-only object`.
+impl core::fmt::Display for Abort {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        let what = match self {
+            Self::Toggle => "toggle bit not alternated",
+            Self::Timeout => "SDO protocol timed out",
+            Self::Command => "command specifier not valid or unknown",
+            Self::OutOfMemory => "out of memory",
+            Self::WriteOnly => "attempt to read a write-only object",
+            Self::ReadOnly => "attempt to write a read-only object",
+            Self::NoObject => "object does not exist in the object dictionary",
+            Self::ParamIncompatible => "general parameter incompatibility",
+            Self::Length => "data type or length of service parameter does not match",
+            Self::LengthTooHigh => "length of service parameter too high",
+            Self::LengthTooLow => "length of service parameter too low",
+            Self::NoSubIndex => "sub-index does not exist",
+            Self::ValueRange => "invalid value for parameter (value range exceeded)",
+            Self::ValueTooHigh => "value of parameter written too high",
+            Self::ValueTooLow => "value of parameter written too low",
+            Self::Transfer => "data cannot be transferred or stored to the application",
+            Self::DeviceState => {
+                "data cannot be transferred or stored because of the present device state"
+            }
+        };
+        write!(f, "SDO abort {:#010x}: {what}", self.code())
+    }
+}
+
+impl core::error::Error for Abort {}
+
 /// Bytes of one SDO value (the longest is a string object).
+///
+/// ```
+/// use agent_node::canopen::SdoData;
+/// let mut d = SdoData::default();
+/// assert!(d.extend(b"save"));
+/// assert_eq!(d.as_slice(), b"save");
+/// assert!(!d.extend(&[0; SdoData::CAPACITY])); // does not fit: nothing appended
+/// assert_eq!(d.as_slice().len(), 4);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct SdoData {
     buf: [u8; SdoData::CAPACITY],
@@ -242,11 +391,29 @@ impl SdoData {
     pub const CAPACITY: usize = 32;
 
     /// The bytes.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// // The producer heartbeat time (0x1017) reads as UNSIGNED16, little-endian.
+    /// dev.set_heartbeat_ms(250);
+    /// assert_eq!(dev.read(0x1017, 0).unwrap().as_slice(), &250u16.to_le_bytes());
+    /// ```
+    #[must_use]
     pub fn as_slice(&self) -> &[u8] {
         self.buf.get(..self.len).unwrap_or(&[])
     }
 
     /// Append `bytes`; `false` (and nothing appended) when they do not fit.
+    ///
+    /// ```
+    /// use agent_node::canopen::SdoData;
+    /// let mut d = SdoData::default();
+    /// assert!(d.extend(&[1, 2]) && d.extend(&[3]));
+    /// assert_eq!(d.as_slice(), &[1, 2, 3]);
+    /// ```
     pub fn extend(&mut self, bytes: &[u8]) -> bool {
         let end = self.len + bytes.len();
         match self.buf.get_mut(self.len..end) {
@@ -261,6 +428,15 @@ impl SdoData {
 }
 
 /// A classical CAN frame as the device sees it: 11-bit identifier, up to 8 data bytes.
+///
+/// ```
+/// use agent_node::canopen::CoFrame;
+/// use agent_node::link::CanFrame;
+/// let f = CoFrame::new(0x702, &[0x05]); // node 2's heartbeat: operational
+/// let can: CanFrame = f.to_frame().unwrap();
+/// assert_eq!(CoFrame::from_frame(&can), Some(f));
+/// assert_eq!(f.data(), &[0x05]);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct CoFrame {
     /// Identifier.
@@ -273,6 +449,14 @@ pub struct CoFrame {
 
 impl CoFrame {
     /// A frame of `data` (at most 8 bytes; more are cut).
+    ///
+    /// ```
+    /// use agent_node::canopen::CoFrame;
+    /// let f = CoFrame::new(0x080, &[]); // SYNC
+    /// assert_eq!((f.id, f.len), (0x080, 0));
+    /// assert_eq!(CoFrame::new(0x602, &[0; 10]).len, 8); // more than 8 bytes are cut
+    /// ```
+    #[must_use]
     pub fn new(id: u16, data: &[u8]) -> Self {
         let mut f = Self {
             id,
@@ -286,17 +470,41 @@ impl CoFrame {
     }
 
     /// The data bytes.
+    ///
+    /// ```
+    /// use agent_node::canopen::CoFrame;
+    /// assert_eq!(CoFrame::new(0x582, &[0x60, 0x17, 0x10, 0]).data(), &[0x60, 0x17, 0x10, 0]);
+    /// ```
+    #[must_use]
     pub fn data(&self) -> &[u8] {
         self.data.get(..usize::from(self.len)).unwrap_or(&self.data)
     }
 
     /// As an `embedded-can` frame (`None` if the type refuses it).
+    ///
+    /// ```
+    /// use agent_node::canopen::CoFrame;
+    /// use agent_node::link::CanFrame;
+    /// use embedded_can::Frame;
+    /// let f: CanFrame = CoFrame::new(0x082, &[0; 8]).to_frame().unwrap();
+    /// assert_eq!((f.raw_id(), f.dlc()), (0x082, 8));
+    /// assert!(CoFrame::new(0x800, &[]).to_frame::<CanFrame>().is_none()); // beyond 11 bits
+    /// ```
+    #[must_use]
     pub fn to_frame<F: embedded_can::Frame>(&self) -> Option<F> {
         let id = embedded_can::StandardId::new(self.id)?;
         F::new(id, self.data())
     }
 
     /// From an `embedded-can` data frame with a standard identifier.
+    ///
+    /// ```
+    /// use agent_node::canopen::CoFrame;
+    /// use agent_node::link::CanFrame;
+    /// use embedded_can::{ExtendedId, Frame};
+    /// let ext = CanFrame::new(ExtendedId::new(0x702).unwrap(), &[5]).unwrap();
+    /// assert_eq!(CoFrame::from_frame(&ext), None); // CANopen uses 11-bit identifiers
+    /// ```
     pub fn from_frame<F: embedded_can::Frame>(f: &F) -> Option<Self> {
         match f.id() {
             embedded_can::Id::Standard(id) if !f.is_remote_frame() => {
@@ -308,7 +516,22 @@ impl CoFrame {
 }
 
 /// What the application learns from the device.
+///
+/// ```
+/// # mod hw { include!("doctest_device.rs"); }
+/// # use hw::*;
+/// # #[allow(unused_mut)]
+/// # let mut dev = device();
+/// use agent_node::canopen::{Event, NmtState, SYNC_ID};
+/// dev.on_frame(SYNC_ID, &[], 10);
+/// assert_eq!(dev.next_event(), Some(Event::Sync));
+/// dev.on_frame(0x000, &[0x01, 0], 20); // NMT start, all nodes
+/// assert_eq!(dev.next_event(), Some(Event::Nmt(NmtState::Operational)));
+/// ```
+///
+/// `#[non_exhaustive]`: the device tells the application more as it learns more services.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
 pub enum Event {
     /// The NMT state changed to this one (outputs are enabled only in `Operational`).
     Nmt(NmtState),
@@ -332,6 +555,15 @@ pub enum Event {
 }
 
 /// A fault the node reports by EMCY, with its CiA 301 error code.
+///
+/// ```
+/// use agent_node::canopen::Fault;
+/// // The supervisor lost the leader (bit 0): RPDO timeout, a communication error.
+/// let f = Fault::SafeState(0b001);
+/// assert_eq!((f.code(), f.register_bits()), (0x8250, 0x11));
+/// assert_eq!(Fault::SafeState(0b100).code(), 0x7300); // the sensor alone
+/// assert_eq!(f.info(3), [1, 0b001, 3, 0, 0]);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Fault {
     /// The supervisor entered its safe state; the lost sources (bit 0 leader, 1 neighbours,
@@ -357,6 +589,13 @@ pub enum Fault {
 
 impl Fault {
     /// CiA 301 emergency error code.
+    ///
+    /// ```
+    /// use agent_node::canopen::Fault;
+    /// assert_eq!(Fault::Overrun.code(), 0x6200);
+    /// assert_eq!(Fault::HeartbeatLost(4).code(), 0x8130);
+    /// ```
+    #[must_use]
     pub const fn code(self) -> u16 {
         match self {
             Self::SafeState(lost) if lost & 0b11 == 0 => 0x7300,
@@ -374,6 +613,14 @@ impl Fault {
 
     /// Error register (`0x1001`) bits besides generic (bit 0): communication (bit 4) for the
     /// `0x81xx`/`0x82xx` codes, manufacturer-specific (bit 7) for the others.
+    ///
+    /// ```
+    /// use agent_node::canopen::Fault;
+    /// assert_eq!(Fault::BusOff.register_bits(), 0x11); // generic + communication
+    /// assert_eq!(Fault::Fault.register_bits(), 0x01); // generic only
+    /// assert_eq!(Fault::Overrun.register_bits(), 0x81); // generic + manufacturer
+    /// ```
+    #[must_use]
     pub const fn register_bits(self) -> u8 {
         match self.code() >> 8 {
             0x81 | 0x82 => 0x11,
@@ -386,6 +633,13 @@ impl Fault {
     /// 3 watchdog reset, 4 overrun, 5 bus-off, 6 receive overflow, 7 configuration rejected,
     /// 8 fault, 9 heartbeat lost), byte 1 the lost sources or the node-ID, bytes 2–3 a
     /// count (u16 LE, e.g. overruns since start), byte 4 zero.
+    ///
+    /// ```
+    /// use agent_node::canopen::Fault;
+    /// assert_eq!(Fault::Overrun.info(300), [4, 0, 44, 1, 0]); // cause 4, 300 overruns
+    /// assert_eq!(Fault::HeartbeatLost(7).info(0), [9, 7, 0, 0, 0]);
+    /// ```
+    #[must_use]
     pub const fn info(self, count: u16) -> [u8; 5] {
         let (cause, detail) = match self {
             Self::SafeState(lost) => (1, lost),
@@ -416,6 +670,18 @@ impl Fault {
 }
 
 /// `0x1018`.
+///
+/// ```
+/// # mod hw { include!("doctest_device.rs"); }
+/// # use hw::*;
+/// # #[allow(unused_mut)]
+/// # let mut dev = device();
+/// let id = Identity { vendor: 0, product: 0x2, revision: 0x1_0000, serial: 42 };
+/// let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
+/// let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
+/// let dev = Device::new(store, id, false);
+/// assert_eq!(dev.read(0x1018, 4).unwrap().as_slice(), &42u32.to_le_bytes()); // serial number
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub struct Identity {
     /// Vendor-ID (0: none assigned by CiA).
@@ -512,6 +778,25 @@ enum Transfer {
 }
 
 /// The CANopen device of one node. `N`: state order of its controller.
+///
+/// The examples on `Device` start from `device()` (`src/canopen/doctest_device.rs`, hidden in
+/// them): agent 2 hearing agent 1 and the leader, node-ID 2, booted at `t = 0` and so
+/// pre-operational, its boot-up message already taken.
+///
+/// ```
+/// # mod hw { include!("doctest_device.rs"); }
+/// # use hw::*;
+/// # #[allow(unused_mut)]
+/// # let mut dev = device();
+/// use agent_node::canopen::{sdo_rx_id, sdo_tx_id, NmtState};
+/// // An SDO client reads the producer heartbeat time 0x1017:00 (expedited upload).
+/// dev.set_heartbeat_ms(100);
+/// assert!(dev.on_frame(sdo_rx_id(2), &[0x40, 0x17, 0x10, 0, 0, 0, 0, 0], 1_000));
+/// let resp = dev.next_tx().unwrap();
+/// assert_eq!(resp.id, sdo_tx_id(2));
+/// assert_eq!(resp.data(), &[0x4B, 0x17, 0x10, 0, 100, 0, 0, 0]); // 2 bytes: 100 ms
+/// assert_eq!(dev.nmt(), NmtState::PreOperational);
+/// ```
 #[derive(Debug, Clone)]
 pub struct Device<const N: usize> {
     /// The manufacturer entries' values.
@@ -545,6 +830,22 @@ impl<const N: usize> Device<N> {
     /// A device in `Initialising` with `store` as its values (and its defaults for `0x1011`);
     /// [`Self::boot`] sends the boot-up message. `self_starting`: enter `Operational` at boot
     /// without waiting for an NMT start (simulations that start every node at `t = 0`).
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// use agent_node::canopen::{heartbeat_id, NmtState};
+    /// let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
+    /// let store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
+    /// let mut dev = Device::new(store, Identity::default(), true); // self-starting
+    /// assert_eq!(dev.nmt(), NmtState::Initialising);
+    /// dev.boot(0);
+    /// assert_eq!(dev.nmt(), NmtState::Operational);
+    /// assert_eq!(dev.next_tx().unwrap().id, heartbeat_id(2)); // the boot-up message
+    /// ```
+    #[must_use]
     pub fn new(store: ParamStore<N>, identity: Identity, self_starting: bool) -> Self {
         Self {
             node_id: store.node.node_id,
@@ -572,6 +873,16 @@ impl<const N: usize> Device<N> {
 
     /// The identifier plan of the value frames, which the PDO COB-IDs (`0x1400`, `0x1800`)
     /// report: the node configuration's.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// use agent_node::wire::IdPlan;
+    /// assert_eq!(*dev.id_plan(), IdPlan::DEFAULT);
+    /// ```
+    #[must_use]
     pub fn id_plan(&self) -> &IdPlan {
         &self.store.node.ids
     }
@@ -579,6 +890,17 @@ impl<const N: usize> Device<N> {
     /// The source RPDO `k + 1` carries, and whether the node listens to it: RPDO1 the leader
     /// (heard when the agent is pinned or supervises the leader), RPDO `k + 1` neighbour slot
     /// `k` (heard for `k <= neighbour_count`).
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// use agent_node::wire::Source;
+    /// assert_eq!(dev.rpdo_source(0), Some((Source::Leader, true))); // RPDO1: pinned
+    /// assert_eq!(dev.rpdo_source(1), Some((Source::Agent(1), true))); // neighbour slot 0
+    /// ```
+    #[must_use]
     pub fn rpdo_source(&self, k: u8) -> Option<(Source, bool)> {
         let agent = &self.store.sections.agent;
         if k == 0 {
@@ -614,16 +936,50 @@ impl<const N: usize> Device<N> {
     /// The graph row (`graph.neighbours`, `graph.pinned`) or the identifier plan was written,
     /// restored or loaded since [`Self::graph_adopted`]: the node takes them at its next reset
     /// communication and cannot start on the old ones before.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # let mut dev = device();
+    /// use agent_node::canopen::od::PARAM_BASE;
+    /// use controller_core::Param;
+    /// assert!(!dev.graph_written());
+    /// // Agent 2 stops hearing the leader (pre-operational: writable).
+    /// let pinned = PARAM_BASE + Param::ALL.iter().position(|p| *p == Param::Pinned).unwrap() as u16;
+    /// dev.write(pinned, 0, &[0]).unwrap();
+    /// assert!(dev.graph_written());
+    /// ```
     pub fn graph_written(&self) -> bool {
         self.graph_written
     }
 
     /// The node adopted the graph row and plan the store holds.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # let mut dev = device();
+    /// dev.write(0x1011, 1, b"load").unwrap(); // restore: the defaults' row waits too
+    /// assert!(dev.graph_written());
+    /// dev.graph_adopted();
+    /// assert!(!dev.graph_written());
+    /// ```
     pub fn graph_adopted(&mut self) {
         self.graph_written = false;
     }
 
     /// The node sent its value frame (TPDO1) with these bytes: `0x2200..` read them.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// use agent_node::wire::encode_payload;
+    /// // TPDO1's y field (0x2200) reads the last value frame sent, raw Q7.16.
+    /// dev.value_sent(&encode_payload(1.0, 0).data);
+    /// assert_eq!(dev.read(0x2200, 0).unwrap().as_slice(), &[0, 0, 1]);
+    /// ```
     pub fn value_sent(&mut self, data: &[u8; PAYLOAD_LEN]) {
         self.tpdo = Some(*data);
     }
@@ -658,42 +1014,138 @@ impl<const N: usize> Device<N> {
     }
 
     /// Node-ID in use.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// assert_eq!(dev.node_id(), 2); // the agent number i
+    /// ```
+    #[must_use]
     pub fn node_id(&self) -> u8 {
         self.node_id
     }
 
     /// NMT state.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// use agent_node::canopen::NmtState;
+    /// assert_eq!(dev.nmt(), NmtState::PreOperational);
+    /// dev.on_frame(0x000, &[0x02, 2], 0); // NMT stop
+    /// assert_eq!(dev.nmt(), NmtState::Stopped);
+    /// ```
+    #[must_use]
     pub fn nmt(&self) -> NmtState {
         self.nmt
     }
 
     /// The control outputs are enabled (NMT `Operational`).
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// assert!(!dev.outputs_enabled()); // pre-operational: actuators and value frames off
+    /// dev.on_frame(0x000, &[0x01, 2], 0);
+    /// assert!(dev.outputs_enabled());
+    /// ```
+    #[must_use]
     pub fn outputs_enabled(&self) -> bool {
         self.nmt == NmtState::Operational
     }
 
     /// PDOs may be sent (NMT `Operational`).
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// assert!(!dev.pdo_enabled());
+    /// dev.on_frame(0x000, &[0x01, 0], 0); // NMT start, every node
+    /// assert!(dev.pdo_enabled());
+    /// ```
+    #[must_use]
     pub fn pdo_enabled(&self) -> bool {
         self.nmt == NmtState::Operational
     }
 
     /// `0x1017` producer heartbeat time (ms; 0: off).
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// use agent_node::canopen::heartbeat_id;
+    /// dev.set_heartbeat_ms(100);
+    /// dev.tick(0);
+    /// let hb = dev.next_tx().unwrap();
+    /// assert_eq!((hb.id, hb.data()), (heartbeat_id(2), &[0x7F][..])); // pre-operational
+    /// dev.tick(50_000);
+    /// assert!(dev.next_tx().is_none()); // next one at 100 ms
+    /// ```
     pub fn set_heartbeat_ms(&mut self, ms: u16) {
         self.heartbeat_ms = ms;
         self.next_heartbeat_us = None;
     }
 
     /// `0x1016` entry `k` (1-based): watch node `node` with `time_ms` (0: off).
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// use agent_node::canopen::{heartbeat_id, Event};
+    /// // Watch node 1's heartbeat with 150 ms: heard at 0, silent until 200 ms.
+    /// dev.set_consumer(1, 1, 150).unwrap();
+    /// dev.on_frame(heartbeat_id(1), &[0x05], 0);
+    /// dev.tick(200_000);
+    /// assert!(dev.heartbeat_lost(1));
+    /// assert_eq!(dev.next_event(), Some(Event::HeartbeatLost(1)));
+    /// ```
     pub fn set_consumer(&mut self, k: u8, node: u8, time_ms: u16) -> Result<(), Abort> {
         self.write_consumer(k, (u32::from(node) << 16) | u32::from(time_ms))
     }
 
     /// The error register (`0x1001`).
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// use agent_node::canopen::Fault;
+    /// assert_eq!(dev.error_register(), 0);
+    /// dev.report(Fault::SensorInvalid, 0);
+    /// assert_eq!(dev.error_register(), 0x81);
+    /// dev.clear(Fault::SensorInvalid);
+    /// assert_eq!(dev.error_register(), 0);
+    /// ```
+    #[must_use]
     pub fn error_register(&self) -> u8 {
         self.register
     }
 
     /// Boot: the boot-up message, then `PreOperational` (or `Operational` when self-starting).
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// use agent_node::canopen::{Event, NmtState};
+    /// dev.boot(5);
+    /// assert_eq!(dev.next_tx().unwrap().data(), &[0x00]); // boot-up: initialising
+    /// assert_eq!(dev.nmt(), NmtState::PreOperational);
+    /// ```
     pub fn boot(&mut self, now_us: u64) {
         self.now_us = now_us;
         self.node_id = self.store.node.pending_node_id;
@@ -724,16 +1176,48 @@ impl<const N: usize> Device<N> {
     }
 
     /// The next frame to send.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// use agent_node::canopen::{emcy_id, Fault};
+    /// assert!(dev.next_tx().is_none());
+    /// dev.report(Fault::Overrun, 1);
+    /// assert_eq!(dev.next_tx().unwrap().id, emcy_id(2));
+    /// ```
     pub fn next_tx(&mut self) -> Option<CoFrame> {
         self.tx.pop()
     }
 
     /// The next event for the application.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// use agent_node::canopen::Event;
+    /// dev.write(0x1010, 1, b"save").unwrap();
+    /// assert_eq!(dev.next_event(), Some(Event::Store));
+    /// assert_eq!(dev.next_event(), None);
+    /// ```
     pub fn next_event(&mut self) -> Option<Event> {
         self.events.pop()
     }
 
     /// Take a received frame; `false` when it is none of the device's (value frames etc.).
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// // A value frame is the application's: the device keeps a copy and says `false`.
+    /// assert!(!dev.on_frame(0x102, &[0, 0, 1, 0], 0));
+    /// assert!(dev.on_frame(0x080, &[], 0)); // SYNC is the device's
+    /// ```
     pub fn on_frame(&mut self, id: u16, data: &[u8], now_us: u64) -> bool {
         self.now_us = now_us;
         if id == NMT_ID {
@@ -816,6 +1300,21 @@ impl<const N: usize> Device<N> {
     }
 
     /// The consumed heartbeat (`0x1016`) of `node` timed out and has not come back.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// use agent_node::canopen::heartbeat_id;
+    /// dev.set_consumer(1, 3, 100).unwrap();
+    /// dev.on_frame(heartbeat_id(3), &[0x05], 0);
+    /// dev.tick(50_000);
+    /// assert!(!dev.heartbeat_lost(3));
+    /// dev.tick(101_000);
+    /// assert!(dev.heartbeat_lost(3));
+    /// ```
+    #[must_use]
     pub fn heartbeat_lost(&self, node: u8) -> bool {
         self.consumers
             .iter()
@@ -823,6 +1322,21 @@ impl<const N: usize> Device<N> {
     }
 
     /// The node-IDs whose consumed heartbeat is lost.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// use agent_node::canopen::heartbeat_id;
+    /// dev.set_consumer(1, 1, 100).unwrap();
+    /// dev.set_consumer(2, 3, 100).unwrap();
+    /// dev.on_frame(heartbeat_id(1), &[0x05], 0);
+    /// dev.on_frame(heartbeat_id(3), &[0x05], 0);
+    /// dev.on_frame(heartbeat_id(3), &[0x05], 90_000);
+    /// dev.tick(150_000); // node 1 silent for 150 ms, node 3 for 60 ms
+    /// assert_eq!(dev.lost_heartbeats().collect::<Vec<_>>(), [1]);
+    /// ```
     pub fn lost_heartbeats(&self) -> impl Iterator<Item = u8> + '_ {
         self.consumers
             .iter()
@@ -831,6 +1345,19 @@ impl<const N: usize> Device<N> {
     }
 
     /// The last NMT state heard from a consumed node.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// use agent_node::canopen::{heartbeat_id, NmtState};
+    /// dev.set_consumer(1, 1, 100).unwrap();
+    /// assert_eq!(dev.consumed_state(1), None);
+    /// dev.on_frame(heartbeat_id(1), &[0x7F], 0);
+    /// assert_eq!(dev.consumed_state(1), Some(NmtState::PreOperational));
+    /// ```
+    #[must_use]
     pub fn consumed_state(&self, node: u8) -> Option<NmtState> {
         self.consumers
             .iter()
@@ -839,6 +1366,22 @@ impl<const N: usize> Device<N> {
     }
 
     /// Advance to `now_us`: heartbeat producer, consumer timeouts, SDO timeout.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// use agent_node::canopen::{abort_frame, sdo_rx_id, Abort};
+    /// use controller_core::Param;
+    /// // A segmented download of T_s begun and abandoned: aborted after one second.
+    /// let ts = 0x2000 + Param::ALL.iter().position(|p| *p == Param::Ts).unwrap() as u16;
+    /// let [lo, hi] = ts.to_le_bytes();
+    /// dev.on_frame(sdo_rx_id(2), &[0x21, lo, hi, 0, 4, 0, 0, 0], 0);
+    /// assert_eq!(dev.next_tx().unwrap().data()[0], 0x60); // initiate acknowledged
+    /// dev.tick(1_000_001);
+    /// assert_eq!(dev.next_tx().unwrap().data(), &abort_frame(ts, 0, Abort::Timeout));
+    /// ```
     pub fn tick(&mut self, now_us: u64) {
         self.now_us = now_us;
         if self.heartbeat_ms > 0 && self.nmt != NmtState::Initialising {
@@ -890,6 +1433,20 @@ impl<const N: usize> Device<N> {
     /// Report a fault: an EMCY frame (in pre-operational and operational), an entry in the
     /// pre-defined error field, and for a condition its error-register bits until
     /// [`Self::clear`]. `count`: see [`Fault::info`].
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// use agent_node::canopen::{decode, Fault, Message};
+    /// dev.report(Fault::BusOff, 2);
+    /// let f = dev.next_tx().unwrap();
+    /// let Some(Message::Emcy { node, code, register, info }) = decode(f.id, f.data()) else { panic!() };
+    /// assert_eq!((node, code, register), (2, 0x8140, 0x11));
+    /// assert_eq!(info, Fault::BusOff.info(2));
+    /// assert_eq!(dev.read(0x1003, 1).unwrap().as_slice(), &0x8140u32.to_le_bytes()); // error field
+    /// ```
     pub fn report(&mut self, f: Fault, count: u16) {
         if let Some(bit) = f.condition() {
             if self.active & bit != 0 {
@@ -910,6 +1467,19 @@ impl<const N: usize> Device<N> {
 
     /// A condition reported with [`Self::report`] is over; when none is left, the error
     /// register clears and an EMCY "error reset" (`0x0000`) is sent.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// use agent_node::canopen::Fault;
+    /// dev.report(Fault::SafeState(1), 0);
+    /// dev.next_tx();
+    /// dev.clear(Fault::SafeState(1));
+    /// let reset = dev.next_tx().unwrap();
+    /// assert_eq!(&reset.data()[..3], &[0, 0, 0]); // EMCY error reset, register 0
+    /// ```
     pub fn clear(&mut self, f: Fault) {
         let Some(bit) = f.condition() else {
             return;
@@ -1137,6 +1707,19 @@ impl<const N: usize> Device<N> {
     }
 
     /// Read an entry (the SDO upload's data).
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// use agent_node::canopen::Abort;
+    /// use controller_core::Param;
+    /// // T_s of Theorem 1 at 0x2000 + its position in Param::ALL: REAL32, 2 s by default.
+    /// let ts = 0x2000 + Param::ALL.iter().position(|p| *p == Param::Ts).unwrap() as u16;
+    /// assert_eq!(dev.read(ts, 0).unwrap().as_slice(), &2.0f32.to_le_bytes());
+    /// assert_eq!(dev.read(0x5FFF, 0).unwrap_err(), Abort::NoObject);
+    /// ```
     pub fn read(&self, index: u16, sub: u8) -> Result<SdoData, Abort> {
         let o = self.object(index, sub)?;
         if sub == 0 && o.kind != Kind::Var {
@@ -1224,6 +1807,21 @@ impl<const N: usize> Device<N> {
 
     /// Write an entry (the SDO download's data): refused with the abort code, the value left
     /// unchanged, unless every check passes.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// use agent_node::canopen::Abort;
+    /// use controller_core::Param;
+    /// let ts = 0x2000 + Param::ALL.iter().position(|p| *p == Param::Ts).unwrap() as u16;
+    /// assert_eq!(dev.write(ts, 0, &0.5f32.to_le_bytes()), Ok(()));
+    /// assert_eq!(dev.store.controller().unwrap().ts, 0.5);
+    /// // T_s > 0 (Theorem 1): refused, the value left as it was.
+    /// assert_eq!(dev.write(ts, 0, &(-1.0f32).to_le_bytes()), Err(Abort::ValueRange));
+    /// assert_eq!(dev.write(ts, 0, &[0; 2]), Err(Abort::LengthTooLow));
+    /// ```
     pub fn write(&mut self, index: u16, sub: u8, bytes: &[u8]) -> Result<(), Abort> {
         let o = self.check_write(index, sub)?;
         let t = if sub == 0 && o.kind != Kind::Var {
@@ -1301,6 +1899,24 @@ impl<const N: usize> Device<N> {
     /// The persisted form of every writable manufacturer entry and the heartbeat settings
     /// (`0x1016`, `0x1017`): a `CO1\0` tag, then records `index (u16 LE), sub, length, bytes`.
     /// Returns the bytes written into `out`, `None` if it is too small.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// use controller_core::Param;
+    /// let ts = 0x2000 + Param::ALL.iter().position(|p| *p == Param::Ts).unwrap() as u16;
+    /// dev.write(ts, 0, &0.5f32.to_le_bytes()).unwrap();
+    /// let mut flash = [0u8; 2048];
+    /// let n = dev.save(&mut flash).unwrap();
+    /// assert_eq!(&flash[..4], b"CO1\0");
+    /// let mut fresh = device();
+    /// fresh.load(&flash[..n]).unwrap();
+    /// assert_eq!(fresh.store.controller().unwrap().ts, 0.5);
+    /// assert_eq!(fresh.store.sections, dev.store.sections);
+    /// assert!(dev.save(&mut [0u8; 8]).is_none()); // too small
+    /// ```
     pub fn save(&self, out: &mut [u8]) -> Option<usize> {
         let mut w = Writer { out, pos: 0 };
         w.put(STORE_TAG)?;
@@ -1327,6 +1943,16 @@ impl<const N: usize> Device<N> {
 
     /// Load what [`Self::save`] wrote, as writes in pre-operational; on any refusal nothing
     /// changes and the abort is returned.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// let before = dev.store.clone();
+    /// assert!(dev.load(b"not a store").is_err());
+    /// assert_eq!(dev.store.sections, before.sections); // nothing changed
+    /// ```
     pub fn load(&mut self, bytes: &[u8]) -> Result<(), Abort> {
         let saved = (
             self.store.clone(),
@@ -1442,6 +2068,13 @@ fn string(s: &str) -> SdoData {
 }
 
 /// A CANopen frame as a bus monitor reads it ([`decode`]).
+///
+/// ```
+/// use agent_node::canopen::{decode, Message, NmtCommand};
+/// assert_eq!(decode(0x000, &[0x81, 3]),
+///     Some(Message::Nmt { command: Some(NmtCommand::ResetNode), node: 3 }));
+/// assert_eq!(decode(0x080, &[]), Some(Message::Sync));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Message {
     /// NMT command to `node` (0: all).
@@ -1490,6 +2123,16 @@ pub enum Message {
 
 /// The CANopen message of a frame of the predefined connection set; `None` for PDOs and
 /// identifiers outside the set.
+///
+/// ```
+/// use agent_node::canopen::{abort_frame, decode, Abort, Message, NmtState};
+/// assert_eq!(decode(0x705, &[0x05]), Some(Message::Heartbeat { node: 5, state: Some(NmtState::Operational) }));
+/// let abort = abort_frame(0x2000, 0, Abort::ValueRange);
+/// let Some(Message::Sdo { node, request, index, abort: code, .. }) = decode(0x585, &abort) else { panic!() };
+/// assert_eq!((node, request, index, code), (5, false, 0x2000, Some(0x0609_0030)));
+/// assert_eq!(decode(0x185, &[0; 4]), None); // a PDO
+/// ```
+#[must_use]
 pub fn decode(id: u16, data: &[u8]) -> Option<Message> {
     let node = (id & 0x7F) as u8;
     let byte = |k: usize| data.get(k).copied().unwrap_or(0);
@@ -1532,6 +2175,12 @@ pub fn decode(id: u16, data: &[u8]) -> Option<Message> {
 }
 
 /// The SDO abort frame's data.
+///
+/// ```
+/// use agent_node::canopen::{abort_frame, Abort};
+/// assert_eq!(abort_frame(0x1017, 0, Abort::ReadOnly), [0x80, 0x17, 0x10, 0, 0x02, 0, 0x01, 0x06]);
+/// ```
+#[must_use]
 pub fn abort_frame(index: u16, sub: u8, a: Abort) -> [u8; 8] {
     let i = index.to_le_bytes();
     let c = a.code().to_le_bytes();

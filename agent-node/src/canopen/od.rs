@@ -80,6 +80,15 @@ pub const COB_ID_INVALID: u32 = 1 << 31;
 pub const COB_ID_NO_RTR: u32 = 1 << 30;
 
 /// One field of a value frame (`crate::wire`), as the PDOs map it.
+///
+/// ```
+/// use agent_node::canopen::od::Field;
+/// use agent_node::wire::encode_payload;
+/// // The fields of a value frame, bit by bit: y (24), counter (6), saturated, no value.
+/// let frame = encode_payload(1.0, 5).data;
+/// let raw: Vec<u32> = Field::ALL.iter().map(|f| f.extract(&frame)).collect();
+/// assert_eq!(raw, [0x01_0000, 5, 0, 0]);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Field {
     /// `y` in Q7.16, 24 bits two's complement.
@@ -97,6 +106,13 @@ impl Field {
     pub const ALL: [Self; 4] = [Self::Y, Self::Sequence, Self::Saturated, Self::NoValue];
 
     /// Bits the field takes in the frame (the mapped length).
+    ///
+    /// ```
+    /// use agent_node::canopen::od::Field;
+    /// assert_eq!(Field::ALL.iter().map(|f| u32::from(f.bits())).sum::<u32>(), 32); // 4 bytes
+    /// assert_eq!(Field::Sequence.bits(), 6); // counter modulo 64
+    /// ```
+    #[must_use]
     pub const fn bits(self) -> u8 {
         match self {
             Self::Y => 8 * (crate::wire::PAYLOAD_LEN as u8 - 1),
@@ -106,6 +122,12 @@ impl Field {
     }
 
     /// First bit of the field in the frame.
+    ///
+    /// ```
+    /// use agent_node::canopen::od::Field;
+    /// assert_eq!((Field::Y.offset(), Field::Sequence.offset(), Field::NoValue.offset()), (0, 24, 31));
+    /// ```
+    #[must_use]
     pub const fn offset(self) -> u8 {
         let mut off = 0;
         let mut k = 0;
@@ -120,11 +142,25 @@ impl Field {
     }
 
     /// Position in [`Self::ALL`].
+    ///
+    /// ```
+    /// use agent_node::canopen::od::{Field, TX_VALUE_BASE};
+    /// // The object of the own frame's saturated flag.
+    /// assert_eq!(TX_VALUE_BASE + Field::Saturated.position(), 0x2202);
+    /// ```
+    #[must_use]
     pub const fn position(self) -> u16 {
         self as u16
     }
 
     /// The object's data type.
+    ///
+    /// ```
+    /// use agent_node::canopen::od::{DataType, Field};
+    /// assert_eq!(Field::Y.data_type(), DataType::Integer24);
+    /// assert_eq!(Field::NoValue.data_type(), DataType::Boolean);
+    /// ```
+    #[must_use]
     pub const fn data_type(self) -> DataType {
         match self {
             Self::Y => DataType::Integer24,
@@ -134,6 +170,12 @@ impl Field {
     }
 
     /// `ParameterName` of its objects.
+    ///
+    /// ```
+    /// use agent_node::canopen::od::Field;
+    /// assert!(Field::Y.name().contains("Q7.16"));
+    /// ```
+    #[must_use]
     pub const fn name(self) -> &'static str {
         match self {
             Self::Y => "Value y (Q7.16, y = raw / 65536)",
@@ -144,6 +186,16 @@ impl Field {
     }
 
     /// The field of a 4-byte value frame (the raw bits, `y` as its 24-bit pattern).
+    ///
+    /// ```
+    /// use agent_node::canopen::od::Field;
+    /// use agent_node::wire::encode_payload;
+    /// let nan = encode_payload(f32::NAN, 0).data; // a failed sensor's frame
+    /// assert_eq!((Field::NoValue.extract(&nan), Field::Y.extract(&nan)), (1, 0));
+    /// let neg = encode_payload(-1.0, 0).data;
+    /// assert_eq!(Field::Y.extract(&neg), 0xFF_0000); // -1.0 as a 24-bit pattern
+    /// ```
+    #[must_use]
     pub fn extract(self, frame: &[u8; crate::wire::PAYLOAD_LEN]) -> u32 {
         let all = u32::from_le_bytes(*frame);
         (all >> self.offset()) & ((1u32 << self.bits()) - 1)
@@ -151,12 +203,25 @@ impl Field {
 
     /// The CiA 301 mapping entry of this field in object `index`, sub-index `sub`:
     /// `index << 16 | sub << 8 | bits`.
+    ///
+    /// ```
+    /// use agent_node::canopen::od::Field;
+    /// // TPDO1 maps 0x2200:00, 24 bits.
+    /// assert_eq!(Field::Y.mapping(0x2200, 0), 0x2200_0018);
+    /// ```
+    #[must_use]
     pub const fn mapping(self, index: u16, sub: u8) -> u32 {
         (index as u32) << 16 | (sub as u32) << 8 | self.bits() as u32
     }
 }
 
 /// CiA 301 data types (the EDS `DataType` codes).
+///
+/// ```
+/// use agent_node::canopen::od::DataType;
+/// assert_eq!((DataType::Real32.code(), DataType::Real32.size()), (0x0008, Some(4)));
+/// assert_eq!(DataType::VisibleString.size(), None);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum DataType {
     /// `BOOLEAN` (0x0001).
@@ -177,6 +242,12 @@ pub enum DataType {
 
 impl DataType {
     /// The CiA 301 code.
+    ///
+    /// ```
+    /// use agent_node::canopen::od::DataType;
+    /// assert_eq!(DataType::Unsigned16.code(), 0x0006); // the EDS DataType
+    /// ```
+    #[must_use]
     pub const fn code(self) -> u16 {
         match self {
             Self::Boolean => 0x0001,
@@ -190,6 +261,12 @@ impl DataType {
     }
 
     /// Bytes of a value (`None`: variable, a string).
+    ///
+    /// ```
+    /// use agent_node::canopen::od::DataType;
+    /// assert_eq!(DataType::Integer24.size(), Some(3));
+    /// ```
+    #[must_use]
     pub const fn size(self) -> Option<usize> {
         match self {
             Self::Boolean | Self::Unsigned8 => Some(1),
@@ -202,6 +279,12 @@ impl DataType {
 }
 
 /// Who may read and write an object's values.
+///
+/// ```
+/// use agent_node::canopen::od::{find, Access};
+/// assert_eq!(find(0x1000).unwrap().access, Access::Const); // device type
+/// assert_eq!(find(0x1017).unwrap().access, Access::ReadWrite); // producer heartbeat time
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Access {
     /// Read only, may change (`ro`).
@@ -214,6 +297,12 @@ pub enum Access {
 
 impl Access {
     /// The EDS `AccessType`.
+    ///
+    /// ```
+    /// use agent_node::canopen::od::Access;
+    /// assert_eq!([Access::ReadOnly, Access::Const, Access::ReadWrite].map(Access::eds), ["ro", "const", "rw"]);
+    /// ```
+    #[must_use]
     pub const fn eds(self) -> &'static str {
         match self {
             Self::ReadOnly => "ro",
@@ -225,6 +314,14 @@ impl Access {
 
 /// A node setting that is not a controller parameter: its CANopen node-ID and the `[node]`
 /// keys of docs/SCENARIO.md (supervision of §10 of docs/NETWORK.md).
+///
+/// ```
+/// use agent_node::canopen::od::{Setting, SETTING_BASE};
+/// // The node-ID is the first setting, at 0x2100.
+/// assert_eq!(Setting::ALL[0], Setting::NodeId);
+/// assert_eq!(Setting::NodeId.spec().key, "node.node_id");
+/// assert_eq!(SETTING_BASE, 0x2100);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Setting {
     /// `node.node_id`: CANopen node-ID = agent number `i` (its value frames, heartbeat, SDO).
@@ -265,6 +362,13 @@ pub const POLICIES: &[&str] = &["hold-position", "stop", "hold", "ramp", "off"];
 pub const NEIGHBOUR_LOSSES: &[&str] = &["all", "any"];
 
 /// Key, unit, type and range of a [`Setting`].
+///
+/// ```
+/// use agent_node::canopen::od::{DataType, Setting};
+/// let s = Setting::Policy.spec();
+/// assert_eq!((s.key, s.data_type), ("node.safe_state.policy", DataType::Unsigned8));
+/// assert_eq!(s.names[1], "stop"); // the UNSIGNED8 1 is CiA 402's quick stop
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SettingSpec {
     /// Key as docs/SCENARIO.md names it.
@@ -305,6 +409,14 @@ impl Setting {
     /// Every setting, in index order (`0x2100 + k`).
     /// The rates come before the policies that need them, so a stored set loads in order.
     /// The identifier plan comes last, so that the indexes of the others never move.
+    ///
+    /// ```
+    /// use agent_node::canopen::od::{Setting, SETTING_BASE};
+    /// // The identifier plan is last: node.agents at 0x2100 + 14 = 0x210E.
+    /// let k = Setting::ALL.iter().position(|s| *s == Setting::Agents).unwrap();
+    /// assert_eq!(SETTING_BASE + k as u16, 0x210E);
+    /// assert_eq!(Setting::ALL[k].spec().key, "node.agents");
+    /// ```
     pub const ALL: [Self; 15] = [
         Self::NodeId,
         Self::StaleTimeout,
@@ -324,6 +436,14 @@ impl Setting {
     ];
 
     /// Key, unit, type, range.
+    ///
+    /// ```
+    /// use agent_node::canopen::od::Setting;
+    /// let s = Setting::StaleTimeout.spec();
+    /// assert_eq!((s.key, s.unit), ("network.stale_timeout", "s"));
+    /// assert!(Setting::ALL.iter().all(|s| !s.spec().key.is_empty()));
+    /// ```
+    #[must_use]
     pub const fn spec(self) -> SettingSpec {
         use DataType::{Real32 as R, Unsigned16 as U16, Unsigned8 as U8};
         match self {
@@ -377,6 +497,13 @@ impl Setting {
 }
 
 /// What an object of the table stands for.
+///
+/// ```
+/// use agent_node::canopen::od::{find, Item};
+/// use controller_core::Param;
+/// assert_eq!(find(0x1017).unwrap().item, Item::HeartbeatProducer);
+/// assert_eq!(find(0x2000).unwrap().item, Item::Param(Param::ALL[0]));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Item {
     /// `0x1000` device type.
@@ -424,6 +551,15 @@ pub enum Item {
 }
 
 /// Object code: a single value or an array of them (sub-index 0: the highest sub-index).
+///
+/// ```
+/// use agent_node::canopen::od::{find, Kind, PARAM_BASE};
+/// use controller_core::Param;
+/// // A per-step parameter (ǎ_j) is an ARRAY with one entry per step; T_s a VAR.
+/// let at = |p: Param| PARAM_BASE + Param::ALL.iter().position(|q| *q == p).unwrap() as u16;
+/// assert!(matches!(find(at(Param::ACheck)).unwrap().kind, Kind::Array { .. }));
+/// assert_eq!(find(at(Param::Ts)).unwrap().kind, Kind::Var);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Kind {
     /// `VAR` (object code 7), sub-index 0 only.
@@ -441,6 +577,15 @@ pub enum Kind {
 }
 
 /// One object of the dictionary.
+///
+/// ```
+/// use agent_node::canopen::od::{find, Access, DataType, PARAM_BASE};
+/// use controller_core::Param;
+/// let k = Param::ALL.iter().position(|p| *p == Param::Ts).unwrap() as u16;
+/// let o = find(PARAM_BASE + k).unwrap();
+/// assert_eq!((o.name, o.data_type, o.access), ("controller.ts", DataType::Real32, Access::ReadWrite));
+/// assert!(!o.pdo);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Object {
     /// Index.
@@ -565,6 +710,14 @@ const COMM: [Object; 13] = {
 };
 
 /// Type of a parameter's object.
+///
+/// ```
+/// use agent_node::canopen::od::{param_type, DataType};
+/// use controller_core::Param;
+/// assert_eq!(param_type(Param::Zeta), DataType::Real32); // ζ ∈ (0, 1)
+/// assert_eq!(param_type(Param::MtnOrder), DataType::Unsigned8); // a count
+/// ```
+#[must_use]
 pub const fn param_type(p: Param) -> DataType {
     match p.spec().range {
         Range::Bool => DataType::Boolean,
@@ -579,6 +732,15 @@ pub const fn param_type(p: Param) -> DataType {
 
 /// Read-only parameters: the plant is not the node's to change. The graph row (`graph.neighbours`,
 /// `graph.pinned`) is written in pre-operational and applied at the next reset communication.
+///
+/// ```
+/// use agent_node::canopen::od::{param_access, Access};
+/// use controller_core::Param;
+/// assert_eq!(param_access(Param::Ts), Access::ReadWrite);
+/// assert_eq!(param_access(Param::Neighbours), Access::ReadWrite); // applied at reset communication
+/// assert_eq!(param_access(Param::StateOrder), Access::ReadOnly); // the plant is not the node's
+/// ```
+#[must_use]
 pub const fn param_access(p: Param) -> Access {
     match (p, p.spec().range) {
         (Param::Neighbours | Param::Pinned, _) => Access::ReadWrite,
@@ -740,6 +902,13 @@ const fn build() -> [Object; OBJECT_COUNT] {
 pub static OBJECTS: [Object; OBJECT_COUNT] = build();
 
 /// The object at `index`.
+///
+/// ```
+/// use agent_node::canopen::od::find;
+/// assert_eq!(find(0x1018).unwrap().name, "Identity object");
+/// assert!(find(0x1002).is_none());
+/// ```
+#[must_use]
 pub fn find(index: u16) -> Option<&'static Object> {
     OBJECTS
         .binary_search_by_key(&index, |o| o.index)
@@ -748,6 +917,13 @@ pub fn find(index: u16) -> Option<&'static Object> {
 }
 
 /// Name of sub-index `sub` of a record or array (the EDS `ParameterName`).
+///
+/// ```
+/// use agent_node::canopen::od::{find, sub_name};
+/// let id = find(0x1018).unwrap();
+/// assert_eq!((sub_name(id, 0), sub_name(id, 4)), ("Highest sub-index supported", "Serial number"));
+/// ```
+#[must_use]
 pub fn sub_name(o: &Object, sub: u8) -> &'static str {
     match (o.item, sub) {
         (_, 0) => "Highest sub-index supported",
@@ -773,6 +949,14 @@ pub fn sub_name(o: &Object, sub: u8) -> &'static str {
 
 /// Type of sub-index `sub` (`> 0`) of `o`: a PDO's transmission type is `UNSIGNED8`, every
 /// other entry the object's [`Object::data_type`].
+///
+/// ```
+/// use agent_node::canopen::od::{find, sub_data_type, DataType, TPDO_COMM};
+/// let tpdo = find(TPDO_COMM).unwrap();
+/// assert_eq!(sub_data_type(tpdo, 1), DataType::Unsigned32); // COB-ID
+/// assert_eq!(sub_data_type(tpdo, 2), DataType::Unsigned8); // transmission type
+/// ```
+#[must_use]
 pub fn sub_data_type(o: &Object, sub: u8) -> DataType {
     match (o.item, sub) {
         (_, 0) if o.kind != Kind::Var => DataType::Unsigned8,
@@ -784,6 +968,15 @@ pub fn sub_data_type(o: &Object, sub: u8) -> DataType {
 /// Why a [`ConfigError`] refused a write of `written`: `0x0609_0030`/`31`/`32` when the
 /// written value is out of its own range, `0x0604_0043` (general parameter incompatibility)
 /// when it conflicts with another parameter.
+///
+/// ```
+/// use agent_node::canopen::{od::config_abort, Abort};
+/// use controller_core::{ConfigError, Param, Reason};
+/// let e = ConfigError::new(Param::PhiLow, Reason::Exceeds(Param::PhiUp));
+/// assert_eq!(config_abort(&e, Param::PhiLow), Abort::ValueTooHigh); // φ_low above φ_up
+/// assert_eq!(config_abort(&e, Param::PhiUp), Abort::ParamIncompatible); // written φ_up clashes
+/// ```
+#[must_use]
 pub fn config_abort(e: &ConfigError, written: Param) -> Abort {
     if e.param() != written {
         return Abort::ParamIncompatible;
@@ -802,6 +995,19 @@ pub fn config_abort(e: &ConfigError, written: Param) -> Abort {
 }
 
 /// The node's own settings as they are stored (the [`Setting`] objects).
+///
+/// ```
+/// # use agent_node::canopen::od::ParamStore;
+/// # use agent_node::NodeConfig;
+/// # use controller_core::ControllerConfig;
+/// # // The store of agent 2 hearing agent 1 and the leader (Example 1's defaults otherwise).
+/// # let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
+/// # #[allow(unused_mut)]
+/// # let mut store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
+/// assert_eq!((store.node.node_id, store.node.neighbours[0]), (2, 1));
+/// assert_eq!(store.node.stale_timeout, 0.0025); // 2.5 ms in seconds
+/// assert!(store.node.stop_decel.is_nan()); // no stop policy
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NodeSettings {
     /// Node-ID in use (= agent number).
@@ -869,6 +1075,12 @@ fn micros(s: f32) -> Result<Option<u64>, Abort> {
 }
 
 /// A decoded value of a numeric object.
+///
+/// ```
+/// use agent_node::canopen::od::{DataType, Value};
+/// let bytes = Value::Real(0.5).encode(DataType::Real32);
+/// assert_eq!(Value::decode(DataType::Real32, bytes.as_slice()), Ok(Value::Real(0.5)));
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Value {
     /// `BOOLEAN`.
@@ -881,6 +1093,13 @@ pub enum Value {
 
 impl Value {
     /// Little-endian bytes of type `t`.
+    ///
+    /// ```
+    /// use agent_node::canopen::od::{DataType, Value};
+    /// assert_eq!(Value::Unsigned(0x1234).encode(DataType::Unsigned16).as_slice(), &[0x34, 0x12]);
+    /// assert_eq!(Value::Bool(true).encode(DataType::Boolean).as_slice(), &[1]);
+    /// ```
+    #[must_use]
     pub fn encode(self, t: DataType) -> SdoData {
         let mut d = SdoData::default();
         let (bytes, n) = match (self, t) {
@@ -893,6 +1112,12 @@ impl Value {
     }
 
     /// The value of type `t` in `bytes` (exactly its size, else the length abort).
+    ///
+    /// ```
+    /// use agent_node::canopen::{od::{DataType, Value}, Abort};
+    /// assert_eq!(Value::decode(DataType::Unsigned8, &[7]), Ok(Value::Unsigned(7)));
+    /// assert_eq!(Value::decode(DataType::Unsigned8, &[7, 0]), Err(Abort::LengthTooHigh));
+    /// ```
     pub fn decode(t: DataType, bytes: &[u8]) -> Result<Self, Abort> {
         let size = t.size().ok_or(Abort::ReadOnly)?;
         if bytes.len() > size {
@@ -922,6 +1147,22 @@ impl Value {
 /// constructors a scenario file goes through — `ControllerConfig::from_sections` and
 /// `Params::new` for a controller parameter, `Supervisor::new` for a setting — on a copy, and
 /// committed only when they accept it.
+///
+/// ```
+/// # use agent_node::canopen::od::ParamStore;
+/// # use agent_node::NodeConfig;
+/// # use controller_core::ControllerConfig;
+/// # // The store of agent 2 hearing agent 1 and the leader (Example 1's defaults otherwise).
+/// # let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
+/// # #[allow(unused_mut)]
+/// # let mut store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
+/// use agent_node::canopen::{od::Value, Abort};
+/// use controller_core::Param;
+/// // ζ ∈ (0, 1) of (17)–(19): 0.5 accepted, 1.5 refused and the store left as it was.
+/// assert_eq!(store.write_param(Param::Zeta, 0, Value::Real(0.5)), Ok(()));
+/// assert_eq!(store.write_param(Param::Zeta, 0, Value::Real(1.5)), Err(Abort::ValueRange));
+/// assert_eq!(store.controller().unwrap().zeta, 0.5);
+/// ```
 #[derive(Debug, Clone, PartialEq)]
 pub struct ParamStore<const N: usize> {
     /// The controller's sections.
@@ -933,6 +1174,14 @@ pub struct ParamStore<const N: usize> {
 }
 
 /// The parts of a node's configuration the store keeps.
+///
+/// ```
+/// use agent_node::NodeConfig;
+/// let cfg = NodeConfig::new(4, [1, 3], 2_500);
+/// let id = cfg.identity();
+/// assert_eq!((id.agent, id.neighbours), (4, &[1u8, 3][..]));
+/// assert_eq!(id.ids.value_base(), 0x101);
+/// ```
 #[derive(Debug, Clone, Copy)]
 pub struct NodeIdentity<'a> {
     /// The agent `i` (and CANopen node-ID).
@@ -950,16 +1199,53 @@ pub struct NodeIdentity<'a> {
 }
 
 /// Why a store could not be built from a configuration.
+///
+/// ```
+/// use agent_node::canopen::od::{ParamStore, StoreError};
+/// use agent_node::NodeConfig;
+/// use controller_core::ControllerConfig;
+/// // Node-IDs end at 127: agent 200 has no CANopen device.
+/// let r = ParamStore::new(NodeConfig::new(200, [], 2_500).identity(), &ControllerConfig::<2>::default());
+/// let e = r.unwrap_err();
+/// assert_eq!(e, StoreError::Unrepresentable);
+/// assert!(!e.to_string().is_empty());
+/// ```
+///
+/// `#[non_exhaustive]`: a store that keeps more of the node brings more that may not fit.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum StoreError {
     /// More neighbours than [`MAX_NEIGHBOURS`] or a node-ID outside `1..=127`.
     Unrepresentable,
 }
 
+impl core::fmt::Display for StoreError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(match self {
+            Self::Unrepresentable => {
+                "the node has no CANopen object dictionary: more neighbours than it holds or a \
+                 node-ID outside 1..=127"
+            }
+        })
+    }
+}
+
+impl core::error::Error for StoreError {}
+
 impl<const N: usize> ParamStore<N> {
     /// The store of a node built from its configuration (`crate::NodeConfig`'s agent,
     /// neighbours, stale timeout and supervision) and its controller's; `capacity` is the node's
     /// neighbour capacity `K`.
+    ///
+    /// ```
+    /// use agent_node::canopen::od::ParamStore;
+    /// use agent_node::NodeConfig;
+    /// use controller_core::ControllerConfig;
+    /// let ctrl = ControllerConfig::<2>::default();
+    /// let store = ParamStore::new(NodeConfig::new(1, [], 2_500).identity(), &ctrl).unwrap();
+    /// assert_eq!(store.controller(), Ok(ctrl)); // what the node was built with
+    /// assert_eq!(store.capacity, 0);
+    /// ```
     pub fn new(
         node: NodeIdentity<'_>,
         controller: &ControllerConfig<N>,
@@ -1002,6 +1288,22 @@ impl<const N: usize> ParamStore<N> {
     /// applies them at its next reset communication) into `cfg` and `controller`: what a board
     /// builds its acceptance filters from at boot. `false`, and nothing changed, when the row
     /// does not fit the capacity `K`.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # let dev = device();
+    /// // device(): agent 2 hearing agent 1 and the leader.
+    /// let mut cfg = NodeConfig::new(9, [0], 2_500);
+    /// let mut ctrl = ControllerConfig::<2>::default();
+    /// assert!(dev.store.graph_into(&mut cfg, &mut ctrl));
+    /// assert_eq!((cfg.agent, cfg.neighbours), (2, [1]));
+    /// assert_eq!((ctrl.neighbour_count, ctrl.pinned), (1, true));
+    /// // A row of one does not fit a node without room for neighbours: nothing changes.
+    /// let mut none = NodeConfig::new(9, [], 2_500);
+    /// assert!(!dev.store.graph_into(&mut none, &mut ctrl));
+    /// assert_eq!(none.agent, 9);
+    /// ```
     pub fn graph_into<const K: usize>(
         &self,
         cfg: &mut crate::NodeConfig<K>,
@@ -1023,6 +1325,19 @@ impl<const N: usize> ParamStore<N> {
     }
 
     /// The controller configuration the store holds, validated as a scenario file is.
+    ///
+    /// ```
+    /// # use agent_node::canopen::od::ParamStore;
+    /// # use agent_node::NodeConfig;
+    /// # use controller_core::ControllerConfig;
+    /// # // The store of agent 2 hearing agent 1 and the leader (Example 1's defaults otherwise).
+    /// # let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
+    /// # #[allow(unused_mut)]
+    /// # let mut store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
+    /// use controller_core::Param;
+    /// let cfg = store.controller().unwrap();
+    /// assert_eq!((cfg.neighbour_count, cfg.pinned, cfg.ts), (1, true, 2.0));
+    /// ```
     pub fn controller(&self) -> Result<ControllerConfig<N>, ConfigError> {
         let cfg = self.sections.config()?;
         Params::new(&cfg, self.capacity)?;
@@ -1030,12 +1345,42 @@ impl<const N: usize> ParamStore<N> {
     }
 
     /// The node's supervision settings.
+    ///
+    /// ```
+    /// # use agent_node::canopen::od::ParamStore;
+    /// # use agent_node::NodeConfig;
+    /// # use controller_core::ControllerConfig;
+    /// # // The store of agent 2 hearing agent 1 and the leader (Example 1's defaults otherwise).
+    /// # let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
+    /// # #[allow(unused_mut)]
+    /// # let mut store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
+    /// use agent_node::SupervisorConfig;
+    /// assert_eq!(store.supervisor(), SupervisorConfig::OFF);
+    /// ```
+    #[must_use]
     pub fn supervisor(&self) -> SupervisorConfig {
         self.node.supervisor
     }
 
     /// The value of a parameter's object; `sub` is the step of a per-step parameter or the
     /// neighbour slot (1-based), else 0.
+    ///
+    /// ```
+    /// # use agent_node::canopen::od::ParamStore;
+    /// # use agent_node::NodeConfig;
+    /// # use controller_core::ControllerConfig;
+    /// # // The store of agent 2 hearing agent 1 and the leader (Example 1's defaults otherwise).
+    /// # let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
+    /// # #[allow(unused_mut)]
+    /// # let mut store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
+    /// use agent_node::canopen::od::Value;
+    /// use controller_core::Param;
+    /// assert_eq!(store.read_param(Param::ACheck, 2), Some(Value::Real(90.0))); // ǎ_2
+    /// assert_eq!(store.read_param(Param::Neighbours, 1), Some(Value::Unsigned(1))); // slot 1: agent 1
+    /// // c_1 absent (computed from Theorem 1): reads NaN.
+    /// assert!(matches!(store.read_param(Param::C1, 0), Some(Value::Real(c)) if c.is_nan()));
+    /// ```
+    #[must_use]
     pub fn read_param(&self, p: Param, sub: u8) -> Option<Value> {
         let s = &self.sections;
         let c = &s.controller;
@@ -1106,6 +1451,22 @@ impl<const N: usize> ParamStore<N> {
     /// Write a parameter (see [`Self::read_param`] for `sub`): checked on a copy by the
     /// scenario file's constructors and committed only if they accept it; the abort says why
     /// not, and the store is unchanged.
+    ///
+    /// ```
+    /// # use agent_node::canopen::od::ParamStore;
+    /// # use agent_node::NodeConfig;
+    /// # use controller_core::ControllerConfig;
+    /// # // The store of agent 2 hearing agent 1 and the leader (Example 1's defaults otherwise).
+    /// # let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
+    /// # #[allow(unused_mut)]
+    /// # let mut store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
+    /// use agent_node::canopen::{od::Value, Abort};
+    /// use controller_core::Param;
+    /// // T_s > 0 (Theorem 1).
+    /// assert_eq!(store.write_param(Param::Ts, 0, Value::Real(0.0)), Err(Abort::ValueRange));
+    /// assert_eq!(store.write_param(Param::Ts, 0, Value::Real(0.25)), Ok(()));
+    /// assert_eq!(store.read_param(Param::Ts, 0), Some(Value::Real(0.25)));
+    /// ```
     pub fn write_param(&mut self, p: Param, sub: u8, v: Value) -> Result<(), Abort> {
         let mut next = self.sections.clone();
         let mut node = self.node;
@@ -1123,6 +1484,18 @@ impl<const N: usize> ParamStore<N> {
 
     /// Entries of the graph row's array (`graph.neighbours` sub-indices `1..=slots`): the
     /// node's neighbour capacity `K`, at most [`MAX_NEIGHBOURS`].
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # let dev = device();
+    /// use agent_node::canopen::od::PARAM_BASE;
+    /// use controller_core::Param;
+    /// // device() was built for one neighbour: graph.neighbours has sub-indices 1..=1.
+    /// assert_eq!(dev.store.slots(), 1);
+    /// let row = PARAM_BASE + Param::ALL.iter().position(|p| *p == Param::Neighbours).unwrap() as u16;
+    /// assert!(dev.read(row, 1).is_ok() && dev.read(row, 2).is_err());
+    /// ```
     pub fn slots(&self) -> usize {
         self.capacity.min(MAX_NEIGHBOURS)
     }
@@ -1215,6 +1588,20 @@ impl<const N: usize> ParamStore<N> {
     }
 
     /// The value of a setting's object.
+    ///
+    /// ```
+    /// # use agent_node::canopen::od::ParamStore;
+    /// # use agent_node::NodeConfig;
+    /// # use controller_core::ControllerConfig;
+    /// # // The store of agent 2 hearing agent 1 and the leader (Example 1's defaults otherwise).
+    /// # let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
+    /// # #[allow(unused_mut)]
+    /// # let mut store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
+    /// use agent_node::canopen::od::{Setting, Value};
+    /// assert_eq!(store.read_setting(Setting::NodeId), Value::Unsigned(2));
+    /// assert_eq!(store.read_setting(Setting::LeaderTimeout), Value::Real(0.0)); // not supervised
+    /// ```
+    #[must_use]
     pub fn read_setting(&self, s: Setting) -> Value {
         let n = &self.node;
         let sup = &n.supervisor;
@@ -1242,6 +1629,21 @@ impl<const N: usize> ParamStore<N> {
     }
 
     /// Write a setting, checked on a copy by `Supervisor::new` (and the node's own checks).
+    ///
+    /// ```
+    /// # use agent_node::canopen::od::ParamStore;
+    /// # use agent_node::NodeConfig;
+    /// # use controller_core::ControllerConfig;
+    /// # // The store of agent 2 hearing agent 1 and the leader (Example 1's defaults otherwise).
+    /// # let ctrl = ControllerConfig::<2> { neighbour_count: 1, ..Default::default() };
+    /// # #[allow(unused_mut)]
+    /// # let mut store = ParamStore::new(NodeConfig::new(2, [1], 2_500).identity(), &ctrl).unwrap();
+    /// use agent_node::canopen::od::{Setting, Value};
+    /// // Supervise the leader with a 50 ms timeout.
+    /// store.write_setting(Setting::LeaderTimeout, Value::Real(0.05)).unwrap();
+    /// assert_eq!(store.supervisor().leader_timeout_us, Some(50_000));
+    /// assert!(store.write_setting(Setting::LeaderTimeout, Value::Real(-1.0)).is_err());
+    /// ```
     pub fn write_setting(&mut self, s: Setting, v: Value) -> Result<(), Abort> {
         if let (Setting::IdBase | Setting::HeartbeatIdBase | Setting::Agents, Value::Unsigned(u)) =
             (s, v)
@@ -1415,6 +1817,15 @@ fn set_param<const N: usize>(
 
 /// The default of a parameter as an EDS `DefaultValue` can state it (a number; a name's
 /// position; a switch), `None` when computed, absent or given elsewhere.
+///
+/// ```
+/// use agent_node::canopen::od::{param_default, Value};
+/// use controller_core::Param;
+/// assert_eq!(param_default(Param::Ts), Some(Value::Real(2.0)));
+/// assert_eq!(param_default(Param::MtnOrder), Some(Value::Unsigned(2)));
+/// assert_eq!(param_default(Param::C1), None); // computed (Theorem 1)
+/// ```
+#[must_use]
 pub fn param_default(p: Param) -> Option<Value> {
     let spec = p.spec();
     match spec.default {
