@@ -353,6 +353,10 @@ pub enum Fault {
     Fault,
     /// A consumed heartbeat (`0x1016`) timed out; its node-ID: `0x8130`.
     HeartbeatLost(u8),
+    /// The host that simulates the node's plant went silent: no sensor frame (the sensor
+    /// RPDO) within the node's host timeout while running: `0x8250` RPDO timeout. The node
+    /// stops after it (`node-linux`: exit 3).
+    HostLost,
 }
 
 impl Fault {
@@ -369,6 +373,7 @@ impl Fault {
             Self::ConfigRejected => 0x6300,
             Self::Fault => 0x1000,
             Self::HeartbeatLost(_) => 0x8130,
+            Self::HostLost => 0x8250,
         }
     }
 
@@ -384,7 +389,7 @@ impl Fault {
 
     /// Manufacturer-specific EMCY bytes: byte 0 the cause (1 safe state, 2 sensor invalid,
     /// 3 watchdog reset, 4 overrun, 5 bus-off, 6 receive overflow, 7 configuration rejected,
-    /// 8 fault, 9 heartbeat lost), byte 1 the lost sources or the node-ID, bytes 2–3 a
+    /// 8 fault, 9 heartbeat lost, 10 host lost), byte 1 the lost sources or the node-ID, bytes 2–3 a
     /// count (u16 LE, e.g. overruns since start), byte 4 zero.
     pub const fn info(self, count: u16) -> [u8; 5] {
         let (cause, detail) = match self {
@@ -397,6 +402,7 @@ impl Fault {
             Self::ConfigRejected => (7, 0),
             Self::Fault => (8, 0),
             Self::HeartbeatLost(id) => (9, id),
+            Self::HostLost => (10, 0),
         };
         let c = count.to_le_bytes();
         [cause, detail, c[0], c[1], 0]
