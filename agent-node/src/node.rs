@@ -1052,6 +1052,7 @@ where
         };
         if self.transmit_counted(&frame) {
             self.stats.heartbeats_tx = self.stats.heartbeats_tx.saturating_add(1);
+            self.status_sent(&hb.to_bytes());
         }
     }
 
@@ -1261,6 +1262,13 @@ where
     fn value_sent(&mut self, data: &[u8; wire::PAYLOAD_LEN]) {
         if let Some(c) = &mut self.canopen {
             c.device.value_sent(data);
+        }
+    }
+
+    /// The status PDO went out: the device's TPDO2 objects (`0x2220..`) hold it.
+    fn status_sent(&mut self, data: &[u8; wire::HEARTBEAT_LEN]) {
+        if let Some(c) = &mut self.canopen {
+            c.device.status_sent(data);
         }
     }
 
@@ -1511,6 +1519,8 @@ where
     fn overrun_emcy(&mut self) {}
 
     fn value_sent(&mut self, _data: &[u8; wire::PAYLOAD_LEN]) {}
+
+    fn status_sent(&mut self, _data: &[u8; wire::HEARTBEAT_LEN]) {}
 
     fn heartbeat_lost(&self, _node: u8) -> bool {
         false

@@ -238,7 +238,7 @@ impl View {
                 a.q = Some(q);
                 a.commands += 1;
             }
-            Some(_) | None => {
+            None => {
                 if let Id::Standard(sid) = f.id() {
                     if let Some(m) = canopen::decode(sid.as_raw(), f.data()) {
                         self.canopen.take(m);

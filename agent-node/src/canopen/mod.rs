@@ -542,6 +542,8 @@ pub struct Device<const N: usize> {
     tpdo: Option<[u8; PAYLOAD_LEN]>,
     /// The last value frame of each RPDO received in operational.
     rpdo: [Option<[u8; PAYLOAD_LEN]>; od::RPDOS as usize],
+    /// The node's last status PDO sent (TPDO2).
+    status: Option<[u8; crate::wire::HEARTBEAT_LEN]>,
 }
 
 impl<const N: usize> Device<N> {
@@ -569,6 +571,7 @@ impl<const N: usize> Device<N> {
             now_us: 0,
             tpdo: None,
             rpdo: [None; od::RPDOS as usize],
+            status: None,
         }
     }
 
@@ -611,6 +614,21 @@ impl<const N: usize> Device<N> {
             Some(id) => COB_ID_NO_RTR | u32::from(id),
             None => COB_ID_INVALID | COB_ID_NO_RTR,
         }
+    }
+
+    /// The COB-ID entry of TPDO2, the status PDO: `heartbeat_base + node-ID` of the plan (no
+    /// RTR); bit 31 set when the plan has no heartbeat block. Sent every `heartbeat_period`
+    /// (`NodeConfig::heartbeat_period_us`; 0: never, though valid).
+    pub fn status_cob_id(&self) -> u32 {
+        match self.id_plan().heartbeat_id(self.node_id) {
+            Some(id) => COB_ID_NO_RTR | u32::from(id),
+            None => COB_ID_INVALID | COB_ID_NO_RTR,
+        }
+    }
+
+    /// The node sent its status PDO (TPDO2) with these bytes: `0x2220..` read them.
+    pub fn status_sent(&mut self, data: &[u8; crate::wire::HEARTBEAT_LEN]) {
+        self.status = Some(*data);
     }
 
     /// The node sent its value frame (TPDO1) with these bytes: `0x2200..` read them.
@@ -1168,7 +1186,16 @@ impl<const N: usize> Device<N> {
             Item::Setting(s) => Ok(self.store.read_setting(s)),
             Item::RpdoComm(k) if sub == 1 => u(self.rpdo_cob_id(k)),
             Item::TpdoComm if sub == 1 => u(self.tpdo_cob_id()),
-            Item::RpdoComm(_) | Item::TpdoComm => u(u32::from(od::PDO_TRANSMISSION_TYPE)),
+            Item::StatusComm if sub == 1 => u(self.status_cob_id()),
+            Item::RpdoComm(_) | Item::TpdoComm | Item::StatusComm => {
+                u(u32::from(od::PDO_TRANSMISSION_TYPE))
+            }
+            Item::StatusMap => od::StatusField::ALL
+                .get(usize::from(sub).wrapping_sub(1))
+                .map(|f| Value::Unsigned(f.mapping()))
+                .ok_or(Abort::NoSubIndex),
+            // Before the first status PDO: state boot (1), nothing lost, counters 0.
+            Item::Status(f) => u(f.extract(&self.status.unwrap_or([1, 0, 0, 0, 0, 0, 0, 0]))),
             Item::RpdoMap(k) => Field::ALL
                 .get(usize::from(sub).wrapping_sub(1))
                 .map(|f| Value::Unsigned(f.mapping(od::RX_VALUE_BASE + f.position(), k + 1)))

@@ -7,10 +7,12 @@
 //! | `0x1000`–`0x1200` | communication profile (CiA 301 §7.5): device type, error register, pre-defined error field, COB-IDs, names, store/restore, heartbeat, identity, SDO server |
 //! | `0x1400 + k`, `0x1600 + k` | RPDO `k + 1` communication and mapping parameters ([`RPDOS`]: the leader's value frame, then one per neighbour slot) |
 //! | `0x1800`, `0x1A00` | TPDO1 communication and mapping parameters: the node's own value frame |
+//! | `0x1801`, `0x1A01` | TPDO2 communication and mapping parameters: the node's status PDO (`crate::wire::Heartbeat`) |
 //! | `0x2000 + k` | `controller_core::param::Param::ALL[k]`, named by its scenario key |
 //! | `0x2100 + k` | [`Setting::ALL`]`[k]`: the node's own settings |
 //! | `0x2200`–`0x2203` | the node's own value frame, field by field ([`Field`]; TPDO1 maps them) |
 //! | `0x2210`–`0x2213` | the value frames heard, field by field, sub-index `k + 1` = RPDO `k + 1` |
+//! | `0x2220`–`0x2224` | the node's last status PDO, field by field ([`StatusField`]; TPDO2 maps them) |
 //!
 //! ## PDO mapping
 //!
@@ -25,6 +27,18 @@
 //! | 24–29 | sequence counter (mod 64) | `0x2201` / `0x2211` sub `k` | `UNSIGNED8`, 6 |
 //! | 30 | saturated | `0x2202` / `0x2212` sub `k` | `BOOLEAN`, 1 |
 //! | 31 | no value (NaN or ±∞ sent) | `0x2203` / `0x2213` sub `k` | `BOOLEAN`, 1 |
+//!
+//! The status PDO (TPDO2, 8 bytes, on `heartbeat_base + i` of the plan: the frame §10 of
+//! docs/NETWORK.md calls the node's heartbeat) maps five objects byte-aligned, bit-exact with
+//! `crate::wire::Heartbeat`:
+//!
+//! | bits | field | object | type, mapped length |
+//! |---|---|---|---|
+//! | 0–7 | supervisor state (0 operational, 1 boot, 2 safe, 3 fault) | `0x2220` | `UNSIGNED8`, 8 |
+//! | 8–15 | lost sources (bit 0 leader, 1 neighbours, 2 sensor) | `0x2221` | `UNSIGNED8`, 8 |
+//! | 16–31 | boot counter | `0x2222` | `UNSIGNED16`, 16 |
+//! | 32–47 | deadline overruns since start | `0x2223` | `UNSIGNED16`, 16 |
+//! | 48–63 | safe-state entries since start | `0x2224` | `UNSIGNED16`, 16 |
 //!
 //! The manufacturer entries are generated from `controller_core::param` by a `const fn`: a new
 //! [`Param`] gets its object without an edit here. A per-step parameter is an `ARRAY`
@@ -65,6 +79,12 @@ pub const RPDO_MAP_BASE: u16 = 0x1600;
 pub const TPDO_COMM: u16 = 0x1800;
 /// TPDO1 mapping parameter.
 pub const TPDO_MAP: u16 = 0x1A00;
+/// TPDO2 communication parameter: the status PDO.
+pub const STATUS_TPDO_COMM: u16 = 0x1801;
+/// TPDO2 mapping parameter: the status PDO.
+pub const STATUS_TPDO_MAP: u16 = 0x1A01;
+/// First object of the node's status PDO ([`StatusField`], one `VAR` each).
+pub const STATUS_BASE: u16 = 0x2220;
 /// First object of the node's own value frame (one per [`Field`]).
 pub const TX_VALUE_BASE: u16 = 0x2200;
 /// First object of the value frames heard (one `ARRAY` per [`Field`], one sub-index per RPDO).
@@ -151,6 +171,86 @@ impl Field {
     /// `index << 16 | sub << 8 | bits`.
     pub const fn mapping(self, index: u16, sub: u8) -> u32 {
         (index as u32) << 16 | (sub as u32) << 8 | self.bits() as u32
+    }
+}
+
+/// One field of the node's status PDO (`crate::wire::Heartbeat`), as TPDO2 maps it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StatusField {
+    /// The supervisor's state (`crate::NodeState::code`).
+    State,
+    /// The supervised sources lost (`crate::supervisor::Lost::bits`).
+    Lost,
+    /// The board's boot counter.
+    BootCount,
+    /// Deadline overruns since start (saturating).
+    Overruns,
+    /// Safe-state entries since start (saturating).
+    SafeEntries,
+}
+
+impl StatusField {
+    /// The fields in frame order.
+    pub const ALL: [Self; 5] = [
+        Self::State,
+        Self::Lost,
+        Self::BootCount,
+        Self::Overruns,
+        Self::SafeEntries,
+    ];
+
+    /// Bits the field takes in the frame (the mapped length).
+    pub const fn bits(self) -> u8 {
+        match self {
+            Self::State | Self::Lost => 8,
+            Self::BootCount | Self::Overruns | Self::SafeEntries => 16,
+        }
+    }
+
+    /// First bit of the field in the frame.
+    pub const fn offset(self) -> u8 {
+        match self {
+            Self::State => 0,
+            Self::Lost => 8,
+            Self::BootCount => 16,
+            Self::Overruns => 32,
+            Self::SafeEntries => 48,
+        }
+    }
+
+    /// Position in [`Self::ALL`] (its object is [`STATUS_BASE`] plus it).
+    pub const fn position(self) -> u16 {
+        self as u16
+    }
+
+    /// The object's data type.
+    pub const fn data_type(self) -> DataType {
+        match self {
+            Self::State | Self::Lost => DataType::Unsigned8,
+            Self::BootCount | Self::Overruns | Self::SafeEntries => DataType::Unsigned16,
+        }
+    }
+
+    /// `ParameterName` of its object.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::State => "Status supervisor state (0 operational, 1 boot, 2 safe, 3 fault)",
+            Self::Lost => "Status lost sources (bit 0 leader, 1 neighbours, 2 sensor)",
+            Self::BootCount => "Status boot counter",
+            Self::Overruns => "Status deadline overruns",
+            Self::SafeEntries => "Status safe-state entries",
+        }
+    }
+
+    /// The field of an 8-byte status PDO.
+    pub fn extract(self, frame: &[u8; crate::wire::HEARTBEAT_LEN]) -> u32 {
+        let all = u64::from_le_bytes(*frame);
+        ((all >> self.offset()) & ((1u64 << self.bits()) - 1)) as u32
+    }
+
+    /// The CiA 301 mapping entry of this field: its object, sub-index 0, its length.
+    pub const fn mapping(self) -> u32 {
+        (STATUS_BASE as u32 + self as u32) << 16 | self.bits() as u32
     }
 }
 
@@ -383,6 +483,12 @@ pub enum Item {
     TpdoComm,
     /// `0x1A00`: TPDO1 mapping parameter.
     TpdoMap,
+    /// `0x1801`: TPDO2 communication parameter (the status PDO).
+    StatusComm,
+    /// `0x1A01`: TPDO2 mapping parameter (the status PDO).
+    StatusMap,
+    /// `0x2220 + f`: a field of the node's last status PDO.
+    Status(StatusField),
     /// `0x2200 + f`: a field of the node's own value frame.
     TxValue(Field),
     /// `0x2210 + f`: a field of the value frames heard (sub-index `k + 1`: RPDO `k + 1`).
@@ -602,8 +708,9 @@ const fn pdo_record(index: u16, name: &'static str, len: u8, item: Item) -> Obje
     )
 }
 
-/// The PDO parameters, in index order: RPDO communication, RPDO mapping, TPDO1.
-const PDO_COUNT: usize = 2 * RPDOS as usize + 2;
+/// The PDO parameters, in index order: RPDO communication, RPDO mapping, TPDO1 and TPDO2
+/// communication, TPDO1 and TPDO2 mapping.
+const PDO_COUNT: usize = 2 * RPDOS as usize + 4;
 
 const fn pdo_objects() -> [Object; PDO_COUNT] {
     let fields = Field::ALL.len() as u8;
@@ -624,13 +731,27 @@ const fn pdo_objects() -> [Object; PDO_COUNT] {
         );
         k += 1;
     }
-    t[PDO_COUNT - 2] = pdo_record(TPDO_COMM, "TPDO communication parameter", 2, Item::TpdoComm);
-    t[PDO_COUNT - 1] = pdo_record(TPDO_MAP, "TPDO mapping parameter", fields, Item::TpdoMap);
+    let status = StatusField::ALL.len() as u8;
+    t[PDO_COUNT - 4] = pdo_record(TPDO_COMM, "TPDO communication parameter", 2, Item::TpdoComm);
+    t[PDO_COUNT - 3] = pdo_record(
+        STATUS_TPDO_COMM,
+        "TPDO communication parameter",
+        2,
+        Item::StatusComm,
+    );
+    t[PDO_COUNT - 2] = pdo_record(TPDO_MAP, "TPDO mapping parameter", fields, Item::TpdoMap);
+    t[PDO_COUNT - 1] = pdo_record(
+        STATUS_TPDO_MAP,
+        "TPDO mapping parameter",
+        status,
+        Item::StatusMap,
+    );
     t
 }
 
-/// The process-data objects of the value frames: own fields, then the heard ones.
-const VALUE_COUNT: usize = 2 * Field::ALL.len();
+/// The process-data objects of the value frames (own fields, then the heard ones), then of
+/// the status PDO.
+const VALUE_COUNT: usize = 2 * Field::ALL.len() + StatusField::ALL.len();
 
 const fn value_objects() -> [Object; VALUE_COUNT] {
     let n = Field::ALL.len();
@@ -657,6 +778,20 @@ const fn value_objects() -> [Object; VALUE_COUNT] {
             pdo: true,
         };
         k += 1;
+    }
+    let mut j = 0;
+    while j < StatusField::ALL.len() {
+        let f = StatusField::ALL[j];
+        t[2 * n + j] = Object {
+            index: STATUS_BASE + j as u16,
+            name: f.name(),
+            kind: Kind::Var,
+            data_type: f.data_type(),
+            access: Access::ReadOnly,
+            item: Item::Status(f),
+            pdo: true,
+        };
+        j += 1;
     }
     t
 }
@@ -730,9 +865,9 @@ pub fn sub_name(o: &Object, sub: u8) -> &'static str {
         (Item::HeartbeatConsumer, _) => "Consumer heartbeat time",
         (Item::ErrorField, _) => "Standard error field",
         (Item::Param(Param::Neighbours), _) => "Neighbour",
-        (Item::RpdoComm(_) | Item::TpdoComm, 1) => "COB-ID used by PDO",
-        (Item::RpdoComm(_) | Item::TpdoComm, _) => "Transmission type",
-        (Item::RpdoMap(_) | Item::TpdoMap, _) => "Mapped object",
+        (Item::RpdoComm(_) | Item::TpdoComm | Item::StatusComm, 1) => "COB-ID used by PDO",
+        (Item::RpdoComm(_) | Item::TpdoComm | Item::StatusComm, _) => "Transmission type",
+        (Item::RpdoMap(_) | Item::TpdoMap | Item::StatusMap, _) => "Mapped object",
         (Item::RxValue(_), 1) => "Leader (RPDO1)",
         (Item::RxValue(_), _) => "Neighbour slot (RPDO 2..)",
         _ => "Step",
@@ -744,7 +879,7 @@ pub fn sub_name(o: &Object, sub: u8) -> &'static str {
 pub fn sub_data_type(o: &Object, sub: u8) -> DataType {
     match (o.item, sub) {
         (_, 0) if o.kind != Kind::Var => DataType::Unsigned8,
-        (Item::RpdoComm(_) | Item::TpdoComm, 2) => DataType::Unsigned8,
+        (Item::RpdoComm(_) | Item::TpdoComm | Item::StatusComm, 2) => DataType::Unsigned8,
         _ => o.data_type,
     }
 }

@@ -596,3 +596,70 @@ fn value_frames_decode_by_the_pdo_mapping_read_over_sdo() {
     d.on_frame(id_of(Source::Agent(7)) as u16, &[0, 0, 0, 33], 40);
     assert_eq!(upload(&mut d, 0x2211, 3), before);
 }
+
+/// The status PDO (TPDO2) decoded by nothing but its mapping read over SDO gives the fields of
+/// `wire::Heartbeat`, bit-exact with today's frame, and the mapped objects read over SDO hold
+/// what the node sent last.
+#[test]
+fn the_status_pdo_decodes_by_its_mapping_read_over_sdo() {
+    use crate::supervisor::{Lost, NodeState};
+    use crate::wire::Heartbeat;
+    let mut d = device();
+    let _ = frames(&mut d);
+    // TPDO2 on the plan's heartbeat identifier of this node, valid, no RTR; event-driven.
+    assert_eq!(
+        u32_at(upload(&mut d, 0x1801, 1)),
+        (1 << 30) | u32::from(IdPlan::DEFAULT.heartbeat_id(ID).expect("in plan"))
+    );
+    assert_eq!(upload(&mut d, 0x1801, 2)[4], 0xFE);
+    // Before any status PDO: boot, nothing lost.
+    assert_eq!(upload(&mut d, 0x2220, 0)[4], 1);
+    let map = mapping_over_sdo(&mut d, 0x1A01);
+    assert_eq!(map.iter().map(|m| u32::from(m.2)).sum::<u32>(), 64);
+    let cases = [
+        Heartbeat {
+            state: NodeState::Safe,
+            lost: Lost::from_bits(0b101),
+            boot_count: 0x1234,
+            overruns: 65_535,
+            safe_entries: 7,
+        },
+        Heartbeat {
+            state: NodeState::Fault,
+            lost: Lost::from_bits(0b010),
+            boot_count: 0,
+            overruns: 300,
+            safe_entries: 65_000,
+        },
+    ];
+    for hb in cases {
+        let data = hb.to_bytes();
+        let mut offset = 0;
+        let mut got = [0u32; 5];
+        for &(index, sub, bits) in &map {
+            assert_eq!(sub, 0, "{index:#x}");
+            let k = usize::from(index - 0x2220);
+            got[k] = bits_of(&data, offset, u32::from(bits));
+            offset += u32::from(bits);
+        }
+        assert_eq!(
+            got,
+            [
+                u32::from(hb.state.code()),
+                u32::from(hb.lost.bits()),
+                u32::from(hb.boot_count),
+                u32::from(hb.overruns),
+                u32::from(hb.safe_entries),
+            ]
+        );
+        d.status_sent(&data);
+        for (k, want) in got.iter().enumerate() {
+            let r = upload(&mut d, 0x2220 + k as u16, 0);
+            let len = 4 - usize::from((r[0] >> 2) & 3);
+            assert_eq!(len, if k < 2 { 1 } else { 2 }, "{k}");
+            let mut b = [0u8; 4];
+            b[..len].copy_from_slice(&r[4..4 + len]);
+            assert_eq!(u32::from_le_bytes(b), *want, "{k}");
+        }
+    }
+}
