@@ -1213,6 +1213,28 @@ where
         Ok(())
     }
 
+    /// The node's plant is on the bus (a bench host's sensor and command frames, one sensor
+    /// frame per agent): the device's RPDO18 and TPDO3 describe them (docs/NETWORK.md §12).
+    /// Nothing without a device.
+    pub fn enable_plant_pdos(&mut self) {
+        if let Some(c) = &mut self.canopen {
+            c.device.enable_plant_pdos();
+        }
+    }
+
+    /// The sensor frame `x` came and the command frame `q` went out: the device's `0x2230` and
+    /// `0x2231` hold them. Unlike [`Self::canopen_mut`], nothing is rebuilt at the next start.
+    pub fn plant_frames(&mut self, x: Option<[f32; 2]>, q: Option<[f32; 2]>) {
+        if let Some(c) = &mut self.canopen {
+            if let Some(x) = x {
+                c.device.sensor_received(x);
+            }
+            if let Some(q) = q {
+                c.device.command_sent(q);
+            }
+        }
+    }
+
     /// The CANopen device, if enabled.
     pub fn canopen(&self) -> Option<&Device<N>> {
         self.canopen.as_ref().map(|c| &c.device)

@@ -270,6 +270,8 @@ struct PlantIo {
     /// Sensor frames are packed: this is the first agent of ours.
     packed_first: Option<u8>,
     x: Option<[f32; N]>,
+    /// The last command frame sent.
+    q: Option<[f32; N]>,
     last_rx: Option<Instant>,
     tx_errors: u64,
 }
@@ -341,6 +343,7 @@ impl Actuator<N> for BusActuator {
         let before = io.tx_errors;
         io.send(f);
         if io.tx_errors == before {
+            io.q = Some(*q);
             Ok(())
         } else {
             Err(())
@@ -381,6 +384,7 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
         fd,
         packed_first,
         x: None,
+        q: None,
         last_rx: None,
         tx_errors: 0,
     }));
@@ -399,6 +403,11 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
     .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
     if let Some(co) = &cfg.node.canopen {
         enable_canopen(&mut node, cfg, co)?;
+        if packed_first.is_none() {
+            // The sensor frame is RPDO18, the command frame TPDO3 (a packed sensor frame
+            // carries 8 agents: no PDO of this node describes it).
+            node.enable_plant_pdos();
+        }
     }
     let h = Duration::from_secs_f64(cfg.wall_h());
     let host_timeout = Duration::from_secs_f64(cfg.node.host_timeout);
@@ -455,6 +464,11 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
             node.record_overrun();
         }
         node.tick();
+        let (x, q) = {
+            let io = io.borrow();
+            (io.x, io.q)
+        };
+        node.plant_frames(x, q);
         report_can_faults(&mut node);
         serve_requests(&mut node, cfg);
         ticks += 1;

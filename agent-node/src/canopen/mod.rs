@@ -544,6 +544,11 @@ pub struct Device<const N: usize> {
     rpdo: [Option<[u8; PAYLOAD_LEN]>; od::RPDOS as usize],
     /// The node's last status PDO sent (TPDO2).
     status: Option<[u8; crate::wire::HEARTBEAT_LEN]>,
+    /// The runtime puts its plant on the bus: RPDO18 (sensor) and TPDO3 (command) are valid.
+    plant_pdos: bool,
+    /// The last sensor frame heard (RPDO18) and command frame sent (TPDO3).
+    sensed: [f32; 2],
+    commanded: [f32; 2],
 }
 
 impl<const N: usize> Device<N> {
@@ -572,7 +577,45 @@ impl<const N: usize> Device<N> {
             tpdo: None,
             rpdo: [None; od::RPDOS as usize],
             status: None,
+            plant_pdos: false,
+            sensed: [f32::NAN; 2],
+            commanded: [f32::NAN; 2],
         }
+    }
+
+    /// The runtime's plant is on the bus (a bench, `crate::plant_bus`, one sensor frame per
+    /// agent): the sensor frame (`0x200 + node-ID`) is RPDO18 and the command frame
+    /// (`0x300 + node-ID`) TPDO3, both valid from now on.
+    pub fn enable_plant_pdos(&mut self) {
+        self.plant_pdos = true;
+    }
+
+    /// The COB-ID entry of RPDO18 (`sensor`) or TPDO3: the plant-bus identifier of this node,
+    /// bit 31 set unless [`Self::enable_plant_pdos`]; TPDO3 without RTR.
+    pub fn plant_cob_id(&self, sensor: bool) -> u32 {
+        let (kind, rtr) = if sensor {
+            (crate::plant_bus::Kind::Sensor, 0)
+        } else {
+            (crate::plant_bus::Kind::Command, COB_ID_NO_RTR)
+        };
+        let id = kind
+            .id(self.node_id)
+            .map_or(COB_ID_INVALID, |i| u32::from(i.as_raw()));
+        if self.plant_pdos {
+            rtr | id
+        } else {
+            COB_ID_INVALID | rtr | id
+        }
+    }
+
+    /// The sensor frame's state `x` came (RPDO18): `0x2230` reads it.
+    pub fn sensor_received(&mut self, x: [f32; 2]) {
+        self.sensed = x;
+    }
+
+    /// The node sent its command frame `q` (TPDO3): `0x2231` reads it.
+    pub fn command_sent(&mut self, q: [f32; 2]) {
+        self.commanded = q;
     }
 
     /// The identifier plan of the value frames, which the PDO COB-IDs (`0x1400`, `0x1800`)
@@ -1193,6 +1236,27 @@ impl<const N: usize> Device<N> {
             Item::StatusMap => od::StatusField::ALL
                 .get(usize::from(sub).wrapping_sub(1))
                 .map(|f| Value::Unsigned(f.mapping()))
+                .ok_or(Abort::NoSubIndex),
+            Item::SensorComm if sub == 1 => u(self.plant_cob_id(true)),
+            Item::CommandComm if sub == 1 => u(self.plant_cob_id(false)),
+            Item::SensorComm | Item::CommandComm => u(u32::from(od::PDO_TRANSMISSION_TYPE)),
+            Item::SensorMap if (1..=od::PLANT_PAIR).contains(&sub) => {
+                u(od::plant_mapping(od::SENSOR_OBJECT, sub))
+            }
+            Item::CommandMap if (1..=od::PLANT_PAIR).contains(&sub) => {
+                u(od::plant_mapping(od::COMMAND_OBJECT, sub))
+            }
+            Item::SensorMap | Item::CommandMap => Err(Abort::NoSubIndex),
+            // Before any frame: NaN (nothing sensed or commanded yet).
+            Item::Sensed => self
+                .sensed
+                .get(usize::from(sub).wrapping_sub(1))
+                .map(|v| Value::Real(*v))
+                .ok_or(Abort::NoSubIndex),
+            Item::Commanded => self
+                .commanded
+                .get(usize::from(sub).wrapping_sub(1))
+                .map(|v| Value::Real(*v))
                 .ok_or(Abort::NoSubIndex),
             // Before the first status PDO: state boot (1), nothing lost, counters 0.
             Item::Status(f) => u(f.extract(&self.status.unwrap_or([1, 0, 0, 0, 0, 0, 0, 0]))),

@@ -8,11 +8,14 @@
 //! | `0x1400 + k`, `0x1600 + k` | RPDO `k + 1` communication and mapping parameters ([`RPDOS`]: the leader's value frame, then one per neighbour slot) |
 //! | `0x1800`, `0x1A00` | TPDO1 communication and mapping parameters: the node's own value frame |
 //! | `0x1801`, `0x1A01` | TPDO2 communication and mapping parameters: the node's status PDO (`crate::wire::Heartbeat`) |
+//! | `0x1411`, `0x1611` | RPDO18 communication and mapping parameters: a bench host's sensor frame (`crate::plant_bus`) |
+//! | `0x1802`, `0x1A02` | TPDO3 communication and mapping parameters: the node's command frame on a bench |
 //! | `0x2000 + k` | `controller_core::param::Param::ALL[k]`, named by its scenario key |
 //! | `0x2100 + k` | [`Setting::ALL`]`[k]`: the node's own settings |
 //! | `0x2200`–`0x2203` | the node's own value frame, field by field ([`Field`]; TPDO1 maps them) |
 //! | `0x2210`–`0x2213` | the value frames heard, field by field, sub-index `k + 1` = RPDO `k + 1` |
 //! | `0x2220`–`0x2224` | the node's last status PDO, field by field ([`StatusField`]; TPDO2 maps them) |
+//! | `0x2230`, `0x2231` | the last sensor frame heard (`x_{i,1}`, `x_{i,2}`) and command frame sent (`q_{i,1}`, `q_{i,2}`), `REAL32` arrays (RPDO18 and TPDO3 map them) |
 //!
 //! ## PDO mapping
 //!
@@ -39,6 +42,13 @@
 //! | 16–31 | boot counter | `0x2222` | `UNSIGNED16`, 16 |
 //! | 32–47 | deadline overruns since start | `0x2223` | `UNSIGNED16`, 16 |
 //! | 48–63 | safe-state entries since start | `0x2224` | `UNSIGNED16`, 16 |
+//!
+//! On a bench whose host simulates the plant (`crate::plant_bus`) the sensor frame
+//! (`0x200 + i`) is RPDO18 and the command frame (`0x300 + i`) TPDO3, each two `REAL32`
+//! (`0x2230` / `0x2231` sub-indices 1 and 2, 32 bits each, little-endian `f32` as the frames carry
+//! them). Their COB-IDs are valid only on a runtime that uses them
+//! (`super::Device::enable_plant_pdos`: `node-linux` with one sensor frame per agent); elsewhere
+//! bit 31 is set.
 //!
 //! The manufacturer entries are generated from `controller_core::param` by a `const fn`: a new
 //! [`Param`] gets its object without an edit here. A per-step parameter is an `ARRAY`
@@ -85,6 +95,25 @@ pub const STATUS_TPDO_COMM: u16 = 0x1801;
 pub const STATUS_TPDO_MAP: u16 = 0x1A01;
 /// First object of the node's status PDO ([`StatusField`], one `VAR` each).
 pub const STATUS_BASE: u16 = 0x2220;
+/// RPDO18 communication parameter: a bench host's sensor frame.
+pub const SENSOR_RPDO_COMM: u16 = RPDO_COMM_BASE + RPDOS as u16;
+/// RPDO18 mapping parameter.
+pub const SENSOR_RPDO_MAP: u16 = RPDO_MAP_BASE + RPDOS as u16;
+/// TPDO3 communication parameter: the node's command frame on a bench.
+pub const COMMAND_TPDO_COMM: u16 = 0x1802;
+/// TPDO3 mapping parameter.
+pub const COMMAND_TPDO_MAP: u16 = 0x1A02;
+/// The last sensor frame heard: `ARRAY` of two `REAL32` (`x_{i,1}`, `x_{i,2}`).
+pub const SENSOR_OBJECT: u16 = 0x2230;
+/// The last command frame sent: `ARRAY` of two `REAL32` (`q_{i,1}`, `q_{i,2}`).
+pub const COMMAND_OBJECT: u16 = 0x2231;
+/// Values a sensor or command frame carries.
+pub const PLANT_PAIR: u8 = 2;
+
+/// The CiA 301 mapping entry of element `sub` (1 or 2) of a plant-frame object: 32 bits.
+pub const fn plant_mapping(index: u16, sub: u8) -> u32 {
+    (index as u32) << 16 | (sub as u32) << 8 | 32
+}
 /// First object of the node's own value frame (one per [`Field`]).
 pub const TX_VALUE_BASE: u16 = 0x2200;
 /// First object of the value frames heard (one `ARRAY` per [`Field`], one sub-index per RPDO).
@@ -489,6 +518,18 @@ pub enum Item {
     StatusMap,
     /// `0x2220 + f`: a field of the node's last status PDO.
     Status(StatusField),
+    /// `0x1411`: RPDO18 communication parameter (the sensor frame).
+    SensorComm,
+    /// `0x1611`: RPDO18 mapping parameter.
+    SensorMap,
+    /// `0x1802`: TPDO3 communication parameter (the command frame).
+    CommandComm,
+    /// `0x1A02`: TPDO3 mapping parameter.
+    CommandMap,
+    /// `0x2230`: the last sensor frame heard.
+    Sensed,
+    /// `0x2231`: the last command frame sent.
+    Commanded,
     /// `0x2200 + f`: a field of the node's own value frame.
     TxValue(Field),
     /// `0x2210 + f`: a field of the value frames heard (sub-index `k + 1`: RPDO `k + 1`).
@@ -708,12 +749,13 @@ const fn pdo_record(index: u16, name: &'static str, len: u8, item: Item) -> Obje
     )
 }
 
-/// The PDO parameters, in index order: RPDO communication, RPDO mapping, TPDO1 and TPDO2
-/// communication, TPDO1 and TPDO2 mapping.
-const PDO_COUNT: usize = 2 * RPDOS as usize + 4;
+/// The PDO parameters, in index order: RPDO communication (the value frames', then the
+/// sensor frame's), RPDO mapping (the same), TPDO1–3 communication, TPDO1–3 mapping.
+const PDO_COUNT: usize = 2 * (RPDOS as usize + 1) + 6;
 
 const fn pdo_objects() -> [Object; PDO_COUNT] {
     let fields = Field::ALL.len() as u8;
+    let rpdos = RPDOS as usize + 1;
     let mut t = [pdo_record(TPDO_COMM, "", 0, Item::TpdoComm); PDO_COUNT];
     let mut k = 0;
     while k < RPDOS as usize {
@@ -723,7 +765,7 @@ const fn pdo_objects() -> [Object; PDO_COUNT] {
             2,
             Item::RpdoComm(k as u8),
         );
-        t[RPDOS as usize + k] = pdo_record(
+        t[rpdos + k] = pdo_record(
             RPDO_MAP_BASE + k as u16,
             "RPDO mapping parameter",
             fields,
@@ -731,27 +773,46 @@ const fn pdo_objects() -> [Object; PDO_COUNT] {
         );
         k += 1;
     }
-    let status = StatusField::ALL.len() as u8;
-    t[PDO_COUNT - 4] = pdo_record(TPDO_COMM, "TPDO communication parameter", 2, Item::TpdoComm);
-    t[PDO_COUNT - 3] = pdo_record(
-        STATUS_TPDO_COMM,
-        "TPDO communication parameter",
+    t[rpdos - 1] = pdo_record(
+        SENSOR_RPDO_COMM,
+        "RPDO communication parameter",
         2,
-        Item::StatusComm,
+        Item::SensorComm,
     );
-    t[PDO_COUNT - 2] = pdo_record(TPDO_MAP, "TPDO mapping parameter", fields, Item::TpdoMap);
-    t[PDO_COUNT - 1] = pdo_record(
-        STATUS_TPDO_MAP,
-        "TPDO mapping parameter",
-        status,
-        Item::StatusMap,
+    t[2 * rpdos - 1] = pdo_record(
+        SENSOR_RPDO_MAP,
+        "RPDO mapping parameter",
+        PLANT_PAIR,
+        Item::SensorMap,
     );
+    let status = StatusField::ALL.len() as u8;
+    let comm = "TPDO communication parameter";
+    let map = "TPDO mapping parameter";
+    t[PDO_COUNT - 6] = pdo_record(TPDO_COMM, comm, 2, Item::TpdoComm);
+    t[PDO_COUNT - 5] = pdo_record(STATUS_TPDO_COMM, comm, 2, Item::StatusComm);
+    t[PDO_COUNT - 4] = pdo_record(COMMAND_TPDO_COMM, comm, 2, Item::CommandComm);
+    t[PDO_COUNT - 3] = pdo_record(TPDO_MAP, map, fields, Item::TpdoMap);
+    t[PDO_COUNT - 2] = pdo_record(STATUS_TPDO_MAP, map, status, Item::StatusMap);
+    t[PDO_COUNT - 1] = pdo_record(COMMAND_TPDO_MAP, map, PLANT_PAIR, Item::CommandMap);
     t
 }
 
-/// The process-data objects of the value frames (own fields, then the heard ones), then of
-/// the status PDO.
-const VALUE_COUNT: usize = 2 * Field::ALL.len() + StatusField::ALL.len();
+/// A read-only, PDO-mappable pair of `REAL32`: a bench's sensor or command frame.
+const fn plant(index: u16, name: &'static str, item: Item) -> Object {
+    Object {
+        index,
+        name,
+        kind: Kind::Array { len: PLANT_PAIR },
+        data_type: DataType::Real32,
+        access: Access::ReadOnly,
+        item,
+        pdo: true,
+    }
+}
+
+/// The process-data objects of the value frames (own fields, then the heard ones), of the
+/// status PDO, and of the bench's sensor and command frames.
+const VALUE_COUNT: usize = 2 * Field::ALL.len() + StatusField::ALL.len() + 2;
 
 const fn value_objects() -> [Object; VALUE_COUNT] {
     let n = Field::ALL.len();
@@ -793,6 +854,16 @@ const fn value_objects() -> [Object; VALUE_COUNT] {
         };
         j += 1;
     }
+    t[VALUE_COUNT - 2] = plant(
+        SENSOR_OBJECT,
+        "Sensor frame x_i (bench host's plant state)",
+        Item::Sensed,
+    );
+    t[VALUE_COUNT - 1] = plant(
+        COMMAND_OBJECT,
+        "Command frame q_i (the node's commands)",
+        Item::Commanded,
+    );
     t
 }
 
@@ -866,8 +937,13 @@ pub fn sub_name(o: &Object, sub: u8) -> &'static str {
         (Item::ErrorField, _) => "Standard error field",
         (Item::Param(Param::Neighbours), _) => "Neighbour",
         (Item::RpdoComm(_) | Item::TpdoComm | Item::StatusComm, 1) => "COB-ID used by PDO",
+        (Item::SensorComm | Item::CommandComm, 1) => "COB-ID used by PDO",
         (Item::RpdoComm(_) | Item::TpdoComm | Item::StatusComm, _) => "Transmission type",
+        (Item::SensorComm | Item::CommandComm, _) => "Transmission type",
         (Item::RpdoMap(_) | Item::TpdoMap | Item::StatusMap, _) => "Mapped object",
+        (Item::SensorMap | Item::CommandMap, _) => "Mapped object",
+        (Item::Sensed | Item::Commanded, 1) => "State or command 1",
+        (Item::Sensed | Item::Commanded, _) => "State or command 2",
         (Item::RxValue(_), 1) => "Leader (RPDO1)",
         (Item::RxValue(_), _) => "Neighbour slot (RPDO 2..)",
         _ => "Step",
@@ -880,6 +956,7 @@ pub fn sub_data_type(o: &Object, sub: u8) -> DataType {
     match (o.item, sub) {
         (_, 0) if o.kind != Kind::Var => DataType::Unsigned8,
         (Item::RpdoComm(_) | Item::TpdoComm | Item::StatusComm, 2) => DataType::Unsigned8,
+        (Item::SensorComm | Item::CommandComm, 2) => DataType::Unsigned8,
         _ => o.data_type,
     }
 }

@@ -932,8 +932,12 @@ fn write_eds(text: &str, path: &Path, agent: usize) -> Result<()> {
     let store =
         agent_node::canopen::od::ParamStore::new(file.node_config.identity(), &file.controller)
             .map_err(|_| Error::invalid(what.clone(), "node-ID outside 1..=127"))?;
-    let device =
+    let mut device =
         agent_node::canopen::Device::new(store, agent_node::canopen::Identity::default(), false);
+    if !file.node.packed_sensors() {
+        // node-linux's sensor and command frames are its RPDO18 and TPDO3.
+        device.enable_plant_pdos();
+    }
     let mut eds = String::new();
     let name = path
         .file_name()
