@@ -76,8 +76,9 @@ node_id = {NODE_ID}
 
 [node.supervision]
 id_base = 257
+heartbeat_id_base = 1920
 agents = 99
-heartbeat_period_us = 0
+heartbeat_period_us = 100000
 policy = "hold-position"
 leader_timeout_us = 50000
 
@@ -224,6 +225,12 @@ pinned = false
     y, seq, saturated, absent = (v.raw for v in tpdo.map)
     check(y / 65536 == 0.25 and not saturated and not absent,
           f"TPDO1 decoded: y = {y / 65536}, sequence {seq}")
+    # The status PDO, decoded by the mapping alone: safe (2), the leader lost, one entry.
+    check(status.wait_for_reception(3) is not None, "TPDO2 (status PDO) received")
+    state, lost, boots, overruns, entries = (v.raw for v in status.map)
+    check(state == 2 and lost & 1 and entries >= 1,
+          f"TPDO2 decoded: state {state}, lost {lost:#x}, boot counter {boots}, "
+          f"overruns {overruns}, safe-state entries {entries}")
     # A command frame, decoded by the mapping alone (two REAL32), is the frame's f32 pair; the
     # sensor frame's objects read over SDO hold what the host sent.
     check(command_pdo.wait_for_reception(2) is not None, "TPDO3 (command frame) received")
