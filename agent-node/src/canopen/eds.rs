@@ -19,6 +19,12 @@ fn hex_id<const N: usize>(d: &Device<N>, item: Item, sub: u8) -> Option<u32> {
         (Item::SdoServer, 1) => Some(0x600),
         (Item::SdoServer, 2) => Some(0x580),
         (Item::TpdoComm, 1) => Some(od::COB_ID_NO_RTR | u32::from(d.id_plan().value_base())),
+        (Item::SensorComm, 1) => Some(d.plant_cob_id(true) - u32::from(d.node_id())),
+        (Item::CommandComm, 1) => Some(d.plant_cob_id(false) - u32::from(d.node_id())),
+        (Item::StatusComm, 1) => d
+            .id_plan()
+            .heartbeat_base()
+            .map(|b| od::COB_ID_NO_RTR | u32::from(b)),
         _ => None,
     }
 }
