@@ -169,7 +169,7 @@ fn object<W: Write, const N: usize>(w: &mut W, d: &Device<N>, o: &Object) -> fmt
             d,
             o,
             format_args!("{:04X}", o.index),
-            o.name,
+            o.name(),
             0,
             o.data_type,
             access,
@@ -186,7 +186,7 @@ fn object<W: Write, const N: usize>(w: &mut W, d: &Device<N>, o: &Object) -> fmt
                 9
             };
             writeln!(w, "[{:04X}]", o.index)?;
-            writeln!(w, "ParameterName={}", o.name)?;
+            writeln!(w, "ParameterName={}", o.name())?;
             writeln!(w, "ObjectType=0x{code:X}")?;
             writeln!(w, "SubNumber=0x{:X}", u16::from(subs) + 1)?;
             writeln!(w)?;

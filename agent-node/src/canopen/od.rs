@@ -730,15 +730,13 @@ pub enum Kind {
 /// use controller_core::Param;
 /// let k = Param::ALL.iter().position(|p| *p == Param::Ts).unwrap() as u16;
 /// let o = find(PARAM_BASE + k).unwrap();
-/// assert_eq!((o.name, o.data_type, o.access), ("controller.ts", DataType::Real32, Access::ReadWrite));
+/// assert_eq!((o.name(), o.data_type, o.access), ("controller.ts", DataType::Real32, Access::ReadWrite));
 /// assert!(!o.pdo);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Object {
     /// Index.
     pub index: u16,
-    /// `ParameterName` (a scenario key for the manufacturer entries).
-    pub name: &'static str,
     /// Object code.
     pub kind: Kind,
     /// Type of the value(s) (sub-index 0 of an array is `UNSIGNED8`).
@@ -751,17 +749,9 @@ pub struct Object {
     pub pdo: bool,
 }
 
-const fn comm(
-    index: u16,
-    name: &'static str,
-    kind: Kind,
-    data_type: DataType,
-    access: Access,
-    item: Item,
-) -> Object {
+const fn comm(index: u16, kind: Kind, data_type: DataType, access: Access, item: Item) -> Object {
     Object {
         index,
-        name,
         kind,
         data_type,
         access,
@@ -775,53 +765,23 @@ const COMM: [Object; 13] = {
     use DataType::{Unsigned16 as U16, Unsigned32 as U32, Unsigned8 as U8, VisibleString as S};
     use Kind::{Array, Record, Var};
     [
-        comm(0x1000, "Device type", Var, U32, C, Item::DeviceType),
-        comm(0x1001, "Error register", Var, U8, RO, Item::ErrorRegister),
+        comm(0x1000, Var, U32, C, Item::DeviceType),
+        comm(0x1001, Var, U8, RO, Item::ErrorRegister),
         comm(
             0x1003,
-            "Pre-defined error field",
             Array { len: ERROR_HISTORY },
             U32,
             RO,
             Item::ErrorField,
         ),
-        comm(0x1005, "COB-ID SYNC", Var, U32, C, Item::SyncCobId),
-        comm(
-            0x1008,
-            "Manufacturer device name",
-            Var,
-            S,
-            C,
-            Item::DeviceName,
-        ),
-        comm(
-            0x100A,
-            "Manufacturer software version",
-            Var,
-            S,
-            C,
-            Item::SoftwareVersion,
-        ),
-        comm(
-            0x1010,
-            "Store parameters",
-            Record { len: 1 },
-            U32,
-            RW,
-            Item::Store,
-        ),
-        comm(
-            0x1011,
-            "Restore default parameters",
-            Record { len: 1 },
-            U32,
-            RW,
-            Item::Restore,
-        ),
-        comm(0x1014, "COB-ID EMCY", Var, U32, RO, Item::EmcyCobId),
+        comm(0x1005, Var, U32, C, Item::SyncCobId),
+        comm(0x1008, Var, S, C, Item::DeviceName),
+        comm(0x100A, Var, S, C, Item::SoftwareVersion),
+        comm(0x1010, Record { len: 1 }, U32, RW, Item::Store),
+        comm(0x1011, Record { len: 1 }, U32, RW, Item::Restore),
+        comm(0x1014, Var, U32, RO, Item::EmcyCobId),
         comm(
             0x1016,
-            "Consumer heartbeat time",
             Array {
                 len: HEARTBEAT_CONSUMERS,
             },
@@ -829,30 +789,9 @@ const COMM: [Object; 13] = {
             RW,
             Item::HeartbeatConsumer,
         ),
-        comm(
-            0x1017,
-            "Producer heartbeat time",
-            Var,
-            U16,
-            RW,
-            Item::HeartbeatProducer,
-        ),
-        comm(
-            0x1018,
-            "Identity object",
-            Record { len: 4 },
-            U32,
-            RO,
-            Item::Identity,
-        ),
-        comm(
-            0x1200,
-            "SDO server parameter",
-            Record { len: 2 },
-            U32,
-            RO,
-            Item::SdoServer,
-        ),
+        comm(0x1017, Var, U16, RW, Item::HeartbeatProducer),
+        comm(0x1018, Record { len: 4 }, U32, RO, Item::Identity),
+        comm(0x1200, Record { len: 2 }, U32, RO, Item::SdoServer),
     ]
 };
 
@@ -909,7 +848,6 @@ const fn param_object(k: usize, p: Param) -> Object {
     };
     Object {
         index: PARAM_BASE + k as u16,
-        name: spec.key,
         kind,
         data_type: param_type(p),
         access: param_access(p),
@@ -922,7 +860,6 @@ const fn setting_object(k: usize, s: Setting) -> Object {
     let spec = s.spec();
     Object {
         index: SETTING_BASE + k as u16,
-        name: spec.key,
         kind: Kind::Var,
         data_type: spec.data_type,
         access: Access::ReadWrite,
@@ -932,10 +869,9 @@ const fn setting_object(k: usize, s: Setting) -> Object {
 }
 
 /// A read-only record of the PDO communication or mapping parameters.
-const fn pdo_record(index: u16, name: &'static str, len: u8, item: Item) -> Object {
+const fn pdo_record(index: u16, len: u8, item: Item) -> Object {
     comm(
         index,
-        name,
         Kind::Record { len },
         DataType::Unsigned32,
         Access::ReadOnly,
@@ -950,52 +886,29 @@ const PDO_COUNT: usize = 2 * (RPDOS as usize + 1) + 6;
 const fn pdo_objects() -> [Object; PDO_COUNT] {
     let fields = Field::ALL.len() as u8;
     let rpdos = RPDOS as usize + 1;
-    let mut t = [pdo_record(TPDO_COMM, "", 0, Item::TpdoComm); PDO_COUNT];
+    let mut t = [pdo_record(TPDO_COMM, 0, Item::TpdoComm); PDO_COUNT];
     let mut k = 0;
     while k < RPDOS as usize {
-        t[k] = pdo_record(
-            RPDO_COMM_BASE + k as u16,
-            "RPDO communication parameter",
-            2,
-            Item::RpdoComm(k as u8),
-        );
-        t[rpdos + k] = pdo_record(
-            RPDO_MAP_BASE + k as u16,
-            "RPDO mapping parameter",
-            fields,
-            Item::RpdoMap(k as u8),
-        );
+        t[k] = pdo_record(RPDO_COMM_BASE + k as u16, 2, Item::RpdoComm(k as u8));
+        t[rpdos + k] = pdo_record(RPDO_MAP_BASE + k as u16, fields, Item::RpdoMap(k as u8));
         k += 1;
     }
-    t[rpdos - 1] = pdo_record(
-        SENSOR_RPDO_COMM,
-        "RPDO communication parameter",
-        2,
-        Item::SensorComm,
-    );
-    t[2 * rpdos - 1] = pdo_record(
-        SENSOR_RPDO_MAP,
-        "RPDO mapping parameter",
-        PLANT_PAIR,
-        Item::SensorMap,
-    );
+    t[rpdos - 1] = pdo_record(SENSOR_RPDO_COMM, 2, Item::SensorComm);
+    t[2 * rpdos - 1] = pdo_record(SENSOR_RPDO_MAP, PLANT_PAIR, Item::SensorMap);
     let status = StatusField::ALL.len() as u8;
-    let comm = "TPDO communication parameter";
-    let map = "TPDO mapping parameter";
-    t[PDO_COUNT - 6] = pdo_record(TPDO_COMM, comm, 2, Item::TpdoComm);
-    t[PDO_COUNT - 5] = pdo_record(STATUS_TPDO_COMM, comm, 2, Item::StatusComm);
-    t[PDO_COUNT - 4] = pdo_record(COMMAND_TPDO_COMM, comm, 2, Item::CommandComm);
-    t[PDO_COUNT - 3] = pdo_record(TPDO_MAP, map, fields, Item::TpdoMap);
-    t[PDO_COUNT - 2] = pdo_record(STATUS_TPDO_MAP, map, status, Item::StatusMap);
-    t[PDO_COUNT - 1] = pdo_record(COMMAND_TPDO_MAP, map, PLANT_PAIR, Item::CommandMap);
+    t[PDO_COUNT - 6] = pdo_record(TPDO_COMM, 2, Item::TpdoComm);
+    t[PDO_COUNT - 5] = pdo_record(STATUS_TPDO_COMM, 2, Item::StatusComm);
+    t[PDO_COUNT - 4] = pdo_record(COMMAND_TPDO_COMM, 2, Item::CommandComm);
+    t[PDO_COUNT - 3] = pdo_record(TPDO_MAP, fields, Item::TpdoMap);
+    t[PDO_COUNT - 2] = pdo_record(STATUS_TPDO_MAP, status, Item::StatusMap);
+    t[PDO_COUNT - 1] = pdo_record(COMMAND_TPDO_MAP, PLANT_PAIR, Item::CommandMap);
     t
 }
 
 /// A read-only, PDO-mappable pair of `REAL32`: a bench's sensor or command frame.
-const fn plant(index: u16, name: &'static str, item: Item) -> Object {
+const fn plant(index: u16, item: Item) -> Object {
     Object {
         index,
-        name,
         kind: Kind::Array { len: PLANT_PAIR },
         data_type: DataType::Real32,
         access: Access::ReadOnly,
@@ -1016,7 +929,6 @@ const fn value_objects() -> [Object; VALUE_COUNT] {
         let f = Field::ALL[k];
         t[k] = Object {
             index: TX_VALUE_BASE + k as u16,
-            name: f.name(),
             kind: Kind::Var,
             data_type: f.data_type(),
             access: Access::ReadOnly,
@@ -1025,7 +937,6 @@ const fn value_objects() -> [Object; VALUE_COUNT] {
         };
         t[n + k] = Object {
             index: RX_VALUE_BASE + k as u16,
-            name: f.name(),
             kind: Kind::Array { len: RPDOS },
             data_type: f.data_type(),
             access: Access::ReadOnly,
@@ -1039,7 +950,6 @@ const fn value_objects() -> [Object; VALUE_COUNT] {
         let f = StatusField::ALL[j];
         t[2 * n + j] = Object {
             index: STATUS_BASE + j as u16,
-            name: f.name(),
             kind: Kind::Var,
             data_type: f.data_type(),
             access: Access::ReadOnly,
@@ -1048,16 +958,8 @@ const fn value_objects() -> [Object; VALUE_COUNT] {
         };
         j += 1;
     }
-    t[VALUE_COUNT - 2] = plant(
-        SENSOR_OBJECT,
-        "Sensor frame x_i (bench host's plant state)",
-        Item::Sensed,
-    );
-    t[VALUE_COUNT - 1] = plant(
-        COMMAND_OBJECT,
-        "Command frame q_i (the node's commands)",
-        Item::Commanded,
-    );
+    t[VALUE_COUNT - 2] = plant(SENSOR_OBJECT, Item::Sensed);
+    t[VALUE_COUNT - 1] = plant(COMMAND_OBJECT, Item::Commanded);
     t
 }
 
@@ -1107,11 +1009,50 @@ const fn build() -> [Object; OBJECT_COUNT] {
 /// process data.
 pub static OBJECTS: [Object; OBJECT_COUNT] = build();
 
+impl Object {
+    /// `ParameterName` (a scenario key for the manufacturer entries). A function of the item,
+    /// not a field, so that a firmware that never writes an EDS links none of the names.
+    ///
+    /// ```
+    /// use agent_node::canopen::od::{find, PARAM_BASE};
+    /// assert_eq!(find(0x1017).unwrap().name(), "Producer heartbeat time");
+    /// assert_eq!(find(PARAM_BASE).unwrap().name(), "simulation.h");
+    /// ```
+    #[must_use]
+    pub const fn name(&self) -> &'static str {
+        match self.item {
+            Item::DeviceType => "Device type",
+            Item::ErrorRegister => "Error register",
+            Item::ErrorField => "Pre-defined error field",
+            Item::SyncCobId => "COB-ID SYNC",
+            Item::DeviceName => "Manufacturer device name",
+            Item::SoftwareVersion => "Manufacturer software version",
+            Item::Store => "Store parameters",
+            Item::Restore => "Restore default parameters",
+            Item::EmcyCobId => "COB-ID EMCY",
+            Item::HeartbeatConsumer => "Consumer heartbeat time",
+            Item::HeartbeatProducer => "Producer heartbeat time",
+            Item::Identity => "Identity object",
+            Item::SdoServer => "SDO server parameter",
+            Item::RpdoComm(_) | Item::SensorComm => "RPDO communication parameter",
+            Item::RpdoMap(_) | Item::SensorMap => "RPDO mapping parameter",
+            Item::TpdoComm | Item::StatusComm | Item::CommandComm => "TPDO communication parameter",
+            Item::TpdoMap | Item::StatusMap | Item::CommandMap => "TPDO mapping parameter",
+            Item::Param(p) => p.spec().key,
+            Item::Setting(x) => x.spec().key,
+            Item::TxValue(f) | Item::RxValue(f) => f.name(),
+            Item::Status(f) => f.name(),
+            Item::Sensed => "Sensor frame x_i (bench host's plant state)",
+            Item::Commanded => "Command frame q_i (the node's commands)",
+        }
+    }
+}
+
 /// The object at `index`.
 ///
 /// ```
 /// use agent_node::canopen::od::find;
-/// assert_eq!(find(0x1018).unwrap().name, "Identity object");
+/// assert_eq!(find(0x1018).unwrap().name(), "Identity object");
 /// assert!(find(0x1002).is_none());
 /// ```
 #[must_use]

@@ -351,7 +351,7 @@ fn every_generated_entry_reads_back_what_is_written() {
                             a == Abort::ParamIncompatible || (unused && a == Abort::ValueTooLow),
                             "{:#06x}/{sub} {}: {a:?}",
                             o.index,
-                            o.name
+                            o.name()
                         );
                     }
                     assert_eq!(d.read(o.index, sub), Ok(v), "{:#06x}/{sub}", o.index);
@@ -369,7 +369,7 @@ fn table_is_sorted_and_holds_every_param() {
     assert!(OBJECTS.windows(2).all(|w| w[0].index < w[1].index));
     for p in Param::ALL {
         let o = od::find(param_index(p)).expect("object");
-        assert_eq!(o.name, p.key());
+        assert_eq!(o.name(), p.key());
     }
 }
 
@@ -418,7 +418,7 @@ fn eds_lists_every_object_with_name_and_access() {
     let mut s = String::new();
     eds::write_eds(&mut s, &d, "agent-node.eds").expect("fmt");
     for o in OBJECTS.iter() {
-        let head = format!("[{:04X}]\nParameterName={}\n", o.index, o.name);
+        let head = format!("[{:04X}]\nParameterName={}\n", o.index, o.name());
         assert!(s.contains(&head), "{head}");
     }
     assert!(s.contains("[1014]\nParameterName=COB-ID EMCY\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue=$NODEID+0x80\n"));
