@@ -176,7 +176,7 @@ impl<const N: usize> Backstepping<N> {
     /// assert!((out.u[0] - u).abs() < 1e-4 * u.abs() && out.u[0] == out.u[1]);
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
-    #[inline]
+    #[inline(always)]
     #[must_use]
     pub fn run(
         &self,
