@@ -7,8 +7,9 @@ over vcan0, knowing the node only by docs/agent-node.eds. Run inside the test VM
 Checks: boot-up, heartbeat states, an SDO read and write-back of every generated entry the EDS
 lists (0x2000..), a refused out-of-range write (abort 0x06090030, value unchanged), a write
 refused outside pre-operational (0x08000022), the PDO mapping read over SDO (TPDO1 = the node's
-value frame, RPDO1 the leader's, RPDO2 its neighbour's) and a value frame decoded by it, the
-graph row written and read back (RPDO3 following, a duplicate refused with 0x06040043),
+value frame, RPDO1 the leader's, RPDO2 its neighbour's, TPDO2 its status PDO, RPDO18 the host's
+sensor frame, TPDO3 its command frame) and a value frame and a command frame decoded by it,
+the graph row written and read back (RPDO3 following, a duplicate refused with 0x06040043),
 NMT start/stop/pre-operational, an EMCY on a forced fault (the leader silent: safe state, 0x8250), store -> restart -> the stored value,
 restore -> defaults. Prints a transcript (also written to OUT/transcript.txt); exit status 1 on
 the first failed check.
@@ -76,8 +77,9 @@ node_id = {NODE_ID}
 
 [node.supervision]
 id_base = 257
+heartbeat_id_base = 1920
 agents = 99
-heartbeat_period_us = 0
+heartbeat_period_us = 100000
 policy = "hold-position"
 leader_timeout_us = 50000
 
@@ -172,6 +174,18 @@ pinned = false
     check(node.rpdo[1].cob_id == 0x101 and node.rpdo[1].enabled, "RPDO1: the leader's 0x101")
     check(node.rpdo[2].cob_id == 0x102 and node.rpdo[2].enabled, "RPDO2: neighbour 1's 0x102")
     check(not node.rpdo[3].enabled, "RPDO3: not in use")
+    status = node.tpdo[2]
+    lengths = [v.length for v in status.map]
+    check(status.cob_id == 0x780 + NODE_ID and lengths == [8, 8, 16, 16, 16],
+          f"TPDO2: COB-ID {status.cob_id:#05x} (the status PDO), mapping {lengths} bits")
+    sensor_pdo = node.rpdo[18]
+    lengths = [v.length for v in sensor_pdo.map]
+    check(sensor_pdo.cob_id == 0x200 + NODE_ID and sensor_pdo.enabled and lengths == [32, 32],
+          f"RPDO18: COB-ID {sensor_pdo.cob_id:#05x} (the sensor frame), mapping {lengths} bits")
+    command_pdo = node.tpdo[3]
+    lengths = [v.length for v in command_pdo.map]
+    check(command_pdo.cob_id == 0x300 + NODE_ID and command_pdo.enabled and lengths == [32, 32],
+          f"TPDO3: COB-ID {command_pdo.cob_id:#05x} (the command frame), mapping {lengths} bits")
 
     # The graph row over SDO: agent 2 to hear agents 1 and 3 (entry 2, then the count), read
     # back with RPDO3 following; a duplicate refused, the row unchanged; then agent 1 alone
@@ -233,6 +247,21 @@ pinned = false
     y, seq, saturated, absent = (v.raw for v in tpdo.map)
     check(y / 65536 == 0.25 and not saturated and not absent,
           f"TPDO1 decoded: y = {y / 65536}, sequence {seq}")
+    # The status PDO, decoded by the mapping alone: safe (2), the leader lost, one entry.
+    check(status.wait_for_reception(3) is not None, "TPDO2 (status PDO) received")
+    state, lost, boots, overruns, entries = (v.raw for v in status.map)
+    check(state == 2 and lost & 1 and entries >= 1,
+          f"TPDO2 decoded: state {state}, lost {lost:#x}, boot counter {boots}, "
+          f"overruns {overruns}, safe-state entries {entries}")
+    # A command frame, decoded by the mapping alone (two REAL32), is the frame's f32 pair; the
+    # sensor frame's objects read over SDO hold what the host sent.
+    check(command_pdo.wait_for_reception(2) is not None, "TPDO3 (command frame) received")
+    q = [v.raw for v in command_pdo.map]
+    raw = struct.unpack("<ff", bytes(command_pdo.data))
+    check(q == list(raw) and all(v == v for v in q),
+          f"TPDO3 decoded: q = {q[0]:.6g}, {q[1]:.6g}")
+    x = (real(0x2230, 1), real(0x2230, 2))
+    check(x == (0.25, 0.0), f"0x2230 (sensor frame heard) = {x}")
     node.nmt.state = "PRE-OPERATIONAL"
     time.sleep(0.3)
 

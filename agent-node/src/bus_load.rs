@@ -263,7 +263,8 @@ pub enum SensorFrames {
 pub struct PlantFrames {
     /// How the sensor frames are laid out.
     pub sensor: SensorFrames,
-    /// Every node sends its state frame this often \[µs\] (and on a change, not counted).
+    /// Every node sends its state — its CANopen heartbeat at `0x700 + i`, the NMT state in one
+    /// byte — this often \[µs\] (`0x1017`).
     pub state_period_us: u64,
 }
 
@@ -287,7 +288,8 @@ pub struct FrameSet {
     pub sample_period_us: u64,
     /// Heartbeat period of every node \[µs\]; 0: no heartbeats.
     pub heartbeat_period_us: u64,
-    /// The plant on the bus (sensor, command and state frames); `None`: only the nodes' own.
+    /// The plant on the bus (sensor and command frames, the nodes' CANopen heartbeats); `None`:
+    /// only the nodes' own.
     pub plant: Option<PlantFrames>,
 }
 
@@ -305,7 +307,8 @@ pub struct FrameSet {
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct KindLoad {
-    /// The frame kind (`value`, `heartbeat`, `sensor`, `command`, `state`).
+    /// The frame kind (`value`, `heartbeat` (the status PDO), `sensor`, `command`, `state` (the
+    /// CANopen heartbeat)).
     pub kind: &'static str,
     /// Frames per sample (periodic kinds slower than `h` count a fraction).
     pub frames: f64,
@@ -330,7 +333,8 @@ pub struct KindLoad {
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Load {
-    /// Value, heartbeat, sensor, command, state frames (kinds absent from the set have 0
+    /// Value, heartbeat (status PDO), sensor, command, state (CANopen heartbeat) frames (kinds
+    /// absent from the set have 0
     /// frames).
     pub kinds: [KindLoad; 5],
     /// Sample period \[ns\].
@@ -394,7 +398,8 @@ impl FrameSet {
     }
 
     /// The worst-case bus time of every frame kind per sample: the leader's and each follower's
-    /// value frame every sample, each node's heartbeat and state frame at their periods, and on
+    /// value frame every sample, each node's heartbeat (status PDO) and state (CANopen
+    /// heartbeat) at their periods, and on
     /// a bench the sensor frames (one per follower, or packed) and each node's command frame
     /// every sample.
     ///
@@ -531,8 +536,9 @@ mod tests {
     #[test]
     fn the_classical_bench_overloads_a_1_mbit_bus() {
         let load = bench(None, SensorFrames::PerAgent).load();
-        // 5 × 95 + 8 × 135 µs of 1000, plus 4 state frames of 95 µs every 100 samples.
-        let expected = 5.0 * 95e3 + 8.0 * 135e3 + 0.04 * 95e3;
+        // 5 × 95 + 8 × 135 µs of 1000, plus 4 CANopen heartbeats (1 byte) of 65 µs every 100
+        // samples.
+        let expected = 5.0 * 95e3 + 8.0 * 135e3 + 0.04 * 65e3;
         assert!(
             (load.busy_ns() - expected).abs() < 1e-6,
             "{}",

@@ -4,9 +4,9 @@
 //!
 //! * Bus, in the default identifier plan ([`IdPlan::DEFAULT`]): one value frame
 //!   ([`VALUE_SIGNALS`], [`crate::wire`]) per sender, the leader and every agent of the plan,
-//!   and one heartbeat ([`HEARTBEAT_SIGNALS`]) per agent; and per agent the sensor, command and
-//!   state frames of a host that simulates the plants on the bus ([`PLANT_MESSAGES`],
-//!   [`crate::plant_bus`]).
+//!   and one heartbeat ([`HEARTBEAT_SIGNALS`]) per agent; and per agent the sensor and command
+//!   frames of a host that simulates the plants on the bus ([`crate::plant_bus`]) and the node's
+//!   CANopen heartbeat (`0x700 + i`, its NMT state) ([`PLANT_MESSAGES`]).
 //! * Link ([`crate::link`]): the process-I/O frames of [`crate::link::io`] and the payloads of the
 //!   tick and report records ([`IO_MESSAGES`]). The records are not CAN frames; the DBC gives
 //!   their base64-decoded payload an id ([`crate::link::io::SYNC`], [`crate::link::io::REPORT`]) so the same
@@ -462,8 +462,9 @@ pub const IO_MESSAGES: [Message; 14] = [
     },
 ];
 
-/// The per-agent frames of [`crate::plant_bus`], one message per agent each (`name` is
-/// followed by the agent number; `sender` `Agent` means that agent's node).
+/// The per-agent frames of a bench: the sensor and command frames of [`crate::plant_bus`] and
+/// the node's CANopen heartbeat, one message per agent each (`name` is followed by the agent
+/// number; `sender` `Agent` means that agent's node).
 pub const PLANT_MESSAGES: [Message; 3] = [
     Message {
         name: "Sensor",
@@ -480,25 +481,18 @@ pub const PLANT_MESSAGES: [Message; 3] = [
         comment: Some("Plant on the bus: the node's quantized commands q_i, one per node sample"),
     },
     Message {
-        name: "State",
-        id: crate::plant_bus::STATE_BASE as u32,
+        name: "NmtHeartbeat",
+        id: crate::canopen::heartbeat_id(0) as u32,
         sender: "Agent",
-        signals: &[
-            Signal {
-                max: Some(3),
-                comment: Some("0 waiting for the host, 1 running, 2 host lost, 3 stopping"),
-                ..Signal::unsigned("mode", 0, 8)
-            },
-            Signal {
-                comment: Some("neighbour and leader links not fresh at the last sample"),
-                ..Signal::unsigned("degraded_links", 8, 8)
-            },
-            Signal {
-                comment: Some("samples the node's timer woke more than h/2 late (saturating)"),
-                ..Signal::unsigned("late_ticks", 16, 16)
-            },
-        ],
-        comment: Some("Plant on the bus: the node's heartbeat, every 100 ms and on a change"),
+        signals: &[Signal {
+            comment: Some(
+                "CiA 301 NMT state: 0 boot-up, 4 stopped, 5 operational, 127 pre-operational",
+            ),
+            ..Signal::unsigned("nmt_state", 0, 8)
+        }],
+        comment: Some(
+            "The node's CANopen heartbeat (node-ID = agent), every 0x1017 ms: its state on the bench",
+        ),
     },
 ];
 

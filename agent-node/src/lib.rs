@@ -16,8 +16,8 @@
 //! * [`link`]: the serial link between a node and the host that owns its plant: SLCAN lines,
 //!   the tick and report records, process-I/O frames, configuration words; and [`CanFrame`],
 //!   the classical CAN frame of the link, of `hil-mock`'s mocks and of its bus model.
-//! * [`plant_bus`]: the sensor, command and state frames between a node and a host that
-//!   simulates its plant on the same CAN bus (a Linux node process on SocketCAN).
+//! * [`plant_bus`]: the sensor and command frames between a node and a host that simulates its
+//!   plant on the same CAN bus (a Linux node process on SocketCAN).
 //! * [`bus_load`]: worst-case bit lengths of classical and CAN FD frames and the share of a
 //!   sample period the frame set of a scenario takes.
 //! * [`canopen`]: the CiA 301 (CANopen) device of every node — NMT slave, heartbeat producer

@@ -1554,6 +1554,7 @@ where
         };
         if self.transmit_counted(&frame) {
             self.stats.heartbeats_tx = self.stats.heartbeats_tx.saturating_add(1);
+            self.status_sent(&hb.to_bytes());
         }
     }
 
@@ -1729,6 +1730,28 @@ where
         Ok(())
     }
 
+    /// The node's plant is on the bus (a bench host's sensor and command frames, one sensor
+    /// frame per agent): the device's RPDO18 and TPDO3 describe them (docs/NETWORK.md §12).
+    /// Nothing without a device.
+    pub fn enable_plant_pdos(&mut self) {
+        if let Some(c) = &mut self.canopen {
+            c.device.enable_plant_pdos();
+        }
+    }
+
+    /// The sensor frame `x` came and the command frame `q` went out: the device's `0x2230` and
+    /// `0x2231` hold them. Unlike [`Self::canopen_mut`], nothing is rebuilt at the next start.
+    pub fn plant_frames(&mut self, x: Option<[f32; 2]>, q: Option<[f32; 2]>) {
+        if let Some(c) = &mut self.canopen {
+            if let Some(x) = x {
+                c.device.sensor_received(x);
+            }
+            if let Some(q) = q {
+                c.device.command_sent(q);
+            }
+        }
+    }
+
     /// The CANopen device, if enabled.
     ///
     /// ```
@@ -1816,6 +1839,13 @@ where
     fn value_sent(&mut self, data: &[u8; wire::PAYLOAD_LEN]) {
         if let Some(c) = &mut self.canopen {
             c.device.value_sent(data);
+        }
+    }
+
+    /// The status PDO went out: the device's TPDO2 objects (`0x2220..`) hold it.
+    fn status_sent(&mut self, data: &[u8; wire::HEARTBEAT_LEN]) {
+        if let Some(c) = &mut self.canopen {
+            c.device.status_sent(data);
         }
     }
 
@@ -2158,6 +2188,8 @@ where
     fn overrun_emcy(&mut self) {}
 
     fn value_sent(&mut self, _data: &[u8; wire::PAYLOAD_LEN]) {}
+
+    fn status_sent(&mut self, _data: &[u8; wire::HEARTBEAT_LEN]) {}
 
     fn heartbeat_lost(&self, _node: u8) -> bool {
         false

@@ -1,20 +1,19 @@
 //! The frames between a node and a host that simulates its plant on the same CAN bus
-//! (`[network] kind = "socketcan"`): the host's sensor frames, the node's command frames and
-//! the node's state (heartbeat) frames. Standard 11-bit identifiers, one per agent:
+//! (`[network] kind = "socketcan"`): the host's sensor frames and the node's command frames.
+//! Standard 11-bit identifiers, one per agent:
 //!
 //! | frame    | sender → receiver | identifier (agent `i`) | payload |
 //! |----------|-------------------|------------------------|---------|
 //! | sensor   | host → node `i`   | [`SENSOR_BASE`] `+ i` = `0x201..=0x2FF`  | `x_{i,1}`, `x_{i,2}`: `f32` LE each (8 bytes) |
 //! | command  | node `i` → host   | [`COMMAND_BASE`] `+ i` = `0x301..=0x3FF` | `q_{i,1}`, `q_{i,2}`: `f32` LE each (8 bytes) |
-//! | state    | node `i` → all    | [`STATE_BASE`] `+ i` = `0x401..=0x4FF`   | [`NodeState`] (4 bytes) |
 //!
-//! The value frames of [`crate::wire`] (`0x100..=0x1FF`) win arbitration against all of them;
+//! The value frames of [`crate::wire`] (`0x100..=0x1FF`) win arbitration against both;
 //! sensor frames against commands, so a sample's state is on the bus before the commands it
 //! causes. The `f32` payloads carry exactly the values the simulated nodes of `kind = "can"`
-//! read and write. The state frame says what the process does (waiting for the host, running,
-//! stopping); the node's heartbeat of `crate::wire` (supervisor state) is sent besides it when
-//! configured. An identifier plan (`crate::wire::IdPlan`) must keep its blocks clear of
-//! `0x200..=0x4FF`.
+//! read and write. What a node is doing is said by CANopen (CiA 301, [`crate::canopen`]): its
+//! NMT state in the heartbeat at `0x700 + i`, the host's silence by EMCY `0x8250`
+//! ([`crate::canopen::Fault::HostLost`]); the host ends a run with an NMT stop. An identifier
+//! plan (`crate::wire::IdPlan`) must keep its blocks clear of `0x200..=0x3FF`.
 
 use embedded_can::{Frame, Id, StandardId};
 
@@ -22,20 +21,16 @@ use embedded_can::{Frame, Id, StandardId};
 pub const SENSOR_BASE: u16 = 0x200;
 /// Identifier of agent `i`'s command frame: `COMMAND_BASE + i`.
 pub const COMMAND_BASE: u16 = 0x300;
-/// Identifier of agent `i`'s state frame: `STATE_BASE + i`.
-pub const STATE_BASE: u16 = 0x400;
 /// Data length of sensor and command frames.
 pub const PAIR_LEN: usize = 8;
-/// Data length of a state frame.
-pub const STATE_LEN: usize = 4;
 
 /// The kind of a plant-bus frame.
 ///
 /// ```
 /// use agent_node::plant_bus::Kind;
-/// // Agent 3's sensor, command and state frames.
-/// let ids = [Kind::Sensor, Kind::Command, Kind::State].map(|k| k.id(3).unwrap().as_raw());
-/// assert_eq!(ids, [0x203, 0x303, 0x403]);
+/// // Agent 3's sensor and command frames.
+/// let ids = [Kind::Sensor, Kind::Command].map(|k| k.id(3).unwrap().as_raw());
+/// assert_eq!(ids, [0x203, 0x303]);
 /// assert_eq!(Kind::classify(0x303), Some((Kind::Command, 3)));
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -44,8 +39,6 @@ pub enum Kind {
     Sensor,
     /// node → host: the agent's quantized commands `q_i`.
     Command,
-    /// node → all: the node's [`NodeState`].
-    State,
 }
 
 impl Kind {
@@ -53,7 +46,6 @@ impl Kind {
         match self {
             Self::Sensor => SENSOR_BASE,
             Self::Command => COMMAND_BASE,
-            Self::State => STATE_BASE,
         }
     }
 
@@ -76,7 +68,8 @@ impl Kind {
     ///
     /// ```
     /// use agent_node::plant_bus::Kind;
-    /// assert_eq!(Kind::classify(0x4FF), Some((Kind::State, 255)));
+    /// assert_eq!(Kind::classify(0x3FF), Some((Kind::Command, 255)));
+    /// assert_eq!(Kind::classify(0x403), None); // no plant-bus frame: status is CANopen's
     /// assert_eq!(Kind::classify(0x101), None); // the leader's value frame
     /// assert_eq!(Kind::classify(0x200), None); // agent 0
     /// ```
@@ -85,7 +78,6 @@ impl Kind {
         let kind = match raw & 0x700 {
             SENSOR_BASE => Self::Sensor,
             COMMAND_BASE => Self::Command,
-            STATE_BASE => Self::State,
             _ => return None,
         };
         match (raw & 0xFF) as u8 {
@@ -203,22 +195,6 @@ pub fn pair_frame<F: Frame>(kind: Kind, agent: u8, v: [f32; 2]) -> Option<F> {
     F::new(kind.id(agent)?, &encode_pair(v))
 }
 
-/// The host's stop command for the node(s) whose sensor frames come under `sensor_agent`'s
-/// sensor identifier (the agent itself, or the first agent of its packed group): a sensor frame
-/// without data. The node ends its run ("a stop was commanded"). `None` for agent 0.
-///
-/// ```
-/// use agent_node::link::CanFrame;
-/// use agent_node::plant_bus::{decode, stop_frame, PlantFrame};
-/// let f: CanFrame = stop_frame(4).unwrap();
-/// assert_eq!(decode(&f), Some(PlantFrame::Stop(4))); // a sensor frame without data
-/// assert!(stop_frame::<CanFrame>(0).is_none());
-/// ```
-#[must_use]
-pub fn stop_frame<F: Frame>(sensor_agent: u8) -> Option<F> {
-    F::new(Kind::Sensor.id(sensor_agent)?, &[])
-}
-
 /// A received plant-bus frame.
 ///
 /// ```
@@ -232,23 +208,18 @@ pub fn stop_frame<F: Frame>(sensor_agent: u8) -> Option<F> {
 pub enum PlantFrame {
     /// Agent's state from the host.
     Sensor(u8, [f32; 2]),
-    /// The host's stop command on agent's sensor identifier ([`stop_frame`]).
-    Stop(u8),
     /// Agent's commands from its node.
     Command(u8, [f32; 2]),
-    /// Agent's node state.
-    State(u8, NodeState),
 }
 
 /// Decodes a plant-bus frame; `None` for any other frame or a malformed payload.
 ///
 /// ```
 /// use agent_node::link::CanFrame;
-/// use agent_node::plant_bus::{decode, Mode, NodeState, PlantFrame};
+/// use agent_node::plant_bus::{decode, pair_frame, Kind, PlantFrame};
 /// use embedded_can::{Frame, StandardId};
-/// let st = NodeState { mode: Mode::Running, degraded_links: 0, late_ticks: 0 };
-/// let f: CanFrame = st.frame(5).unwrap();
-/// assert_eq!(decode(&f), Some(PlantFrame::State(5, st)));
+/// let f: CanFrame = pair_frame(Kind::Command, 5, [0.25, -1.0]).unwrap();
+/// assert_eq!(decode(&f), Some(PlantFrame::Command(5, [0.25, -1.0])));
 /// let short = CanFrame::new(StandardId::new(0x205).unwrap(), &[0; 3]).unwrap();
 /// assert_eq!(decode(&short), None); // malformed sensor payload
 /// ```
@@ -262,133 +233,9 @@ pub fn decode<F: Frame>(frame: &F) -> Option<PlantFrame> {
     let (kind, agent) = Kind::classify(id.as_raw())?;
     let data = frame.data();
     Some(match kind {
-        Kind::Sensor if data.is_empty() => PlantFrame::Stop(agent),
         Kind::Sensor => PlantFrame::Sensor(agent, decode_pair(data)?),
         Kind::Command => PlantFrame::Command(agent, decode_pair(data)?),
-        Kind::State => PlantFrame::State(agent, NodeState::from_bytes(data)?),
     })
-}
-
-/// What a node is doing, as its state frame says.
-///
-/// ```
-/// use agent_node::plant_bus::Mode;
-/// assert_eq!(Mode::from_u8(Mode::HostLost as u8), Some(Mode::HostLost));
-/// assert_eq!(Mode::HostLost.as_str(), "host-lost");
-/// ```
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-#[repr(u8)]
-pub enum Mode {
-    /// Started, no sensor frame yet: waiting for the host.
-    Waiting = 0,
-    /// Sampling on its own timer, sending commands.
-    Running = 1,
-    /// No sensor frame within its host timeout: stopping.
-    HostLost = 2,
-    /// Stopping on request (a signal).
-    Stopping = 3,
-}
-
-impl Mode {
-    /// The mode of a state byte.
-    ///
-    /// ```
-    /// use agent_node::plant_bus::Mode;
-    /// assert_eq!(Mode::from_u8(1), Some(Mode::Running));
-    /// assert_eq!(Mode::from_u8(4), None);
-    /// ```
-    #[must_use]
-    pub const fn from_u8(v: u8) -> Option<Self> {
-        Some(match v {
-            0 => Self::Waiting,
-            1 => Self::Running,
-            2 => Self::HostLost,
-            3 => Self::Stopping,
-            _ => return None,
-        })
-    }
-
-    /// A short name for logs and the bus monitor.
-    ///
-    /// ```
-    /// use agent_node::plant_bus::Mode;
-    /// assert_eq!(Mode::Waiting.as_str(), "waiting");
-    /// assert_eq!(Mode::Stopping.as_str(), "stopping");
-    /// ```
-    #[must_use]
-    pub const fn as_str(self) -> &'static str {
-        match self {
-            Self::Waiting => "waiting",
-            Self::Running => "running",
-            Self::HostLost => "host-lost",
-            Self::Stopping => "stopping",
-        }
-    }
-}
-
-/// The payload of a state frame.
-///
-/// ```
-/// use agent_node::plant_bus::{Mode, NodeState};
-/// // Running, one link not fresh, 300 late samples.
-/// let st = NodeState { mode: Mode::Running, degraded_links: 1, late_ticks: 300 };
-/// assert_eq!(st.to_bytes(), [1, 1, 44, 1]);
-/// assert_eq!(NodeState::from_bytes(&st.to_bytes()), Some(st));
-/// ```
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct NodeState {
-    /// What the node does.
-    pub mode: Mode,
-    /// Neighbour and leader links not fresh at the last sample.
-    pub degraded_links: u8,
-    /// Samples the node's timer woke up later than half a period (saturating).
-    pub late_ticks: u16,
-}
-
-impl NodeState {
-    /// `mode`, `degraded_links`, `late_ticks` (`u16` LE).
-    ///
-    /// ```
-    /// use agent_node::plant_bus::{Mode, NodeState};
-    /// let st = NodeState { mode: Mode::Waiting, degraded_links: 0, late_ticks: 1 };
-    /// assert_eq!(st.to_bytes(), [0, 0, 1, 0]);
-    /// ```
-    #[must_use]
-    pub fn to_bytes(&self) -> [u8; STATE_LEN] {
-        let l = self.late_ticks.to_le_bytes();
-        [self.mode as u8, self.degraded_links, l[0], l[1]]
-    }
-
-    /// The state of a payload; `None` unless it has [`STATE_LEN`] bytes and a known mode.
-    ///
-    /// ```
-    /// use agent_node::plant_bus::NodeState;
-    /// assert_eq!(NodeState::from_bytes(&[9, 0, 0, 0]), None); // unknown mode
-    /// assert_eq!(NodeState::from_bytes(&[0, 0, 0]), None); // short
-    /// ```
-    #[must_use]
-    pub fn from_bytes(data: &[u8]) -> Option<Self> {
-        let b: &[u8; STATE_LEN] = data.try_into().ok()?;
-        Some(Self {
-            mode: Mode::from_u8(b[0])?,
-            degraded_links: b[1],
-            late_ticks: u16::from_le_bytes([b[2], b[3]]),
-        })
-    }
-
-    /// A state frame of `agent`; `None` for agent 0.
-    ///
-    /// ```
-    /// use agent_node::link::CanFrame;
-    /// use agent_node::plant_bus::{Mode, NodeState};
-    /// let st = NodeState { mode: Mode::Stopping, degraded_links: 0, late_ticks: 0 };
-    /// assert_eq!(st.frame::<CanFrame>(2).unwrap().raw_id(), 0x402);
-    /// assert!(st.frame::<CanFrame>(0).is_none());
-    /// ```
-    #[must_use]
-    pub fn frame<F: Frame>(&self, agent: u8) -> Option<F> {
-        F::new(Kind::State.id(agent)?, &self.to_bytes())
-    }
 }
 
 #[cfg(test)]
@@ -398,14 +245,15 @@ mod tests {
 
     #[test]
     fn identifiers_classify_back_to_kind_and_agent() {
-        for kind in [Kind::Sensor, Kind::Command, Kind::State] {
+        for kind in [Kind::Sensor, Kind::Command] {
             for agent in [1u8, 2, 200, 255] {
                 let id = kind.id(agent).expect("agent > 0");
                 assert_eq!(Kind::classify(id.as_raw()), Some((kind, agent)));
             }
             assert_eq!(kind.id(0), None);
         }
-        for raw in [0x100, 0x101, 0x1FF, 0x200, 0x300, 0x400, 0x500, 0x701, 0x0] {
+        // 0x401 was a state frame: the node's status is its CANopen heartbeat now.
+        for raw in [0x100, 0x101, 0x1FF, 0x200, 0x300, 0x401, 0x500, 0x701, 0x0] {
             assert_eq!(Kind::classify(raw), None, "{raw:#x}");
         }
     }
@@ -416,13 +264,6 @@ mod tests {
         assert_eq!(decode(&f), Some(PlantFrame::Sensor(3, [0.5, -1.25])));
         let f: CanFrame = pair_frame(Kind::Command, 4, [f32::MAX, -0.0]).expect("frame");
         assert_eq!(decode(&f), Some(PlantFrame::Command(4, [f32::MAX, -0.0])));
-        let s = NodeState {
-            mode: Mode::HostLost,
-            degraded_links: 2,
-            late_ticks: 513,
-        };
-        let f: CanFrame = s.frame(7).expect("frame");
-        assert_eq!(decode(&f), Some(PlantFrame::State(7, s)));
     }
 
     #[test]
@@ -451,18 +292,12 @@ mod tests {
     }
 
     #[test]
-    fn a_sensor_frame_without_data_is_a_stop() {
-        let f: CanFrame = stop_frame(9).expect("frame");
-        assert_eq!(decode(&f), Some(PlantFrame::Stop(9)));
-        assert_eq!(stop_frame::<CanFrame>(0), None);
-    }
-
-    #[test]
     fn malformed_frames_are_not_decoded() {
         let short = CanFrame::new(Kind::Command.id(1).expect("id"), &[0; 4]).expect("frame");
         assert_eq!(decode(&short), None);
-        let bad_mode = CanFrame::new(Kind::State.id(1).expect("id"), &[9, 0, 0, 0]).expect("f");
-        assert_eq!(decode(&bad_mode), None);
+        // A sensor frame without data is nothing (the end of a run is an NMT stop).
+        let empty = CanFrame::new(Kind::Sensor.id(1).expect("id"), &[]).expect("frame");
+        assert_eq!(decode(&empty), None);
         let value = CanFrame::new(StandardId::new(0x101).expect("id"), &[0; 4]).expect("frame");
         assert_eq!(decode(&value), None);
     }

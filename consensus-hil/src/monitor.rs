@@ -1,12 +1,14 @@
 //! `host-sim monitor <interface>`: a live table of a bus running the product — per agent its
-//! value `y_i`, state `x_i` and commands `q_i` as last seen, frame rates, the node's state
-//! (heartbeat), and the bus's error frames (error-passive, bus-off, …).
+//! value `y_i`, state `x_i` and commands `q_i` as last seen, frame rates, its NMT state (CANopen
+//! heartbeat `0x700 + i`), its supervisor's status (the status PDO at `0x780 + i` of the default
+//! identifier plan: state, lost sources, overruns, safe-state entries), and the bus's error
+//! frames (error-passive, bus-off, …).
 //!
-//! Frames are decoded with the product's own codec (`agent_node::wire`,
-//! `agent_node::plant_bus`, and `agent_node::canopen::decode` for NMT, SYNC, EMCY, SDO and
-//! heartbeats: per node-ID its NMT state, boot-ups, last EMCY, SDO requests, answers and
-//! aborts); with `--dbc`, every other frame whose identifier the DBC file
-//! describes is shown with its decoded signals (little-endian signals, `SIG_VALTYPE_` floats).
+//! Frames are decoded with the product's own codec (`agent_node::wire` for value frames and
+//! status PDOs, `agent_node::plant_bus`, and `agent_node::canopen::decode` for NMT, SYNC, EMCY,
+//! SDO and heartbeats: per node-ID its NMT state, boot-ups, last EMCY, SDO requests, answers
+//! and aborts); with `--dbc`, every other frame whose identifier the DBC file describes is shown
+//! with its decoded signals (little-endian signals, `SIG_VALTYPE_` floats).
 
 use std::{
     collections::BTreeMap,
@@ -18,8 +20,8 @@ use std::{
 
 use agent_node::{
     canopen::{self, Message, NmtState},
-    plant_bus::{self, NodeState, PlantFrame},
-    wire::{self, Source},
+    plant_bus::{self, PlantFrame},
+    wire::{self, Decoded, Heartbeat, IdPlan, Source},
 };
 use embedded_can::{Frame, Id};
 use socketcan::{CanAnyFrame, CanFdSocket, Socket, SocketOptions};
@@ -47,11 +49,12 @@ struct AgentRow {
     y: Option<f32>,
     x: Option<[f32; 2]>,
     q: Option<[f32; 2]>,
-    state: Option<NodeState>,
+    /// The last status PDO.
+    status: Option<Heartbeat>,
     values: u64,
     sensors: u64,
     commands: u64,
-    states: u64,
+    statuses: u64,
     last: Option<Instant>,
 }
 
@@ -194,20 +197,30 @@ impl View {
             return;
         }
         self.frames += 1;
-        if let Ok(m) = wire::decode(f) {
-            match m.source {
-                Source::Leader => {
-                    self.leader = m.y;
-                    self.leader_frames += 1;
+        match wire::decode_in(&IdPlan::DEFAULT, f) {
+            Ok(Decoded::Value(m)) => {
+                match m.source {
+                    Source::Leader => {
+                        self.leader = m.y;
+                        self.leader_frames += 1;
+                    }
+                    Source::Agent(i) => {
+                        let a = self.agents.entry(i).or_default();
+                        a.y = m.y;
+                        a.values += 1;
+                        a.last = Some(now);
+                    }
                 }
-                Source::Agent(i) => {
-                    let a = self.agents.entry(i).or_default();
-                    a.y = m.y;
-                    a.values += 1;
-                    a.last = Some(now);
-                }
+                return;
             }
-            return;
+            Ok(Decoded::Heartbeat { agent, heartbeat }) => {
+                let a = self.agents.entry(agent).or_default();
+                a.status = Some(heartbeat);
+                a.statuses += 1;
+                a.last = Some(now);
+                return;
+            }
+            Err(_) => {}
         }
         fn row(v: &mut View, i: u8, now: Instant) -> &mut AgentRow {
             let a = v.agents.entry(i).or_default();
@@ -225,12 +238,7 @@ impl View {
                 a.q = Some(q);
                 a.commands += 1;
             }
-            Some(PlantFrame::State(i, s)) => {
-                let a = row(self, i, now);
-                a.state = Some(s);
-                a.states += 1;
-            }
-            Some(PlantFrame::Stop(_)) | None => {
+            None => {
                 if let Id::Standard(sid) = f.id() {
                     if let Some(m) = canopen::decode(sid.as_raw(), f.data()) {
                         self.canopen.take(m);
@@ -262,26 +270,32 @@ impl View {
         );
         let _ = writeln!(
             s,
-            "agent  y         x1        x2        q1        q2        y/s   x/s   q/s   state      degraded  node-late  silent"
+            "agent  y         x1        x2        q1        q2        y/s   x/s   q/s   NMT              state        lost  overruns  silent"
         );
         for (i, a) in &self.agents {
             let b = before.agents.get(i).copied().unwrap_or_default();
             let (x1, x2) = (num(a.x.map(|x| x[0])), num(a.x.map(|x| x[1])));
             let (q1, q2) = (num(a.q.map(|q| q[0])), num(a.q.map(|q| q[1])));
-            let state = a.state.map_or("-", |s| s.mode.as_str());
-            let degraded = a
-                .state
-                .map_or_else(|| "-".into(), |s| s.degraded_links.to_string());
+            let nmt = self
+                .canopen
+                .nodes
+                .get(i)
+                .and_then(|r| r.state)
+                .map_or("-", NmtState::name);
+            let state = a.status.map_or("-", |h| h.state.as_str());
+            let lost = a
+                .status
+                .map_or_else(|| "-".into(), |h| format!("{:#x}", h.lost.bits()));
             let late = a
-                .state
-                .map_or_else(|| "-".into(), |s| s.late_ticks.to_string());
+                .status
+                .map_or_else(|| "-".into(), |h| h.overruns.to_string());
             let silent = a.last.map_or_else(
                 || "-".into(),
                 |t| format!("{:.2}s", t.elapsed().as_secs_f64()),
             );
             let _ = writeln!(
                 s,
-                "{i:<6} {:<9} {x1:<9} {x2:<9} {q1:<9} {q2:<9} {:<5.0} {:<5.0} {:<5.0} {state:<10} {degraded:<9} {late:<10} {silent}",
+                "{i:<6} {:<9} {x1:<9} {x2:<9} {q1:<9} {q2:<9} {:<5.0} {:<5.0} {:<5.0} {nmt:<16} {state:<12} {lost:<5} {late:<9} {silent}",
                 num(a.y),
                 rate(a.values, b.0),
                 rate(a.sensors, b.1),

@@ -164,10 +164,11 @@ pub struct AgentCommands {
     pub missing: u64,
     /// Run time at which the node had been silent for `node_timeout`; `null`: never.
     pub lost_at_s: Option<f64>,
-    /// The node's last reported state (`waiting`, `running`, `host-lost`, `stopping`), `null`
-    /// when it sent none.
+    /// `lost`, or the node's state from its CANopen heartbeat and EMCY (`waiting`, `running`,
+    /// `host-lost`, `stopping`: docs/NETWORK.md §11), `null` when it sent no heartbeat.
     pub state: Option<&'static str>,
-    /// Samples its own timer woke more than `h/2` late, as its last state frame said.
+    /// The node's deadline overruns (samples its own timer woke more than `h/2` late), as its
+    /// last EMCY `0x6200` said; 0 without one, `null` when it sent no heartbeat.
     pub node_late_ticks: Option<u16>,
     /// `network.canopen`: the node's last NMT state from its heartbeat.
     #[serde(skip_serializing_if = "Option::is_none")]

@@ -575,8 +575,13 @@ impl<T: Copy, const M: usize> StageInputs<T, M> {
         self.begin_sample();
         for s in 0..substeps {
             let t0 = t + f64::from(s) * dt;
-            let times = [t0, t0 + 0.5 * dt, t0 + dt];
-            let at = times.map(|tt| self.index(tt));
+            // Written out rather than `[..].map(..)`: the array closure was an out-of-line call
+            // per substep.
+            let at = [
+                self.index(t0),
+                self.index(t0 + 0.5 * dt),
+                self.index(t0 + dt),
+            ];
             self.at.push(at);
         }
     }

@@ -176,7 +176,9 @@ impl<const N: usize> Backstepping<N> {
     /// assert!((out.u[0] - u).abs() < 1e-4 * u.abs() && out.u[0] == out.u[1]);
     /// # Ok::<(), controller_core::ConfigError>(())
     /// ```
-    #[inline]
+    // Always inlined: returned through memory, the signals were read back as 8-byte words
+    // stored as 4-byte halves (a stalled load per step on the host).
+    #[inline(always)]
     #[must_use]
     pub fn run(
         &self,

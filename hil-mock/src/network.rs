@@ -22,7 +22,8 @@
 //! With [`CanNetwork::put_plant_on_bus`] the bus also carries the frames of a bench whose plant
 //! is on the bus ([`agent_node::plant_bus`]): the host's sensor frames (bus node 0, with the
 //! leader's value frame; per agent or packed), each node's command frame after its tick, and
-//! its state frame once per state period. They occupy the bus as on the bench; the nodes'
+//! its state — its CANopen heartbeat (`0x700 + i`, NMT state operational) — once per state
+//! period. They occupy the bus as on the bench; the nodes'
 //! sensors and actuators stay mocked, and the plant frames are not handed to the nodes (a bench
 //! node's value socket filters them out).
 //!
@@ -61,7 +62,8 @@ use controller_core::{ControllerConfig, Link};
 use crate::bus::{Bus, BusConfig, BusConfigError, BusStats, Delivery, Nanos};
 use crate::mock::{MockActuator, MockCan, MockClock, MockFrame, MockNode, MockSensor};
 use agent_node::bus_load::{PlantFrames, SensorFrames};
-use agent_node::plant_bus::{self, Kind, Mode, NodeState, PACKED_SENSOR_AGENTS};
+use agent_node::canopen::{self, CoFrame, NmtState};
+use agent_node::plant_bus::{self, Kind, PACKED_SENSOR_AGENTS};
 use agent_node::wire::{self, IdPlan, Source};
 use agent_node::{NodeConfig, NodeError, Tick};
 
@@ -203,8 +205,8 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
         }
     }
 
-    /// Node `j`'s command frame of `q` and, once per state period, its state frame, at `t_ns`,
-    /// when the plant is on the bus.
+    /// Node `j`'s command frame of `q` and, once per state period, its CANopen heartbeat, at
+    /// `t_ns`, when the plant is on the bus.
     fn send_plant_frames(&mut self, j: usize, t_ns: Nanos, q: &[f32; M]) {
         let Some((plant, last)) = self.plant.as_mut() else {
             return;
@@ -221,12 +223,11 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
         if let (Some(p), Some(slot)) = (period, last.get_mut(j)) {
             if *slot != Some(p) {
                 *slot = Some(p);
-                let state = NodeState {
-                    mode: Mode::Running,
-                    degraded_links: 0,
-                    late_ticks: 0,
-                };
-                if let Some(f) = state.frame::<MockFrame>(agent) {
+                let beat = CoFrame::new(
+                    canopen::heartbeat_id(agent),
+                    &[NmtState::Operational.code()],
+                );
+                if let Some(f) = beat.to_frame::<MockFrame>() {
                     let _ = self.bus.submit(j + 1, t_ns, f);
                 }
             }

@@ -324,14 +324,15 @@ fn check_prints_the_bus_load_of_the_frame_set_and_warns_above_70_percent() {
         );
         String::from_utf8_lossy(&out.stdout).into_owned()
     };
-    // 5 × 95 + 8 × 135 bits per 1 ms at 1 Mbit/s, and 4 state frames every 100 samples.
+    // 5 × 95 + 8 × 135 bits per 1 ms at 1 Mbit/s, and 4 CANopen heartbeats (1 byte, 65 bits)
+    // every 100 samples.
     let classical = check(&[]);
     assert!(
-        classical.contains("total 1558.8 µs of 1000.0 µs: 155.9 %"),
+        classical.contains("total 1557.6 µs of 1000.0 µs: 155.8 %"),
         "{classical}"
     );
     assert!(
-        classical.contains("# warning: the frames take 155.9 %"),
+        classical.contains("# warning: the frames take 155.8 %"),
         "{classical}"
     );
     let fd = check(&[

@@ -4,7 +4,7 @@
 //!
 //! ```toml
 //! [node]
-//! agent = 4                # this agent's number i (its frames: value, 0x300 + i, 0x400 + i)
+//! agent = 4                # this agent's number i (its frames: value, 0x300 + i, 0x700 + i)
 //! neighbours = [1, 3]      # the agents it hears, in the controller's order
 //! interface = "vcan0"      # SocketCAN interface
 //! stale_timeout = 0.0025   # a neighbour value older than this is stale [s]
@@ -15,6 +15,7 @@
 //! [node.canopen]           # optional: the node as a CiA 301 device (NMT, SDO, EMCY)
 //! store = "agent-4.od"     # what 0x1010 "save" writes, loaded at start
 //! heartbeat_ms = 100
+//! exit_on_stop = true      # an NMT stop ends the process (exit 0): host-sim's bench runs
 //!
 //! [simulation]
 //! h = 0.001
@@ -116,6 +117,11 @@ pub struct CanOpenSection {
     /// Operational at boot without an NMT start.
     #[serde(default)]
     pub self_starting: bool,
+    /// An NMT stop ends the process (a last heartbeat `STOPPED`, exit 0): the end of a bench
+    /// run, which host-sim writes for its nodes. Absent or false: a stopped node stays,
+    /// answering NMT and sending its heartbeat, as CiA 301 has it.
+    #[serde(default)]
+    pub exit_on_stop: bool,
 }
 
 fn default_heartbeat_ms() -> u16 {

@@ -1,8 +1,9 @@
 //! `node-linux <config.toml> [--interface IF]`: one follower agent on a SocketCAN interface
 //! (docs/NETWORK.md §11, "Linux CAN"; `--interface` replaces the file's `node.interface`).
-//! Exit status: 0 stopped by the host's stop command or by SIGINT/SIGTERM; 2 bad configuration
-//! or usage (before any socket is opened, naming the key); 1 the interface cannot be used; 3
-//! the host went silent (`host_timeout`) or never came (`start_timeout`).
+//! Exit status: 0 stopped by the master's NMT stop (with `[node.canopen] exit_on_stop`) or by
+//! SIGINT/SIGTERM; 2 bad configuration or usage (before any socket is opened, naming the key); 1
+//! the interface cannot be used; 3 the host went silent (`host_timeout`) or never came
+//! (`start_timeout`), said on the bus by EMCY `0x8250` (cause 10).
 
 use std::{
     path::PathBuf,

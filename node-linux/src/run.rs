@@ -2,18 +2,21 @@
 //! its own timer.
 //!
 //! * The *bus* socket, owned by the `Node`, receives every frame but the plant-bus ones
-//!   (`0x200..=0x4FF`, kernel filters) and sends this agent's value frame (and heartbeat).
-//! * The *plant* socket receives only this agent's sensor frame and sends its command and
-//!   state frames (`agent_node::plant_bus`); the `Sensor` and `Actuator` of the node share it.
+//!   (`0x200..=0x3FF`, kernel filters) and sends this agent's value frame, its status PDO and
+//!   its CANopen frames (heartbeat `0x700 + id`, EMCY, SDO).
+//! * The *plant* socket receives only this agent's sensor frame and sends its command frame
+//!   (`agent_node::plant_bus`); the `Sensor` and `Actuator` of the node share it.
 //!
-//! The node waits for the first sensor frame (state `waiting`), then samples every `h` on the
-//! monotonic clock, at absolute deadlines half a period after that frame's arrival (so the
-//! host's sample is on the bus before the node's and the command is back before the host's
-//! next one). A deadline missed by more than `h/2` counts as a late tick; when the process falls
-//! a whole period behind, the missed samples are skipped, not run in a burst. It stops when the
-//! host commands it (the end of a run, [`stop_commanded`]), on SIGINT/SIGTERM, when no sensor
-//! frame came for `host_timeout` while running (the host is gone), and when none came within
-//! `start_timeout` of starting (the run never began).
+//! What the node is doing is said by CANopen alone (docs/NETWORK.md §11): its NMT state in the
+//! heartbeat, the host's silence by EMCY `0x8250` ([`Fault::HostLost`]). The node waits for the
+//! first sensor frame, then samples every `h` on the monotonic clock, at absolute deadlines half
+//! a period after that frame's arrival (so the host's sample is on the bus before the node's
+//! and the command is back before the host's next one). A deadline missed by more than `h/2`
+//! counts as a late tick; when the process falls a whole period behind, the missed samples are
+//! skipped, not run in a burst. It stops on an NMT stop with `[node.canopen] exit_on_stop` (the
+//! end of a bench run, [`stop_commanded`]), on SIGINT/SIGTERM, when no sensor frame came for
+//! `host_timeout` while running (the host is gone), and when none came within `start_timeout`
+//! of starting (the run never began).
 
 use std::{
     cell::RefCell,
@@ -27,9 +30,10 @@ use std::{
 };
 
 use agent_node::{
+    canopen::{heartbeat_id, CoFrame, NmtState},
     canopen::{Fault, Identity},
     node::CanOpenRequest,
-    plant_bus::{self, Kind, Mode, NodeState, PlantFrame},
+    plant_bus::{self, Kind, PlantFrame},
     Actuator, Clock, Node, Sensor,
 };
 use embedded_can::Frame as _;
@@ -46,13 +50,10 @@ type LinuxNode = Node<BusSocket, MonoClock, BusSensor, BusActuator, N, N, MAX_NE
 /// Most bytes of a stored object dictionary (`0x1010`).
 const STORE_CAPACITY: usize = 4096;
 
-/// State frames are sent this often, and on every change of mode.
-pub const HEARTBEAT: Duration = Duration::from_millis(100);
-
 /// Why the node stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Stop {
-    /// The host commanded it: the normal end of a run ([`stop_commanded`]).
+    /// An NMT stop with `exit_on_stop`: the normal end of a bench run ([`stop_commanded`]).
     Commanded,
     /// SIGINT or SIGTERM.
     Signal,
@@ -73,11 +74,13 @@ impl Stop {
     }
 }
 
-/// Whether `frame` (from the plant socket, whose filter passes only the sensor identifier the
-/// node listens to) is the host's command to stop: the one place that decides it, so a CANopen
-/// NMT stop can take over from today's frame ([`plant_bus::stop_frame`]).
-pub fn stop_commanded(frame: &CanAnyFrame, sensor_agent: u8) -> bool {
-    matches!(plant_bus::decode(frame), Some(PlantFrame::Stop(a)) if a == sensor_agent)
+/// Whether the node ends its run on the master's command: the one place that decides it. The
+/// command is CiA 301's NMT stop (`0x000`, command specifier `0x02`, to this node-ID or to all),
+/// which leaves the device `nmt` in stopped; the process ends on it only with
+/// `[node.canopen] exit_on_stop` (host-sim writes it for its bench runs), else a stopped
+/// node stays, answering NMT and sending its heartbeat, as CiA 301 has it.
+pub fn stop_commanded(nmt: Option<NmtState>, exit_on_stop: bool) -> bool {
+    exit_on_stop && nmt == Some(NmtState::Stopped)
 }
 
 /// Opens a CAN socket on `interface` with the error a user can act on.
@@ -267,10 +270,10 @@ struct PlantIo {
     /// Sensor frames are packed: this is the first agent of ours.
     packed_first: Option<u8>,
     x: Option<[f32; N]>,
+    /// The last command frame sent.
+    q: Option<[f32; N]>,
     last_rx: Option<Instant>,
     tx_errors: u64,
-    /// The host commanded a stop.
-    stop: bool,
 }
 
 impl PlantIo {
@@ -295,10 +298,6 @@ impl PlantIo {
     fn drain(&mut self) -> bool {
         let mut got = false;
         while let Ok(f) = self.socket.read_frame() {
-            if stop_commanded(&f, self.packed_first.unwrap_or(self.agent)) {
-                self.stop = true;
-                continue;
-            }
             if let Some(x) = self.sensor(&f) {
                 self.x = Some(x);
                 self.last_rx = Some(Instant::now());
@@ -344,6 +343,7 @@ impl Actuator<N> for BusActuator {
         let before = io.tx_errors;
         io.send(f);
         if io.tx_errors == before {
+            io.q = Some(*q);
             Ok(())
         } else {
             Err(())
@@ -357,13 +357,12 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
     let iface = cfg.node.interface.as_str();
     let fd = cfg.node.fd();
     let bus = open_fd(iface)?;
-    // Everything but the plant-bus frames (0x200..=0x4FF): value frames and heartbeats of
-    // whatever identifier plan.
+    // Everything but the plant-bus frames (0x200..=0x3FF): value frames, status PDOs and
+    // CANopen frames of whatever identifier plan.
     let plant_block = |base: u16| CanFilter::new_inverted(u32::from(base), 0x700);
     bus.set_filters(&[
         plant_block(plant_bus::SENSOR_BASE),
         plant_block(plant_bus::COMMAND_BASE),
-        plant_block(plant_bus::STATE_BASE),
     ])?;
     bus.set_join_filters(true)?;
     bus.set_error_filter(ERROR_CLASSES)?;
@@ -385,9 +384,9 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
         fd,
         packed_first,
         x: None,
+        q: None,
         last_rx: None,
         tx_errors: 0,
-        stop: false,
     }));
     let mut node: LinuxNode = Node::new(
         &cfg.node_config,
@@ -404,28 +403,29 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
     .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e.to_string()))?;
     if let Some(co) = &cfg.node.canopen {
         enable_canopen(&mut node, cfg, co)?;
+        if packed_first.is_none() {
+            // The sensor frame is RPDO18, the command frame TPDO3 (a packed sensor frame
+            // carries 8 agents: no PDO of this node describes it).
+            node.enable_plant_pdos();
+        }
     }
     let h = Duration::from_secs_f64(cfg.wall_h());
     let host_timeout = Duration::from_secs_f64(cfg.node.host_timeout);
-    let mut state = NodeState {
-        mode: Mode::Waiting,
-        degraded_links: 0,
-        late_ticks: 0,
-    };
-    let heartbeat = |io: &Rc<RefCell<PlantIo>>, s: &NodeState| {
-        io.borrow_mut().send(s.frame(agent));
-    };
+    let exit_on_stop = cfg.node.canopen.as_ref().is_some_and(|c| c.exit_on_stop);
+    let stopped = |node: &LinuxNode| stop_commanded(node.canopen().map(|d| d.nmt()), exit_on_stop);
     log::info!("agent {agent}: on {iface}, waiting for the host's sensor frames");
-    let mut next_beat = Instant::now();
     let waiting_since = Instant::now();
     let start_timeout = Duration::from_secs_f64(cfg.node.start_timeout());
-    // Waiting: heartbeats until the first sensor frame.
+    // Waiting for the first sensor frame; NMT, SDO and heartbeats go on meanwhile.
     let first = loop {
         if stop.load(Ordering::Relaxed) {
-            return finish(&io, agent, state, Stop::Signal);
+            return Ok(finish(&mut node, Stop::Signal));
         }
-        if io.borrow().stop {
-            return finish(&io, agent, state, Stop::Commanded);
+        node.service();
+        report_can_faults(&mut node);
+        serve_requests(&mut node, cfg);
+        if stopped(&node) {
+            return Ok(finish(&mut node, Stop::Commanded));
         }
         let now = Instant::now();
         if now.saturating_duration_since(waiting_since) > start_timeout {
@@ -433,29 +433,18 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
                 "agent {agent}: no sensor frame within node.start_timeout = {} s: the run never began",
                 start_timeout.as_secs_f64()
             );
-            return finish(&io, agent, state, Stop::NeverStarted);
-        }
-        if now >= next_beat {
-            heartbeat(&io, &state);
-            next_beat = now + HEARTBEAT;
+            return Ok(finish(&mut node, Stop::NeverStarted));
         }
         if io.borrow_mut().drain() {
             break io.borrow().last_rx.unwrap_or(now);
         }
-        // NMT, SDO and heartbeats go on while the node waits for its host.
-        node.service();
-        report_can_faults(&mut node);
-        serve_requests(&mut node, cfg);
         std::thread::sleep(Duration::from_micros(200).min(h / 4));
     };
-    state.mode = Mode::Running;
-    heartbeat(&io, &state);
     log::info!("agent {agent}: first sensor frame, sampling every {h:?}");
     let start = first + h / 2;
     let mut k: u64 = 0;
     let mut ticks: u64 = 0;
     let mut late: u64 = 0;
-    next_beat = Instant::now() + HEARTBEAT;
     let reason = loop {
         let deadline = start + h.mul_f64(k as f64);
         let now = Instant::now();
@@ -466,24 +455,26 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
             break Stop::Signal;
         }
         io.borrow_mut().drain();
-        if io.borrow().stop {
-            break Stop::Commanded;
-        }
         let woke = Instant::now();
         let behind = woke.saturating_duration_since(deadline);
         if behind > h / 2 {
             late += 1;
-            state.late_ticks = state.late_ticks.saturating_add(1);
+            // A sample that missed its slot: counted in the status PDO and reported by EMCY
+            // 0x6200 (deadline overrun).
+            node.record_overrun();
         }
-        let t = node.tick();
+        node.tick();
+        let (x, q) = {
+            let io = io.borrow();
+            (io.x, io.q)
+        };
+        node.plant_frames(x, q);
         report_can_faults(&mut node);
         serve_requests(&mut node, cfg);
         ticks += 1;
-        let l = t.output.status.links;
-        let degraded = u32::from(l.stale_neighbours)
-            + u32::from(l.missing_neighbours)
-            + u32::from(l.leader_stale || l.leader_missing);
-        state.degraded_links = u8::try_from(degraded).unwrap_or(u8::MAX);
+        if stopped(&node) {
+            break Stop::Commanded;
+        }
         let last_rx = io.borrow().last_rx.unwrap_or(first);
         if woke.saturating_duration_since(last_rx) > host_timeout {
             log::error!(
@@ -491,10 +482,6 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
                 woke.saturating_duration_since(last_rx)
             );
             break Stop::HostLost;
-        }
-        if woke >= next_beat {
-            heartbeat(&io, &state);
-            next_beat = woke + HEARTBEAT;
         }
         // Skip the samples a stall made us miss instead of running them in a burst.
         let elapsed = Instant::now().saturating_duration_since(start);
@@ -508,25 +495,31 @@ pub fn run(cfg: &NodeFile, stop: &Arc<AtomicBool>) -> io::Result<Stop> {
         st.stale_samples,
         st.tx_errors + u32::try_from(io.borrow().tx_errors).unwrap_or(u32::MAX)
     );
-    finish(&io, agent, state, reason)
+    Ok(finish(&mut node, reason))
 }
 
-fn finish(
-    io: &Rc<RefCell<PlantIo>>,
-    agent: u8,
-    mut state: NodeState,
-    reason: Stop,
-) -> io::Result<Stop> {
-    state.mode = match reason {
-        Stop::Commanded | Stop::Signal => Mode::Stopping,
-        Stop::HostLost | Stop::NeverStarted => Mode::HostLost,
-    };
-    if reason == Stop::Commanded {
-        log::info!("agent {agent}: the host commanded the end of the run");
+/// The node's last words on the bus, by CANopen (docs/NETWORK.md §11): the host's silence is
+/// EMCY `0x8250` ([`Fault::HostLost`]); a commanded or signalled stop is a last heartbeat
+/// saying `STOPPED` (after an NMT stop the device is stopped; after a signal the node leaves
+/// operational on its own), so the master sees the node go rather than fall silent.
+fn finish(node: &mut LinuxNode, reason: Stop) -> Stop {
+    let agent = node.agent();
+    match reason {
+        Stop::Commanded | Stop::Signal => {
+            if reason == Stop::Commanded {
+                log::info!("agent {agent}: the host commanded the end of the run (NMT stop)");
+            }
+            let id = node.canopen().map(|d| d.node_id());
+            if let Some(f) = id.and_then(|id| {
+                CoFrame::new(heartbeat_id(id), &[NmtState::Stopped.code()]).to_frame()
+            }) {
+                let _ = embedded_can::nb::Can::transmit(node.can_mut(), &f);
+            }
+        }
+        Stop::HostLost | Stop::NeverStarted => node.report_fault(Fault::HostLost, 0),
     }
-    io.borrow_mut().send(state.frame(agent));
-    log::info!("agent {agent}: stopped ({})", state.mode.as_str());
-    Ok(reason)
+    log::info!("agent {agent}: stopped ({reason:?})");
+    reason
 }
 
 /// Make the node a CANopen device and load its stored object dictionary, if there is one (a
@@ -705,6 +698,7 @@ mod tests {
             store: Some(path.display().to_string()),
             heartbeat_ms: 0,
             self_starting: false,
+            exit_on_stop: false,
         });
         let controller = ControllerConfig::<N> {
             neighbour_count: 2,
@@ -802,6 +796,22 @@ mod tests {
         for class in [CAN_ERR_RESTARTED, CAN_ERR_CRTL] {
             assert_eq!(ERROR_CLASSES & class, class);
         }
+    }
+
+    #[test]
+    fn only_an_nmt_stop_with_exit_on_stop_ends_the_run() {
+        assert!(stop_commanded(Some(NmtState::Stopped), true));
+        // A stopped node without the flag stays, as CiA 301 has it.
+        assert!(!stop_commanded(Some(NmtState::Stopped), false));
+        for s in [
+            NmtState::Initialising,
+            NmtState::PreOperational,
+            NmtState::Operational,
+        ] {
+            assert!(!stop_commanded(Some(s), true), "{s:?}");
+        }
+        // No CANopen device: nothing commands a stop.
+        assert!(!stop_commanded(None, true));
     }
 
     #[test]

@@ -5,7 +5,7 @@
 //! classical frames; CAN FD lines (`ID##<flags>DATA`) as FD frames, with bit-rate switching when
 //! their flags say so. A sample is one leader value frame (`agent_node::IdPlan::DEFAULT`); frames
 //! outside the run's samples (before the first, after the last) are left out. Periodic frames
-//! timed by the wall clock (state frames) count per sample as often as a run slowed by
+//! timed by the wall clock (the nodes' CANopen heartbeats) count per sample as often as a run slowed by
 //! `network.time_scale` lets them.
 
 use std::fmt::Write as _;
@@ -66,7 +66,8 @@ fn kind(f: &LogFrame) -> &'static str {
     match Kind::classify(raw) {
         Some((Kind::Sensor, _)) => "sensor",
         Some((Kind::Command, _)) => "command",
-        Some((Kind::State, _)) => "state",
+        // The node's state: its CANopen heartbeat (node-ID = agent).
+        None if (0x701..=0x77F).contains(&raw) => "state",
         None => "other",
     }
 }

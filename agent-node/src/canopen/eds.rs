@@ -19,6 +19,12 @@ fn hex_id<const N: usize>(d: &Device<N>, item: Item, sub: u8) -> Option<u32> {
         (Item::SdoServer, 1) => Some(0x600),
         (Item::SdoServer, 2) => Some(0x580),
         (Item::TpdoComm, 1) => Some(od::COB_ID_NO_RTR | u32::from(d.id_plan().value_base())),
+        (Item::SensorComm, 1) => Some(d.plant_cob_id(true) - u32::from(d.node_id())),
+        (Item::CommandComm, 1) => Some(d.plant_cob_id(false) - u32::from(d.node_id())),
+        (Item::StatusComm, 1) => d
+            .id_plan()
+            .heartbeat_base()
+            .map(|b| od::COB_ID_NO_RTR | u32::from(b)),
         _ => None,
     }
 }
@@ -163,7 +169,7 @@ fn object<W: Write, const N: usize>(w: &mut W, d: &Device<N>, o: &Object) -> fmt
             d,
             o,
             format_args!("{:04X}", o.index),
-            o.name,
+            o.name(),
             0,
             o.data_type,
             access,
@@ -180,7 +186,7 @@ fn object<W: Write, const N: usize>(w: &mut W, d: &Device<N>, o: &Object) -> fmt
                 9
             };
             writeln!(w, "[{:04X}]", o.index)?;
-            writeln!(w, "ParameterName={}", o.name)?;
+            writeln!(w, "ParameterName={}", o.name())?;
             writeln!(w, "ObjectType=0x{code:X}")?;
             writeln!(w, "SubNumber=0x{:X}", u16::from(subs) + 1)?;
             writeln!(w)?;

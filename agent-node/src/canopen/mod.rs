@@ -585,6 +585,10 @@ pub enum Fault {
     Fault,
     /// A consumed heartbeat (`0x1016`) timed out; its node-ID: `0x8130`.
     HeartbeatLost(u8),
+    /// The host that simulates the node's plant went silent: no sensor frame (the sensor
+    /// RPDO) within the node's host timeout while running: `0x8250` RPDO timeout. The node
+    /// stops after it (`node-linux`: exit 3).
+    HostLost,
 }
 
 impl Fault {
@@ -608,6 +612,7 @@ impl Fault {
             Self::ConfigRejected => 0x6300,
             Self::Fault => 0x1000,
             Self::HeartbeatLost(_) => 0x8130,
+            Self::HostLost => 0x8250,
         }
     }
 
@@ -631,7 +636,7 @@ impl Fault {
 
     /// Manufacturer-specific EMCY bytes: byte 0 the cause (1 safe state, 2 sensor invalid,
     /// 3 watchdog reset, 4 overrun, 5 bus-off, 6 receive overflow, 7 configuration rejected,
-    /// 8 fault, 9 heartbeat lost), byte 1 the lost sources or the node-ID, bytes 2–3 a
+    /// 8 fault, 9 heartbeat lost, 10 host lost), byte 1 the lost sources or the node-ID, bytes 2–3 a
     /// count (u16 LE, e.g. overruns since start), byte 4 zero.
     ///
     /// ```
@@ -651,6 +656,7 @@ impl Fault {
             Self::ConfigRejected => (7, 0),
             Self::Fault => (8, 0),
             Self::HeartbeatLost(id) => (9, id),
+            Self::HostLost => (10, 0),
         };
         let c = count.to_le_bytes();
         [cause, detail, c[0], c[1], 0]
@@ -824,6 +830,13 @@ pub struct Device<const N: usize> {
     /// The graph row, pinning or identifier plan was written (or restored, or loaded) since
     /// the node last adopted them ([`Self::graph_written`]).
     graph_written: bool,
+    /// The node's last status PDO sent (TPDO2).
+    status: Option<[u8; crate::wire::HEARTBEAT_LEN]>,
+    /// The runtime puts its plant on the bus: RPDO18 (sensor) and TPDO3 (command) are valid.
+    plant_pdos: bool,
+    /// The last sensor frame heard (RPDO18) and command frame sent (TPDO3).
+    sensed: [f32; 2],
+    commanded: [f32; 2],
 }
 
 impl<const N: usize> Device<N> {
@@ -868,7 +881,46 @@ impl<const N: usize> Device<N> {
             tpdo: None,
             rpdo: [None; od::RPDOS as usize],
             graph_written: false,
+            status: None,
+            plant_pdos: false,
+            sensed: [f32::NAN; 2],
+            commanded: [f32::NAN; 2],
         }
+    }
+
+    /// The runtime's plant is on the bus (a bench, `crate::plant_bus`, one sensor frame per
+    /// agent): the sensor frame (`0x200 + node-ID`) is RPDO18 and the command frame
+    /// (`0x300 + node-ID`) TPDO3, both valid from now on.
+    pub fn enable_plant_pdos(&mut self) {
+        self.plant_pdos = true;
+    }
+
+    /// The COB-ID entry of RPDO18 (`sensor`) or TPDO3: the plant-bus identifier of this node,
+    /// bit 31 set unless [`Self::enable_plant_pdos`]; TPDO3 without RTR.
+    pub fn plant_cob_id(&self, sensor: bool) -> u32 {
+        let (kind, rtr) = if sensor {
+            (crate::plant_bus::Kind::Sensor, 0)
+        } else {
+            (crate::plant_bus::Kind::Command, COB_ID_NO_RTR)
+        };
+        let id = kind
+            .id(self.node_id)
+            .map_or(COB_ID_INVALID, |i| u32::from(i.as_raw()));
+        if self.plant_pdos {
+            rtr | id
+        } else {
+            COB_ID_INVALID | rtr | id
+        }
+    }
+
+    /// The sensor frame's state `x` came (RPDO18): `0x2230` reads it.
+    pub fn sensor_received(&mut self, x: [f32; 2]) {
+        self.sensed = x;
+    }
+
+    /// The node sent its command frame `q` (TPDO3): `0x2231` reads it.
+    pub fn command_sent(&mut self, q: [f32; 2]) {
+        self.commanded = q;
     }
 
     /// The identifier plan of the value frames, which the PDO COB-IDs (`0x1400`, `0x1800`)
@@ -966,6 +1018,21 @@ impl<const N: usize> Device<N> {
     /// ```
     pub fn graph_adopted(&mut self) {
         self.graph_written = false;
+    }
+
+    /// The COB-ID entry of TPDO2, the status PDO: `heartbeat_base + node-ID` of the plan (no
+    /// RTR); bit 31 set when the plan has no heartbeat block. Sent every `heartbeat_period`
+    /// (`NodeConfig::heartbeat_period_us`; 0: never, though valid).
+    pub fn status_cob_id(&self) -> u32 {
+        match self.id_plan().heartbeat_id(self.node_id) {
+            Some(id) => COB_ID_NO_RTR | u32::from(id),
+            None => COB_ID_INVALID | COB_ID_NO_RTR,
+        }
+    }
+
+    /// The node sent its status PDO (TPDO2) with these bytes: `0x2220..` read them.
+    pub fn status_sent(&mut self, data: &[u8; crate::wire::HEARTBEAT_LEN]) {
+        self.status = Some(*data);
     }
 
     /// The node sent its value frame (TPDO1) with these bytes: `0x2200..` read them.
@@ -1766,7 +1833,37 @@ impl<const N: usize> Device<N> {
             Item::Setting(s) => Ok(self.store.read_setting(s)),
             Item::RpdoComm(k) if sub == 1 => u(self.rpdo_cob_id(k)),
             Item::TpdoComm if sub == 1 => u(self.tpdo_cob_id()),
-            Item::RpdoComm(_) | Item::TpdoComm => u(u32::from(od::PDO_TRANSMISSION_TYPE)),
+            Item::StatusComm if sub == 1 => u(self.status_cob_id()),
+            Item::RpdoComm(_) | Item::TpdoComm | Item::StatusComm => {
+                u(u32::from(od::PDO_TRANSMISSION_TYPE))
+            }
+            Item::StatusMap => od::StatusField::ALL
+                .get(usize::from(sub).wrapping_sub(1))
+                .map(|f| Value::Unsigned(f.mapping()))
+                .ok_or(Abort::NoSubIndex),
+            Item::SensorComm if sub == 1 => u(self.plant_cob_id(true)),
+            Item::CommandComm if sub == 1 => u(self.plant_cob_id(false)),
+            Item::SensorComm | Item::CommandComm => u(u32::from(od::PDO_TRANSMISSION_TYPE)),
+            Item::SensorMap if (1..=od::PLANT_PAIR).contains(&sub) => {
+                u(od::plant_mapping(od::SENSOR_OBJECT, sub))
+            }
+            Item::CommandMap if (1..=od::PLANT_PAIR).contains(&sub) => {
+                u(od::plant_mapping(od::COMMAND_OBJECT, sub))
+            }
+            Item::SensorMap | Item::CommandMap => Err(Abort::NoSubIndex),
+            // Before any frame: NaN (nothing sensed or commanded yet).
+            Item::Sensed => self
+                .sensed
+                .get(usize::from(sub).wrapping_sub(1))
+                .map(|v| Value::Real(*v))
+                .ok_or(Abort::NoSubIndex),
+            Item::Commanded => self
+                .commanded
+                .get(usize::from(sub).wrapping_sub(1))
+                .map(|v| Value::Real(*v))
+                .ok_or(Abort::NoSubIndex),
+            // Before the first status PDO: state boot (1), nothing lost, counters 0.
+            Item::Status(f) => u(f.extract(&self.status.unwrap_or([1, 0, 0, 0, 0, 0, 0, 0]))),
             Item::RpdoMap(k) => Field::ALL
                 .get(usize::from(sub).wrapping_sub(1))
                 .map(|f| Value::Unsigned(f.mapping(od::RX_VALUE_BASE + f.position(), k + 1)))

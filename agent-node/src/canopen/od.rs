@@ -7,10 +7,15 @@
 //! | `0x1000`–`0x1200` | communication profile (CiA 301 §7.5): device type, error register, pre-defined error field, COB-IDs, names, store/restore, heartbeat, identity, SDO server |
 //! | `0x1400 + k`, `0x1600 + k` | RPDO `k + 1` communication and mapping parameters ([`RPDOS`]: the leader's value frame, then one per neighbour slot) |
 //! | `0x1800`, `0x1A00` | TPDO1 communication and mapping parameters: the node's own value frame |
+//! | `0x1801`, `0x1A01` | TPDO2 communication and mapping parameters: the node's status PDO (`crate::wire::Heartbeat`) |
+//! | `0x1411`, `0x1611` | RPDO18 communication and mapping parameters: a bench host's sensor frame (`crate::plant_bus`) |
+//! | `0x1802`, `0x1A02` | TPDO3 communication and mapping parameters: the node's command frame on a bench |
 //! | `0x2000 + k` | `controller_core::param::Param::ALL[k]`, named by its scenario key |
 //! | `0x2100 + k` | [`Setting::ALL`]`[k]`: the node's own settings, the identifier plan last |
 //! | `0x2200`–`0x2203` | the node's own value frame, field by field ([`Field`]; TPDO1 maps them) |
 //! | `0x2210`–`0x2213` | the value frames heard, field by field, sub-index `k + 1` = RPDO `k + 1` |
+//! | `0x2220`–`0x2224` | the node's last status PDO, field by field ([`StatusField`]; TPDO2 maps them) |
+//! | `0x2230`, `0x2231` | the last sensor frame heard (`x_{i,1}`, `x_{i,2}`) and command frame sent (`q_{i,1}`, `q_{i,2}`), `REAL32` arrays (RPDO18 and TPDO3 map them) |
 //!
 //! ## PDO mapping
 //!
@@ -27,6 +32,25 @@
 //! | 24–29 | sequence counter (mod 64) | `0x2201` / `0x2211` sub `k` | `UNSIGNED8`, 6 |
 //! | 30 | saturated | `0x2202` / `0x2212` sub `k` | `BOOLEAN`, 1 |
 //! | 31 | no value (NaN or ±∞ sent) | `0x2203` / `0x2213` sub `k` | `BOOLEAN`, 1 |
+//!
+//! The status PDO (TPDO2, 8 bytes, on `heartbeat_base + i` of the plan: the frame §10 of
+//! docs/NETWORK.md calls the node's heartbeat) maps five objects byte-aligned, bit-exact with
+//! `crate::wire::Heartbeat`:
+//!
+//! | bits | field | object | type, mapped length |
+//! |---|---|---|---|
+//! | 0–7 | supervisor state (0 operational, 1 boot, 2 safe, 3 fault) | `0x2220` | `UNSIGNED8`, 8 |
+//! | 8–15 | lost sources (bit 0 leader, 1 neighbours, 2 sensor) | `0x2221` | `UNSIGNED8`, 8 |
+//! | 16–31 | boot counter | `0x2222` | `UNSIGNED16`, 16 |
+//! | 32–47 | deadline overruns since start | `0x2223` | `UNSIGNED16`, 16 |
+//! | 48–63 | safe-state entries since start | `0x2224` | `UNSIGNED16`, 16 |
+//!
+//! On a bench whose host simulates the plant (`crate::plant_bus`) the sensor frame
+//! (`0x200 + i`) is RPDO18 and the command frame (`0x300 + i`) TPDO3, each two `REAL32`
+//! (`0x2230` / `0x2231` sub-indices 1 and 2, 32 bits each, little-endian `f32` as the frames carry
+//! them). Their COB-IDs are valid only on a runtime that uses them
+//! (`super::Device::enable_plant_pdos`: `node-linux` with one sensor frame per agent); elsewhere
+//! bit 31 is set.
 //!
 //! The manufacturer entries are generated from `controller_core::param` by a `const fn`: a new
 //! [`Param`] gets its object without an edit here. A per-step parameter is an `ARRAY`
@@ -67,6 +91,31 @@ pub const RPDO_MAP_BASE: u16 = 0x1600;
 pub const TPDO_COMM: u16 = 0x1800;
 /// TPDO1 mapping parameter.
 pub const TPDO_MAP: u16 = 0x1A00;
+/// TPDO2 communication parameter: the status PDO.
+pub const STATUS_TPDO_COMM: u16 = 0x1801;
+/// TPDO2 mapping parameter: the status PDO.
+pub const STATUS_TPDO_MAP: u16 = 0x1A01;
+/// First object of the node's status PDO ([`StatusField`], one `VAR` each).
+pub const STATUS_BASE: u16 = 0x2220;
+/// RPDO18 communication parameter: a bench host's sensor frame.
+pub const SENSOR_RPDO_COMM: u16 = RPDO_COMM_BASE + RPDOS as u16;
+/// RPDO18 mapping parameter.
+pub const SENSOR_RPDO_MAP: u16 = RPDO_MAP_BASE + RPDOS as u16;
+/// TPDO3 communication parameter: the node's command frame on a bench.
+pub const COMMAND_TPDO_COMM: u16 = 0x1802;
+/// TPDO3 mapping parameter.
+pub const COMMAND_TPDO_MAP: u16 = 0x1A02;
+/// The last sensor frame heard: `ARRAY` of two `REAL32` (`x_{i,1}`, `x_{i,2}`).
+pub const SENSOR_OBJECT: u16 = 0x2230;
+/// The last command frame sent: `ARRAY` of two `REAL32` (`q_{i,1}`, `q_{i,2}`).
+pub const COMMAND_OBJECT: u16 = 0x2231;
+/// Values a sensor or command frame carries.
+pub const PLANT_PAIR: u8 = 2;
+
+/// The CiA 301 mapping entry of element `sub` (1 or 2) of a plant-frame object: 32 bits.
+pub const fn plant_mapping(index: u16, sub: u8) -> u32 {
+    (index as u32) << 16 | (sub as u32) << 8 | 32
+}
 /// First object of the node's own value frame (one per [`Field`]).
 pub const TX_VALUE_BASE: u16 = 0x2200;
 /// First object of the value frames heard (one `ARRAY` per [`Field`], one sub-index per RPDO).
@@ -212,6 +261,86 @@ impl Field {
     #[must_use]
     pub const fn mapping(self, index: u16, sub: u8) -> u32 {
         (index as u32) << 16 | (sub as u32) << 8 | self.bits() as u32
+    }
+}
+
+/// One field of the node's status PDO (`crate::wire::Heartbeat`), as TPDO2 maps it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StatusField {
+    /// The supervisor's state (`crate::NodeState::code`).
+    State,
+    /// The supervised sources lost (`crate::supervisor::Lost::bits`).
+    Lost,
+    /// The board's boot counter.
+    BootCount,
+    /// Deadline overruns since start (saturating).
+    Overruns,
+    /// Safe-state entries since start (saturating).
+    SafeEntries,
+}
+
+impl StatusField {
+    /// The fields in frame order.
+    pub const ALL: [Self; 5] = [
+        Self::State,
+        Self::Lost,
+        Self::BootCount,
+        Self::Overruns,
+        Self::SafeEntries,
+    ];
+
+    /// Bits the field takes in the frame (the mapped length).
+    pub const fn bits(self) -> u8 {
+        match self {
+            Self::State | Self::Lost => 8,
+            Self::BootCount | Self::Overruns | Self::SafeEntries => 16,
+        }
+    }
+
+    /// First bit of the field in the frame.
+    pub const fn offset(self) -> u8 {
+        match self {
+            Self::State => 0,
+            Self::Lost => 8,
+            Self::BootCount => 16,
+            Self::Overruns => 32,
+            Self::SafeEntries => 48,
+        }
+    }
+
+    /// Position in [`Self::ALL`] (its object is [`STATUS_BASE`] plus it).
+    pub const fn position(self) -> u16 {
+        self as u16
+    }
+
+    /// The object's data type.
+    pub const fn data_type(self) -> DataType {
+        match self {
+            Self::State | Self::Lost => DataType::Unsigned8,
+            Self::BootCount | Self::Overruns | Self::SafeEntries => DataType::Unsigned16,
+        }
+    }
+
+    /// `ParameterName` of its object.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::State => "Status supervisor state (0 operational, 1 boot, 2 safe, 3 fault)",
+            Self::Lost => "Status lost sources (bit 0 leader, 1 neighbours, 2 sensor)",
+            Self::BootCount => "Status boot counter",
+            Self::Overruns => "Status deadline overruns",
+            Self::SafeEntries => "Status safe-state entries",
+        }
+    }
+
+    /// The field of an 8-byte status PDO.
+    pub fn extract(self, frame: &[u8; crate::wire::HEARTBEAT_LEN]) -> u32 {
+        let all = u64::from_le_bytes(*frame);
+        ((all >> self.offset()) & ((1u64 << self.bits()) - 1)) as u32
+    }
+
+    /// The CiA 301 mapping entry of this field: its object, sub-index 0, its length.
+    pub const fn mapping(self) -> u32 {
+        (STATUS_BASE as u32 + self as u32) << 16 | self.bits() as u32
     }
 }
 
@@ -540,6 +669,24 @@ pub enum Item {
     TpdoComm,
     /// `0x1A00`: TPDO1 mapping parameter.
     TpdoMap,
+    /// `0x1801`: TPDO2 communication parameter (the status PDO).
+    StatusComm,
+    /// `0x1A01`: TPDO2 mapping parameter (the status PDO).
+    StatusMap,
+    /// `0x2220 + f`: a field of the node's last status PDO.
+    Status(StatusField),
+    /// `0x1411`: RPDO18 communication parameter (the sensor frame).
+    SensorComm,
+    /// `0x1611`: RPDO18 mapping parameter.
+    SensorMap,
+    /// `0x1802`: TPDO3 communication parameter (the command frame).
+    CommandComm,
+    /// `0x1A02`: TPDO3 mapping parameter.
+    CommandMap,
+    /// `0x2230`: the last sensor frame heard.
+    Sensed,
+    /// `0x2231`: the last command frame sent.
+    Commanded,
     /// `0x2200 + f`: a field of the node's own value frame.
     TxValue(Field),
     /// `0x2210 + f`: a field of the value frames heard (sub-index `k + 1`: RPDO `k + 1`).
@@ -583,15 +730,13 @@ pub enum Kind {
 /// use controller_core::Param;
 /// let k = Param::ALL.iter().position(|p| *p == Param::Ts).unwrap() as u16;
 /// let o = find(PARAM_BASE + k).unwrap();
-/// assert_eq!((o.name, o.data_type, o.access), ("controller.ts", DataType::Real32, Access::ReadWrite));
+/// assert_eq!((o.name(), o.data_type, o.access), ("controller.ts", DataType::Real32, Access::ReadWrite));
 /// assert!(!o.pdo);
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Object {
     /// Index.
     pub index: u16,
-    /// `ParameterName` (a scenario key for the manufacturer entries).
-    pub name: &'static str,
     /// Object code.
     pub kind: Kind,
     /// Type of the value(s) (sub-index 0 of an array is `UNSIGNED8`).
@@ -604,17 +749,9 @@ pub struct Object {
     pub pdo: bool,
 }
 
-const fn comm(
-    index: u16,
-    name: &'static str,
-    kind: Kind,
-    data_type: DataType,
-    access: Access,
-    item: Item,
-) -> Object {
+const fn comm(index: u16, kind: Kind, data_type: DataType, access: Access, item: Item) -> Object {
     Object {
         index,
-        name,
         kind,
         data_type,
         access,
@@ -628,53 +765,23 @@ const COMM: [Object; 13] = {
     use DataType::{Unsigned16 as U16, Unsigned32 as U32, Unsigned8 as U8, VisibleString as S};
     use Kind::{Array, Record, Var};
     [
-        comm(0x1000, "Device type", Var, U32, C, Item::DeviceType),
-        comm(0x1001, "Error register", Var, U8, RO, Item::ErrorRegister),
+        comm(0x1000, Var, U32, C, Item::DeviceType),
+        comm(0x1001, Var, U8, RO, Item::ErrorRegister),
         comm(
             0x1003,
-            "Pre-defined error field",
             Array { len: ERROR_HISTORY },
             U32,
             RO,
             Item::ErrorField,
         ),
-        comm(0x1005, "COB-ID SYNC", Var, U32, C, Item::SyncCobId),
-        comm(
-            0x1008,
-            "Manufacturer device name",
-            Var,
-            S,
-            C,
-            Item::DeviceName,
-        ),
-        comm(
-            0x100A,
-            "Manufacturer software version",
-            Var,
-            S,
-            C,
-            Item::SoftwareVersion,
-        ),
-        comm(
-            0x1010,
-            "Store parameters",
-            Record { len: 1 },
-            U32,
-            RW,
-            Item::Store,
-        ),
-        comm(
-            0x1011,
-            "Restore default parameters",
-            Record { len: 1 },
-            U32,
-            RW,
-            Item::Restore,
-        ),
-        comm(0x1014, "COB-ID EMCY", Var, U32, RO, Item::EmcyCobId),
+        comm(0x1005, Var, U32, C, Item::SyncCobId),
+        comm(0x1008, Var, S, C, Item::DeviceName),
+        comm(0x100A, Var, S, C, Item::SoftwareVersion),
+        comm(0x1010, Record { len: 1 }, U32, RW, Item::Store),
+        comm(0x1011, Record { len: 1 }, U32, RW, Item::Restore),
+        comm(0x1014, Var, U32, RO, Item::EmcyCobId),
         comm(
             0x1016,
-            "Consumer heartbeat time",
             Array {
                 len: HEARTBEAT_CONSUMERS,
             },
@@ -682,30 +789,9 @@ const COMM: [Object; 13] = {
             RW,
             Item::HeartbeatConsumer,
         ),
-        comm(
-            0x1017,
-            "Producer heartbeat time",
-            Var,
-            U16,
-            RW,
-            Item::HeartbeatProducer,
-        ),
-        comm(
-            0x1018,
-            "Identity object",
-            Record { len: 4 },
-            U32,
-            RO,
-            Item::Identity,
-        ),
-        comm(
-            0x1200,
-            "SDO server parameter",
-            Record { len: 2 },
-            U32,
-            RO,
-            Item::SdoServer,
-        ),
+        comm(0x1017, Var, U16, RW, Item::HeartbeatProducer),
+        comm(0x1018, Record { len: 4 }, U32, RO, Item::Identity),
+        comm(0x1200, Record { len: 2 }, U32, RO, Item::SdoServer),
     ]
 };
 
@@ -762,7 +848,6 @@ const fn param_object(k: usize, p: Param) -> Object {
     };
     Object {
         index: PARAM_BASE + k as u16,
-        name: spec.key,
         kind,
         data_type: param_type(p),
         access: param_access(p),
@@ -775,7 +860,6 @@ const fn setting_object(k: usize, s: Setting) -> Object {
     let spec = s.spec();
     Object {
         index: SETTING_BASE + k as u16,
-        name: spec.key,
         kind: Kind::Var,
         data_type: spec.data_type,
         access: Access::ReadWrite,
@@ -785,10 +869,9 @@ const fn setting_object(k: usize, s: Setting) -> Object {
 }
 
 /// A read-only record of the PDO communication or mapping parameters.
-const fn pdo_record(index: u16, name: &'static str, len: u8, item: Item) -> Object {
+const fn pdo_record(index: u16, len: u8, item: Item) -> Object {
     comm(
         index,
-        name,
         Kind::Record { len },
         DataType::Unsigned32,
         Access::ReadOnly,
@@ -796,35 +879,47 @@ const fn pdo_record(index: u16, name: &'static str, len: u8, item: Item) -> Obje
     )
 }
 
-/// The PDO parameters, in index order: RPDO communication, RPDO mapping, TPDO1.
-const PDO_COUNT: usize = 2 * RPDOS as usize + 2;
+/// The PDO parameters, in index order: RPDO communication (the value frames', then the
+/// sensor frame's), RPDO mapping (the same), TPDO1–3 communication, TPDO1–3 mapping.
+const PDO_COUNT: usize = 2 * (RPDOS as usize + 1) + 6;
 
 const fn pdo_objects() -> [Object; PDO_COUNT] {
     let fields = Field::ALL.len() as u8;
-    let mut t = [pdo_record(TPDO_COMM, "", 0, Item::TpdoComm); PDO_COUNT];
+    let rpdos = RPDOS as usize + 1;
+    let mut t = [pdo_record(TPDO_COMM, 0, Item::TpdoComm); PDO_COUNT];
     let mut k = 0;
     while k < RPDOS as usize {
-        t[k] = pdo_record(
-            RPDO_COMM_BASE + k as u16,
-            "RPDO communication parameter",
-            2,
-            Item::RpdoComm(k as u8),
-        );
-        t[RPDOS as usize + k] = pdo_record(
-            RPDO_MAP_BASE + k as u16,
-            "RPDO mapping parameter",
-            fields,
-            Item::RpdoMap(k as u8),
-        );
+        t[k] = pdo_record(RPDO_COMM_BASE + k as u16, 2, Item::RpdoComm(k as u8));
+        t[rpdos + k] = pdo_record(RPDO_MAP_BASE + k as u16, fields, Item::RpdoMap(k as u8));
         k += 1;
     }
-    t[PDO_COUNT - 2] = pdo_record(TPDO_COMM, "TPDO communication parameter", 2, Item::TpdoComm);
-    t[PDO_COUNT - 1] = pdo_record(TPDO_MAP, "TPDO mapping parameter", fields, Item::TpdoMap);
+    t[rpdos - 1] = pdo_record(SENSOR_RPDO_COMM, 2, Item::SensorComm);
+    t[2 * rpdos - 1] = pdo_record(SENSOR_RPDO_MAP, PLANT_PAIR, Item::SensorMap);
+    let status = StatusField::ALL.len() as u8;
+    t[PDO_COUNT - 6] = pdo_record(TPDO_COMM, 2, Item::TpdoComm);
+    t[PDO_COUNT - 5] = pdo_record(STATUS_TPDO_COMM, 2, Item::StatusComm);
+    t[PDO_COUNT - 4] = pdo_record(COMMAND_TPDO_COMM, 2, Item::CommandComm);
+    t[PDO_COUNT - 3] = pdo_record(TPDO_MAP, fields, Item::TpdoMap);
+    t[PDO_COUNT - 2] = pdo_record(STATUS_TPDO_MAP, status, Item::StatusMap);
+    t[PDO_COUNT - 1] = pdo_record(COMMAND_TPDO_MAP, PLANT_PAIR, Item::CommandMap);
     t
 }
 
-/// The process-data objects of the value frames: own fields, then the heard ones.
-const VALUE_COUNT: usize = 2 * Field::ALL.len();
+/// A read-only, PDO-mappable pair of `REAL32`: a bench's sensor or command frame.
+const fn plant(index: u16, item: Item) -> Object {
+    Object {
+        index,
+        kind: Kind::Array { len: PLANT_PAIR },
+        data_type: DataType::Real32,
+        access: Access::ReadOnly,
+        item,
+        pdo: true,
+    }
+}
+
+/// The process-data objects of the value frames (own fields, then the heard ones), of the
+/// status PDO, and of the bench's sensor and command frames.
+const VALUE_COUNT: usize = 2 * Field::ALL.len() + StatusField::ALL.len() + 2;
 
 const fn value_objects() -> [Object; VALUE_COUNT] {
     let n = Field::ALL.len();
@@ -834,7 +929,6 @@ const fn value_objects() -> [Object; VALUE_COUNT] {
         let f = Field::ALL[k];
         t[k] = Object {
             index: TX_VALUE_BASE + k as u16,
-            name: f.name(),
             kind: Kind::Var,
             data_type: f.data_type(),
             access: Access::ReadOnly,
@@ -843,7 +937,6 @@ const fn value_objects() -> [Object; VALUE_COUNT] {
         };
         t[n + k] = Object {
             index: RX_VALUE_BASE + k as u16,
-            name: f.name(),
             kind: Kind::Array { len: RPDOS },
             data_type: f.data_type(),
             access: Access::ReadOnly,
@@ -852,6 +945,21 @@ const fn value_objects() -> [Object; VALUE_COUNT] {
         };
         k += 1;
     }
+    let mut j = 0;
+    while j < StatusField::ALL.len() {
+        let f = StatusField::ALL[j];
+        t[2 * n + j] = Object {
+            index: STATUS_BASE + j as u16,
+            kind: Kind::Var,
+            data_type: f.data_type(),
+            access: Access::ReadOnly,
+            item: Item::Status(f),
+            pdo: true,
+        };
+        j += 1;
+    }
+    t[VALUE_COUNT - 2] = plant(SENSOR_OBJECT, Item::Sensed);
+    t[VALUE_COUNT - 1] = plant(COMMAND_OBJECT, Item::Commanded);
     t
 }
 
@@ -901,11 +1009,50 @@ const fn build() -> [Object; OBJECT_COUNT] {
 /// process data.
 pub static OBJECTS: [Object; OBJECT_COUNT] = build();
 
+impl Object {
+    /// `ParameterName` (a scenario key for the manufacturer entries). A function of the item,
+    /// not a field, so that a firmware that never writes an EDS links none of the names.
+    ///
+    /// ```
+    /// use agent_node::canopen::od::{find, PARAM_BASE};
+    /// assert_eq!(find(0x1017).unwrap().name(), "Producer heartbeat time");
+    /// assert_eq!(find(PARAM_BASE).unwrap().name(), "simulation.h");
+    /// ```
+    #[must_use]
+    pub const fn name(&self) -> &'static str {
+        match self.item {
+            Item::DeviceType => "Device type",
+            Item::ErrorRegister => "Error register",
+            Item::ErrorField => "Pre-defined error field",
+            Item::SyncCobId => "COB-ID SYNC",
+            Item::DeviceName => "Manufacturer device name",
+            Item::SoftwareVersion => "Manufacturer software version",
+            Item::Store => "Store parameters",
+            Item::Restore => "Restore default parameters",
+            Item::EmcyCobId => "COB-ID EMCY",
+            Item::HeartbeatConsumer => "Consumer heartbeat time",
+            Item::HeartbeatProducer => "Producer heartbeat time",
+            Item::Identity => "Identity object",
+            Item::SdoServer => "SDO server parameter",
+            Item::RpdoComm(_) | Item::SensorComm => "RPDO communication parameter",
+            Item::RpdoMap(_) | Item::SensorMap => "RPDO mapping parameter",
+            Item::TpdoComm | Item::StatusComm | Item::CommandComm => "TPDO communication parameter",
+            Item::TpdoMap | Item::StatusMap | Item::CommandMap => "TPDO mapping parameter",
+            Item::Param(p) => p.spec().key,
+            Item::Setting(x) => x.spec().key,
+            Item::TxValue(f) | Item::RxValue(f) => f.name(),
+            Item::Status(f) => f.name(),
+            Item::Sensed => "Sensor frame x_i (bench host's plant state)",
+            Item::Commanded => "Command frame q_i (the node's commands)",
+        }
+    }
+}
+
 /// The object at `index`.
 ///
 /// ```
 /// use agent_node::canopen::od::find;
-/// assert_eq!(find(0x1018).unwrap().name, "Identity object");
+/// assert_eq!(find(0x1018).unwrap().name(), "Identity object");
 /// assert!(find(0x1002).is_none());
 /// ```
 #[must_use]
@@ -938,9 +1085,14 @@ pub fn sub_name(o: &Object, sub: u8) -> &'static str {
         (Item::HeartbeatConsumer, _) => "Consumer heartbeat time",
         (Item::ErrorField, _) => "Standard error field",
         (Item::Param(Param::Neighbours), _) => "Neighbour",
-        (Item::RpdoComm(_) | Item::TpdoComm, 1) => "COB-ID used by PDO",
-        (Item::RpdoComm(_) | Item::TpdoComm, _) => "Transmission type",
-        (Item::RpdoMap(_) | Item::TpdoMap, _) => "Mapped object",
+        (Item::RpdoComm(_) | Item::TpdoComm | Item::StatusComm, 1) => "COB-ID used by PDO",
+        (Item::SensorComm | Item::CommandComm, 1) => "COB-ID used by PDO",
+        (Item::RpdoComm(_) | Item::TpdoComm | Item::StatusComm, _) => "Transmission type",
+        (Item::SensorComm | Item::CommandComm, _) => "Transmission type",
+        (Item::RpdoMap(_) | Item::TpdoMap | Item::StatusMap, _) => "Mapped object",
+        (Item::SensorMap | Item::CommandMap, _) => "Mapped object",
+        (Item::Sensed | Item::Commanded, 1) => "State or command 1",
+        (Item::Sensed | Item::Commanded, _) => "State or command 2",
         (Item::RxValue(_), 1) => "Leader (RPDO1)",
         (Item::RxValue(_), _) => "Neighbour slot (RPDO 2..)",
         _ => "Step",
@@ -960,7 +1112,8 @@ pub fn sub_name(o: &Object, sub: u8) -> &'static str {
 pub fn sub_data_type(o: &Object, sub: u8) -> DataType {
     match (o.item, sub) {
         (_, 0) if o.kind != Kind::Var => DataType::Unsigned8,
-        (Item::RpdoComm(_) | Item::TpdoComm, 2) => DataType::Unsigned8,
+        (Item::RpdoComm(_) | Item::TpdoComm | Item::StatusComm, 2) => DataType::Unsigned8,
+        (Item::SensorComm | Item::CommandComm, 2) => DataType::Unsigned8,
         _ => o.data_type,
     }
 }

@@ -351,7 +351,7 @@ fn every_generated_entry_reads_back_what_is_written() {
                             a == Abort::ParamIncompatible || (unused && a == Abort::ValueTooLow),
                             "{:#06x}/{sub} {}: {a:?}",
                             o.index,
-                            o.name
+                            o.name()
                         );
                     }
                     assert_eq!(d.read(o.index, sub), Ok(v), "{:#06x}/{sub}", o.index);
@@ -369,7 +369,7 @@ fn table_is_sorted_and_holds_every_param() {
     assert!(OBJECTS.windows(2).all(|w| w[0].index < w[1].index));
     for p in Param::ALL {
         let o = od::find(param_index(p)).expect("object");
-        assert_eq!(o.name, p.key());
+        assert_eq!(o.name(), p.key());
     }
 }
 
@@ -418,7 +418,7 @@ fn eds_lists_every_object_with_name_and_access() {
     let mut s = String::new();
     eds::write_eds(&mut s, &d, "agent-node.eds").expect("fmt");
     for o in OBJECTS.iter() {
-        let head = format!("[{:04X}]\nParameterName={}\n", o.index, o.name);
+        let head = format!("[{:04X}]\nParameterName={}\n", o.index, o.name());
         assert!(s.contains(&head), "{head}");
     }
     assert!(s.contains("[1014]\nParameterName=COB-ID EMCY\nObjectType=0x7\nDataType=0x0007\nAccessType=ro\nDefaultValue=$NODEID+0x80\n"));
@@ -536,7 +536,9 @@ fn value_frames_decode_by_the_pdo_mapping_read_over_sdo() {
     assert_eq!(u32_at(upload(&mut d, 0x1401, 1)), id_of(Source::Agent(1)));
     assert_eq!(u32_at(upload(&mut d, 0x1402, 1)), id_of(Source::Agent(2)));
     assert_eq!(u32_at(upload(&mut d, 0x1403, 1)) >> 31, 1);
-    assert_eq!(upload(&mut d, 0x1411, 1)[0], 0x80, "17 RPDOs, no more");
+    // 17 RPDOs of value frames; RPDO18 is the bench's sensor frame (not valid here).
+    assert_eq!(u32_at(upload(&mut d, 0x1411, 1)) >> 31, 1);
+    assert_eq!(upload(&mut d, 0x1412, 1)[0], 0x80, "18 RPDOs, no more");
 
     let tx_map = mapping_over_sdo(&mut d, 0x1A00);
     let rx_map = mapping_over_sdo(&mut d, 0x1602);
@@ -846,4 +848,119 @@ fn a_plan_without_heartbeat_ids_is_refused_for_a_node_with_a_heartbeat() {
         0x0604_0043
     );
     assert_eq!(plan(&mut d).1, 0x780, "unchanged");
+}
+
+/// The status PDO (TPDO2) decoded by nothing but its mapping read over SDO gives the fields of
+/// `wire::Heartbeat`, bit-exact with today's frame, and the mapped objects read over SDO hold
+/// what the node sent last.
+#[test]
+fn the_status_pdo_decodes_by_its_mapping_read_over_sdo() {
+    use crate::supervisor::{Lost, NodeState};
+    use crate::wire::Heartbeat;
+    let mut d = device();
+    let _ = frames(&mut d);
+    // TPDO2 on the plan's heartbeat identifier of this node, valid, no RTR; event-driven.
+    assert_eq!(
+        u32_at(upload(&mut d, 0x1801, 1)),
+        (1 << 30) | u32::from(IdPlan::DEFAULT.heartbeat_id(ID).expect("in plan"))
+    );
+    assert_eq!(upload(&mut d, 0x1801, 2)[4], 0xFE);
+    // Before any status PDO: boot, nothing lost.
+    assert_eq!(upload(&mut d, 0x2220, 0)[4], 1);
+    let map = mapping_over_sdo(&mut d, 0x1A01);
+    assert_eq!(map.iter().map(|m| u32::from(m.2)).sum::<u32>(), 64);
+    let cases = [
+        Heartbeat {
+            state: NodeState::Safe,
+            lost: Lost::from_bits(0b101),
+            boot_count: 0x1234,
+            overruns: 65_535,
+            safe_entries: 7,
+        },
+        Heartbeat {
+            state: NodeState::Fault,
+            lost: Lost::from_bits(0b010),
+            boot_count: 0,
+            overruns: 300,
+            safe_entries: 65_000,
+        },
+    ];
+    for hb in cases {
+        let data = hb.to_bytes();
+        let mut offset = 0;
+        let mut got = [0u32; 5];
+        for &(index, sub, bits) in &map {
+            assert_eq!(sub, 0, "{index:#x}");
+            let k = usize::from(index - 0x2220);
+            got[k] = bits_of(&data, offset, u32::from(bits));
+            offset += u32::from(bits);
+        }
+        assert_eq!(
+            got,
+            [
+                u32::from(hb.state.code()),
+                u32::from(hb.lost.bits()),
+                u32::from(hb.boot_count),
+                u32::from(hb.overruns),
+                u32::from(hb.safe_entries),
+            ]
+        );
+        d.status_sent(&data);
+        for (k, want) in got.iter().enumerate() {
+            let r = upload(&mut d, 0x2220 + k as u16, 0);
+            let len = 4 - usize::from((r[0] >> 2) & 3);
+            assert_eq!(len, if k < 2 { 1 } else { 2 }, "{k}");
+            let mut b = [0u8; 4];
+            b[..len].copy_from_slice(&r[4..4 + len]);
+            assert_eq!(u32::from_le_bytes(b), *want, "{k}");
+        }
+    }
+}
+
+/// A bench's sensor and command frames are RPDO18 and TPDO3 once the runtime says its plant is
+/// on the bus: a command frame of `plant_bus` decoded by nothing but the mapping read over SDO
+/// gives its two `f32`, and the mapped objects read over SDO hold the last frames.
+#[test]
+fn bench_frames_decode_by_the_plant_pdo_mapping_read_over_sdo() {
+    let mut d = device();
+    let _ = frames(&mut d);
+    // Not a bench: both PDOs present, not valid.
+    assert_eq!(u32_at(upload(&mut d, 0x1411, 1)), (1 << 31) | 0x203);
+    assert_eq!(
+        u32_at(upload(&mut d, 0x1802, 1)),
+        (1 << 31) | (1 << 30) | 0x303
+    );
+    d.enable_plant_pdos();
+    assert_eq!(u32_at(upload(&mut d, 0x1411, 1)), 0x203);
+    assert_eq!(u32_at(upload(&mut d, 0x1802, 1)), (1 << 30) | 0x303);
+    assert_eq!(upload(&mut d, 0x1802, 2)[4], 0xFE);
+    let sensor_map = mapping_over_sdo(&mut d, 0x1611);
+    let command_map = mapping_over_sdo(&mut d, 0x1A02);
+    assert_eq!(sensor_map, [(0x2230, 1, 32), (0x2230, 2, 32)]);
+    assert_eq!(command_map, [(0x2231, 1, 32), (0x2231, 2, 32)]);
+    // Nothing heard yet: NaN.
+    assert!(f32::from_bits(u32_at(upload(&mut d, 0x2230, 1))).is_nan());
+    for q in [[0.5f32, -1.25], [f32::MAX, -0.0], [1e-30, 3.0]] {
+        let f: crate::link::CanFrame =
+            crate::plant_bus::pair_frame(crate::plant_bus::Kind::Command, ID, q).expect("frame");
+        let data = embedded_can::Frame::data(&f);
+        let mut offset = 0;
+        let mut got = [0f32; 2];
+        for &(_, sub, bits) in &command_map {
+            got[usize::from(sub) - 1] = f32::from_bits(bits_of(data, offset, u32::from(bits)));
+            offset += u32::from(bits);
+        }
+        assert_eq!(got.map(f32::to_bits), q.map(f32::to_bits));
+        d.command_sent(q);
+        d.sensor_received([q[1], q[0]]);
+        for (k, &(index, sub, _)) in command_map.iter().chain(&sensor_map).enumerate() {
+            let want = if k < 2 { q[k] } else { q[3 - k] };
+            assert_eq!(
+                u32_at(upload(&mut d, index, sub)),
+                want.to_bits(),
+                "{index:#x}/{sub}"
+            );
+        }
+    }
+    assert!(OBJECTS.windows(2).all(|w| w[0].index < w[1].index));
 }

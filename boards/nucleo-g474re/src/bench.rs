@@ -4,13 +4,11 @@
 //! (`0x300 + i`: `q_{i,1}`, `q_{i,2}`), `agent_node::plant_bus`. [`BusSensor`] and
 //! [`BusActuator`] take the place of the encoder and the PWM; the output gate
 //! ([`crate::gate`]) still decides: a disabled gate sends the neutral command (zero), the
-//! bench's equivalent of a disabled driver. A *state* frame (`0x400 + i`) says what the board
-//! does ([`StateFrames`]).
+//! bench's equivalent of a disabled driver. What the board does is said by CANopen, as for
+//! every bench node: its NMT state in its heartbeat (`0x700 + i`), and the host's silence by
+//! EMCY `0x8250` ([`agent_node::canopen::Fault::HostLost`], once per silence: [`HostWatch`]).
 
-use agent_node::{
-    plant_bus::{Mode, NodeState as BenchState},
-    Actuator, Sensor,
-};
+use agent_node::{Actuator, Sensor};
 
 use crate::gate::Freshness;
 
@@ -107,47 +105,29 @@ impl Actuator<2> for BusActuator {
     }
 }
 
-/// Samples between two state frames when nothing changes (100 ms at 1 kHz, as `node-linux`).
-pub const STATE_EVERY: u32 = 100;
+/// Whether the host is gone: a sensor frame came once, and the latest is no longer fresh.
+pub fn host_lost(sensor: &BusSensor) -> bool {
+    sensor.heard() && !sensor.is_fresh()
+}
 
-/// When the board sends its plant-bus state frame: at every change of mode and every
-/// [`STATE_EVERY`] samples.
+/// Reports the host's silence once per silence: the board goes on (its sensor loss is the
+/// supervisor's, docs/NETWORK.md §10), the host may come back.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct StateFrames {
-    last: Option<BenchState>,
-    since: u32,
+pub struct HostWatch {
+    lost: bool,
 }
 
-impl StateFrames {
-    /// Nothing sent yet.
+impl HostWatch {
+    /// Nothing lost yet.
     pub const fn new() -> Self {
-        Self {
-            last: None,
-            since: 0,
-        }
+        Self { lost: false }
     }
 
-    /// This sample's state; the state frame to send now, if one is due.
-    pub fn update(&mut self, now: BenchState) -> Option<BenchState> {
-        self.since = self.since.saturating_add(1);
-        let changed = self.last.map(|l| l.mode) != Some(now.mode);
-        if changed || self.since >= STATE_EVERY {
-            self.last = Some(now);
-            self.since = 0;
-            Some(now)
-        } else {
-            None
-        }
-    }
-}
-
-/// The board's mode on the bench: waiting for the first sensor frame, running while they are
-/// fresh, the host lost when they stopped.
-pub fn mode(sensor: &BusSensor) -> Mode {
-    match (sensor.heard(), sensor.is_fresh()) {
-        (false, _) => Mode::Waiting,
-        (true, true) => Mode::Running,
-        (true, false) => Mode::HostLost,
+    /// This sample's [`host_lost`]; `true` at the sample the host became lost (EMCY due).
+    pub fn update(&mut self, lost: bool) -> bool {
+        let due = lost && !self.lost;
+        self.lost = lost;
+        due
     }
 }
 
@@ -160,16 +140,16 @@ mod tests {
     fn the_sensor_is_fresh_only_within_the_stale_timeout_of_the_last_frame() {
         let mut s = BusSensor::new(1_000, 2_500);
         assert_eq!(s.read(), Err(SensorLost));
-        assert_eq!(mode(&s), Mode::Waiting);
+        assert!(!host_lost(&s), "waiting is not lost");
         s.offer(Some([0.5, -1.0]));
         assert_eq!(s.read(), Ok([0.5, -1.0]));
-        assert_eq!(mode(&s), Mode::Running);
+        assert!(!host_lost(&s));
         s.offer(None);
         s.offer(None);
         assert_eq!(s.read(), Ok([0.5, -1.0]), "2 ms old");
         s.offer(None);
         assert_eq!(s.read(), Err(SensorLost), "3 ms old");
-        assert_eq!(mode(&s), Mode::HostLost);
+        assert!(host_lost(&s));
         s.offer(Some([1.0, 2.0]));
         assert_eq!(s.read(), Ok([1.0, 2.0]));
     }
@@ -192,19 +172,9 @@ mod tests {
     }
 
     #[test]
-    fn state_frames_go_out_on_a_change_and_every_hundred_samples() {
-        let st = |mode| BenchState {
-            mode,
-            degraded_links: 0,
-            late_ticks: 0,
-        };
-        let mut f = StateFrames::new();
-        assert_eq!(f.update(st(Mode::Waiting)), Some(st(Mode::Waiting)));
-        assert_eq!(f.update(st(Mode::Waiting)), None);
-        assert_eq!(f.update(st(Mode::Running)), Some(st(Mode::Running)));
-        let sent = (0..2 * STATE_EVERY)
-            .filter(|_| f.update(st(Mode::Running)).is_some())
-            .count();
-        assert_eq!(sent, 2);
+    fn the_host_lost_emcy_is_due_once_per_silence() {
+        let mut w = HostWatch::new();
+        let due: [bool; 6] = [false, true, true, false, true, true].map(|l| w.update(l));
+        assert_eq!(due, [false, true, false, false, true, false]);
     }
 }

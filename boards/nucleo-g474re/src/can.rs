@@ -226,7 +226,7 @@ impl Fdcan1 {
         self.sensor.take()
     }
 
-    /// Send a plant-bus frame (bench: command and state frames); `false` if not queued.
+    /// Send a plant-bus frame (bench: command frames); `false` if not queued.
     #[cfg_attr(not(feature = "bench"), allow(dead_code))]
     pub fn send(&mut self, frame: Option<CanFrame>) -> bool {
         frame.is_some_and(|f| embedded_can::nb::Can::transmit(self, &f).is_ok())

@@ -96,8 +96,8 @@ impl Cycles {
 }
 
 /// The board's own state beside the node: output gate, run command, leader freshness,
-/// bus-off recovery ([`nucleo_g474re::board::BoardLogic`]), and on the bench the state
-/// frames' schedule.
+/// bus-off recovery ([`nucleo_g474re::board::BoardLogic`]), and on the bench the host's
+/// silence (its EMCY goes out once per silence).
 struct Board {
     logic: nucleo_g474re::board::BoardLogic,
     /// The agent the board booted as (its plant-bus frames).
@@ -107,7 +107,7 @@ struct Board {
     /// set (`Node::adoptions`); another one over the bus restarts the board.
     adoptions: u16,
     #[cfg(feature = "bench")]
-    state_frames: nucleo_g474re::bench::StateFrames,
+    host_watch: nucleo_g474re::bench::HostWatch,
 }
 
 /// The panic handler: the driver enable low before anything else, then the location over RTT
@@ -270,7 +270,7 @@ mod app {
             agent: node_cfg.agent,
             adoptions: 0,
             #[cfg(feature = "bench")]
-            state_frames: nucleo_g474re::bench::StateFrames::new(),
+            host_watch: nucleo_g474re::bench::HostWatch::new(),
         };
         let watchdog_setting = IwdgSetting::for_timeout(config::WATCHDOG_US, LSI_HZ);
         let node = match (config::wiring_error(), watchdog_setting) {
@@ -476,15 +476,9 @@ mod app {
             let _ = node
                 .can_mut()
                 .send(plant_bus::pair_frame(Kind::Command, agent, q));
-            let links = tick.output.status.links;
-            let degraded = u32::from(links.stale_neighbours) + u32::from(links.missing_neighbours);
-            let now = plant_bus::NodeState {
-                mode: nucleo_g474re::bench::mode(node.sensor_mut()),
-                degraded_links: u8::try_from(degraded).unwrap_or(u8::MAX),
-                late_ticks: u16::try_from(node.stats().overruns).unwrap_or(u16::MAX),
-            };
-            if let Some(s) = board.state_frames.update(now) {
-                let _ = node.can_mut().send(s.frame(agent));
+            let lost = nucleo_g474re::bench::host_lost(node.sensor_mut());
+            if board.host_watch.update(lost) {
+                node.report_fault(Fault::HostLost, 0);
             }
         }
         // The next release already came: this step was late. The watchdog is fed only after a

@@ -30,7 +30,7 @@ use std::{
 use agent_node::{
     bus_load::SensorFrames,
     canopen::{self, NmtCommand},
-    plant_bus::{self, Kind, Mode, PlantFrame, PACKED_SENSOR_AGENTS},
+    plant_bus::{self, Kind, PlantFrame, PACKED_SENSOR_AGENTS},
     wire::{self, Source},
 };
 use controller_core::{ControllerConfig, Gains, Params, StepOutput};
@@ -138,7 +138,6 @@ struct Agent {
     late: u64,
     last_rx: Option<Instant>,
     lost_at: Option<f64>,
-    state: Option<plant_bus::NodeState>,
     /// Cumulative late commands at each sample (the figure).
     late_series: Vec<u32>,
     /// Command frames since the start of the current duplicate window.
@@ -250,8 +249,11 @@ pub struct SocketcanAgents<const N: usize, const M: usize> {
     last_t: f64,
     /// The first sample's deadline (`t0` moves with every overrun).
     started: Option<Instant>,
-    /// `network.canopen`: host-sim is the nodes' NMT master.
-    canopen: Option<Master>,
+    /// host-sim is the nodes' NMT master: their heartbeats and EMCY say their state, its NMT
+    /// stop ends the run.
+    canopen: Master,
+    /// `network.canopen`: the nodes boot pre-operational and wait for the master's NMT start.
+    nmt_start: bool,
 }
 
 /// Opens `interface` for host-sim (classical and CAN FD frames), with the error naming
@@ -291,13 +293,13 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
             }
         }
         let cmd = u32::from(plant_bus::COMMAND_BASE);
-        let state = u32::from(plant_bus::STATE_BASE);
-        let mut filters = vec![CanFilter::new(cmd, 0x700), CanFilter::new(state, 0x700)];
-        if spec.canopen == Some(true) {
-            // EMCY (0x081..=0x0FF) and heartbeats (0x701..=0x77F) of the CANopen set.
-            filters.push(CanFilter::new(0x080, 0x780));
-            filters.push(CanFilter::new(0x700, 0x780));
-        }
+        // Commands, and the nodes' status by CANopen: EMCY (0x081..=0x0FF) and heartbeats
+        // (0x701..=0x77F).
+        let filters = [
+            CanFilter::new(cmd, 0x700),
+            CanFilter::new(0x080, 0x780),
+            CanFilter::new(0x700, 0x780),
+        ];
         socket
             .set_filters(&filters)
             .map_err(|e| Error::Io(format!("{interface}: {e}")))?;
@@ -402,7 +404,6 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                     late: 0,
                     last_rx: None,
                     lost_at: None,
-                    state: None,
                     late_series: Vec::new(),
                     window_received: 0,
                 })
@@ -416,16 +417,22 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
             last_wake: None,
             last_t: 0.0,
             started: None,
-            canopen: (spec.canopen == Some(true)).then(|| Master::new(graph.len(), true)),
+            canopen: Master::new(graph.len(), spec.canopen == Some(true)),
+            nmt_start: spec.canopen == Some(true),
         })
     }
 
-    /// Waits until every node has said it is there (a state frame) and sets `t0`.
+    /// Whether agent `i + 1` has said it is there (a boot-up or heartbeat).
+    fn heard(&self, i: usize) -> bool {
+        self.canopen.nmt_state(i + 1).is_some()
+    }
+
+    /// Waits until every node has said it is there (a boot-up or heartbeat) and sets `t0`.
     fn start(&mut self) -> Result<()> {
         let until = Instant::now() + self.start_timeout;
         loop {
             self.drain(Instant::now(), 0.0);
-            if self.agents.iter().all(|a| a.state.is_some()) {
+            if (0..self.agents.len()).all(|i| self.heard(i)) {
                 break;
             }
             if Instant::now() >= until {
@@ -433,7 +440,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                     .agents
                     .iter()
                     .enumerate()
-                    .filter(|(_, a)| a.state.is_none())
+                    .filter(|(i, _)| !self.heard(*i))
                     .map(|(i, _)| (i + 1).to_string())
                     .collect();
                 return Err(Error::Bench(format!(
@@ -454,7 +461,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
             a.this_sample = 0;
             a.last_rx = None;
         }
-        if self.canopen.is_some() {
+        if self.nmt_start {
             // NMT start to all nodes: their outputs go on from here (docs/NETWORK.md §12).
             self.send(Master::command(NmtCommand::Start, 0).to_frame());
         }
@@ -476,7 +483,7 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
         Ok(())
     }
 
-    /// Takes every waiting frame (commands, states; the trace socket's all).
+    /// Takes every waiting frame (commands, heartbeats, EMCY; the trace socket's all).
     fn drain(&mut self, now: Instant, t: f64) {
         while let Ok(f) = self.socket.read_frame() {
             match plant_bus::decode(&f) {
@@ -487,18 +494,6 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                         ag.window_received += 1;
                         ag.this_sample += 1;
                         ag.last_rx = Some(now);
-                    }
-                }
-                Some(PlantFrame::State(a, s)) => {
-                    if let Some(ag) = self.agents.get_mut(usize::from(a) - 1) {
-                        let changed = ag.state.map(|o| o.mode) != Some(s.mode);
-                        if changed && s.mode != Mode::Running && self.t0.is_some() {
-                            eprintln!(
-                                "host-sim: t = {t:.3} s: node of agent {a} is {}",
-                                s.mode.as_str()
-                            );
-                        }
-                        ag.state = Some(s);
                     }
                 }
                 _ => self.take_canopen(&f, t),
@@ -531,27 +526,26 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
         }
     }
 
-    /// Stops the nodes at the end of a run: the one place that commands it, so a CANopen NMT
-    /// stop can take over from today's frame ([`plant_bus::stop_frame`], one per sensor
-    /// identifier).
+    /// Stops the nodes at the end of a run, the one place that commands it: CiA 301's NMT stop
+    /// to every node (`0x000`, `[0x02, 0]`). The nodes' files say `exit_on_stop`: each answers
+    /// with a last heartbeat `STOPPED` and exits 0 (docs/NETWORK.md §11).
     fn stop_the_nodes(&mut self) {
-        let n = self.agents.len();
-        let firsts: Vec<u8> = match self.sensor_frames {
-            SensorFrames::PerAgent => (1..=n).filter_map(|i| u8::try_from(i).ok()).collect(),
-            SensorFrames::Packed => (1..=n)
-                .step_by(usize::from(PACKED_SENSOR_AGENTS))
-                .filter_map(|i| u8::try_from(i).ok())
-                .collect(),
-        };
-        for first in firsts {
-            self.send(plant_bus::stop_frame(first));
-        }
+        self.send(Master::command(NmtCommand::Stop, 0).to_frame());
     }
 
-    /// An EMCY or heartbeat of a node, with `network.canopen`.
+    /// An EMCY or heartbeat of a node.
     fn take_canopen<F: embedded_can::Frame>(&mut self, f: &F, t: f64) {
-        if let (Some(m), Some(f)) = (self.canopen.as_mut(), canopen::CoFrame::from_frame(f)) {
-            m.take(f.id, f.data(), t);
+        if let Some(f) = canopen::CoFrame::from_frame(f) {
+            let before = self.canopen.nmt_state(usize::from(f.id & 0x7F));
+            self.canopen.take(f.id, f.data(), t);
+            // A node leaving operational while the run goes on is worth a line.
+            let node = usize::from(f.id & 0x7F);
+            let after = self.canopen.nmt_state(node);
+            if f.id & 0x780 == 0x700 && before != after && before.is_some() && self.t0.is_some() {
+                if let Some(s) = after.filter(|s| *s != "OPERATIONAL") {
+                    eprintln!("host-sim: t = {t:.3} s: node of agent {node} is {s}");
+                }
+            }
         }
     }
 
@@ -629,17 +623,17 @@ impl<const N: usize, const M: usize> SocketcanAgents<N, M> {
                     late: a.late,
                     missing: samples.saturating_sub(a.received),
                     lost_at_s: a.lost_at,
-                    // A node silent at the end is lost, whatever its last state frame said.
+                    // A node silent at the end is lost, whatever its last heartbeat said.
                     state: if a.lost_at.is_some() {
                         Some("lost")
                     } else {
-                        a.state.map(|s| s.mode.as_str())
+                        self.canopen.bench_state(i + 1, a.received > 0)
                     },
-                    node_late_ticks: a.state.map(|s| s.late_ticks),
-                    nmt_state: self.canopen.as_ref().and_then(|m| m.nmt_state(i + 1)),
+                    node_late_ticks: self.canopen.overruns(i + 1),
+                    nmt_state: self.canopen.nmt_state(i + 1),
                 })
                 .collect(),
-            emcy: self.canopen.as_ref().map(|m| m.emcy().to_vec()),
+            emcy: Some(self.canopen.emcy().to_vec()),
         }
     }
 }
@@ -887,13 +881,19 @@ pub fn write_node_files<const N: usize>(
         ];
         for (base, key) in blocks.into_iter().flatten() {
             let end = base + u16::from(plan.agents());
-            if base <= 0x4FF && end >= plan_bus_first() {
+            if base <= 0x3FF && end >= plan_bus_first() {
                 return Err(Error::invalid(
                     key,
                     "with network.kind = \"socketcan\" the identifiers must stay clear of \
-                     0x200..=0x4FF (sensor, command and state frames)",
+                     0x200..=0x3FF (sensor and command frames)",
                 ));
             }
+        }
+        if nc.agent > 127 {
+            return Err(Error::invalid(
+                "network.kind",
+                "\"socketcan\" nodes are CANopen devices: at most 127 followers (node-IDs 1..=127)",
+            ));
         }
         let section = NodeSection {
             agent: i64::from(nc.agent),
@@ -911,11 +911,14 @@ pub fn write_node_files<const N: usize>(
             start_timeout: Some(spec.start_timeout() + node_timeout),
             fd: spec.data_bitrate.map(|_| true),
             packed_sensors: (spec.sensor_frames() == SensorFrames::Packed).then_some(true),
-            node_id: (nc.agent <= 127).then_some(i64::from(nc.agent)),
-            canopen: (spec.canopen == Some(true)).then_some(CanOpenSection {
+            node_id: Some(i64::from(nc.agent)),
+            // Every bench node is a CANopen device: its heartbeat and EMCY are its status, the
+            // master's NMT stop ends its run. Without network.canopen it starts itself.
+            canopen: Some(CanOpenSection {
                 store: None,
                 heartbeat_ms: 100,
-                self_starting: false,
+                self_starting: spec.canopen != Some(true),
+                exit_on_stop: true,
             }),
         };
         let text = NodeFile::to_toml(&section, *c)
@@ -937,8 +940,12 @@ fn write_eds(text: &str, path: &Path, agent: usize) -> Result<()> {
     let store =
         agent_node::canopen::od::ParamStore::new(file.node_config.identity(), &file.controller)
             .map_err(|_| Error::invalid(what.clone(), "node-ID outside 1..=127"))?;
-    let device =
+    let mut device =
         agent_node::canopen::Device::new(store, agent_node::canopen::Identity::default(), false);
+    if !file.node.packed_sensors() {
+        // node-linux's sensor and command frames are its RPDO18 and TPDO3.
+        device.enable_plant_pdos();
+    }
     let mut eds = String::new();
     let name = path
         .file_name()

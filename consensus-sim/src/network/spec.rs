@@ -350,7 +350,7 @@ impl NetworkSpec {
 /// Largest bit rate accepted (10 Mbit/s, beyond classical CAN's 1 Mbit/s on purpose); also
 /// the largest CAN FD data bit rate.
 pub const MAX_BITRATE: i64 = 10_000_000;
-/// A bench node sends its state frame this often \[s\] (and on every change).
+/// A bench node sends its state — its CANopen heartbeat (`0x1017` = 100 ms) — this often \[s\].
 pub const STATE_PERIOD_S: f64 = 0.1;
 /// Largest agent number a CAN identifier can carry (`0x100 + i ≤ 0x1FF`).
 pub const MAX_CAN_AGENTS: usize = 255;
