@@ -1733,6 +1733,22 @@ where
     /// The node's plant is on the bus (a bench host's sensor and command frames, one sensor
     /// frame per agent): the device's RPDO18 and TPDO3 describe them (docs/NETWORK.md §12).
     /// Nothing without a device.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// use agent_node::canopen::{od::COB_ID_INVALID, Identity};
+    /// let mut n = node();
+    /// n.enable_plant_pdos(); // no device yet: nothing
+    /// assert!(n.canopen().is_none());
+    /// let (cfg, ctrl) = (NodeConfig::new(2, [1], 2_500),
+    ///     ControllerConfig::<2> { neighbour_count: 1, ..Default::default() });
+    /// n.enable_canopen(&cfg, &ctrl, Identity::default(), true, 0).unwrap();
+    /// assert_ne!(n.canopen().unwrap().plant_cob_id(true) & COB_ID_INVALID, 0);
+    /// n.enable_plant_pdos();
+    /// // RPDO18 valid: agent 2's sensor frame, 0x200 + node-ID.
+    /// assert_eq!(n.canopen().unwrap().plant_cob_id(true), 0x202);
+    /// ```
     pub fn enable_plant_pdos(&mut self) {
         if let Some(c) = &mut self.canopen {
             c.device.enable_plant_pdos();
@@ -1741,6 +1757,21 @@ where
 
     /// The sensor frame `x` came and the command frame `q` went out: the device's `0x2230` and
     /// `0x2231` hold them. Unlike [`Self::canopen_mut`], nothing is rebuilt at the next start.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_node.rs"); }
+    /// # use hw::*;
+    /// use agent_node::canopen::od::{COMMAND_OBJECT, SENSOR_OBJECT};
+    /// use agent_node::canopen::Identity;
+    /// let mut n = node();
+    /// let (cfg, ctrl) = (NodeConfig::new(2, [1], 2_500),
+    ///     ControllerConfig::<2> { neighbour_count: 1, ..Default::default() });
+    /// n.enable_canopen(&cfg, &ctrl, Identity::default(), true, 0).unwrap();
+    /// n.plant_frames(Some([0.1, 0.0]), None); // the state x_2 came, no command went out
+    /// let dev = n.canopen().unwrap();
+    /// assert_eq!(dev.read(SENSOR_OBJECT, 1).unwrap().as_slice(), &0.1f32.to_le_bytes());
+    /// assert_eq!(dev.read(COMMAND_OBJECT, 1).unwrap().as_slice(), &f32::NAN.to_le_bytes());
+    /// ```
     pub fn plant_frames(&mut self, x: Option<[f32; 2]>, q: Option<[f32; 2]>) {
         if let Some(c) = &mut self.canopen {
             if let Some(x) = x {

@@ -891,12 +891,34 @@ impl<const N: usize> Device<N> {
     /// The runtime's plant is on the bus (a bench, `crate::plant_bus`, one sensor frame per
     /// agent): the sensor frame (`0x200 + node-ID`) is RPDO18 and the command frame
     /// (`0x300 + node-ID`) TPDO3, both valid from now on.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # let mut dev = device();
+    /// use agent_node::canopen::od::{COB_ID_INVALID, SENSOR_RPDO_COMM};
+    /// assert_ne!(dev.plant_cob_id(true) & COB_ID_INVALID, 0); // RPDO18 not in use yet
+    /// dev.enable_plant_pdos();
+    /// // RPDO18 valid: agent 2's sensor frame, 0x200 + node-ID.
+    /// assert_eq!(dev.read(SENSOR_RPDO_COMM, 1).unwrap().as_slice(), &0x202u32.to_le_bytes());
+    /// ```
     pub fn enable_plant_pdos(&mut self) {
         self.plant_pdos = true;
     }
 
     /// The COB-ID entry of RPDO18 (`sensor`) or TPDO3: the plant-bus identifier of this node,
     /// bit 31 set unless [`Self::enable_plant_pdos`]; TPDO3 without RTR.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// use agent_node::canopen::od::{COB_ID_INVALID, COB_ID_NO_RTR};
+    /// // Node-ID 2 without a plant on the bus: both PDOs carry their identifier but are not valid.
+    /// assert_eq!(dev.plant_cob_id(true), COB_ID_INVALID | 0x202); // sensor frame, RPDO18
+    /// assert_eq!(dev.plant_cob_id(false), COB_ID_INVALID | COB_ID_NO_RTR | 0x302); // command, TPDO3
+    /// ```
     pub fn plant_cob_id(&self, sensor: bool) -> u32 {
         let (kind, rtr) = if sensor {
             (crate::plant_bus::Kind::Sensor, 0)
@@ -914,11 +936,33 @@ impl<const N: usize> Device<N> {
     }
 
     /// The sensor frame's state `x` came (RPDO18): `0x2230` reads it.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # let mut dev = device();
+    /// use agent_node::canopen::od::SENSOR_OBJECT;
+    /// // Nothing sensed yet: NaN.
+    /// assert_eq!(dev.read(SENSOR_OBJECT, 1).unwrap().as_slice(), &f32::NAN.to_le_bytes());
+    /// dev.sensor_received([0.1, -0.2]); // x_{2,1}, x_{2,2}
+    /// assert_eq!(dev.read(SENSOR_OBJECT, 2).unwrap().as_slice(), &(-0.2f32).to_le_bytes());
+    /// ```
     pub fn sensor_received(&mut self, x: [f32; 2]) {
         self.sensed = x;
     }
 
     /// The node sent its command frame `q` (TPDO3): `0x2231` reads it.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # let mut dev = device();
+    /// use agent_node::canopen::od::COMMAND_OBJECT;
+    /// // Nothing commanded yet: NaN.
+    /// assert_eq!(dev.read(COMMAND_OBJECT, 1).unwrap().as_slice(), &f32::NAN.to_le_bytes());
+    /// dev.command_sent([1.5, -3.0]); // q_{2,1}, q_{2,2}
+    /// assert_eq!(dev.read(COMMAND_OBJECT, 1).unwrap().as_slice(), &1.5f32.to_le_bytes());
+    /// ```
     pub fn command_sent(&mut self, q: [f32; 2]) {
         self.commanded = q;
     }
@@ -1023,6 +1067,17 @@ impl<const N: usize> Device<N> {
     /// The COB-ID entry of TPDO2, the status PDO: `heartbeat_base + node-ID` of the plan (no
     /// RTR); bit 31 set when the plan has no heartbeat block. Sent every `heartbeat_period`
     /// (`NodeConfig::heartbeat_period_us`; 0: never, though valid).
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # #[allow(unused_mut)]
+    /// # let mut dev = device();
+    /// use agent_node::canopen::od::{COB_ID_NO_RTR, STATUS_TPDO_COMM};
+    /// // The default plan's heartbeat block: 0x780 + node-ID, valid.
+    /// assert_eq!(dev.status_cob_id(), COB_ID_NO_RTR | 0x782);
+    /// assert_eq!(dev.read(STATUS_TPDO_COMM, 1).unwrap().as_slice(), &(COB_ID_NO_RTR | 0x782).to_le_bytes());
+    /// ```
     pub fn status_cob_id(&self) -> u32 {
         match self.id_plan().heartbeat_id(self.node_id) {
             Some(id) => COB_ID_NO_RTR | u32::from(id),
@@ -1031,6 +1086,22 @@ impl<const N: usize> Device<N> {
     }
 
     /// The node sent its status PDO (TPDO2) with these bytes: `0x2220..` read them.
+    ///
+    /// ```
+    /// # mod hw { include!("doctest_device.rs"); }
+    /// # use hw::*;
+    /// # let mut dev = device();
+    /// use agent_node::canopen::od::{StatusField, STATUS_BASE};
+    /// use agent_node::wire::Heartbeat;
+    /// use agent_node::{supervisor::Lost, NodeState};
+    /// assert_eq!(dev.read(STATUS_BASE, 0).unwrap().as_slice(), &[1]); // before any: state boot
+    /// let hb = Heartbeat { state: NodeState::Safe, lost: Lost::from_bits(Lost::LEADER),
+    ///     boot_count: 3, overruns: 0, safe_entries: 1 };
+    /// dev.status_sent(&hb.to_bytes());
+    /// assert_eq!(dev.read(STATUS_BASE, 0).unwrap().as_slice(), &[2]); // safe
+    /// let boot = STATUS_BASE + StatusField::BootCount.position();
+    /// assert_eq!(dev.read(boot, 0).unwrap().as_slice(), &3u16.to_le_bytes());
+    /// ```
     pub fn status_sent(&mut self, data: &[u8; crate::wire::HEARTBEAT_LEN]) {
         self.status = Some(*data);
     }

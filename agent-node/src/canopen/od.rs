@@ -113,6 +113,13 @@ pub const COMMAND_OBJECT: u16 = 0x2231;
 pub const PLANT_PAIR: u8 = 2;
 
 /// The CiA 301 mapping entry of element `sub` (1 or 2) of a plant-frame object: 32 bits.
+///
+/// ```
+/// use agent_node::canopen::od::{plant_mapping, COMMAND_OBJECT, SENSOR_OBJECT};
+/// // RPDO18 maps x_{i,1} to 0x2230:01, TPDO3 q_{i,2} from 0x2231:02, 32 bits each.
+/// assert_eq!(plant_mapping(SENSOR_OBJECT, 1), 0x2230_0120);
+/// assert_eq!(plant_mapping(COMMAND_OBJECT, 2), 0x2231_0220);
+/// ```
 pub const fn plant_mapping(index: u16, sub: u8) -> u32 {
     (index as u32) << 16 | (sub as u32) << 8 | 32
 }
@@ -265,6 +272,16 @@ impl Field {
 }
 
 /// One field of the node's status PDO (`crate::wire::Heartbeat`), as TPDO2 maps it.
+///
+/// ```
+/// use agent_node::canopen::od::StatusField;
+/// use agent_node::wire::Heartbeat;
+/// use agent_node::{supervisor::Lost, NodeState};
+/// let hb = Heartbeat { state: NodeState::Safe, lost: Lost::from_bits(Lost::SENSOR),
+///     boot_count: 7, overruns: 0, safe_entries: 1 };
+/// // State safe (2), sensor lost (bit 2), boot 7, no overrun, one safe-state entry.
+/// assert_eq!(StatusField::ALL.map(|f| f.extract(&hb.to_bytes())), [2, 4, 7, 0, 1]);
+/// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum StatusField {
     /// The supervisor's state (`crate::NodeState::code`).
@@ -290,6 +307,13 @@ impl StatusField {
     ];
 
     /// Bits the field takes in the frame (the mapped length).
+    ///
+    /// ```
+    /// use agent_node::canopen::od::StatusField;
+    /// assert_eq!((StatusField::Lost.bits(), StatusField::Overruns.bits()), (8, 16));
+    /// // The five fields fill the 8-byte frame.
+    /// assert_eq!(StatusField::ALL.iter().map(|f| u32::from(f.bits())).sum::<u32>(), 64);
+    /// ```
     pub const fn bits(self) -> u8 {
         match self {
             Self::State | Self::Lost => 8,
@@ -298,6 +322,15 @@ impl StatusField {
     }
 
     /// First bit of the field in the frame.
+    ///
+    /// ```
+    /// use agent_node::canopen::od::StatusField;
+    /// assert_eq!(StatusField::BootCount.offset(), 16); // bytes 2..3
+    /// // Each field starts where the one before it ends.
+    /// for w in StatusField::ALL.windows(2) {
+    ///     assert_eq!(w[0].offset() + w[0].bits(), w[1].offset());
+    /// }
+    /// ```
     pub const fn offset(self) -> u8 {
         match self {
             Self::State => 0,
@@ -309,11 +342,26 @@ impl StatusField {
     }
 
     /// Position in [`Self::ALL`] (its object is [`STATUS_BASE`] plus it).
+    ///
+    /// ```
+    /// use agent_node::canopen::od::{StatusField, STATUS_BASE};
+    /// assert_eq!(STATUS_BASE + StatusField::Overruns.position(), 0x2223);
+    /// assert!(StatusField::ALL.iter().enumerate().all(|(k, f)| usize::from(f.position()) == k));
+    /// ```
     pub const fn position(self) -> u16 {
         self as u16
     }
 
     /// The object's data type.
+    ///
+    /// ```
+    /// use agent_node::canopen::od::{DataType, StatusField};
+    /// assert_eq!(StatusField::Lost.data_type(), DataType::Unsigned8);
+    /// // The object is as wide as the mapped field.
+    /// for f in StatusField::ALL {
+    ///     assert_eq!(f.data_type().size(), Some(usize::from(f.bits() / 8)));
+    /// }
+    /// ```
     pub const fn data_type(self) -> DataType {
         match self {
             Self::State | Self::Lost => DataType::Unsigned8,
@@ -322,6 +370,12 @@ impl StatusField {
     }
 
     /// `ParameterName` of its object.
+    ///
+    /// ```
+    /// use agent_node::canopen::od::StatusField;
+    /// assert_eq!(StatusField::BootCount.name(), "Status boot counter");
+    /// assert!(StatusField::State.name().contains("2 safe")); // the NodeState code
+    /// ```
     pub const fn name(self) -> &'static str {
         match self {
             Self::State => "Status supervisor state (0 operational, 1 boot, 2 safe, 3 fault)",
@@ -333,12 +387,29 @@ impl StatusField {
     }
 
     /// The field of an 8-byte status PDO.
+    ///
+    /// ```
+    /// use agent_node::canopen::od::StatusField;
+    /// use agent_node::wire::Heartbeat;
+    /// use agent_node::{supervisor::Lost, NodeState};
+    /// let hb = Heartbeat { state: NodeState::Operational, lost: Lost::default(), boot_count: 2,
+    ///     overruns: 300, safe_entries: 0 };
+    /// assert_eq!(StatusField::Overruns.extract(&hb.to_bytes()), 300);
+    /// assert_eq!(StatusField::BootCount.extract(&hb.to_bytes()), 2);
+    /// ```
     pub fn extract(self, frame: &[u8; crate::wire::HEARTBEAT_LEN]) -> u32 {
         let all = u64::from_le_bytes(*frame);
         ((all >> self.offset()) & ((1u64 << self.bits()) - 1)) as u32
     }
 
     /// The CiA 301 mapping entry of this field: its object, sub-index 0, its length.
+    ///
+    /// ```
+    /// use agent_node::canopen::od::StatusField;
+    /// // TPDO2 maps 0x2222:00, 16 bits: the boot counter.
+    /// assert_eq!(StatusField::BootCount.mapping(), 0x2222_0010);
+    /// assert_eq!(StatusField::State.mapping(), 0x2220_0008);
+    /// ```
     pub const fn mapping(self) -> u32 {
         (STATUS_BASE as u32 + self as u32) << 16 | self.bits() as u32
     }
