@@ -49,6 +49,7 @@ pub mod canopen;
 pub mod dbc;
 pub mod link;
 pub mod node;
+mod own;
 pub mod plant_bus;
 pub mod supervisor;
 pub mod wire;

@@ -1508,46 +1508,6 @@ impl<const N: usize> ParamStore<N> {
         })
     }
 
-    /// Put the store's node-ID, graph row and identifier plan (as written or loaded; a node
-    /// applies them at its next reset communication) into `cfg` and `controller`: what a board
-    /// builds its acceptance filters from at boot. `false`, and nothing changed, when the row
-    /// does not fit the capacity `K`.
-    ///
-    /// ```
-    /// # mod hw { include!("doctest_device.rs"); }
-    /// # use hw::*;
-    /// # let dev = device();
-    /// // device(): agent 2 hearing agent 1 and the leader.
-    /// let mut cfg = NodeConfig::new(9, [0], 2_500);
-    /// let mut ctrl = ControllerConfig::<2>::default();
-    /// assert!(dev.store.graph_into(&mut cfg, &mut ctrl));
-    /// assert_eq!((cfg.agent, cfg.neighbours), (2, [1]));
-    /// assert_eq!((ctrl.neighbour_count, ctrl.pinned), (1, true));
-    /// // A row of one does not fit a node without room for neighbours: nothing changes.
-    /// let mut none = NodeConfig::new(9, [], 2_500);
-    /// assert!(!dev.store.graph_into(&mut none, &mut ctrl));
-    /// assert_eq!(none.agent, 9);
-    /// ```
-    pub fn graph_into<const K: usize>(
-        &self,
-        cfg: &mut crate::NodeConfig<K>,
-        controller: &mut ControllerConfig<N>,
-    ) -> bool {
-        let count = self.sections.agent.neighbour_count;
-        let Some(row) = self.node.neighbours.get(..count).filter(|_| count <= K) else {
-            return false;
-        };
-        cfg.neighbours = [0; K];
-        for (d, s) in cfg.neighbours.iter_mut().zip(row) {
-            *d = *s;
-        }
-        cfg.agent = self.node.pending_node_id;
-        cfg.ids = self.node.ids;
-        controller.neighbour_count = count;
-        controller.pinned = self.sections.agent.pinned;
-        true
-    }
-
     /// The controller configuration the store holds, validated as a scenario file is.
     ///
     /// ```
@@ -1729,7 +1689,7 @@ impl<const N: usize> ParamStore<N> {
     /// `0x0604_0043` when it refuses.
     fn check_node(&self, n: &NodeSettings, count: usize) -> Result<(), Abort> {
         let row = n.neighbours.get(..self.slots()).unwrap_or(&[]);
-        let own = crate::node::Own {
+        let own = crate::own::Own {
             agent: n.pending_node_id,
             stale_timeout_us: 1,
             ids: &n.ids,

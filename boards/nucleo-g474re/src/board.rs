@@ -470,7 +470,7 @@ mod tests {
         let (mut cfg, mut controller) = (NODE, config::controller());
         assert!(node
             .canopen()
-            .is_some_and(|d| d.store.graph_into(&mut cfg, &mut controller)));
+            .is_some_and(|d| cfg.graph_from(&d.store, &mut controller)));
         assert_eq!((cfg.agent, cfg.ids.agents()), (7, 8));
         assert_eq!(&cfg.neighbours[..controller.neighbour_count], &[5, 6]);
         assert!(!controller.pinned);

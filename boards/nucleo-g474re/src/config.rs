@@ -3,7 +3,7 @@
 //! image serves every agent of any graph: the node-ID, the graph row (the agents heard,
 //! whether the leader is) and the identifier plan come from the stored configuration
 //! ([`crate::param_page`]; the firmware builds its node and acceptance filters from what the
-//! CANopen device loads of it, `agent_node::canopen::od::ParamStore::graph_into`), set over the bus (CANopen SDO `0x2100`
+//! CANopen device loads of it, `agent_node::NodeConfig::graph_from`), set over the bus (CANopen SDO `0x2100`
 //! `node.node_id`, the `graph.neighbours` array, `graph.pinned`, `node.id_base`, …, `0x1010`
 //! store, NMT reset node); the parameters likewise. A stored node-ID without a stored row
 //! takes its row from the compiled plan (Example 1). A board with nothing stored boots as

@@ -346,7 +346,7 @@ mod app {
         // logic follow them now, the node adopts them at its boot-up (`node.service` below).
         let (mut node_cfg, mut controller) = (node_cfg, controller);
         if let Some(d) = node.canopen() {
-            d.store.graph_into(&mut node_cfg, &mut controller);
+            node_cfg.graph_from(&d.store, &mut controller);
         }
         node.can_mut()
             .listen(&node_cfg, controller.neighbour_count, controller.pinned);
