@@ -9,6 +9,8 @@
 //! * [`bus`]: the CAN-like bus simulator — bit timing with worst-case stuffing, arbitration,
 //!   latency, seeded loss and corruption, silent and babbling nodes, error counters and
 //!   bus-off.
+//! * [`host`]: [`host::BusHost`], the host's side of the bus shared by every kind of follower:
+//!   delivery to the receivers, the links' sample times and ages, the leader's frame.
 //! * [`network`]: [`network::CanNetwork`], nodes on mocked hardware, a leader and the bus,
 //!   stepped one sample at a time by a host loop that owns the plant.
 //!
@@ -19,5 +21,6 @@
 #![warn(missing_docs)]
 
 pub mod bus;
+pub mod host;
 pub mod mock;
 pub mod network;

@@ -3,7 +3,8 @@
 //!
 //! Bus node `0` is the leader, bus node `i` is agent `i`; their identifiers are those of the
 //! agents' identifier plan ([`agent_node::IdPlan`], `0x101` and `0x101 + i` by default).
-//! Per sample at time `t` ([`CanNetwork::step`]):
+//! Per sample at time `t` ([`CanNetwork::step`]), on the bus host loop it shares with the
+//! processor-in-the-loop followers ([`BusHost`]):
 //!
 //! 1. the bus runs up to `t`; each delivered frame is pushed, at its delivery time, into the
 //!    receive FIFO of every other node that is not bus-off, and the node's
@@ -60,11 +61,12 @@
 use controller_core::{ControllerConfig, Link};
 
 use crate::bus::{Bus, BusConfig, BusConfigError, BusStats, Delivery, Nanos};
+use crate::host::BusHost;
 use crate::mock::{MockActuator, MockCan, MockClock, MockFrame, MockNode, MockSensor};
 use agent_node::bus_load::{PlantFrames, SensorFrames};
 use agent_node::canopen::{self, CoFrame, NmtState};
 use agent_node::plant_bus::{self, Kind, PACKED_SENSOR_AGENTS};
-use agent_node::wire::{self, IdPlan, Source};
+use agent_node::wire::IdPlan;
 use agent_node::{NodeConfig, NodeError, Tick};
 
 /// Why a network could not be built.
@@ -109,12 +111,9 @@ pub struct AgentSetup<const N: usize, const K: usize> {
 
 /// Followers, leader and bus.
 pub struct CanNetwork<const N: usize, const M: usize, const K: usize> {
-    bus: Bus,
+    /// The bus, the links' sample times, the leader's counter and the identifier plan.
+    host: BusHost,
     nodes: Vec<MockNode<N, M, K>>,
-    /// `sample_time[receiver][sender]`: sample time of the latest frame delivered.
-    sample_time: Vec<Vec<Option<Nanos>>>,
-    leader_seq: u8,
-    ids: IdPlan,
     /// Scratch for the ages of one sample.
     ages: Vec<Nanos>,
     /// The plant's frames on the bus, and each node's last state period (`None`: none sent).
@@ -125,9 +124,9 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
     /// Build the bus (`agents.len() + 1` nodes) and one node per agent; agent `i` must be the
     /// `i`-th entry.
     pub fn new(bus: BusConfig, agents: &[AgentSetup<N, K>]) -> Result<Self, NetworkError> {
-        let bus = Bus::new(bus, agents.len() + 1).map_err(NetworkError::Bus)?;
-        let mut nodes = Vec::with_capacity(agents.len());
         let ids = agents.first().map_or(IdPlan::DEFAULT, |a| a.node.ids);
+        let host = BusHost::new(bus, agents.len(), ids).map_err(NetworkError::Bus)?;
+        let mut nodes = Vec::with_capacity(agents.len());
         for (i, a) in agents.iter().enumerate() {
             if usize::from(a.node.agent) != i + 1 {
                 return Err(NetworkError::AgentOrder(a.node.agent));
@@ -149,13 +148,9 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
             })?;
             nodes.push(node);
         }
-        let n = agents.len() + 1;
         Ok(Self {
-            bus,
+            host,
             nodes,
-            sample_time: vec![vec![None; n]; n],
-            leader_seq: 0,
-            ids,
             ages: Vec::new(),
             plant: None,
         })
@@ -187,7 +182,7 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
                     if let Some(f) =
                         plant_bus::pair_frame::<MockFrame>(Kind::Sensor, agent, pair(x))
                     {
-                        let _ = self.bus.submit(0, t_ns, f);
+                        let _ = self.host.bus_mut().submit(0, t_ns, f);
                     }
                 }
             }
@@ -198,7 +193,7 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
                     let head = group.first().map_or([0.0; 2], pair);
                     if let Some(f) = plant_bus::pair_frame::<MockFrame>(Kind::Sensor, first, head) {
                         let len = group.len() * plant_bus::PAIR_LEN;
-                        let _ = self.bus.submit_sized(0, t_ns, f, len);
+                        let _ = self.host.bus_mut().submit_sized(0, t_ns, f, len);
                     }
                 }
             }
@@ -217,7 +212,7 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
             q.get(1).copied().unwrap_or(0.0),
         ];
         if let Some(f) = plant_bus::pair_frame::<MockFrame>(Kind::Command, agent, pair) {
-            let _ = self.bus.submit(j + 1, t_ns, f);
+            let _ = self.host.bus_mut().submit(j + 1, t_ns, f);
         }
         let period = (t_ns / 1000).checked_div(plant.state_period_us);
         if let (Some(p), Some(slot)) = (period, last.get_mut(j)) {
@@ -228,7 +223,7 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
                     &[NmtState::Operational.code()],
                 );
                 if let Some(f) = beat.to_frame::<MockFrame>() {
-                    let _ = self.bus.submit(j + 1, t_ns, f);
+                    let _ = self.host.bus_mut().submit(j + 1, t_ns, f);
                 }
             }
         }
@@ -236,12 +231,12 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
 
     /// The bus.
     pub fn bus(&self) -> &Bus {
-        &self.bus
+        self.host.bus()
     }
 
     /// The bus (e.g. to record a trace: [`Bus::record_wire`]).
     pub fn bus_mut(&mut self) -> &mut Bus {
-        &mut self.bus
+        self.host.bus_mut()
     }
 
     /// The nodes; agent `i` is at index `i − 1`.
@@ -256,7 +251,7 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
 
     /// Bus statistics, with the ages of neighbour data used.
     pub fn stats(&self) -> BusStats {
-        self.bus.stats()
+        self.host.bus().stats()
     }
 
     /// One sample at `t_ns` (see the module docs): `states[i]` is agent `i + 1`'s state,
@@ -290,24 +285,21 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
         t_ns: Nanos,
         clock: impl Fn(usize, Nanos) -> u64,
     ) -> Vec<Delivery> {
-        let delivered = self.bus.advance_to(t_ns);
         let plant = self.plant.is_some();
-        for d in &delivered {
+        let nodes = &mut self.nodes;
+        self.host.deliver_until(t_ns, |j, d| {
+            // A bench node's value socket filters the plant's frames out.
             if plant && plant_bus::decode(&d.frame).is_some() {
-                continue;
+                return false;
             }
-            for (j, node) in self.nodes.iter_mut().enumerate() {
-                let bus_node = j + 1;
-                if bus_node == d.from || self.bus.is_bus_off(bus_node, d.at_ns) {
-                    continue;
-                }
-                node.clock_mut().set(clock(j, d.at_ns));
-                node.can_mut().push_rx(d.frame);
-                node.poll_rx();
-                self.sample_time[bus_node][d.from] = Some(d.submitted_ns);
-            }
-        }
-        delivered
+            let Some(node) = nodes.get_mut(j) else {
+                return false;
+            };
+            node.clock_mut().set(clock(j, d.at_ns));
+            node.can_mut().push_rx(d.frame);
+            node.poll_rx();
+            true
+        })
     }
 
     /// Agent `j + 1` (0-based `j`) samples at `t_ns` with its clock at `now_us`: its sensors
@@ -320,7 +312,7 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
         state: Option<&[f32; N]>,
     ) -> Tick<N, M> {
         let bus_node = j + 1;
-        let bus_off = self.bus.is_bus_off(bus_node, t_ns);
+        let bus_off = self.host.bus().is_bus_off(bus_node, t_ns);
         let node = &mut self.nodes[j];
         node.clock_mut().set(now_us);
         if let Some(x) = state {
@@ -330,7 +322,7 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
         let tick = node.tick();
         while let Some(f) = node.can_mut().take_tx() {
             // Refusals (silent, bus-off) are counted by the bus.
-            let _ = self.bus.submit(bus_node, t_ns, f);
+            let _ = self.host.bus_mut().submit(bus_node, t_ns, f);
         }
         self.send_plant_frames(j, t_ns, &tick.output.q);
         tick
@@ -338,44 +330,30 @@ impl<const N: usize, const M: usize, const K: usize> CanNetwork<N, M, K> {
 
     /// The leader submits `y_d` at `t_ns` with its own sequence counter.
     pub fn send_leader(&mut self, t_ns: Nanos, yd: f32) {
-        if let Some((f, _)) =
-            wire::encode_in::<MockFrame>(&self.ids, Source::Leader, yd, self.leader_seq)
-        {
-            let _ = self.bus.submit(0, t_ns, f);
-        }
-        self.leader_seq = (self.leader_seq + 1) % wire::SEQ_MODULUS;
+        self.host.send_leader(t_ns, yd);
     }
 
     /// Agent `j + 1`'s ages at `t_ns` (its clock at `now_us`) of the neighbour and leader values
     /// its controller uses: `t_ns` minus the sender's sample time. Also recorded in the bus
     /// statistics.
     pub fn link_ages(&mut self, j: usize, t_ns: Nanos, now_us: u64, ages: &mut Vec<Nanos>) {
-        let start = ages.len();
-        self.ages_of(j, t_ns, now_us, ages);
-        for &a in &ages[start..] {
-            self.bus.record_age(a);
-        }
-    }
-
-    fn ages_of(&self, j: usize, t_ns: Nanos, now_us: u64, ages: &mut Vec<Nanos>) {
-        let node = &self.nodes[j];
-        let receiver = j + 1;
+        let Some(node) = self.nodes.get(j) else {
+            return;
+        };
+        // The senders of the neighbour values in use, then the leader when pinned.
         let mut k = 0;
-        while let Some(link) = node.neighbour_link(k, now_us) {
-            if !matches!(link, Link::Missing) {
-                if let Some(sender) = node.neighbour_agent(k) {
-                    if let Some(ts) = self.sample_time[receiver][usize::from(sender)] {
-                        ages.push(t_ns.saturating_sub(ts));
-                    }
+        let neighbours = std::iter::from_fn(|| {
+            while let Some(link) = node.neighbour_link(k, now_us) {
+                let sender = node.neighbour_agent(k);
+                k += 1;
+                if let (false, Some(sender)) = (matches!(link, Link::Missing), sender) {
+                    return Some(usize::from(sender));
                 }
             }
-            k += 1;
-        }
-        if node.is_pinned() {
-            if let Some(ts) = self.sample_time[receiver][0] {
-                ages.push(t_ns.saturating_sub(ts));
-            }
-        }
+            None
+        });
+        let leader = node.is_pinned().then_some(0);
+        self.host.link_ages(j, t_ns, neighbours.chain(leader), ages);
     }
 
     fn record_ages(&mut self, t_ns: Nanos) {

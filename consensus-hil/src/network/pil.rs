@@ -34,15 +34,12 @@ use std::{
 use agent_node::{
     canopen::{CoFrame, NmtCommand},
     link::{self, io, CanFrame, Report, Slcan, Tick, RECORD_MAX_LINE, SLCAN_MAX_LINE},
-    wire::{self, IdPlan, Source},
+    wire::{IdPlan, Source},
     NodeState,
 };
 use controller_core::{ControllerConfig, Estimates, Gains, LinkReport, StepFault, StepOutput};
 use embedded_can::Frame;
-use hil_mock::{
-    bus::{Bus, Nanos},
-    mock::MockFrame,
-};
+use hil_mock::{bus::Nanos, host::BusHost, mock::MockFrame};
 use plotters::style::{Color, RGBColor};
 
 use crate::network::canopen::Master;
@@ -597,17 +594,16 @@ fn nearest_rank(sorted: &[u32], p: f64) -> u32 {
 /// Every follower on its own emulated Cortex-M4F, the leader and the bus on the host.
 pub struct PilAgents<const N: usize, const M: usize> {
     emus: Vec<Emulator>,
-    bus: Bus,
+    /// The bus, the links' sample times, the leader's counter and the identifier plan.
+    host: BusHost,
     h_ns: Nanos,
     bitrate: u32,
-    leader_seq: u8,
-    ids: IdPlan,
     pinned: Vec<bool>,
     neighbours: Vec<Vec<usize>>,
     /// Acceptance filter of each node: the standard identifiers it hears.
     accept: Vec<Vec<u32>>,
-    /// `sample_time[receiver][sender]`: sample time of the latest frame delivered.
-    sample_time: Vec<Vec<Option<Nanos>>>,
+    /// Scratch for the ages of one agent's links.
+    ages: Vec<Nanos>,
     costs: Vec<Vec<u32>>,
     /// Sample index of each entry of `costs`.
     cost_samples: Vec<Vec<u64>>,
@@ -775,23 +771,21 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
             .collect();
         let cfg = bus_config(spec, h);
         let bitrate = cfg.bitrate;
-        let mut bus = Bus::new(cfg, agents + 1).map_err(|e| Error::invalid("network", e))?;
+        let mut host = BusHost::new(cfg, agents, ids).map_err(|e| Error::invalid("network", e))?;
         let trace = traces.bus.map(TraceWriter::create).transpose()?;
         if trace.is_some() {
-            bus.record_wire();
+            host.bus_mut().record_wire();
         }
         let link_trace = traces.link.map(TraceWriter::create).transpose()?;
         let mut agents = Self {
             emus,
-            bus,
+            host,
             h_ns: ns(h),
             bitrate,
-            leader_seq: 0,
-            ids,
             pinned,
             neighbours,
             accept,
-            sample_time: vec![vec![None; agents + 1]; agents + 1],
+            ages: Vec::new(),
             costs: vec![Vec::with_capacity(usize::try_from(samples).unwrap_or(0)); agents],
             cost_samples: vec![Vec::with_capacity(usize::try_from(samples).unwrap_or(0)); agents],
             resolution: 0,
@@ -905,7 +899,7 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
                     let frame = MockFrame::new(f.id(), f.data())
                         .ok_or_else(|| emu.failure("sent a frame the bus cannot carry"))?;
                     // Refusals (silent, bus-off) are counted by the bus.
-                    let _ = self.bus.submit(j + 1, t_ns, frame);
+                    let _ = self.host.bus_mut().submit(j + 1, t_ns, frame);
                 }
                 Some(io::OVERRUN) => {
                     self.events[j].overruns += 1;
@@ -929,15 +923,14 @@ impl<const N: usize, const M: usize> PilAgents<N, M> {
         }
     }
 
+    /// Records the ages at `t_ns` of the values every agent's controller uses: its
+    /// neighbours', and the leader's when pinned.
     fn record_ages(&mut self, t_ns: Nanos) {
-        for (j, heard) in self.neighbours.iter().enumerate() {
-            let receiver = j + 1;
-            let leader = self.pinned[j].then_some(0);
-            for &sender in heard.iter().chain(leader.iter()) {
-                if let Some(ts) = self.sample_time[receiver][sender] {
-                    self.bus.record_age(t_ns.saturating_sub(ts));
-                }
-            }
+        for (j, (heard, &pinned)) in self.neighbours.iter().zip(&self.pinned).enumerate() {
+            let leader = pinned.then_some(0);
+            self.ages.clear();
+            let senders = heard.iter().copied().chain(leader);
+            self.host.link_ages(j, t_ns, senders, &mut self.ages);
         }
     }
 }
@@ -952,22 +945,20 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
         out: &mut Vec<StepOutput<N, M>>,
     ) -> Result<()> {
         let t_ns = k.saturating_mul(self.h_ns);
-        for d in self.bus.advance_to(t_ns) {
-            let Some(frame) = CanFrame::new(d.frame.id(), d.frame.data()) else {
-                continue;
+        let (emus, accept) = (&mut self.emus, &self.accept);
+        self.host.deliver_until(t_ns, |j, d| {
+            let (Some(emu), Some(accept)) = (emus.get_mut(j), accept.get(j)) else {
+                return false;
             };
-            for (j, emu) in self.emus.iter_mut().enumerate() {
-                let bus_node = j + 1;
-                if bus_node == d.from || emu.hung || self.bus.is_bus_off(bus_node, d.at_ns) {
-                    continue;
-                }
-                if !d.frame.is_extended() && !self.accept[j].contains(&d.frame.raw_id()) {
-                    continue;
-                }
-                emu.queue_at(&frame, d.at_ns / 1000);
-                self.sample_time[bus_node][d.from] = Some(d.submitted_ns);
+            if emu.hung || (!d.frame.is_extended() && !accept.contains(&d.frame.raw_id())) {
+                return false;
             }
-        }
+            let Some(frame) = CanFrame::new(d.frame.id(), d.frame.data()) else {
+                return false;
+            };
+            emu.queue_at(&frame, d.at_ns / 1000);
+            true
+        });
         let t_us = t_ns / 1000;
         for ((((emu, xi), hangs), slows), events) in self
             .emus
@@ -1002,14 +993,9 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
             out.push(self.collect(j, t_ns)?);
         }
         self.record_ages(t_ns);
-        if let Some((f, _)) =
-            wire::encode_in::<MockFrame>(&self.ids, Source::Leader, yd as f32, self.leader_seq)
-        {
-            let _ = self.bus.submit(0, t_ns, f);
-        }
-        self.leader_seq = (self.leader_seq + 1) % wire::SEQ_MODULUS;
+        self.host.send_leader(t_ns, yd as f32);
         if let Some(w) = self.trace.as_mut() {
-            w.write(INTERFACE, &self.bus.take_wire_log());
+            w.write(INTERFACE, &self.host.bus_mut().take_wire_log());
         }
         self.write_link_log();
         Ok(())
@@ -1024,7 +1010,7 @@ impl<const N: usize, const M: usize> Agents<N, M> for PilAgents<N, M> {
             network: NetworkSummary::new(
                 NetworkKind::Pil,
                 self.bitrate,
-                &self.bus.stats(),
+                &self.host.bus().stats(),
                 self.malformed,
                 self.stale_samples,
             ),
