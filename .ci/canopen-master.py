@@ -189,7 +189,8 @@ pinned = false
 
     # The graph row over SDO: agent 2 to hear agents 1 and 3 (entry 2, then the count), read
     # back with RPDO3 following; a duplicate refused, the row unchanged; then agent 1 alone
-    # again (a row applies at a reset, and none is sent before this).
+    # again. A written row applies at the next reset communication: a start before it is
+    # refused (EMCY 0x6300, back to pre-operational).
     row = node.object_dictionary["graph.neighbours"].index
     node.sdo.download(row, 2, bytes([3]))
     node.sdo.download(row, 0, bytes([2]))
@@ -202,6 +203,18 @@ pinned = false
     check(node.sdo.upload(row, 2) == b"\x03", "graph.neighbours[2] still 3")
     node.sdo.download(row, 0, bytes([1]))
     check(node.sdo.upload(row, 0) == b"\x01", "graph.neighbours back to [1]")
+    node.emcy.reset()
+    node.nmt.state = "OPERATIONAL"
+    time.sleep(0.3)
+    state = node.nmt.wait_for_heartbeat(5)
+    codes = [e.code for e in node.emcy.log]
+    check(state == "PRE-OPERATIONAL" and 0x6300 in codes,
+          f"NMT start with a written row waiting: refused, {state}, EMCY "
+          + ", ".join(f"{c:#06x}" for c in codes))
+    node.nmt.state = "RESET COMMUNICATION"
+    time.sleep(0.5)
+    check(node.nmt.wait_for_heartbeat(5) == "PRE-OPERATIONAL" and node.sdo.upload(row, 0) == b"\x01",
+          "reset communication: the row [1] applied, pre-operational")
 
     zeta = node.object_dictionary["controller.zeta"].index
     node.sdo[zeta].raw = 0.2
