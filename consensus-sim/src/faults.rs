@@ -1,7 +1,7 @@
 //! Actuator faults `q^f = ϱ(t) q(u) + ū(t)` (LAW §7, the paper's eq. 3) on repeating windows,
 //! with the Assumption 4 check: never all actuators of an agent in total loss at once.
 
-use std::fmt;
+use std::{fmt, sync::Arc};
 
 use serde::{de, Deserialize, Deserializer, Serialize, Serializer};
 
@@ -291,16 +291,25 @@ impl Compiled {
         (k_lo == k_hi && a_lo == a_hi).then_some(a_lo)
     }
 
-    /// This rule's part of the effect at `t` (it is active then): eq. (3)'s `ϱ` and `ū`.
+    /// This rule's part of the effect at `t` (it is active then): eq. (3)'s `ϱ` and `ū`;
+    /// `sine` is `sin(ω t)` when computed before.
     #[inline]
-    fn act_on(&self, e: &mut ActuatorEffect, t: f64) {
+    fn act_on(&self, e: &mut ActuatorEffect, t: f64, sine: Option<f64>) {
         match self.effect {
             Effect::Partial(g) => e.gain *= g,
             Effect::Stuck {
                 bias,
                 amplitude,
                 omega,
-            } => e.stuck = Some(bias + amplitude * (omega * t).sin()),
+            } => e.stuck = Some(bias + amplitude * sine.unwrap_or_else(|| (omega * t).sin())),
+        }
+    }
+
+    /// `ω` of a stuck rule.
+    fn omega(&self) -> Option<f64> {
+        match self.effect {
+            Effect::Stuck { omega, .. } => Some(omega),
+            Effect::Partial(_) => None,
         }
     }
 
@@ -543,7 +552,7 @@ impl FaultSchedule {
         let mut e = ActuatorEffect::HEALTHY;
         for c in &self.rules[i * self.m + l] {
             if c.active(t) {
-                c.act_on(&mut e, t);
+                c.act_on(&mut e, t, None);
             }
         }
         e
@@ -551,8 +560,16 @@ impl FaultSchedule {
 
     /// [`FaultSchedule::effect`] of actuator `l` of agent `i` at each of `times`, into `out`
     /// (one per time; the same values). A rule whose window edges miss the span of `times`
-    /// is tested once for all of them (`Compiled::steady`) instead of at every instant.
-    pub fn effects_at(&self, i: usize, l: usize, times: &[f64], out: &mut [ActuatorEffect]) {
+    /// is tested once for all of them (`Compiled::steady`) instead of at every instant. A stuck
+    /// rule takes `sin(ω t)` from `sines` where it holds them for `times`.
+    pub fn effects_at(
+        &self,
+        i: usize,
+        l: usize,
+        times: &[f64],
+        sines: Sines<'_>,
+        out: &mut [ActuatorEffect],
+    ) {
         out.fill(ActuatorEffect::HEALTHY);
         let Some(rules) = self.rules.get(i * self.m + l) else {
             return;
@@ -561,22 +578,35 @@ impl FaultSchedule {
         let hi = times.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         // Rules in their order at every instant, as `effect` takes them: the same products.
         for c in rules {
+            let table = c.omega().map_or(&[][..], |w| sines.of(w));
+            let sine = |n: usize| table.get(n).copied();
             match c.steady(lo, hi) {
                 Some(false) => {}
                 Some(true) => {
-                    for (e, &t) in out.iter_mut().zip(times) {
-                        c.act_on(e, t);
+                    for (n, (e, &t)) in out.iter_mut().zip(times).enumerate() {
+                        c.act_on(e, t, sine(n));
                     }
                 }
                 None => {
-                    for (e, &t) in out.iter_mut().zip(times) {
+                    for (n, (e, &t)) in out.iter_mut().zip(times).enumerate() {
                         if c.active(t) {
-                            c.act_on(e, t);
+                            c.act_on(e, t, sine(n));
                         }
                     }
                 }
             }
         }
+    }
+
+    /// The `ω` of every stuck rule, each once.
+    pub fn stuck_omegas(&self) -> Vec<f64> {
+        let mut v: Vec<f64> = Vec::new();
+        for w in self.rules.iter().flatten().filter_map(Compiled::omega) {
+            if !v.iter().any(|x| x.to_bits() == w.to_bits()) {
+                v.push(w);
+            }
+        }
+        v
     }
 
     /// Fault classes: agents with the same rules on every actuator share one, so a stage's
@@ -602,6 +632,49 @@ impl FaultSchedule {
             of.push(Some(c));
         }
         (of, members)
+    }
+}
+
+/// `sin(ω t)` at a run's stage times for one `ω`, computed once for the runs of a campaign
+/// (they share the stage times): `values[k]` at the run's `k`-th distinct stage time.
+#[derive(Debug, Clone)]
+pub struct SineTable {
+    /// `ω` \[rad/s\].
+    pub omega: f64,
+    /// `sin(ω t_k)`, computed as a stuck rule computes it.
+    pub values: Arc<[f64]>,
+}
+
+impl SineTable {
+    /// The table of `ω` over the stage times `times`.
+    pub fn new(omega: f64, times: &[f64]) -> Self {
+        Self {
+            omega,
+            values: times.iter().map(|&t| (omega * t).sin()).collect(),
+        }
+    }
+}
+
+/// The [`SineTable`]s a run has, seen from the stage time `first` on (an index into them).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Sines<'a> {
+    tables: &'a [SineTable],
+    first: usize,
+}
+
+impl<'a> Sines<'a> {
+    /// `tables` from their `first` entry on.
+    pub fn new(tables: &'a [SineTable], first: usize) -> Self {
+        Self { tables, first }
+    }
+
+    /// `sin(ω t)` from the first stage time on, or nothing (the rule computes them).
+    fn of(&self, omega: f64) -> &'a [f64] {
+        self.tables
+            .iter()
+            .find(|s| s.omega.to_bits() == omega.to_bits())
+            .and_then(|s| s.values.get(self.first..))
+            .unwrap_or_default()
     }
 }
 
@@ -651,6 +724,45 @@ mod tests {
             period,
             length,
         }
+    }
+
+    /// A stuck rule takes `sin(ω t)` from the table of its `ω`, from the table's `first`
+    /// entry on (a table of another `ω`, or one too short, leaves it to the rule).
+    #[test]
+    fn stuck_rules_read_their_sine_table_from_first_on() -> Result<()> {
+        let s =
+            FaultSchedule::from_rules(&[rule(1, FaultKind::Stuck, 0.0, None, None)], 1, 2, 10.0)?;
+        assert_eq!(s.stuck_omegas(), [1.0]);
+        let times = [0.5, 0.75];
+        let marked = SineTable {
+            omega: 1.0,
+            values: Arc::from([9.0, 7.0, 5.0].as_slice()),
+        };
+        let other = SineTable {
+            omega: 2.0,
+            values: marked.values.clone(),
+        };
+        let mut out = [ActuatorEffect::HEALTHY; 2];
+        let stuck = |out: &[ActuatorEffect; 2]| out.map(|e| e.stuck);
+        s.effects_at(
+            0,
+            0,
+            &times,
+            Sines::new(std::slice::from_ref(&marked), 1),
+            &mut out,
+        );
+        assert_eq!(stuck(&out), [Some(7.0), Some(5.0)]);
+        s.effects_at(
+            0,
+            0,
+            &times,
+            Sines::new(std::slice::from_ref(&marked), 2),
+            &mut out,
+        );
+        assert_eq!(stuck(&out), [Some(5.0), Some(0.75f64.sin())]);
+        s.effects_at(0, 0, &times, Sines::new(&[other], 0), &mut out);
+        assert_eq!(stuck(&out), times.map(|t: f64| Some(t.sin())));
+        Ok(())
     }
 
     #[test]

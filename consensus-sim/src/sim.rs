@@ -11,7 +11,7 @@
 
 mod clocked;
 
-use std::sync::{Arc, OnceLock};
+use std::sync::{Arc, Mutex, OnceLock};
 
 use controller_core::{Controller, ControllerConfig, Gains, Link, StepOutput};
 use rayon::prelude::*;
@@ -21,7 +21,7 @@ pub use clocked::Release;
 
 use crate::{
     clock::Clocks,
-    faults::{ActuatorEffect, FaultSchedule},
+    faults::{ActuatorEffect, FaultSchedule, SineTable, Sines},
     figures::KindReport,
     graph::Graph,
     leader::Leader,
@@ -303,6 +303,8 @@ pub struct Sim<P: Plant<N, M>, A, const N: usize, const M: usize> {
     inputs: StageInputs<P::Time, M>,
     /// The plant's time terms at this run's stage times, computed before (by another run).
     stage_terms: Option<Arc<StageTerms<P::Time>>>,
+    /// The stuck rules' `sin(ω t)` at this run's stage times, computed before (by another run).
+    stuck_sines: Vec<SineTable>,
     plant: P,
     agents: A,
     /// Plant states at `t_k`, per agent.
@@ -364,6 +366,7 @@ where
             faults: world.faults,
             inputs: StageInputs::new(members.len(), world.substeps),
             stage_terms: None,
+            stuck_sines: Vec::new(),
             members,
             groups,
             plant,
@@ -384,10 +387,17 @@ where
         self.agents.gains()
     }
 
-    /// Takes the plant's time terms from `terms` (computed before, e.g. by another run of a
-    /// campaign) instead of computing them, if it holds this run's stage times.
+    /// Takes the plant's time terms and the stuck rules' `sin(ω t)` from `terms` (computed
+    /// before, e.g. by another run of a campaign) instead of computing them, if it holds this
+    /// run's stage times.
     pub fn share_stage_terms(&mut self, terms: Arc<StageTerms<P::Time>>) {
         if terms.fits(self.h, self.substeps, self.samples) {
+            self.stuck_sines = self
+                .faults
+                .stuck_omegas()
+                .into_iter()
+                .map(|w| terms.sines(w))
+                .collect();
             self.stage_terms = Some(terms);
         }
     }
@@ -487,8 +497,13 @@ where
         let dt = self.h / f64::from(self.substeps);
         self.inputs.stage_times(t, self.h, self.substeps);
         let shared = self.stage_terms.as_deref();
-        self.inputs
-            .fill(&self.plant, shared, &self.faults, &self.members);
+        self.inputs.fill(
+            &self.plant,
+            shared,
+            &self.faults,
+            &self.members,
+            &self.stuck_sines,
+        );
         let (plant, inputs) = (&self.plant, &self.inputs);
         let step = |g: &mut Group<N, M>, x: &mut [[f64; N]]| {
             advance(plant, inputs, g, dt);
@@ -600,14 +615,16 @@ impl<T: Copy, const M: usize> StageInputs<T, M> {
     }
 
     /// The time terms of `plant` (from `shared` where it has them) and the effects of every
-    /// fault class (class `c` as its agent `members[c]` of `faults`) at the stage times added
-    /// since [`StageInputs::begin_sample`].
+    /// fault class (class `c` as its agent `members[c]` of `faults`, stuck rules' `sin(ω t)`
+    /// from `sines` where it has them) at the stage times added since
+    /// [`StageInputs::begin_sample`].
     fn fill<const N: usize, P: Plant<N, M, Time = T>>(
         &mut self,
         plant: &P,
         shared: Option<&StageTerms<T>>,
         faults: &FaultSchedule,
         members: &[usize],
+        sines: &[SineTable],
     ) {
         let new = self.times.get(self.fresh..).unwrap_or_default();
         let shared = shared
@@ -620,6 +637,7 @@ impl<T: Copy, const M: usize> StageInputs<T, M> {
             new.iter()
                 .map(|&t| from_table.next().copied().unwrap_or_else(|| plant.at(t))),
         );
+        let sines = Sines::new(sines, self.cursor);
         self.cursor += new.len();
         let (from, to) = (self.fresh, self.times.len());
         for (row, (c, l)) in self
@@ -628,7 +646,7 @@ impl<T: Copy, const M: usize> StageInputs<T, M> {
             .zip((0..self.classes).flat_map(|c| (0..M).map(move |l| (c, l))))
         {
             if let (Some(&agent), Some(out)) = (members.get(c), row.get_mut(from..to)) {
-                faults.effects_at(agent, l, new, out);
+                faults.effects_at(agent, l, new, sines, out);
             }
         }
         self.fresh = to;
@@ -688,7 +706,11 @@ pub struct StageTerms<T> {
     h: f64,
     substeps: u32,
     samples: u64,
+    /// The distinct stage times.
+    times: Vec<f64>,
     terms: Vec<T>,
+    /// `sin(ω t)` at `times` for the stuck rules' `ω` asked for so far.
+    sines: Mutex<Vec<SineTable>>,
 }
 
 impl<T: Copy> StageTerms<T> {
@@ -701,19 +723,39 @@ impl<T: Copy> StageTerms<T> {
         samples: u64,
     ) -> Self {
         let mut inputs = StageInputs::<T, M>::new(0, substeps);
-        let mut terms = Vec::new();
+        let (mut times, mut terms) = (Vec::new(), Vec::new());
         let faults = FaultSchedule::healthy(0, M);
         for k in 0..samples {
             inputs.stage_times(k as f64 * h, h, substeps);
-            inputs.fill(plant, None, &faults, &[]);
-            terms.extend(inputs.terms.iter().skip(usize::from(k > 0)));
+            inputs.fill(plant, None, &faults, &[], &[]);
+            let skip = usize::from(k > 0);
+            times.extend(inputs.times.iter().skip(skip));
+            terms.extend(inputs.terms.iter().skip(skip));
         }
         Self {
             h,
             substeps,
             samples,
+            times,
             terms,
+            sines: Mutex::new(Vec::new()),
         }
+    }
+
+    /// `sin(ω t)` at the stage times: the table computed before for this `ω`, or a new one.
+    pub fn sines(&self, omega: f64) -> SineTable {
+        // A poisoned lock only means another run panicked while computing a table: the
+        // tables already in it are complete.
+        let mut tables = self
+            .sines
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some(t) = tables.iter().find(|t| t.omega.to_bits() == omega.to_bits()) {
+            return t.clone();
+        }
+        let t = SineTable::new(omega, &self.times);
+        tables.push(t.clone());
+        t
     }
 
     /// Whether this table holds the stage times of a run of `samples` samples of period `h`,

@@ -1,13 +1,13 @@
 //! The loop's shortcuts for the time-only inputs of its RK4 stages change no result: the fault
 //! effects of a sample's stage times found with one window test per rule and sample
 //! (`FaultSchedule::effects_at`) are `FaultSchedule::effect`'s at every instant, to the bit, and
-//! a run taking Example 1's `cos t` from a table another run computed (`SharedStageTerms`, as
+//! a run taking Example 1's `cos t` and its stuck rule's `sin t` from tables another run computed (`SharedStageTerms`, as
 //! the runs of a campaign do) gives the same summary as a run computing them.
 
 use std::sync::Arc;
 
 use host_sim::{
-    faults::{ActuatorEffect, FaultRule, FaultSchedule},
+    faults::{ActuatorEffect, FaultRule, FaultSchedule, SineTable, Sines},
     run::{run, RunOptions},
     scenario::{self, Setup},
     sim::SharedStageTerms,
@@ -74,8 +74,16 @@ fn effects_over_a_sample_are_the_effects_at_each_instant() -> Result<()> {
                 let t0 = t + j as f64 * dt;
                 three.copy_from_slice(&[t0, t0 + 0.5 * dt, t0 + dt]);
             }
+            // The stuck rules' ω = 1 from a table of the sample's times half the time (as a
+            // campaign's runs take it), computed by the rule the other half.
+            let tables = [SineTable::new(1.0, &times)];
+            let sines = if k % 2 == 0 {
+                Sines::new(&tables, 0)
+            } else {
+                Sines::default()
+            };
             for l in 0..2 {
-                s.effects_at(0, l, &times, &mut out);
+                s.effects_at(0, l, &times, sines, &mut out);
                 let (first, last) = (s.effect(0, l, times[0]), s.effect(0, l, times[11]));
                 edges += u64::from(
                     first.gain != last.gain || first.stuck.is_some() != last.stuck.is_some(),
