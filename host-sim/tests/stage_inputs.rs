@@ -1,8 +1,9 @@
 //! The loop's shortcuts for the time-only inputs of its RK4 stages change no result: the fault
 //! effects of a sample's stage times found with one window test per rule and sample
-//! (`FaultSchedule::effects_at`) are `FaultSchedule::effect`'s at every instant, to the bit, and
-//! a run taking Example 1's `cos t` and its stuck rule's `sin t` from tables another run computed (`SharedStageTerms`, as
-//! the runs of a campaign do) gives the same summary as a run computing them.
+//! (`FaultSchedule::effects_at`) are `FaultSchedule::effect`'s at every instant, to the bit, also
+//! with `sin(ω t)` from a table, and a run taking Example 1's `cos t` and its stuck rule's
+//! `sin t` from tables another run computed (`SharedStageTerms`, as the runs of a campaign do)
+//! gives the same summary as a run computing them.
 
 use std::sync::Arc;
 
