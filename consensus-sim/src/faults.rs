@@ -301,7 +301,7 @@ impl Compiled {
                 bias,
                 amplitude,
                 omega,
-            } => e.stuck = Some(bias + amplitude * sine.unwrap_or_else(|| (omega * t).sin())),
+            } => e.stuck = Some(bias + amplitude * sine.unwrap_or_else(|| stuck_sine(omega, t))),
         }
     }
 
@@ -635,6 +635,13 @@ impl FaultSchedule {
     }
 }
 
+/// `sin(ω t)` of a stuck rule (eq. 3's `ū`), one expression for the rule and its tables, so a
+/// table's value is the rule's to the bit.
+#[inline]
+fn stuck_sine(omega: f64, t: f64) -> f64 {
+    (omega * t).sin()
+}
+
 /// `sin(ω t)` at a run's stage times for one `ω`, computed once for the runs of a campaign
 /// (they share the stage times): `values[k]` at the run's `k`-th distinct stage time.
 #[derive(Debug, Clone)]
@@ -650,7 +657,7 @@ impl SineTable {
     pub fn new(omega: f64, times: &[f64]) -> Self {
         Self {
             omega,
-            values: times.iter().map(|&t| (omega * t).sin()).collect(),
+            values: times.iter().map(|&t| stuck_sine(omega, t)).collect(),
         }
     }
 }
