@@ -221,7 +221,33 @@ impl<L: LinkModel, const N: usize, const M: usize> Agents<N, M> for Linked<L, N,
                     .map(|(i, c)| step(i, c)),
             );
         } else {
-            out.extend(self.ctrls.iter_mut().enumerate().map(|(i, c)| step(i, c)));
+            // SIDE_BY_SIDE agents at a time, their controllers' recursions overlapping (the
+            // same outputs as one at a time); the rest one by one.
+            let agents = self.ctrls.len();
+            let mut groups = self.ctrls.chunks_exact_mut(SIDE_BY_SIDE);
+            for ((g, ctrls), x) in (&mut groups).enumerate().zip(x.chunks_exact(SIDE_BY_SIDE)) {
+                let (Ok(ctrls), Ok(x)) = (
+                    <&mut [_; SIDE_BY_SIDE]>::try_from(ctrls),
+                    <&[_; SIDE_BY_SIDE]>::try_from(x),
+                ) else {
+                    continue;
+                };
+                let first = g * SIDE_BY_SIDE;
+                let xs = x.map(|x| x.map(|v| v as f32));
+                let links = std::array::from_fn(|b| {
+                    let i = first + b;
+                    (inbox.of(graph, i), inbox.leader[i])
+                });
+                Controller::step_side_by_side(ctrls, &xs, links, out);
+            }
+            let rest = agents - groups.into_remainder().len();
+            out.extend(
+                self.ctrls
+                    .iter_mut()
+                    .enumerate()
+                    .skip(rest)
+                    .map(|(i, c)| step(i, c)),
+            );
         }
         Ok(())
     }
@@ -525,6 +551,9 @@ where
 
 /// Agents integrated side by side by [`rk4`].
 const BATCH: usize = 4;
+
+/// Agents whose controllers step side by side ([`Controller::step_side_by_side`]).
+const SIDE_BY_SIDE: usize = 4;
 
 /// The inputs of one sample's RK4 stages that depend on time only: the plant's time terms and
 /// every fault class's actuator effects, computed once per distinct stage time (a substep's end

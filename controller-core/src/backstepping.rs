@@ -190,53 +190,181 @@ impl<const N: usize> Backstepping<N> {
     ) -> Signals<N> {
         // Four short arrays rather than one `Signals` cleared as a block and refilled.
         let (mut es, mut betas, mut alphas, mut phis) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N]);
-        let (mut tanh_n, mut u) = (0.0, 0.0);
-        let mut states: MtnAccumulator = self.mtn.accumulator();
-        let (mut e_prev, mut alpha_prev) = (0.0, 0.0);
+        let mut states = self.mtn.accumulator();
+        let mut carried = Carried::default();
         for (j, &xj) in x.iter().enumerate() {
-            states.push(xj);
-            let (e, phi_sq) = if j == 0 {
-                (e1, phi1)
-            } else {
-                (xj - alpha_prev, states.norm_sq())
-            };
-            // (17)–(19): stabilising term, MTN compensation, damping / cross terms.
-            let mut beta = feedback.term(e) + est.mu * e * phi_sq * self.inv_two_a2[j];
-            if j == 0 {
-                beta += self.damping_1 * e;
-            } else {
-                beta += e + math::sign(e) * (self.eps_bar[j] + self.cross[j] * math::abs(e_prev))
-                    - est.alpha_dot[j - 1];
-            }
-            if j + 1 == N {
-                tanh_n = math::tanh(e * self.inv_gamma);
-                beta += est.xi * tanh_n;
-                // (28): u = −(1/(1−δ)) λ̂ β_n s_ϖ(e_n λ̂ β_n).
-                let lb = est.lambda * beta;
-                u = -self.command_gain * lb * smooth(e * lb, est.varpi);
-            } else {
-                // (15): α_j = −β_j s_ϖ(e_j β_j) / (L_j φ_low_j).
-                alpha_prev = -self.inv_l_phi_low[j] * beta * smooth(e * beta, est.varpi);
-                if let (0, Some(ff)) = (j, &self.feedforward) {
-                    // LAW §5a: α_1 + ẇ_i / φ_up_1.
-                    alpha_prev += ff.inv_phi_up * est.w_dot;
-                }
-                alphas[j] = alpha_prev;
-            }
-            es[j] = e;
-            betas[j] = beta;
-            phis[j] = phi_sq;
-            e_prev = e;
+            let (e, beta, phi_sq) =
+                self.stabilise(&mut states, &carried, j, xj, feedback, e1, phi1, est);
+            let c = self.virtual_control(j, e, beta, est);
+            (es[j], betas[j], alphas[j], phis[j]) = (e, c.beta, c.alpha, phi_sq);
+            carried = c;
         }
         Signals {
             e: es,
             beta: betas,
             alpha: alphas,
             phi_sq: phis,
+            tanh_n: carried.tanh_n,
+            u: carried.u,
+        }
+    }
+
+    /// [`Backstepping::run`] of several agents at once, step `j` of every agent before step
+    /// `j+1` of any: each agent's recursion is one dependent chain (powers, divisions, roots),
+    /// so the processor overlaps the agents' chains instead of waiting on one. Each agent's
+    /// arithmetic is its own and in the same order as in [`Backstepping::run`], so every
+    /// result is the same to the bit (the controller's tests compare
+    /// [`crate::Controller::step_side_by_side`] with [`crate::Controller::step`]).
+    // Always inlined, as `run` is (signals returned through memory are read back stalled).
+    #[inline(always)]
+    #[must_use]
+    pub(crate) fn run_side_by_side<const L: usize>(lanes: [Lane<'_, N>; L]) -> [Signals<N>; L] {
+        let mut sig = [Signals::ZERO; L];
+        let mut states = lanes.each_ref().map(|l| l.backstepping.mtn.accumulator());
+        let mut carried = [Carried::default(); L];
+        let mut half = [(0.0, 0.0, 0.0); L];
+        for j in 0..N {
+            for (((l, states), c), h) in lanes.iter().zip(&mut states).zip(&carried).zip(&mut half)
+            {
+                if let Some(&xj) = l.x.get(j) {
+                    *h = l.backstepping.stabilise(
+                        states,
+                        c,
+                        j,
+                        xj,
+                        &l.feedback,
+                        l.e1,
+                        l.phi1,
+                        &l.est,
+                    );
+                }
+            }
+            for (((l, c), &(e, beta, phi_sq)), s) in
+                lanes.iter().zip(&mut carried).zip(&half).zip(&mut sig)
+            {
+                *c = l.backstepping.virtual_control(j, e, beta, &l.est);
+                s.record(j, phi_sq, c);
+            }
+        }
+        sig
+    }
+
+    /// Step `j+1` of the recursion (index `j`, state `x_{j+1} = xj`), its first half: `e_j`,
+    /// `β_j` before its last term and `‖Φ_j‖²`, (17)–(19).
+    #[allow(
+        clippy::too_many_arguments,
+        reason = "the inputs of one step, passed apart so that both callers keep them in registers"
+    )]
+    #[inline(always)]
+    fn stabilise(
+        &self,
+        states: &mut MtnAccumulator,
+        prev: &Carried,
+        j: usize,
+        xj: f32,
+        feedback: &Feedback,
+        e1: f32,
+        phi1: f32,
+        est: &Estimated<'_, N>,
+    ) -> (f32, f32, f32) {
+        states.push(xj);
+        let (e, phi_sq) = if j == 0 {
+            (e1, phi1)
+        } else {
+            (xj - prev.alpha, states.norm_sq())
+        };
+        // (17)–(19): stabilising term, MTN compensation, damping / cross terms.
+        let mut beta = feedback.term(e) + est.mu * e * phi_sq * self.inv_two_a2[j];
+        if j == 0 {
+            beta += self.damping_1 * e;
+        } else {
+            beta += e + math::sign(e) * (self.eps_bar[j] + self.cross[j] * math::abs(prev.e))
+                - est.alpha_dot[j - 1];
+        }
+        (e, beta, phi_sq)
+    }
+
+    /// Step `j+1`'s second half, after [`Backstepping::stabilise`]: the smoothed virtual
+    /// control `α_j` (15), or at the last step `β_n`'s `tanh` term and the command `u` (28).
+    #[inline(always)]
+    fn virtual_control(&self, j: usize, e: f32, mut beta: f32, est: &Estimated<'_, N>) -> Carried {
+        let (mut alpha, mut tanh_n, mut u) = (0.0, 0.0, 0.0);
+        if j + 1 == N {
+            tanh_n = math::tanh(e * self.inv_gamma);
+            beta += est.xi * tanh_n;
+            // (28): u = −(1/(1−δ)) λ̂ β_n s_ϖ(e_n λ̂ β_n).
+            let lb = est.lambda * beta;
+            u = -self.command_gain * lb * smooth(e * lb, est.varpi);
+        } else {
+            // (15): α_j = −β_j s_ϖ(e_j β_j) / (L_j φ_low_j).
+            alpha = -self.inv_l_phi_low[j] * beta * smooth(e * beta, est.varpi);
+            if let (0, Some(ff)) = (j, &self.feedforward) {
+                // LAW §5a: α_1 + ẇ_i / φ_up_1.
+                alpha += ff.inv_phi_up * est.w_dot;
+            }
+        }
+        Carried {
+            e,
+            beta,
+            alpha,
             tanh_n,
             u,
         }
     }
+}
+
+/// One finished step `j` of the recursion, what the next one reads: `e_j`, `β_j`, `α_j` (0 at
+/// the last step) and, at the last step, `tanh(e_n/γ)` and `u` (0 before).
+#[derive(Debug, Clone, Copy, Default)]
+struct Carried {
+    e: f32,
+    beta: f32,
+    alpha: f32,
+    tanh_n: f32,
+    u: f32,
+}
+
+impl<const N: usize> Signals<N> {
+    /// Every signal 0, before a recursion.
+    const ZERO: Self = Self {
+        e: [0.0; N],
+        beta: [0.0; N],
+        alpha: [0.0; N],
+        phi_sq: [0.0; N],
+        tanh_n: 0.0,
+        u: 0.0,
+    };
+
+    /// Records step `j` (index `j < N`): `c` and its `‖Φ_j‖²`.
+    #[inline(always)]
+    fn record(&mut self, j: usize, phi_sq: f32, c: &Carried) {
+        if let (Some(e), Some(beta), Some(alpha), Some(phi)) = (
+            self.e.get_mut(j),
+            self.beta.get_mut(j),
+            self.alpha.get_mut(j),
+            self.phi_sq.get_mut(j),
+        ) {
+            (*e, *beta, *alpha, *phi) = (c.e, c.beta, c.alpha, phi_sq);
+        }
+        (self.tanh_n, self.u) = (c.tanh_n, c.u);
+    }
+}
+
+/// One agent's inputs of [`Backstepping::run_side_by_side`]: those of [`Backstepping::run`].
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Lane<'a, const N: usize> {
+    /// The agent's step constants.
+    pub(crate) backstepping: &'a Backstepping<N>,
+    /// The stabilising term in force.
+    pub(crate) feedback: Feedback,
+    /// `e_1`.
+    pub(crate) e1: f32,
+    /// `‖Φ_1‖²`.
+    pub(crate) phi1: f32,
+    /// The local state `x`.
+    pub(crate) x: &'a [f32; N],
+    /// The estimates and schedules of the agent's state.
+    pub(crate) est: Estimated<'a, N>,
 }
 
 /// `controller.feedforward`: the velocity feed-forward of LAW §5a, a documented option that is

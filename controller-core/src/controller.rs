@@ -2,7 +2,7 @@
 
 use crate::{
     adaptive::{Drives, Estimates},
-    backstepping::Estimated,
+    backstepping::{Backstepping, Estimated, Lane, Signals},
     config::{ControllerConfig, Params},
     consensus::{Link, LinkMemory, LinkReport},
     differentiator::DifferentiatorState,
@@ -378,6 +378,79 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
     /// ```
     #[must_use = "the step's quantized command `q` is what the actuators must get"]
     pub fn step(&mut self, x: &[f32; N], neighbours: &[Link], leader: Link) -> StepOutput<N, M> {
+        let r = self.begin(x, neighbours, leader);
+        if !r.valid {
+            return held(&mut self.state, r.varpi, StepFault::InvalidState, r.links);
+        }
+        let p = &self.params;
+        let sig = p
+            .backstepping
+            .run(&p.scheme.feedback_at(r.t), r.e1, r.phi1, x, &r.estimated());
+        self.finish(x, &r, &sig)
+    }
+
+    /// [`Controller::step`] of `L` agents at once (`x[i]` and `links[i]`, the neighbour values
+    /// and the leader value, are those of `ctrls[i]`), the same outputs to the bit: each
+    /// agent's backstepping recursion (LAW §5), one long dependent chain of powers, divisions
+    /// and roots, runs beside the others' (step `j` of every agent before step `j+1` of any),
+    /// so the processor overlaps the chains. For a host stepping many agents; a firmware steps
+    /// one.
+    ///
+    /// The outputs go to `out` in agent order.
+    ///
+    /// ```
+    /// use controller_core::{Controller, ControllerConfig, Link};
+    /// let cfg = ControllerConfig::<2> { neighbour_count: 1, pinned: false, ..Default::default() };
+    /// let c = Controller::<2, 2, 1>::new(&cfg)?;
+    /// let (mut pair, mut a, mut b) = ([c, c], c, c);
+    /// let (x, y) = ([[0.01, 0.0], [0.2, -0.1]], [Link::Fresh(0.03)]);
+    /// let mut out = Vec::new();
+    /// Controller::step_side_by_side(&mut pair, &x, [(&y, Link::Missing); 2], &mut out);
+    /// assert_eq!(out, [a.step(&x[0], &y, Link::Missing), b.step(&x[1], &y, Link::Missing)]);
+    /// assert_eq!(pair, [a, b]);
+    /// # Ok::<(), controller_core::ConfigError>(())
+    /// ```
+    #[inline]
+    pub fn step_side_by_side<const L: usize>(
+        ctrls: &mut [Self; L],
+        x: &[[f32; N]; L],
+        links: [(&[Link], Link); L],
+        out: &mut impl Extend<StepOutput<N, M>>,
+    ) {
+        let mut ready = [Ready::EMPTY; L];
+        for (((r, c), x), (neighbours, leader)) in
+            ready.iter_mut().zip(ctrls.iter_mut()).zip(x).zip(links)
+        {
+            *r = c.begin(x, neighbours, leader);
+        }
+        // A held agent's lane computes on its state as it is; its signals are not read.
+        // `i < L` in the closure: the indexing cannot fail.
+        let signals: [Signals<N>; L] = Backstepping::run_side_by_side(core::array::from_fn(|i| {
+            let (c, r) = (&ctrls[i], &ready[i]);
+            Lane {
+                backstepping: &c.params.backstepping,
+                feedback: c.params.scheme.feedback_at(r.t),
+                e1: r.e1,
+                phi1: r.phi1,
+                x: &x[i],
+                est: r.estimated(),
+            }
+        }));
+        for (((c, r), x), sig) in ctrls.iter_mut().zip(&ready).zip(x).zip(&signals) {
+            out.extend(core::iter::once(if r.valid {
+                c.finish(x, r, sig)
+            } else {
+                held(&mut c.state, r.varpi, StepFault::InvalidState, r.links)
+            }));
+        }
+    }
+
+    /// The step up to its backstepping recursion (LAW §6 step 1 to `e_1`): with safety on, the
+    /// re-entry of returning links and the differentiators' restart after a held step; the
+    /// time, `ϖ`, the consensus error `e_1`. A non-finite `x` makes the step a held one
+    /// (`valid` false).
+    #[inline(always)]
+    fn begin(&mut self, x: &[f32; N], neighbours: &[Link], leader: Link) -> Ready<N> {
         // With safety on: differentiators restart after a held step and returning links
         // re-enter at the recovery rate, each value as the law reads it (no copy of the
         // links). More values than slots (a wiring error, counted by the law) go through as
@@ -394,19 +467,6 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
             }
             _ => (leader, false),
         };
-        self.law(x, neighbours, leader, reenter)
-    }
-
-    /// The law of LAW §5–§6 on the links as given (neighbour values re-entered when
-    /// `reenter`); the limits of [`crate::safety`] when on.
-    #[inline(always)]
-    fn law(
-        &mut self,
-        x: &[f32; N],
-        neighbours: &[Link],
-        leader: Link,
-        reenter: bool,
-    ) -> StepOutput<N, M> {
         let p = &self.params;
         let s = &mut self.state;
         let t = s.k as f32 * p.h;
@@ -432,28 +492,30 @@ impl<const N: usize, const M: usize, const K: usize> Controller<N, M, K> {
             &mut links,
             through,
         );
-        if x.iter().any(|v| !v.is_finite()) {
-            return held(s, varpi, StepFault::InvalidState, links);
-        }
         let mut alpha_dot = [0.0; N];
         for (d, st) in alpha_dot.iter_mut().zip(s.differentiators.iter()) {
             *d = st.chi2;
         }
-        let est = s.estimates;
-        let sig = p.backstepping.run(
-            &p.scheme.feedback_at(t),
+        Ready {
+            valid: x.iter().all(|v| v.is_finite()),
+            t,
+            varpi,
             e1,
-            phi1.norm_sq(),
-            x,
-            &Estimated {
-                mu: est.mu,
-                xi: est.xi,
-                lambda: est.lambda,
-                varpi,
-                alpha_dot: &alpha_dot,
-                w_dot: s.feedforward.chi2,
-            },
-        );
+            phi1: phi1.norm_sq(),
+            links,
+            alpha_dot,
+            estimates: s.estimates,
+            w_dot: s.feedforward.chi2,
+        }
+    }
+
+    /// The step after its backstepping recursion `sig` (LAW §6 steps 2–5): the command, the
+    /// adaptive laws, the differentiators, the finiteness check, the quantizer.
+    #[inline(always)]
+    fn finish(&mut self, x: &[f32; N], r: &Ready<N>, sig: &Signals<N>) -> StepOutput<N, M> {
+        let p = &self.params;
+        let s = &mut self.state;
+        let (varpi, e1, links, est) = (r.varpi, r.e1, r.links, r.estimates);
 
         // 2. u_l (limited with safety on); its quantization follows the check below.
         let (u_l, limited) = match safety(p) {
@@ -608,6 +670,71 @@ fn held<const N: usize, const M: usize, const K: usize>(
             links,
             limited: false,
         },
+    }
+}
+
+/// What a step has found before its backstepping recursion ([`Controller::step`]'s first
+/// part).
+#[derive(Debug, Clone, Copy)]
+struct Ready<const N: usize> {
+    /// A finite state: the step goes on (else it is held).
+    valid: bool,
+    /// `t_k`.
+    t: f32,
+    /// `ϖ(t_k)`.
+    varpi: f32,
+    /// `e_1` (10).
+    e1: f32,
+    /// `‖Φ_1‖²`.
+    phi1: f32,
+    /// The links' report of the step.
+    links: LinkReport,
+    /// `χ_{j,2} ≈ α̇_j` at index `j−1`.
+    alpha_dot: [f32; N],
+    /// `μ̂`, `ξ̂`, `λ̂` before the step.
+    estimates: Estimates,
+    /// `ẇ_i`'s estimate (LAW §5a).
+    w_dot: f32,
+}
+
+impl<const N: usize> Ready<N> {
+    /// A place for a step's findings, before they are found.
+    const EMPTY: Self = Self {
+        valid: false,
+        t: 0.0,
+        varpi: 0.0,
+        e1: 0.0,
+        phi1: 0.0,
+        links: LinkReport {
+            stale_neighbours: 0,
+            missing_neighbours: 0,
+            invalid_neighbours: 0,
+            dropped_neighbours: 0,
+            count_mismatch: false,
+            leader_stale: false,
+            leader_missing: false,
+            leader_dropped: false,
+        },
+        alpha_dot: [0.0; N],
+        estimates: Estimates {
+            mu: 0.0,
+            xi: 0.0,
+            lambda: 0.0,
+        },
+        w_dot: 0.0,
+    };
+
+    /// The recursion's inputs from the state.
+    #[inline(always)]
+    fn estimated(&self) -> Estimated<'_, N> {
+        Estimated {
+            mu: self.estimates.mu,
+            xi: self.estimates.xi,
+            lambda: self.estimates.lambda,
+            varpi: self.varpi,
+            alpha_dot: &self.alpha_dot,
+            w_dot: self.w_dot,
+        }
     }
 }
 
