@@ -221,31 +221,23 @@ impl<L: LinkModel, const N: usize, const M: usize> Agents<N, M> for Linked<L, N,
                     .map(|(i, c)| step(i, c)),
             );
         } else {
-            // SIDE_BY_SIDE agents at a time, their controllers' recursions overlapping (the
-            // same outputs as one at a time); the rest one by one.
-            let agents = self.ctrls.len();
-            let mut groups = self.ctrls.chunks_exact_mut(SIDE_BY_SIDE);
-            for ((g, ctrls), x) in (&mut groups).enumerate().zip(x.chunks_exact(SIDE_BY_SIDE)) {
-                let (Ok(ctrls), Ok(x)) = (
-                    <&mut [_; SIDE_BY_SIDE]>::try_from(ctrls),
-                    <&[_; SIDE_BY_SIDE]>::try_from(x),
-                ) else {
-                    continue;
-                };
-                let first = g * SIDE_BY_SIDE;
+            // Four agents at a time, their controllers' recursions overlapping (the same
+            // outputs as one at a time, `Controller::step_side_by_side`); the rest one by one.
+            let mut done = 0;
+            let (groups, _) = self.ctrls.as_chunks_mut::<SIDE_BY_SIDE>();
+            for (ctrls, x) in groups.iter_mut().zip(x.as_chunks::<SIDE_BY_SIDE>().0) {
                 let xs = x.map(|x| x.map(|v| v as f32));
-                let links = std::array::from_fn(|b| {
-                    let i = first + b;
-                    (inbox.of(graph, i), inbox.leader[i])
-                });
+                let first = done;
+                let links =
+                    std::array::from_fn(|b| (inbox.of(graph, first + b), inbox.leader[first + b]));
                 Controller::step_side_by_side(ctrls, &xs, links, out);
+                done += SIDE_BY_SIDE;
             }
-            let rest = agents - groups.into_remainder().len();
             out.extend(
                 self.ctrls
                     .iter_mut()
                     .enumerate()
-                    .skip(rest)
+                    .skip(done)
                     .map(|(i, c)| step(i, c)),
             );
         }
