@@ -343,11 +343,8 @@ fn count(header: &[String], rows: &BTreeMap<u64, String>, rep: &mut SweepReport)
     let (Some(d), Some(s)) = (col("diverged"), col("status")) else {
         return;
     };
-    for line in rows.values() {
-        let mut rdr = csv::ReaderBuilder::new()
-            .has_headers(false)
-            .from_reader(line.as_bytes());
-        if let Some(Ok(rec)) = rdr.records().next() {
+    for (_, rec) in results::records(rows) {
+        if let Some(rec) = rec {
             if rec.get(d) == Some("true") {
                 rep.diverged += 1;
             }

@@ -80,15 +80,11 @@ impl Table {
             units: ("–".into(), "–".into()),
             band: f64::NAN,
         };
-        for line in rows.values() {
-            let mut rdr = csv::ReaderBuilder::new()
-                .has_headers(false)
-                .from_reader(line.as_bytes());
-            let rec = rdr
-                .records()
-                .next()
-                .and_then(|r| r.ok())
-                .ok_or_else(|| Error::Io(format!("results.csv: bad row {line}")))?;
+        for (run, rec) in super::results::records(rows) {
+            let rec = rec.ok_or_else(|| {
+                let line = rows.get(&run).map_or("", String::as_str);
+                Error::Io(format!("results.csv: bad row {line}"))
+            })?;
             let num = |i: usize| rec.get(i).and_then(|v| v.parse::<f64>().ok());
             t.cells.push(if rec.get(s) == Some("invalid") {
                 Cell::Invalid

@@ -91,11 +91,8 @@ pub fn write_summary(
     let mut text = csv_line(&out_header);
     text.push('\n');
     let mut points: BTreeMap<u64, Vec<csv::StringRecord>> = BTreeMap::new();
-    for (run, line) in rows {
-        let mut rdr = csv::ReaderBuilder::new()
-            .has_headers(false)
-            .from_reader(line.as_bytes());
-        if let Some(Ok(rec)) = rdr.records().next() {
+    for (run, rec) in super::results::records(rows) {
+        if let Some(rec) = rec {
             points.entry(run / draws).or_default().push(rec);
         }
     }

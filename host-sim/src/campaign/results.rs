@@ -101,6 +101,41 @@ pub fn csv_line(fields: &[String]) -> String {
     s
 }
 
+/// Each row's first CSV record, in run order (`None` for a row without one). One reader reads
+/// them all: building a reader per row took most of a large campaign's end (0.4 s of 10,000
+/// rows, on one core). Rows that do not read as one record each (an empty row, a quoted line
+/// break) are read one by one, as before.
+pub fn records(rows: &BTreeMap<u64, String>) -> Vec<(u64, Option<csv::StringRecord>)> {
+    let mut text = String::with_capacity(rows.values().map(|l| l.len() + 1).sum());
+    for line in rows.values() {
+        text.push_str(line);
+        text.push('\n');
+    }
+    let together: Option<Vec<csv::StringRecord>> = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .from_reader(text.as_bytes())
+        .records()
+        .collect::<std::result::Result<_, _>>()
+        .ok();
+    match together {
+        Some(recs) if recs.len() == rows.len() && rows.values().all(|l| !l.contains('\n')) => rows
+            .keys()
+            .copied()
+            .zip(recs.into_iter().map(Some))
+            .collect(),
+        _ => rows
+            .iter()
+            .map(|(&run, line)| {
+                let mut rdr = csv::ReaderBuilder::new()
+                    .has_headers(false)
+                    .from_reader(line.as_bytes());
+                (run, rdr.records().next().and_then(|r| r.ok()))
+            })
+            .collect(),
+    }
+}
+
 /// The run index at the start of a row.
 fn run_of(line: &str) -> Option<u64> {
     line.split(',').next()?.parse().ok()
@@ -207,4 +242,63 @@ pub fn read_results(path: &Path, header: &[String]) -> Result<BTreeMap<u64, Stri
         }
     }
     Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each row alone, the way `records` must read it.
+    fn one_by_one(rows: &BTreeMap<u64, String>) -> Vec<(u64, Option<Vec<String>>)> {
+        rows.iter()
+            .map(|(&run, line)| {
+                let mut rdr = csv::ReaderBuilder::new()
+                    .has_headers(false)
+                    .from_reader(line.as_bytes());
+                let rec = rdr.records().next().and_then(|r| r.ok());
+                (run, rec.map(|r| r.iter().map(String::from).collect()))
+            })
+            .collect()
+    }
+
+    fn read(rows: &BTreeMap<u64, String>) -> Vec<(u64, Option<Vec<String>>)> {
+        records(rows)
+            .into_iter()
+            .map(|(run, rec)| (run, rec.map(|r| r.iter().map(String::from).collect())))
+            .collect()
+    }
+
+    #[test]
+    fn records_read_together_equal_records_read_one_by_one() {
+        let fields = |run: u64, extra: &str| {
+            csv_line(&[run.to_string(), "0.5".into(), extra.into(), "ok".into()])
+        };
+        let mut rows: BTreeMap<u64, String> = (0..50)
+            .map(|run| {
+                (
+                    run,
+                    fields(
+                        run,
+                        if run % 7 == 0 {
+                            "a, \"quoted\" field"
+                        } else {
+                            ""
+                        },
+                    ),
+                )
+            })
+            .collect();
+        // A row with fewer fields (the reader is flexible, as one per row was).
+        rows.insert(50, "50,1.5".into());
+        assert_eq!(read(&rows), one_by_one(&rows));
+        assert!(read(&rows).iter().all(|(_, r)| r.is_some()));
+
+        // Rows that are not one record each: read one by one, as before.
+        for odd in ["", "51,\"open quote", "51,\"two\nlines\",x"] {
+            let mut with = rows.clone();
+            with.insert(51, odd.into());
+            with.insert(52, fields(52, ""));
+            assert_eq!(read(&with), one_by_one(&with), "row {odd:?}");
+        }
+    }
 }
