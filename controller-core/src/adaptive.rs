@@ -133,7 +133,7 @@ impl AdaptiveLaws {
     /// // λ̂: 1 + 0.01 (0 − 2 · 1^2 − 3 · 1) = 0.95 (22)
     /// assert!((n.lambda - 0.95).abs() < 1e-6);
     /// ```
-    #[inline]
+    #[inline(always)]
     #[must_use]
     pub fn next(&self, est: &Estimates, drives: &Drives) -> Estimates {
         let mu_z = self.powers.pow_zeta(est.mu);
