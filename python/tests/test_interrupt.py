@@ -80,7 +80,10 @@ def test_ctrl_c_stops_a_sweep_promptly(tmp_path):
 
 
 def test_an_interrupted_sweep_resumes_to_the_results_of_an_uninterrupted_one(tmp_path):
-    campaign = {"axes": {"controller.ts": [0.5, 1.0, 1.5, 2.0], "quantizer.rho": [0.8, 0.85, 0.9]}, "set": {"simulation.t_end": 3.0}}
+    # Runs long enough (about 50 ms of CPU each) that the interrupt, which the waiting thread
+    # handles at its next poll (every 20 ms), lands while runs are still going on any machine:
+    # with 3 s runs a fast build finished the sweep first.
+    campaign = {"axes": {"controller.ts": [0.5, 1.0, 1.5, 2.0], "quantizer.rho": [0.8, 0.85, 0.9]}, "set": {"simulation.t_end": 60.0}}
     whole = pc.sweep(EXAMPLE1, tmp_path / "whole", progress=False, **campaign)
 
     def progress(done, total):
