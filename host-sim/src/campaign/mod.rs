@@ -251,11 +251,12 @@ pub fn sweep_with(
     let header = results::header(&plan);
     results::write_results(out, &header, &rows)?;
     write_other(opts.format, out, &header, &rows)?;
-    count(&header, &rows, &mut rep);
+    let recs = results::records(&rows);
+    count(&header, &recs, &mut rep);
     if shard == Shard::ALL {
         let (axes, draws) = (plan.file.axis.len(), plan.file.draws);
-        replications::write_summary(out, axes, draws, &header, &rows)?;
-        rep.figures = plots::draw(&plan.file, &plan.base, &header, &rows, out)?;
+        replications::write_summary(out, axes, draws, &header, &recs)?;
+        rep.figures = plots::draw(&plan.file, &plan.base, &header, &rows, &recs, out)?;
     }
     Ok(rep)
 }
@@ -338,12 +339,12 @@ fn check_shard_file(out: &Path, shard: Shard, plan: &Plan) -> Result<()> {
     Ok(())
 }
 
-fn count(header: &[String], rows: &BTreeMap<u64, String>, rep: &mut SweepReport) {
+fn count(header: &[String], recs: &results::Records, rep: &mut SweepReport) {
     let col = |name: &str| header.iter().position(|h| h == name);
     let (Some(d), Some(s)) = (col("diverged"), col("status")) else {
         return;
     };
-    for (_, rec) in results::records(rows) {
+    for (_, rec) in recs {
         if let Some(rec) = rec {
             if rec.get(d) == Some("true") {
                 rep.diverged += 1;
@@ -461,10 +462,11 @@ pub fn merge_with(dirs: &[PathBuf], out: &Path, format: Format) -> Result<SweepR
         runs: meta.runs,
         ..SweepReport::default()
     };
-    count(&meta.columns, &rows, &mut rep);
+    let recs = results::records(&rows);
+    count(&meta.columns, &recs, &mut rep);
     let (axes, draws) = (meta.campaign.axis.len(), meta.campaign.draws);
-    replications::write_summary(out, axes, draws, &meta.columns, &rows)?;
-    rep.figures = plots::draw(&meta.campaign, &base, &meta.columns, &rows, out)?;
+    replications::write_summary(out, axes, draws, &meta.columns, &recs)?;
+    rep.figures = plots::draw(&meta.campaign, &base, &meta.columns, &rows, &recs, out)?;
     Ok(rep)
 }
 

@@ -14,7 +14,10 @@ use plotters::{
     style::colors::colormaps::ViridisRGB,
 };
 
-use crate::campaign::spec::{Axis, CampaignFile};
+use crate::campaign::{
+    results::Records,
+    spec::{Axis, CampaignFile},
+};
 use consensus_plot::{
     error::{Error, Result},
     figure::{
@@ -60,6 +63,7 @@ impl Table {
         base_ts: f64,
         header: &[String],
         rows: &BTreeMap<u64, String>,
+        recs: &Records,
     ) -> Result<Self> {
         let col = |n: &str| header.iter().position(|h| h == n);
         let need = |n: &str| col(n).ok_or_else(|| Error::Io(format!("results.csv: no column {n}")));
@@ -80,9 +84,9 @@ impl Table {
             units: ("–".into(), "–".into()),
             band: f64::NAN,
         };
-        for (run, rec) in super::results::records(rows) {
-            let rec = rec.ok_or_else(|| {
-                let line = rows.get(&run).map_or("", String::as_str);
+        for (run, rec) in recs {
+            let rec = rec.as_ref().ok_or_else(|| {
+                let line = rows.get(run).map_or("", String::as_str);
                 Error::Io(format!("results.csv: bad row {line}"))
             })?;
             let num = |i: usize| rec.get(i).and_then(|v| v.parse::<f64>().ok());
@@ -241,9 +245,10 @@ pub fn draw(
     base: &Scenario,
     header: &[String],
     rows: &BTreeMap<u64, String>,
+    recs: &Records,
     out: &Path,
 ) -> Result<Vec<PathBuf>> {
-    let mut t = Table::new(&file.plot.metric, base.controller.ts, header, rows)?;
+    let mut t = Table::new(&file.plot.metric, base.controller.ts, header, rows, recs)?;
     t.units = units(base);
     t.band = base.simulation.settle_band;
     // `[figures]` of the base scenario, the campaign's `set` applied: formats and print size.

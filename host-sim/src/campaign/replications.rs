@@ -68,7 +68,7 @@ pub fn write_summary(
     axes: usize,
     draws: u64,
     header: &[String],
-    rows: &BTreeMap<u64, String>,
+    recs: &super::results::Records,
 ) -> Result<bool> {
     if draws < 2 {
         return Ok(false);
@@ -90,8 +90,8 @@ pub fn write_summary(
     }
     let mut text = csv_line(&out_header);
     text.push('\n');
-    let mut points: BTreeMap<u64, Vec<csv::StringRecord>> = BTreeMap::new();
-    for (run, rec) in super::results::records(rows) {
+    let mut points: BTreeMap<u64, Vec<&csv::StringRecord>> = BTreeMap::new();
+    for (run, rec) in recs {
         if let Some(rec) = rec {
             points.entry(run / draws).or_default().push(rec);
         }
@@ -99,6 +99,7 @@ pub fn write_summary(
     for (point, recs) in &points {
         let valid: Vec<&csv::StringRecord> = recs
             .iter()
+            .copied()
             .filter(|r| r.get(status) == Some("ok") && r.get(diverged) == Some("false"))
             .collect();
         let mut cells = vec![point.to_string()];

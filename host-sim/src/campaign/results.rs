@@ -101,11 +101,14 @@ pub fn csv_line(fields: &[String]) -> String {
     s
 }
 
+/// The rows' records by run, as [`records`] reads them.
+pub type Records = Vec<(u64, Option<csv::StringRecord>)>;
+
 /// Each row's first CSV record, in run order (`None` for a row without one). One reader reads
 /// them all: building a reader per row took most of a large campaign's end (0.4 s of 10,000
 /// rows, on one core). Rows that do not read as one record each (an empty row, a quoted line
 /// break) are read one by one, as before.
-pub fn records(rows: &BTreeMap<u64, String>) -> Vec<(u64, Option<csv::StringRecord>)> {
+pub fn records(rows: &BTreeMap<u64, String>) -> Records {
     let mut text = String::with_capacity(rows.values().map(|l| l.len() + 1).sum());
     for line in rows.values() {
         text.push_str(line);
